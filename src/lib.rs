@@ -1,0 +1,12 @@
+//! lipmap: map a speaker's lip motion, tracked as iBUG-68 landmarks in video, onto a 3D head
+//! by fitting a 3D morphable model, and measure how faithfully the 3D lips follow.
+//!
+//! Layers, one way only: the core (`landmarks`, `alignment`, `model`, `fit`, `measure`,
+//! `eval`) never touches files or the terminal; `io` and `session` read and write; `render`,
+//! `demo`, `cli` and `tui` sit on top.
+
+pub mod alignment;
+pub mod io;
+pub mod landmarks;
+pub mod math;
+pub mod model;

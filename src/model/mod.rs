@@ -1,0 +1,10 @@
+//! Meshes, 3D morphable models (mean, orthonormal basis, eigenvalues, expression
+//! blendshapes) and the landmark map from iBUG points to mesh vertices.
+
+pub mod landmark_map;
+pub mod mesh;
+pub mod morphable;
+
+pub use landmark_map::LandmarkMap;
+pub use mesh::Mesh;
+pub use morphable::{Expressions, MorphableModel, PcaModel};

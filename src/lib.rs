@@ -6,7 +6,9 @@
 //! `demo`, `cli` and `tui` sit on top.
 
 pub mod alignment;
+pub mod fit;
 pub mod io;
 pub mod landmarks;
 pub mod math;
 pub mod model;
+pub mod testdata;

@@ -1,0 +1,62 @@
+//! What a fit is asked to do (`FitSettings`, stored in sessions and used as the cache key)
+//! and what it reports per frame (`FrameFit`).
+
+use crate::landmarks::LandmarkSet;
+use serde::{Deserialize, Serialize};
+
+/// Every setting that changes a fit's result. Two fits with equal settings on equal input
+/// give equal results, so sessions key their cached fits by this.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitSettings {
+    /// Which landmarks drive the fit.
+    pub set: LandmarkSet,
+    /// Shape prior weight λ (see `fit::shape`); the default is chosen by measurement.
+    pub lambda: f64,
+    /// Expression prior weight.
+    pub lambda_expression: f64,
+    /// Camera/shape alternations.
+    pub iterations: usize,
+    /// One identity shared by all frames of a clip.
+    pub clip: bool,
+    /// Weight of the temporal smoothness term on per-frame coefficients (clip fits).
+    pub temporal_smoothness: f64,
+    /// A frame whose reprojection RMS exceeds this (pixels) is flagged failed.
+    pub max_reproj_rms_px: f64,
+}
+
+impl Default for FitSettings {
+    fn default() -> Self {
+        Self {
+            set: LandmarkSet::F4,
+            lambda: 30.0,
+            lambda_expression: 30.0,
+            iterations: 5,
+            clip: false,
+            temporal_smoothness: 0.0,
+            max_reproj_rms_px: 20.0,
+        }
+    }
+}
+
+/// The result of fitting one frame. Angles in degrees with R = Ry(yaw)·Rx(pitch)·Rz(roll);
+/// projection `u = s·(r1·X + tx)`, `v = H − s·(r2·X + ty)`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrameFit {
+    pub frame: usize,
+    pub yaw: f64,
+    pub pitch: f64,
+    pub roll: f64,
+    pub scale: f64,
+    pub tx: f64,
+    pub ty: f64,
+    /// Identity (shape PCA) coefficients α.
+    pub identity: Vec<f64>,
+    /// Expression coefficients β (empty when the model has none).
+    pub expression: Vec<f64>,
+    /// RMS distance in pixels between the fitted projection and the used landmarks.
+    pub reproj_rms_px: f64,
+    /// Per iBUG point (68 entries): fitted − observed in pixels, `None` when unused.
+    pub residuals: Vec<Option<[f64; 2]>>,
+    /// Why the frame failed, when it did.
+    pub failed: Option<String>,
+}

@@ -1,6 +1,16 @@
 //! Landmark-based 3DMM fitting after Huber et al. (eos): linear affine camera -> scaled
 //! orthographic pose, regularised linear shape/expression fit, iterated; per frame or per clip.
+//!
+//! Start with [`fit_clip`] (a clip or a batch of frames) or [`fit_frame`]; build a
+//! [`Fitter`] to reuse the per-model precomputation. `docs/fitting.md` gives the method,
+//! the defaults and how they were chosen.
 
+pub mod camera;
+pub mod clip;
+pub mod pipeline;
 pub mod result;
+pub mod shape;
 
+pub use camera::OrthoPose;
+pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};
 pub use result::{FitSettings, FrameFit};

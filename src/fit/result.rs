@@ -22,6 +22,24 @@ pub struct FitSettings {
     pub temporal_smoothness: f64,
     /// A frame whose reprojection RMS exceeds this (pixels) is flagged failed.
     pub max_reproj_rms_px: f64,
+    /// Per-landmark weights indexed by 0-based iBUG id (empty or missing entries = 1; a
+    /// weight of 0 leaves the point out).
+    #[serde(default)]
+    pub landmark_weights: Vec<f64>,
+    /// Constrain expression coefficients to β ≥ 0 (blendshapes are one-sided offsets).
+    #[serde(default = "default_true")]
+    pub nonnegative_expressions: bool,
+    /// Gauss–Newton steps refining each linear camera estimate (0 = eos's linear camera only).
+    #[serde(default = "default_pose_refinement_steps")]
+    pub pose_refinement_steps: usize,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+fn default_pose_refinement_steps() -> usize {
+    FitSettings::default().pose_refinement_steps
 }
 
 impl Default for FitSettings {
@@ -34,6 +52,9 @@ impl Default for FitSettings {
             clip: false,
             temporal_smoothness: 0.0,
             max_reproj_rms_px: 20.0,
+            landmark_weights: Vec::new(),
+            nonnegative_expressions: true,
+            pose_refinement_steps: 3,
         }
     }
 }

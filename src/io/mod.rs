@@ -2,5 +2,22 @@
 //! and the line (or field) at fault, so a bad file never panics and the user knows where.
 
 pub mod error;
+pub mod frames;
 
 pub use error::FormatError;
+pub mod alignment_format;
+pub mod dlib_xml;
+pub mod htk_lab;
+pub mod landmark_format;
+pub mod openface;
+pub mod phones_csv;
+pub mod pts;
+pub mod textgrid;
+pub mod track_csv;
+pub mod eos_bin;
+pub mod makehuman_target;
+pub mod obj;
+pub mod npy_model;
+pub mod model_file;
+pub mod landmark_map_toml;
+pub mod model_source;

@@ -1,6 +1,8 @@
 //! iBUG-68 landmarks: point names and groups, the F1..F5 fitting sets, and the per-frame
 //! `Track` of tracked points with visibility, confidence and source.
 
+pub mod edit;
+pub mod flags;
 pub mod ibug;
 pub mod track;
 

@@ -1,10 +1,12 @@
 //! Meshes, 3D morphable models (mean, orthonormal basis, eigenvalues, expression
 //! blendshapes) and the landmark map from iBUG points to mesh vertices.
 
+pub mod blendshapes;
 pub mod landmark_map;
 pub mod mesh;
 pub mod morphable;
+pub mod pca;
 
 pub use landmark_map::LandmarkMap;
 pub use mesh::Mesh;
-pub use morphable::{Expressions, MorphableModel, PcaModel};
+pub use morphable::{Expressions, ModelError, MorphableModel, PcaModel};

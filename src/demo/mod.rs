@@ -1,0 +1,670 @@
+//! The built-in synthetic speaker (DESIGN.md §9): from a fixed seed, a head with a modelled
+//! lip region, its 161 viseme poses and their PCA model, GRID sentences with phone timings,
+//! coarticulated mouth motion, rendered front and side frames, "tracked" landmarks with noise
+//! and injected gross errors, and the truth (W, H, P, pose) of every frame.
+//!
+//! Start with [`generate`]; [`DemoOptions::default`] is what `lipmap demo` writes into
+//! `sessions/demo/`. Layout of `out_dir`:
+//!
+//! ```text
+//! head.obj  head_map.toml  model.lmm  manifest.json  poses/pose_000.obj … pose_160.obj
+//! speaker_00/                      (speaker 0 is the head itself; others are reshaped)
+//!   s1_bin_blue_at_f_two_now/
+//!     phones.csv                   start,end,phone (ARPAbet, `sil` for silence)
+//!     front/frame_00000.png …      720×480, 24 fps, frame f at time f/fps
+//!     side/frame_00000.png …       profile view, same timing
+//!     landmarks_tracked.csv        lipmap CSV: truth + noise + injected errors
+//!     landmarks_true.csv           lipmap CSV: exact projections of the mapped vertices
+//!     truth.csv                    per frame: phone, W, H, P (model space), pose, side camera
+//!     errors.csv                   the injected gross errors: frame,kind,point,other,dx,dy
+//! ```
+
+pub mod coart;
+pub mod head;
+pub mod lexicon;
+pub mod speakers;
+pub mod visemes;
+
+use crate::io::model_file::{Precision, write_model_file};
+use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, Track};
+use crate::math::{Point2, Point3, Vector3};
+use crate::measure::{MeshMeasureOptions, measure_points, measure_shape};
+use crate::model::pca::{Keep, build_pca_from_shapes};
+use crate::model::{LandmarkMap, Mesh, MorphableModel};
+use crate::render::{Camera, RenderOptions, View, render_mesh};
+use anyhow::{Context, Result};
+use head::Head;
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use rayon::prelude::*;
+use serde::Serialize;
+use speakers::{MouthWarp, Speaker, SpeakerSpec};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use visemes::{Articulation, ArticulationFields};
+
+/// The seed `lipmap demo` uses unless told otherwise.
+pub const DEFAULT_SEED: u64 = 20_241_121;
+
+/// Fraction of variance the demo's PCA model keeps. The poses span an 8-dimensional linear
+/// space exactly (see `visemes`), so keeping (nearly) all of it means every demo frame is
+/// representable and a fit's error is the fitter's, not the model's.
+pub const DEMO_MODEL_VARIANCE: f64 = 0.9999;
+
+/// What to generate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DemoOptions {
+    pub seed: u64,
+    /// Number of speakers (≥ 1); speaker 0 is the head itself.
+    pub speakers: usize,
+    /// Speaker classes; `None` = [`speakers::default_specs`]. Entry 0 may be `Some` to
+    /// reshape speaker 0 too.
+    pub speaker_specs: Option<Vec<Option<SpeakerSpec>>>,
+    /// GRID sentences per speaker.
+    pub sentences: usize,
+    pub out_dir: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub fps: f64,
+    /// Render and write PNG frames (front and, with `side_view`, side).
+    pub write_frames: bool,
+    pub side_view: bool,
+    /// Write the 161 pose OBJs and build + write the PCA model.
+    pub write_model: bool,
+    /// Standard deviation of the tracker noise, pixels.
+    pub noise_px: f64,
+    /// Fraction of frames given a gross tracker error (at least one per sentence).
+    pub gross_error_rate: f64,
+    /// Cap on frames per sentence (to keep tests short); `None` = the whole sentence.
+    pub max_frames: Option<usize>,
+}
+
+impl Default for DemoOptions {
+    fn default() -> Self {
+        Self {
+            seed: DEFAULT_SEED,
+            speakers: 1,
+            speaker_specs: None,
+            sentences: 4,
+            out_dir: PathBuf::from("sessions/demo"),
+            width: 720,
+            height: 480,
+            fps: 24.0,
+            write_frames: true,
+            side_view: true,
+            write_model: true,
+            noise_px: 0.7,
+            gross_error_rate: 0.03,
+            max_frames: None,
+        }
+    }
+}
+
+/// One injected tracker error.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct InjectedError {
+    pub frame: usize,
+    /// `swap` (two points exchanged) or `jump` (one point displaced).
+    pub kind: String,
+    pub point: usize,
+    /// The other point of a swap.
+    pub other: Option<usize>,
+    /// Displacement of a jump, pixels.
+    pub dx: f64,
+    pub dy: f64,
+}
+
+/// Files of one sentence.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ClipOutput {
+    pub name: String,
+    pub words: Vec<String>,
+    pub fps: f64,
+    pub n_frames: usize,
+    pub width: u32,
+    pub height: u32,
+    pub dir: PathBuf,
+    pub front_dir: Option<PathBuf>,
+    pub side_dir: Option<PathBuf>,
+    pub phones_csv: PathBuf,
+    pub tracked_csv: PathBuf,
+    pub true_csv: PathBuf,
+    pub truth_csv: PathBuf,
+    pub errors_csv: PathBuf,
+    pub injected_errors: Vec<InjectedError>,
+}
+
+/// Files and facts of one speaker.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SpeakerOutput {
+    pub index: usize,
+    pub dir: PathBuf,
+    /// Classes it was made for (`None` for speaker 0, the head itself).
+    pub made_for: Option<(String, String)>,
+    pub vertical_mouth_height: f64,
+    pub mouth_width: f64,
+    pub clips: Vec<ClipOutput>,
+}
+
+/// Everything [`generate`] wrote.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct DemoOutput {
+    pub out_dir: PathBuf,
+    pub head_obj: PathBuf,
+    /// eos TOML landmark map (1-based iBUG ids).
+    pub landmark_map: PathBuf,
+    pub poses: Vec<PathBuf>,
+    pub model: Option<PathBuf>,
+    pub manifest: PathBuf,
+    /// Vertices of the head's upper-lip vermilion (for `UpperLip::Vertices`).
+    pub upper_lip_vertices: Vec<usize>,
+    pub speakers: Vec<SpeakerOutput>,
+}
+
+/// The pose of the head in one frame: rotation angles (degrees) and translation (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct HeadMotion {
+    yaw: f64,
+    pitch: f64,
+    roll: f64,
+    t: Vector3,
+}
+
+/// Smooth head motion: a few degrees and about a millimetre, as a seated reader moves.
+fn head_motion(rng: &mut StdRng, n_frames: usize, fps: f64) -> Vec<HeadMotion> {
+    let mut wave = |amp: f64, freq: f64| {
+        let a = amp * rng.random_range(0.6..1.0);
+        let f = freq * rng.random_range(0.8..1.25);
+        let phase = rng.random_range(0.0..std::f64::consts::TAU);
+        move |t: f64| a * (std::f64::consts::TAU * f * t + phase).sin()
+    };
+    let (yaw, pitch, roll) = (wave(2.5, 0.35), wave(1.2, 0.5), wave(1.5, 0.27));
+    let (tx, ty, tz) = (wave(1.0, 0.3), wave(0.8, 0.45), wave(1.0, 0.25));
+    (0..n_frames)
+        .map(|f| {
+            let t = f as f64 / fps;
+            HeadMotion {
+                yaw: yaw(t),
+                pitch: pitch(t),
+                roll: roll(t),
+                t: Vector3::new(tx(t), ty(t), tz(t)),
+            }
+        })
+        .collect()
+}
+
+/// Model point (mm) put at the image centre, and pixels per mm at 480 rows.
+const FRONT_CENTRE: [f64; 3] = [0.0, -5.0, 70.0];
+const SIDE_CENTRE: [f64; 3] = [0.0, -5.0, 60.0];
+const FRONT_PX_PER_MM_AT_480: f64 = 1.75;
+const SIDE_PX_PER_MM_AT_480: f64 = 2.0;
+/// Side frames: a dark plain background so a threshold separates the face's silhouette.
+pub const SIDE_BACKGROUND: [u8; 3] = [22, 26, 34];
+
+/// The front and side cameras of a frame.
+fn frame_cameras(m: &HeadMotion, width: u32, height: u32) -> (Camera, Camera) {
+    let r = crate::fit::camera::rotation_from_yaw_pitch_roll_deg(m.yaw, m.pitch, m.roll);
+    let k = height as f64 / 480.0;
+    let mut front = Camera::looking_at(
+        View::Front,
+        &r,
+        0.0,
+        &Point3::from(FRONT_CENTRE),
+        FRONT_PX_PER_MM_AT_480 * k,
+        width,
+        height,
+    );
+    front.pose.tx += m.t.x;
+    front.pose.ty += m.t.y;
+    let mut side = Camera::looking_at(
+        View::Side,
+        &r,
+        0.0,
+        &Point3::from(SIDE_CENTRE),
+        SIDE_PX_PER_MM_AT_480 * k,
+        width,
+        height,
+    );
+    let ts = View::Side.rotation() * m.t;
+    side.pose.tx += ts.x;
+    side.pose.ty += ts.y;
+    (front, side)
+}
+
+/// A speaker's articulated mesh vertices for one mouth shape.
+fn speaker_vertices(
+    head: &Head,
+    fields: &ArticulationFields,
+    warp: &MouthWarp,
+    a: &Articulation,
+) -> Vec<Point3> {
+    warp.apply_all(&fields.apply(&head.mesh.vertices, a))
+}
+
+fn quantise(p: &Point3) -> Point3 {
+    p.map(|c| (c * 1e4).round() / 1e4)
+}
+
+/// Writes the eos TOML landmark mapping (`[landmark_mappings]`, 1-based iBUG ids).
+fn write_landmark_map_toml(map: &LandmarkMap, path: &Path) -> Result<()> {
+    let mut s = String::from("# iBUG-68 landmark (1-based) = vertex index (0-based), eos format\n");
+    s.push_str("[landmark_mappings]\n");
+    for (l, v) in map.pairs() {
+        let _ = writeln!(s, "{} = {} # {}", l + 1, v, crate::landmarks::landmark_name(l));
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+fn write_png(img: &image::RgbImage, path: &Path) -> Result<()> {
+    let file =
+        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
+    let w = std::io::BufWriter::new(file);
+    let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
+    img.write_with_encoder(enc).with_context(|| format!("encoding {}", path.display()))
+}
+
+/// Adds tracker noise and gross errors to the true landmarks of a clip; returns the tracked
+/// track and the errors injected.
+fn simulate_tracker(
+    truth: &[Vec<Point2>],
+    fps: f64,
+    noise_px: f64,
+    error_rate: f64,
+    rng: &mut StdRng,
+) -> (Track, Vec<InjectedError>) {
+    let n = truth.len();
+    let normal = Normal::new(0.0, noise_px.max(0.0))
+        .unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("σ = 0"));
+    let mut frames: Vec<Vec<Point2>> = truth
+        .iter()
+        .map(|pts| {
+            pts.iter()
+                .map(|p| Point2::new(p.x + normal.sample(rng), p.y + normal.sample(rng)))
+                .collect()
+        })
+        .collect();
+    let mut errors = Vec::new();
+    if n >= 5 && error_rate > 0.0 {
+        let count = ((error_rate * n as f64).round() as usize).max(1);
+        let mut candidates: Vec<usize> = (2..n - 2).collect();
+        for _ in 0..count.min(candidates.len()) {
+            let frame = candidates.swap_remove(rng.random_range(0..candidates.len()));
+            let pts = &mut frames[frame];
+            const PAIRS: [(usize, usize); 8] =
+                [(61, 67), (62, 66), (63, 65), (51, 57), (50, 58), (52, 56), (48, 54), (60, 64)];
+            let (a, b) = PAIRS[rng.random_range(0..PAIRS.len())];
+            // A swap of two points that nearly coincide (a closed mouth) is no error at all:
+            // jump a point instead.
+            let err = if rng.random_bool(0.5) && (pts[a] - pts[b]).norm() > 4.0 {
+                pts.swap(a, b);
+                InjectedError {
+                    frame,
+                    kind: "swap".into(),
+                    point: a,
+                    other: Some(b),
+                    dx: 0.0,
+                    dy: 0.0,
+                }
+            } else {
+                let point = rng.random_range(48..68);
+                let dist = rng.random_range(10.0..25.0);
+                let angle = rng.random_range(0.0..std::f64::consts::TAU);
+                let (dx, dy) = (dist * angle.cos(), dist * angle.sin());
+                pts[point] += crate::math::Vector2::new(dx, dy);
+                InjectedError { frame, kind: "jump".into(), point, other: None, dx, dy }
+            };
+            errors.push(err);
+        }
+        errors.sort_by_key(|e| e.frame);
+    }
+    (points_to_track(&frames, fps), errors)
+}
+
+fn points_to_track(frames: &[Vec<Point2>], fps: f64) -> Track {
+    let round = |v: f64| (v * 1000.0).round() / 1000.0;
+    Track::new(
+        frames
+            .iter()
+            .enumerate()
+            .map(|(f, pts)| {
+                let points =
+                    pts.iter().map(|p| LandmarkPoint::tracked(round(p.x), round(p.y))).collect();
+                let mut fl = FrameLandmarks::new(f, points);
+                fl.timestamp = Some(f as f64 / fps);
+                fl
+            })
+            .collect(),
+    )
+}
+
+/// One frame's truth row.
+struct TruthRow {
+    time: f64,
+    phone: String,
+    viseme: String,
+    w: f64,
+    h: f64,
+    p: f64,
+    w_img: f64,
+    h_img: f64,
+    motion: HeadMotion,
+    front: Camera,
+    side: Camera,
+    lip_side_u: f64,
+    ref_side_u: f64,
+    articulation: Articulation,
+}
+
+const TRUTH_HEADER: &str = "frame,time,phone,viseme,w,h,p,w_img,h_img,yaw,pitch,roll,scale,tx,ty,\
+side_scale,side_tx,side_ty,lip_side_u,ref_side_u,head_tx_mm,head_ty_mm,head_tz_mm";
+
+fn format_truth(rows: &[TruthRow]) -> String {
+    let mut s = String::from(TRUTH_HEADER);
+    for name in visemes::PARAM_NAMES {
+        s.push(',');
+        s.push_str(name);
+    }
+    s.push('\n');
+    for (f, r) in rows.iter().enumerate() {
+        let (fp, sp) = (&r.front.pose, &r.side.pose);
+        let _ = write!(
+            s,
+            "{f},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.4},{:.4},{:.6},{:.4},{:.4},{:.3},{:.3},{:.4},{:.4},{:.4}",
+            r.time,
+            r.phone,
+            r.viseme,
+            r.w,
+            r.h,
+            r.p,
+            r.w_img,
+            r.h_img,
+            r.motion.yaw,
+            r.motion.pitch,
+            r.motion.roll,
+            fp.s,
+            fp.tx,
+            fp.ty,
+            sp.s,
+            sp.tx,
+            sp.ty,
+            r.lip_side_u,
+            r.ref_side_u,
+            r.motion.t.x,
+            r.motion.t.y,
+            r.motion.t.z
+        );
+        for v in r.articulation.to_array() {
+            let _ = write!(s, ",{v:.5}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+fn format_errors(errors: &[InjectedError]) -> String {
+    let mut s = String::from("frame,kind,point,other,dx,dy\n");
+    for e in errors {
+        let other = e.other.map_or(String::new(), |o| o.to_string());
+        let _ = writeln!(s, "{},{},{},{},{:.3},{:.3}", e.frame, e.kind, e.point, other, e.dx, e.dy);
+    }
+    s
+}
+
+/// A frame to render: which clip, which frame, the mouth shape and the cameras.
+struct RenderJob {
+    speaker: usize,
+    front_path: PathBuf,
+    side_path: Option<PathBuf>,
+    articulation: Articulation,
+    front: Camera,
+    side: Camera,
+}
+
+/// Generates the demo into `opts.out_dir` (created if missing; existing files overwritten).
+///
+/// # Errors
+/// Invalid options (no speakers, zero-sized images, non-positive fps), a speaker class that
+/// cannot be reached, and any I/O failure, naming the file.
+pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
+    anyhow::ensure!(opts.speakers >= 1, "at least one speaker is needed");
+    anyhow::ensure!(
+        opts.width >= 16 && opts.height >= 16,
+        "image too small: {}×{}",
+        opts.width,
+        opts.height
+    );
+    anyhow::ensure!(opts.fps.is_finite() && opts.fps > 0.0, "fps must be positive");
+    let out = &opts.out_dir;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+
+    let mut head = head::build_head();
+    for p in &mut head.mesh.vertices {
+        *p = quantise(p);
+    }
+    let fields = ArticulationFields::new(&head);
+
+    let head_obj = out.join("head.obj");
+    crate::io::obj::write_obj(&head_obj, &head.mesh)?;
+    let landmark_map = out.join("head_map.toml");
+    write_landmark_map_toml(&head.landmarks, &landmark_map)?;
+
+    let mut poses = Vec::new();
+    let mut model_path = None;
+    if opts.write_model {
+        let pose_dir = out.join("poses");
+        std::fs::create_dir_all(&pose_dir)
+            .with_context(|| format!("creating {}", pose_dir.display()))?;
+        let meshes: Vec<Mesh> = visemes::pose_meshes(&head, &fields)
+            .into_iter()
+            .map(|(_, mut m)| {
+                m.vertices.iter_mut().for_each(|p| *p = quantise(p));
+                m
+            })
+            .collect();
+        poses = (0..meshes.len()).map(|i| pose_dir.join(format!("pose_{i:03}.obj"))).collect();
+        meshes
+            .par_iter()
+            .zip(poses.par_iter())
+            .try_for_each(|(m, p)| crate::io::obj::write_obj(p, m))?;
+        let shapes: Vec<_> = meshes.iter().map(Mesh::to_flat).collect();
+        let shape = build_pca_from_shapes(&shapes, Keep::VarianceFraction(DEMO_MODEL_VARIANCE))
+            .map_err(|e| anyhow::anyhow!("building the demo PCA model: {e}"))?;
+        let model = MorphableModel { shape, expressions: None, triangles: head.mesh.triangles() };
+        let path = out.join("model.lmm");
+        write_model_file(&path, &model, Precision::F64)?;
+        model_path = Some(path);
+    }
+
+    let mut rng = StdRng::seed_from_u64(opts.seed);
+    let specs =
+        opts.speaker_specs.clone().unwrap_or_else(|| speakers::default_specs(opts.speakers));
+    let measure_opts = MeshMeasureOptions::default();
+    let mut speaker_outputs = Vec::new();
+    let mut speaker_list: Vec<Speaker> = Vec::new();
+    let mut jobs = Vec::new();
+    for si in 0..opts.speakers {
+        let spec = specs.get(si).copied().flatten();
+        let scale = if si == 0 { 1.0 } else { rng.random_range(0.95..1.05) };
+        let speaker = speakers::make_speaker(&head, si, spec, scale)
+            .map_err(|e| anyhow::anyhow!("speaker {si}: {e}"))?;
+        let sdir = out.join(format!("speaker_{si:02}"));
+        let mut clips = Vec::new();
+        for ci in 0..opts.sentences {
+            let words = lexicon::random_sentence(&mut rng);
+            let alignment = lexicon::time_sentence(&words, &mut rng).map_err(anyhow::Error::msg)?;
+            let name = format!("s{}_{}", ci + 1, words.join("_"));
+            let dir = sdir.join(&name);
+            std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+            let mut n_frames = (alignment.duration() * opts.fps - 1e-9).ceil().max(1.0) as usize;
+            if let Some(cap) = opts.max_frames {
+                n_frames = n_frames.min(cap.max(1));
+            }
+            let traj = coart::mouth_trajectory(&alignment, opts.fps, n_frames);
+            let motion = head_motion(&mut rng, n_frames, opts.fps);
+            let mut rows = Vec::with_capacity(n_frames);
+            let mut true_points = Vec::with_capacity(n_frames);
+            for f in 0..n_frames {
+                let a = traj[f];
+                let verts = speaker_vertices(&head, &fields, &speaker.warp, &a);
+                let flat = Mesh { vertices: verts, faces: Vec::new() }.to_flat();
+                let m = measure_shape(&flat, &head.landmarks, &measure_opts)
+                    .map_err(|e| anyhow::anyhow!("measuring frame {f} of {name}: {e}"))?;
+                let verts = Mesh::from_flat(flat.as_slice(), Vec::new()).vertices;
+                let (front, side) = frame_cameras(&motion[f], opts.width, opts.height);
+                let pts: Vec<Point2> = (0..N_LANDMARKS)
+                    .map(|l| front.project(&verts[head.landmarks.vertex(l).unwrap_or(0)]))
+                    .collect();
+                let img = measure_points(&pts.iter().map(|p| Some(*p)).collect::<Vec<_>>())
+                    .map_err(|e| anyhow::anyhow!("image measures of frame {f} of {name}: {e}"))?;
+                // Side-image columns of the foremost upper-lip vertex and of the reference
+                // plane (inner eye corners), for checking a profile analysis.
+                let lip_side_u = head
+                    .upper_lip
+                    .iter()
+                    .map(|&v| side.project(&verts[v]).x)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                let eye = |l: usize| side.project(&verts[head.landmarks.vertex(l).unwrap_or(0)]).x;
+                let ref_side_u = 0.5 * (eye(39) + eye(42));
+                let t = f as f64 / opts.fps;
+                let phone = alignment.phone_at(t).map_or("sil".to_string(), |p| p.label.clone());
+                let viseme = visemes::phone_viseme(&phone).map_or("sil", |v| v.name()).to_string();
+                rows.push(TruthRow {
+                    time: t,
+                    phone,
+                    viseme,
+                    w: m.w,
+                    h: m.h,
+                    p: m.p.unwrap_or(f64::NAN),
+                    w_img: img.w,
+                    h_img: img.h,
+                    motion: motion[f],
+                    front,
+                    side,
+                    lip_side_u,
+                    ref_side_u,
+                    articulation: a,
+                });
+                true_points.push(pts);
+            }
+            let (tracked, errors) = simulate_tracker(
+                &true_points,
+                opts.fps,
+                opts.noise_px,
+                opts.gross_error_rate,
+                &mut rng,
+            );
+            let phones_csv = dir.join("phones.csv");
+            crate::io::phones_csv::write_phones_csv(&alignment, &phones_csv)?;
+            let tracked_csv = dir.join("landmarks_tracked.csv");
+            crate::io::track_csv::write_track_csv(&tracked, &tracked_csv)?;
+            let true_csv = dir.join("landmarks_true.csv");
+            crate::io::track_csv::write_track_csv(
+                &points_to_track(&true_points, opts.fps),
+                &true_csv,
+            )?;
+            let truth_csv = dir.join("truth.csv");
+            std::fs::write(&truth_csv, format_truth(&rows))
+                .with_context(|| format!("writing {}", truth_csv.display()))?;
+            let errors_csv = dir.join("errors.csv");
+            std::fs::write(&errors_csv, format_errors(&errors))
+                .with_context(|| format!("writing {}", errors_csv.display()))?;
+            let (front_dir, side_dir) = if opts.write_frames {
+                let fd = dir.join("front");
+                std::fs::create_dir_all(&fd)
+                    .with_context(|| format!("creating {}", fd.display()))?;
+                let sd = if opts.side_view {
+                    let sd = dir.join("side");
+                    std::fs::create_dir_all(&sd)
+                        .with_context(|| format!("creating {}", sd.display()))?;
+                    Some(sd)
+                } else {
+                    None
+                };
+                for (f, r) in rows.iter().enumerate() {
+                    jobs.push(RenderJob {
+                        speaker: si,
+                        front_path: fd.join(format!("frame_{f:05}.png")),
+                        side_path: sd.as_ref().map(|d| d.join(format!("frame_{f:05}.png"))),
+                        articulation: r.articulation,
+                        front: r.front,
+                        side: r.side,
+                    });
+                }
+                (Some(fd), sd)
+            } else {
+                (None, None)
+            };
+            clips.push(ClipOutput {
+                name,
+                words: words.iter().map(|w| w.to_string()).collect(),
+                fps: opts.fps,
+                n_frames,
+                width: opts.width,
+                height: opts.height,
+                dir,
+                front_dir,
+                side_dir,
+                phones_csv,
+                tracked_csv,
+                true_csv,
+                truth_csv,
+                errors_csv,
+                injected_errors: errors,
+            });
+        }
+        speaker_outputs.push(SpeakerOutput {
+            index: si,
+            dir: sdir,
+            made_for: spec
+                .map(|s| (s.vertical_mouth_height.to_string(), s.mouth_width.to_string())),
+            vertical_mouth_height: speaker.vertical_mouth_height,
+            mouth_width: speaker.mouth_width,
+            clips,
+        });
+        speaker_list.push(speaker);
+    }
+
+    let triangles = head.mesh.triangles();
+    let side_opts = RenderOptions {
+        background: SIDE_BACKGROUND,
+        light: Vector3::new(0.2, 0.3, 1.0),
+        ambient: 0.6,
+    };
+    let front_opts = RenderOptions::default();
+    jobs.par_iter().try_for_each(|job| -> Result<()> {
+        let warp = &speaker_list[job.speaker].warp;
+        let verts = speaker_vertices(&head, &fields, warp, &job.articulation);
+        let img = render_mesh(&verts, &triangles, &head.colours, &job.front, &front_opts)?;
+        write_png(&img, &job.front_path)?;
+        if let Some(p) = &job.side_path {
+            let img = render_mesh(&verts, &triangles, &head.colours, &job.side, &side_opts)?;
+            write_png(&img, p)?;
+        }
+        Ok(())
+    })?;
+
+    let manifest = out.join("manifest.json");
+    let output = DemoOutput {
+        out_dir: out.clone(),
+        head_obj,
+        landmark_map,
+        poses,
+        model: model_path,
+        manifest: manifest.clone(),
+        upper_lip_vertices: head.upper_lip.clone(),
+        speakers: speaker_outputs,
+    };
+    let json = serde_json::to_string_pretty(&output)?;
+    std::fs::write(&manifest, json).with_context(|| format!("writing {}", manifest.display()))?;
+    Ok(output)
+}
+
+/// The demo head, its articulation fields and the rendering colours, for callers that want
+/// to pose and render it themselves (TUI previews, benchmarks).
+pub fn demo_head() -> (Head, ArticulationFields) {
+    let head = head::build_head();
+    let fields = ArticulationFields::new(&head);
+    (head, fields)
+}

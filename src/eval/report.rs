@@ -1,0 +1,432 @@
+//! The one generic [`Table`] (title, headers, rows of typed cells, notes) that the CLI prints
+//! and the TUI draws, its writers (aligned text, CSV, JSON to any `impl Write`), and builders
+//! turning evaluation and facial-index results into tables.
+
+use super::rmse::GroupRmse;
+use super::visemes::VisemeTable;
+use super::worst::{WorstFit, WorstFrame};
+use super::{PerMeasure, Utterance, rmse::sentence_rmse, stats};
+use crate::measure::indices::{BoundsTable, FacialIndex, FacialIndices, MatchVerdict};
+use crate::measure::Measure;
+use serde::ser::{Serialize, SerializeMap, Serializer};
+use std::io::{self, Write};
+
+/// One table cell. Numbers keep their full value; formatting happens when writing.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cell {
+    /// No value (a missing measure, a test that could not run): blank in text, empty in
+    /// CSV, `null` in JSON.
+    Empty,
+    Text(String),
+    Int(i64),
+    Num(f64),
+}
+
+impl Cell {
+    /// A number cell, or `Empty` for `None` and non-finite values.
+    pub fn num(v: Option<f64>) -> Self {
+        match v {
+            Some(v) if v.is_finite() => Cell::Num(v),
+            _ => Cell::Empty,
+        }
+    }
+
+    /// A text cell.
+    pub fn text(s: impl Into<String>) -> Self {
+        Cell::Text(s.into())
+    }
+
+    /// The cell as text with `precision` decimals for real numbers (`""` when empty).
+    pub fn display(&self, precision: usize) -> String {
+        match self {
+            Cell::Empty => String::new(),
+            Cell::Text(s) => s.clone(),
+            Cell::Int(i) => i.to_string(),
+            Cell::Num(v) => format!("{v:.precision$}"),
+        }
+    }
+
+    /// Whether the cell is right-aligned in text (numbers are).
+    pub fn is_numeric(&self) -> bool {
+        matches!(self, Cell::Int(_) | Cell::Num(_))
+    }
+}
+
+impl Serialize for Cell {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Cell::Empty => s.serialize_none(),
+            Cell::Text(t) => s.serialize_str(t),
+            Cell::Int(i) => s.serialize_i64(*i),
+            Cell::Num(v) if v.is_finite() => s.serialize_f64(*v),
+            Cell::Num(_) => s.serialize_none(),
+        }
+    }
+}
+
+/// A table: what every report in lipmap is, whatever renders it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Table {
+    pub title: String,
+    pub headers: Vec<String>,
+    /// Rows of `headers.len()` cells (shorter rows are padded with `Empty` when written).
+    pub rows: Vec<Vec<Cell>>,
+    /// Lines printed under the table (legend, warnings, test details).
+    pub notes: Vec<String>,
+    /// Decimals for real numbers in text output (CSV and JSON keep full precision).
+    #[serde(skip)]
+    pub precision: usize,
+}
+
+impl Table {
+    /// An empty table with headers and 3-decimal text output.
+    pub fn new(title: impl Into<String>, headers: Vec<String>) -> Self {
+        Self { title: title.into(), headers, rows: Vec::new(), notes: Vec::new(), precision: 3 }
+    }
+
+    /// Appends a row.
+    pub fn push_row(&mut self, row: Vec<Cell>) {
+        self.rows.push(row);
+    }
+
+    fn cell(&self, r: usize, c: usize) -> &Cell {
+        self.rows[r].get(c).unwrap_or(&Cell::Empty)
+    }
+
+    /// Every row's cells as display strings (`precision` decimals), padded to the header
+    /// count: what a TUI table widget needs.
+    pub fn formatted_rows(&self) -> Vec<Vec<String>> {
+        (0..self.rows.len())
+            .map(|r| (0..self.headers.len()).map(|c| self.cell(r, c).display(self.precision)).collect())
+            .collect()
+    }
+
+    /// Per column: whether it holds numbers (right-aligned) rather than text.
+    pub fn numeric_columns(&self) -> Vec<bool> {
+        (0..self.headers.len())
+            .map(|c| {
+                let mut cells = (0..self.rows.len()).map(|r| self.cell(r, c));
+                cells.clone().any(Cell::is_numeric)
+                    && cells.all(|x| x.is_numeric() || *x == Cell::Empty)
+            })
+            .collect()
+    }
+
+    /// Writes the table as aligned text: title, header, a rule, rows, then notes.
+    /// Numbers are right-aligned, text left-aligned; widths count characters.
+    ///
+    /// # Errors
+    /// Any error of the writer.
+    pub fn write_text(&self, w: &mut impl Write) -> io::Result<()> {
+        let rows = self.formatted_rows();
+        let numeric = self.numeric_columns();
+        let widths: Vec<usize> = (0..self.headers.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain(std::iter::once(self.headers[c].chars().count()))
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let line = |w: &mut dyn Write, cells: &[String]| -> io::Result<()> {
+            let mut out = String::new();
+            for (c, s) in cells.iter().enumerate() {
+                if c > 0 {
+                    out.push_str("  ");
+                }
+                let pad = " ".repeat(widths[c] - s.chars().count());
+                if numeric[c] {
+                    out.push_str(&pad);
+                    out.push_str(s);
+                } else {
+                    out.push_str(s);
+                    out.push_str(&pad);
+                }
+            }
+            writeln!(w, "{}", out.trim_end())
+        };
+        if !self.title.is_empty() {
+            writeln!(w, "{}", self.title)?;
+        }
+        line(w, &self.headers)?;
+        let total = widths.iter().sum::<usize>() + 2 * widths.len().saturating_sub(1);
+        writeln!(w, "{}", "-".repeat(total))?;
+        for r in &rows {
+            line(w, r)?;
+        }
+        for n in &self.notes {
+            writeln!(w, "{n}")?;
+        }
+        Ok(())
+    }
+
+    /// The aligned text as a string.
+    pub fn to_text(&self) -> String {
+        let mut buf = Vec::new();
+        // Writing to a Vec cannot fail.
+        let _ = self.write_text(&mut buf);
+        String::from_utf8_lossy(&buf).into_owned()
+    }
+
+    /// Writes the header and rows as CSV (numbers at full precision, empty cells empty);
+    /// title and notes are left out so the file loads as plain data.
+    ///
+    /// # Errors
+    /// Any error of the writer.
+    pub fn write_csv(&self, w: &mut impl Write) -> io::Result<()> {
+        let mut csv = csv::Writer::from_writer(w);
+        csv.write_record(&self.headers).map_err(io::Error::other)?;
+        for r in 0..self.rows.len() {
+            let rec: Vec<String> = (0..self.headers.len())
+                .map(|c| match self.cell(r, c) {
+                    Cell::Num(v) if v.is_finite() => v.to_string(),
+                    other => other.display(0),
+                })
+                .collect();
+            csv.write_record(&rec).map_err(io::Error::other)?;
+        }
+        csv.flush()
+    }
+
+    /// Writes `{"title", "headers", "rows": [[…]], "notes"}` as pretty JSON; numbers are
+    /// numbers, empty cells `null`.
+    ///
+    /// # Errors
+    /// Any error of the writer.
+    pub fn write_json(&self, w: &mut impl Write) -> io::Result<()> {
+        serde_json::to_writer_pretty(&mut *w, self).map_err(io::Error::other)?;
+        writeln!(w)
+    }
+
+    /// The rows as JSON objects keyed by header, for consumers that prefer records.
+    pub fn to_json_records(&self) -> serde_json::Value {
+        struct Rec<'a>(&'a Table, usize);
+        impl Serialize for Rec<'_> {
+            fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                let mut m = s.serialize_map(Some(self.0.headers.len()))?;
+                for (c, h) in self.0.headers.iter().enumerate() {
+                    m.serialize_entry(h, self.0.cell(self.1, c))?;
+                }
+                m.end()
+            }
+        }
+        let recs: Vec<Rec> = (0..self.rows.len()).map(|r| Rec(self, r)).collect();
+        serde_json::to_value(recs).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// Which measures a set of utterances has (P only when some head or video carries it).
+fn measures_present(utterances: &[Utterance]) -> Vec<Measure> {
+    let has_p = utterances.iter().any(|u| u.video.has_p() || u.head.has_p());
+    Measure::ALL.into_iter().filter(|m| *m != Measure::P || has_p).collect()
+}
+
+fn per_measure_cells(v: &PerMeasure, measures: &[Measure]) -> Vec<Cell> {
+    measures.iter().map(|m| Cell::num(v.get(*m))).collect()
+}
+
+/// Per-sentence table: RMSE, Pearson r and variance-normalised MSE of W, H (and P), one
+/// row per utterance and a final mean row.
+pub fn sentence_table(utterances: &[Utterance]) -> Table {
+    let measures = measures_present(utterances);
+    let mut headers = vec!["sentence".to_string()];
+    for kind in ["RMSE", "r", "NMSE"] {
+        headers.extend(measures.iter().map(|m| format!("{kind} {m}")));
+    }
+    let mut t = Table::new("RMSE per sentence (video vs head)", headers);
+    let mut sums: Vec<Vec<Option<f64>>> = vec![Vec::new(); 3 * measures.len()];
+    for u in utterances {
+        let rmse = sentence_rmse(u);
+        let mut row = vec![Cell::text(&u.name)];
+        let mut values: Vec<Option<f64>> = measures.iter().map(|m| rmse.get(*m)).collect();
+        values.extend(measures.iter().map(|m| stats::pearson(u.video.series(*m), u.head.series(*m))));
+        values.extend(
+            measures.iter().map(|m| stats::normalised_mse(u.video.series(*m), u.head.series(*m))),
+        );
+        for (k, v) in values.iter().enumerate() {
+            sums[k].push(*v);
+            row.push(Cell::num(*v));
+        }
+        t.push_row(row);
+    }
+    let mut mean = vec![Cell::text("mean")];
+    mean.extend(sums.into_iter().map(|s| Cell::num(super::mean_of(s))));
+    t.push_row(mean);
+    t
+}
+
+/// Per-phoneme or per-viseme table from [`GroupRmse`] rows: label, occurrences, RMSE of each
+/// measure. With a viseme table, a description column is added.
+pub fn group_table(title: &str, groups: &[GroupRmse], visemes: Option<&VisemeTable>) -> Table {
+    let has_p = groups.iter().any(|g| g.rmse.p.is_some());
+    let measures: Vec<Measure> =
+        Measure::ALL.into_iter().filter(|m| *m != Measure::P || has_p).collect();
+    let mut headers = vec![if visemes.is_some() { "viseme" } else { "phone" }.to_string()];
+    if visemes.is_some() {
+        headers.push("description".into());
+    }
+    headers.push("n".into());
+    headers.extend(measures.iter().map(|m| format!("RMSE {m}")));
+    let mut t = Table::new(title, headers);
+    for g in groups {
+        let mut row = vec![Cell::text(&g.label)];
+        if let Some(v) = visemes {
+            row.push(Cell::text(v.description(&g.label).unwrap_or("not in table")));
+        }
+        row.push(Cell::Int(g.occurrences as i64));
+        row.extend(per_measure_cells(&g.rmse, &measures));
+        t.push_row(row);
+    }
+    t
+}
+
+/// The worst frames by measure error.
+pub fn worst_error_table(frames: &[WorstFrame]) -> Table {
+    let headers = ["rank", "sentence", "frame", "measure", "phone", "video", "head", "error"];
+    let mut t = Table::new("worst frames by measure error", headers.map(String::from).to_vec());
+    for (k, f) in frames.iter().enumerate() {
+        t.push_row(vec![
+            Cell::Int(k as i64 + 1),
+            Cell::text(&f.utterance),
+            Cell::Int(f.frame as i64),
+            Cell::text(f.measure.as_str()),
+            f.phone.as_ref().map_or(Cell::Empty, Cell::text),
+            Cell::Num(f.video),
+            Cell::Num(f.head),
+            Cell::Num(f.error),
+        ]);
+    }
+    t
+}
+
+/// The worst frames by fit residual.
+pub fn worst_fit_table(fits: &[WorstFit]) -> Table {
+    let headers = ["rank", "clip", "frame", "reproj RMS px", "failed"];
+    let mut t = Table::new("worst frames by fit residual", headers.map(String::from).to_vec());
+    for (k, f) in fits.iter().enumerate() {
+        t.push_row(vec![
+            Cell::Int(k as i64 + 1),
+            Cell::text(&f.clip),
+            Cell::Int(f.frame as i64),
+            Cell::num(Some(f.reproj_rms_px)),
+            f.failed.as_ref().map_or(Cell::Empty, Cell::text),
+        ]);
+    }
+    t
+}
+
+/// The 12 facial indices of one face with their classes (`lipmap indices FILE`).
+pub fn indices_table(title: &str, values: &FacialIndices, bounds: &BoundsTable) -> Table {
+    let headers = ["index", "ratio", "value", "low <", "> high", "class"];
+    let mut t = Table::new(title, headers.map(String::from).to_vec());
+    t.precision = 2;
+    for index in FacialIndex::ALL {
+        let (num, den) = index.ratio();
+        let b = bounds.get(index);
+        let v = values.get(index);
+        t.push_row(vec![
+            Cell::text(index.name()),
+            Cell::text(format!("D{num}/D{den}")),
+            Cell::num(Some(v)),
+            Cell::num(b.map(|b| b.low)),
+            Cell::num(b.map(|b| b.high)),
+            bounds.classify(index, v).map_or(Cell::Empty, |c| Cell::text(c.as_str())),
+        ]);
+    }
+    t
+}
+
+/// Speaker vs head indices with classes, the verdict's warnings as notes
+/// (`lipmap indices SESSION`, the TUI's matching panel).
+pub fn verdict_table(verdict: &MatchVerdict) -> Table {
+    let headers = ["index", "speaker", "class", "head", "class"];
+    let mut t = Table::new("facial indices: speaker vs head", headers.map(String::from).to_vec());
+    t.precision = 2;
+    for r in &verdict.rows {
+        let class = |c: Option<crate::measure::IndexClass>| c.map_or(Cell::Empty, |c| Cell::text(c.as_str()));
+        t.push_row(vec![
+            Cell::text(r.index.name()),
+            Cell::num(Some(r.speaker)),
+            class(r.speaker_class),
+            Cell::num(Some(r.head)),
+            class(r.head_class),
+        ]);
+    }
+    if verdict.warnings.is_empty() {
+        t.notes.push("verdict: good match (no warning)".into());
+    } else {
+        for w in &verdict.warnings {
+            t.notes.push(format!("warning: {w}"));
+        }
+    }
+    t
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Table {
+        let mut t = Table::new("demo", vec!["name".into(), "W".into(), "n".into()]);
+        t.push_row(vec![Cell::text("bin"), Cell::Num(0.12345), Cell::Int(3)]);
+        t.push_row(vec![Cell::text("blue, at"), Cell::Empty, Cell::Int(12)]);
+        t
+    }
+
+    #[test]
+    fn text_is_aligned() {
+        let s = sample().to_text();
+        let want = "demo\n\
+                    name          W   n\n\
+                    -------------------\n\
+                    bin       0.123   3\n\
+                    blue, at         12\n";
+        assert_eq!(s, want);
+    }
+
+    #[test]
+    fn csv_quotes_and_keeps_precision() {
+        let mut buf = Vec::new();
+        sample().write_csv(&mut buf).unwrap();
+        assert_eq!(String::from_utf8(buf).unwrap(), "name,W,n\nbin,0.12345,3\n\"blue, at\",,12\n");
+    }
+
+    #[test]
+    fn json_has_numbers_and_nulls() {
+        let mut buf = Vec::new();
+        sample().write_json(&mut buf).unwrap();
+        let v: serde_json::Value = serde_json::from_slice(&buf).unwrap();
+        assert_eq!(v["rows"][0][1], serde_json::json!(0.12345));
+        assert!(v["rows"][1][1].is_null());
+        assert_eq!(v["headers"][2], "n");
+        let r = sample().to_json_records();
+        assert_eq!(r[1]["n"], 12);
+    }
+
+    #[test]
+    fn writers_report_io_errors() {
+        struct Broken;
+        impl Write for Broken {
+            fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+                Err(io::Error::new(io::ErrorKind::BrokenPipe, "closed"))
+            }
+            fn flush(&mut self) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        assert!(sample().write_text(&mut Broken).is_err());
+        assert!(sample().write_json(&mut Broken).is_err());
+        assert!(sample().write_csv(&mut Broken).is_err());
+    }
+
+    #[test]
+    fn indices_table_lists_all_twelve() {
+        let v = FacialIndices { values: [15.0; 12] };
+        let t = indices_table("speaker", &v, &BoundsTable::default());
+        assert_eq!(t.rows.len(), 12);
+        let vmh = &t.rows[FacialIndex::VerticalMouthHeight.position()];
+        assert_eq!(vmh[5], Cell::text("middle"));
+        assert_eq!(t.rows[0][5], Cell::text("low"));
+    }
+}

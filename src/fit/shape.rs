@@ -1,0 +1,398 @@
+//! The regularised linear shape fit (eos's `fit_shape_to_landmarks_linear`) over the model rows
+//! of the mapped landmark vertices only, precomputed once per model, map, set and weights.
+//!
+//! With the camera fixed, landmark i's projection is affine in the coefficients c = [α; β]:
+//! `x̂ᵢ = s·R₂·(mᵢ + Bᵢ·c) + s·t` (R₂ = rows r1, r2; ṽ = H − v). The fit solves
+//! `(AᵀΩA + Λ)·c = −AᵀΩb` with `Aᵢ = s·R₂·Bᵢ`, `bᵢ = s·R₂·mᵢ + s·t − xᵢ`, `Ω = wᵢ/σ²` and
+//! `Λ = diag(λ)`. Because `AᵢᵀAᵢ = s²·Bᵢᵀ·Q·Bᵢ` with `Q = r1r1ᵀ + r2r2ᵀ`, the normal matrix is
+//! `s²/σ²·Σⱼₖ Qⱼₖ·Mⱼₖ` where `Mⱼₖ = Σᵢ wᵢ·Bᵢ[j,:]ᵀBᵢ[k,:]` are six fixed K×K matrices: building it
+//! costs 6K² instead of 2L·K², whatever the pose.
+
+use crate::landmarks::{LandmarkSet, N_LANDMARKS};
+use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
+use crate::model::{LandmarkMap, MorphableModel};
+
+use super::camera::OrthoPose;
+
+/// eos's data-term variance: `Ω = I/σ²` with σ = √3 px (its default). lipmap keeps the
+/// convention so its λ means what eos's λ means.
+pub const EOS_SIGMA_SQUARED: Real = 3.0;
+
+/// Model rows of the landmark vertices a fit uses: mean, rescaled identity basis
+/// `B·diag(√e)` and expression deltas, plus the weighted Gram blocks `Mⱼₖ`.
+#[derive(Clone, Debug)]
+pub struct LandmarkBasis {
+    /// 0-based iBUG indices, ascending.
+    pub landmarks: Vec<usize>,
+    /// The model vertex of each landmark.
+    pub vertices: Vec<usize>,
+    /// Per-landmark weight wᵢ (> 0).
+    pub weights: Vec<Real>,
+    /// Identity components (first columns of the rows).
+    pub k_id: usize,
+    /// Expression blendshapes (last columns).
+    pub k_exp: usize,
+    mean: Vec<Vector3>,
+    /// Row-major rows: landmark i, axis j at `rows[(3i + j)·K ..][..K]`.
+    rows: Vec<Real>,
+    /// Gram blocks over all landmarks: xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each).
+    gram: [DMatrix; 6],
+}
+
+/// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
+const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+
+impl LandmarkBasis {
+    /// Precomputes the rows of the landmarks of `set` that `map` maps to a vertex of `model`,
+    /// weighted by `weights` (indexed by 0-based iBUG id; missing or empty = 1; landmarks with
+    /// a weight ≤ 0 or non-finite are left out).
+    pub fn new(model: &MorphableModel, map: &LandmarkMap, set: LandmarkSet, weights: &[Real]) -> Self {
+        let n = model.num_vertices();
+        let pairs: Vec<(usize, usize, Real)> = map
+            .pairs()
+            .filter(|&(l, v)| l < N_LANDMARKS && set.contains(l) && v < n)
+            .map(|(l, v)| (l, v, weights.get(l).copied().unwrap_or(1.0)))
+            .filter(|&(_, _, w)| w.is_finite() && w > 0.0)
+            .collect();
+        Self::from_vertices(model, &pairs)
+    }
+
+    /// As [`LandmarkBasis::new`] from explicit (landmark, vertex, weight) triples.
+    pub fn from_vertices(model: &MorphableModel, pairs: &[(usize, usize, Real)]) -> Self {
+        let k_id = model.num_shape_components();
+        let k_exp = model.num_expressions();
+        let k = k_id + k_exp;
+        let l = pairs.len();
+        let mut rows = vec![0.0; 3 * l * k];
+        let mut mean = Vec::with_capacity(l);
+        for (i, &(_, v, _)) in pairs.iter().enumerate() {
+            let m = &model.shape.mean;
+            mean.push(Vector3::new(m[3 * v], m[3 * v + 1], m[3 * v + 2]));
+            for j in 0..3 {
+                let row = &mut rows[(3 * i + j) * k..(3 * i + j + 1) * k];
+                for (c, r) in row.iter_mut().enumerate().take(k_id) {
+                    *r = model.shape.basis[(3 * v + j, c)] * model.shape.sigma(c);
+                }
+                if let Some(e) = &model.expressions {
+                    for c in 0..k_exp {
+                        row[k_id + c] = e.deltas[(3 * v + j, c)];
+                    }
+                }
+            }
+        }
+        let mut basis = Self {
+            landmarks: pairs.iter().map(|p| p.0).collect(),
+            vertices: pairs.iter().map(|p| p.1).collect(),
+            weights: pairs.iter().map(|p| p.2).collect(),
+            k_id,
+            k_exp,
+            mean,
+            rows,
+            gram: std::array::from_fn(|_| DMatrix::zeros(k, k)),
+        };
+        let mut gram: [DMatrix; 6] = std::array::from_fn(|_| DMatrix::zeros(k, k));
+        for i in 0..l {
+            let w = basis.weights[i];
+            for (g, &(a, b)) in gram.iter_mut().zip(&GRAM_PAIRS) {
+                let (ra, rb) = (basis.row(i, a), basis.row(i, b));
+                for p in 0..k {
+                    for q in 0..k {
+                        let v = if a == b { ra[p] * rb[q] } else { ra[p] * rb[q] + rb[p] * ra[q] };
+                        g[(p, q)] += w * v;
+                    }
+                }
+            }
+        }
+        basis.gram = gram;
+        basis
+    }
+
+    /// Number of landmarks L.
+    pub fn len(&self) -> usize {
+        self.landmarks.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.landmarks.is_empty()
+    }
+
+    /// Total coefficients K = identity + expression.
+    pub fn num_coefficients(&self) -> usize {
+        self.k_id + self.k_exp
+    }
+
+    /// Row `axis` (0 x, 1 y, 2 z) of landmark `i`: K coefficients.
+    #[inline]
+    pub fn row(&self, i: usize, axis: usize) -> &[Real] {
+        let k = self.num_coefficients();
+        &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
+    }
+
+    /// Mean position of landmark `i`'s vertex.
+    pub fn mean(&self, i: usize) -> Vector3 {
+        self.mean[i]
+    }
+
+    /// Landmark `i`'s vertex for coefficients `c` (length K; identity then expression).
+    #[inline]
+    pub fn point(&self, i: usize, c: &[Real]) -> Point3 {
+        let mut p = self.mean[i];
+        for j in 0..3 {
+            p[j] += dot(self.row(i, j), c);
+        }
+        Point3::from(p)
+    }
+
+    /// Adds `scale · Σⱼₖ Qⱼₖ·Mⱼₖ[rows, cols]` over ALL landmarks to `out` (shape rows × cols).
+    pub(crate) fn add_gram_block(
+        &self,
+        q: &crate::math::Matrix3,
+        scale: Real,
+        rows: std::ops::Range<usize>,
+        cols: std::ops::Range<usize>,
+        out: &mut DMatrix,
+    ) {
+        for (g, &(a, b)) in self.gram.iter().zip(&GRAM_PAIRS) {
+            let f = scale * q[(a, b)];
+            if f == 0.0 {
+                continue;
+            }
+            out.zip_apply(&g.view((rows.start, cols.start), (rows.len(), cols.len())), |o, v| {
+                *o += f * v
+            });
+        }
+    }
+
+    /// Subtracts landmark `i`'s contribution `scale·wᵢ·(R₂Bᵢ)ᵀ(R₂Bᵢ)[rows, cols]` from `out`:
+    /// used for the landmarks a frame does not see.
+    pub(crate) fn sub_point_block(
+        &self,
+        i: usize,
+        pose: &OrthoPose,
+        scale: Real,
+        rows: std::ops::Range<usize>,
+        cols: std::ops::Range<usize>,
+        out: &mut DMatrix,
+    ) {
+        let k = self.num_coefficients();
+        let mut a = [vec![0.0; k], vec![0.0; k]];
+        for (d, ad) in a.iter_mut().enumerate() {
+            for j in 0..3 {
+                let r = pose.r[(d, j)];
+                for (x, b) in ad.iter_mut().zip(self.row(i, j)) {
+                    *x += r * b;
+                }
+            }
+        }
+        let f = scale * self.weights[i];
+        for (oc, c) in cols.clone().enumerate() {
+            for (or, r) in rows.clone().enumerate() {
+                out[(or, oc)] -= f * (a[0][r] * a[0][c] + a[1][r] * a[1][c]);
+            }
+        }
+    }
+}
+
+#[inline]
+pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `Q = r1r1ᵀ + r2r2ᵀ = I − r3r3ᵀ` (R₂ᵀR₂) of a pose.
+pub(crate) fn projector(pose: &OrthoPose) -> crate::math::Matrix3 {
+    let r3 = pose.r.row(2).transpose();
+    crate::math::Matrix3::identity() - r3 * r3.transpose()
+}
+
+/// The per-landmark data of one frame as the solvers need it: image points for each basis
+/// landmark and which of them are usable (visible and finite).
+#[derive(Clone, Debug)]
+pub struct FrameObservations {
+    pub frame: usize,
+    /// One per basis landmark; unusable ones hold (0, 0).
+    pub points: Vec<Point2>,
+    pub active: Vec<bool>,
+    pub num_active: usize,
+}
+
+impl FrameObservations {
+    /// Observations of `basis`'s landmarks from one frame; a point counts when it is visible
+    /// and both coordinates are finite.
+    pub fn new(basis: &LandmarkBasis, lm: &crate::landmarks::FrameLandmarks) -> Self {
+        let mut points = Vec::with_capacity(basis.len());
+        let mut active = Vec::with_capacity(basis.len());
+        for &l in &basis.landmarks {
+            match lm.points.get(l) {
+                Some(p) if p.visible && p.x.is_finite() && p.y.is_finite() => {
+                    points.push(Point2::new(p.x, p.y));
+                    active.push(true);
+                }
+                _ => {
+                    points.push(Point2::origin());
+                    active.push(false);
+                }
+            }
+        }
+        let num_active = active.iter().filter(|a| **a).count();
+        Self { frame: lm.frame, points, active, num_active }
+    }
+}
+
+
+/// Builds `AᵀΩA` over `cols` (rows `rows`) for one frame, visible landmarks only.
+pub(crate) fn normal_matrix(
+    basis: &LandmarkBasis,
+    obs: &FrameObservations,
+    pose: &OrthoPose,
+    sigma2: Real,
+    rows: std::ops::Range<usize>,
+    cols: std::ops::Range<usize>,
+) -> DMatrix {
+    let scale = pose.s * pose.s / sigma2;
+    let mut n = DMatrix::zeros(rows.len(), cols.len());
+    basis.add_gram_block(&projector(pose), scale, rows.clone(), cols.clone(), &mut n);
+    for (i, &a) in obs.active.iter().enumerate() {
+        if !a {
+            basis.sub_point_block(i, pose, scale, rows.clone(), cols.clone(), &mut n);
+        }
+    }
+    n
+}
+
+/// `−AᵀΩb` over coefficient range `cols`, where `b` is the residual of the shape with
+/// coefficients `c` (full length K, `c[cols]` is typically 0 so b is the fixed part's residual).
+pub(crate) fn gradient_rhs(
+    basis: &LandmarkBasis,
+    obs: &FrameObservations,
+    pose: &OrthoPose,
+    image_height: Real,
+    sigma2: Real,
+    c: &[Real],
+    cols: std::ops::Range<usize>,
+) -> DVector {
+    let mut g = DVector::zeros(cols.len());
+    for i in 0..basis.len() {
+        if !obs.active[i] {
+            continue;
+        }
+        let x = basis.point(i, c).coords;
+        let cam = pose.r * x;
+        let bu = pose.s * (cam.x + pose.tx) - obs.points[i].x;
+        let bv = pose.s * (cam.y + pose.ty) - (image_height - obs.points[i].y);
+        // Aᵢᵀbᵢ = s·Bᵢᵀ·R₂ᵀ·bᵢ; h = s·R₂ᵀ·bᵢ is a 3-vector.
+        let f = basis.weights[i] / sigma2;
+        let h = (pose.r.row(0).transpose() * bu + pose.r.row(1).transpose() * bv) * (pose.s * f);
+        for j in 0..3 {
+            let row = &basis.row(i, j)[cols.clone()];
+            let hj = h[j];
+            for (gv, r) in g.iter_mut().zip(row) {
+                *gv -= hj * r;
+            }
+        }
+    }
+    g
+}
+
+/// eos's `fit_shape_to_landmarks_linear`: coefficients `cols` that minimise
+/// `Σᵢ wᵢ/σ²·|x̂ᵢ − xᵢ|² + λ·|c|²` with the pose fixed and the other coefficients held at `c`
+/// (entries of `c` inside `cols` are ignored). `None` if the system is not positive definite.
+pub fn fit_coefficients_linear(
+    basis: &LandmarkBasis,
+    obs: &FrameObservations,
+    pose: &OrthoPose,
+    image_height: Real,
+    c: &[Real],
+    cols: std::ops::Range<usize>,
+    lambda: Real,
+    sigma2: Real,
+) -> Option<DVector> {
+    let mut c0 = c.to_vec();
+    for v in &mut c0[cols.clone()] {
+        *v = 0.0;
+    }
+    let mut n = normal_matrix(basis, obs, pose, sigma2, cols.clone(), cols.clone());
+    for d in 0..cols.len() {
+        n[(d, d)] += lambda;
+    }
+    let g = gradient_rhs(basis, obs, pose, image_height, sigma2, &c0, cols);
+    let x = n.cholesky()?.solve(&g);
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Minimises `½xᵀNx − gᵀx` subject to `x ≥ 0` (N symmetric positive definite, small):
+/// Lawson–Hanson's active set method on the normal equations, as eos's NNLS for blendshapes
+/// but with the regulariser inside N. `free[j]` tells the caller which components ended up
+/// unconstrained. Returns None on a numerical failure.
+pub fn nonnegative_quadratic(n: &DMatrix, g: &DVector, free: &mut [bool]) -> Option<DVector> {
+    let k = g.len();
+    let mut x = DVector::zeros(k);
+    free.iter_mut().for_each(|f| *f = false);
+    for _ in 0..(3 * k + 3) {
+        // Gradient of the objective is Nx − g; w = g − Nx is the descent direction.
+        let w = g - n * &x;
+        let Some((j, wj)) = (0..k)
+            .filter(|&j| !free[j])
+            .map(|j| (j, w[j]))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            break;
+        };
+        if wj <= 1e-12 * (1.0 + g.amax()) {
+            break;
+        }
+        free[j] = true;
+        // Inner loop: solve on the free set, step back to feasibility if needed.
+        loop {
+            let idx: Vec<usize> = (0..k).filter(|&j| free[j]).collect();
+            let sub = DMatrix::from_fn(idx.len(), idx.len(), |a, b| n[(idx[a], idx[b])]);
+            let rhs = DVector::from_fn(idx.len(), |a, _| g[idx[a]]);
+            let z = sub.cholesky()?.solve(&rhs);
+            if z.iter().all(|&v| v > 0.0) {
+                for (a, &j) in idx.iter().enumerate() {
+                    x[j] = z[a];
+                }
+                break;
+            }
+            // Largest step toward z keeping x ≥ 0.
+            let mut alpha = 1.0;
+            for (a, &j) in idx.iter().enumerate() {
+                if z[a] <= 0.0 {
+                    let d = x[j] - z[a];
+                    if d > 0.0 {
+                        alpha = Real::min(alpha, x[j] / d);
+                    }
+                }
+            }
+            for (a, &j) in idx.iter().enumerate() {
+                x[j] += alpha * (z[a] - x[j]);
+                if x[j] <= 1e-14 {
+                    x[j] = 0.0;
+                    free[j] = false;
+                }
+            }
+            if idx.iter().all(|&j| !free[j]) {
+                break;
+            }
+        }
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nnls_matches_unconstrained_when_interior_and_clamps_otherwise() {
+        let n = DMatrix::from_row_slice(2, 2, &[2.0, 0.5, 0.5, 1.0]);
+        let g = DVector::from_vec(vec![1.0, 1.0]);
+        let mut free = [false; 2];
+        let x = nonnegative_quadratic(&n, &g, &mut free).unwrap();
+        let exact = n.clone().cholesky().unwrap().solve(&g);
+        assert!((x - &exact).amax() < 1e-12 && exact.iter().all(|v| *v > 0.0));
+        let g = DVector::from_vec(vec![-1.0, 1.0]);
+        let x = nonnegative_quadratic(&n, &g, &mut free).unwrap();
+        assert_eq!(x[0], 0.0);
+        assert!((x[1] - 1.0).abs() < 1e-12 && free == [false, true]);
+    }
+}

@@ -1,0 +1,365 @@
+//! Morphable models as NumPy arrays: a folder of `.npy` files or one `.npz` archive with
+//! the arrays `mean`, `basis_orthonormal` (or `basis`), `eigenvalues`, `triangles` and
+//! optionally `expression_blendshapes` and `expression_names` (uint8 UTF-8 text, one name
+//! per line) — the names of eos's exported model folder.
+//!
+//! Shapes: `mean` 3N (or N×3, flattened row by row); basis 3N×K (or N×3×K) with orthonormal
+//! columns; `eigenvalues` K (variances); `triangles` T×3 0-based integers (optional);
+//! `expression_blendshapes` E×3N (a 3N×E array is accepted too). Any of f32, f64, i32,
+//! i64, u32, u64; C or Fortran order. Expression names come from `expression_names`, else
+//! from a `summary.json` beside a folder's arrays (`blendshape_names`), else `expression_<j>`.
+
+use crate::io::error::{FormatError, Result};
+use crate::math::{DMatrix, DVector};
+use crate::model::{Expressions, MorphableModel, PcaModel};
+use npyz::{NpyFile, Order, TypeChar, WriterBuilder};
+use std::io::Read;
+use std::path::Path;
+
+/// An array read from a `.npy`: its shape and its values in C (row-major) order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NpyArray {
+    pub shape: Vec<usize>,
+    pub data: Vec<f64>,
+}
+
+impl NpyArray {
+    /// A 2-D view as a matrix (a 1-D array is one column).
+    fn to_matrix(&self) -> Option<DMatrix> {
+        match self.shape.as_slice() {
+            [n] => Some(DMatrix::from_column_slice(*n, 1, &self.data)),
+            [r, c] => Some(DMatrix::from_row_slice(*r, *c, &self.data)),
+            _ => None,
+        }
+    }
+}
+
+/// Reads one `.npy` file as f64 values in C order.
+///
+/// # Errors
+/// Unreadable file, a bad header, or a non-numeric dtype.
+pub fn read_npy(path: &Path) -> Result<NpyArray> {
+    let file = std::fs::File::open(path).map_err(|e| FormatError::io(path, e))?;
+    let npy = NpyFile::new(std::io::BufReader::new(file))
+        .map_err(|e| FormatError::whole(path, format!("not a .npy file: {e}")))?;
+    npy_to_array(npy, path, "array")
+}
+
+fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<NpyArray> {
+    let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
+    let order = npy.order();
+    let bad = |e: std::io::Error| FormatError::at_field(path, field, format!("cannot read data: {e}"));
+    let (ty, size) = match npy.dtype() {
+        npyz::DType::Plain(ts) => (ts.type_char(), ts.size_field()),
+        other => {
+            return Err(FormatError::at_field(
+                path,
+                field,
+                format!("unsupported dtype {}", other.descr()),
+            ));
+        }
+    };
+    let data: Vec<f64> = match (ty, size) {
+        (TypeChar::Float, 4) => npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        (TypeChar::Float, 8) => npy.into_vec::<f64>().map_err(bad)?,
+        (TypeChar::Int, 4) => npy.into_vec::<i32>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        (TypeChar::Int, 8) => npy.into_vec::<i64>().map_err(bad)?.into_iter().map(|v| v as f64).collect(),
+        (TypeChar::Uint, 1) => npy.into_vec::<u8>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        (TypeChar::Uint, 4) => npy.into_vec::<u32>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        (TypeChar::Uint, 8) => npy.into_vec::<u64>().map_err(bad)?.into_iter().map(|v| v as f64).collect(),
+        _ => {
+            return Err(FormatError::at_field(
+                path,
+                field,
+                format!("unsupported dtype {ty:?} of {size} bytes (need float or integer)"),
+            ));
+        }
+    };
+    let data = if order == Order::Fortran && shape.len() > 1 { fortran_to_c(&data, &shape) } else { data };
+    Ok(NpyArray { shape, data })
+}
+
+/// Reorders Fortran-order (first index fastest) values into C order (last index fastest).
+fn fortran_to_c(data: &[f64], shape: &[usize]) -> Vec<f64> {
+    let n = data.len();
+    let mut out = vec![0.0; n];
+    let mut idx = vec![0usize; shape.len()];
+    for (f, &v) in data.iter().enumerate() {
+        // Decode f as Fortran multi-index, then encode as C index.
+        let mut rem = f;
+        for (k, &s) in shape.iter().enumerate() {
+            idx[k] = rem % s.max(1);
+            rem /= s.max(1);
+        }
+        let c = idx.iter().zip(shape).fold(0, |acc, (&i, &s)| acc * s + i);
+        out[c] = v;
+    }
+    out
+}
+
+/// Reads a model from a folder of `.npy` files laid out as eos's exported `model/` folder.
+///
+/// # Errors
+/// A missing required array, a size mismatch (naming the field), or an invalid model.
+pub fn read_npy_folder(dir: &Path) -> Result<MorphableModel> {
+    let get = |name: &str| -> Result<Option<NpyArray>> {
+        let p = dir.join(format!("{name}.npy"));
+        if p.exists() { read_npy(&p).map(Some) } else { Ok(None) }
+    };
+    let names = match get("expression_names")? {
+        Some(a) => Some(names_from_bytes(&a, dir)?),
+        None => read_summary_names(dir),
+    };
+    assemble(dir, get, names)
+}
+
+/// Reads a model from an `.npz` archive with the same array names as a folder.
+///
+/// # Errors
+/// As [`read_npy_folder`], plus a corrupt archive.
+pub fn read_npz(path: &Path) -> Result<MorphableModel> {
+    let mut archive = npyz::npz::NpzArchive::open(path)
+        .map_err(|e| FormatError::whole(path, format!("not an .npz archive: {e}")))?;
+    let arrays: Vec<String> = archive.array_names().map(str::to_string).collect();
+    let mut get = |name: &str| -> Result<Option<NpyArray>> {
+        if !arrays.iter().any(|a| a == name) {
+            return Ok(None);
+        }
+        let npy = archive
+            .by_name(name)
+            .map_err(|e| FormatError::at_field(path, name, e.to_string()))?
+            .ok_or_else(|| FormatError::at_field(path, name, "missing from the archive"))?;
+        npy_to_array(npy, path, name).map(Some)
+    };
+    let names = match get("expression_names")? {
+        Some(a) => Some(names_from_bytes(&a, path)?),
+        None => None,
+    };
+    assemble(path, &mut get, names)
+}
+
+/// Expression names stored as a 1-D `uint8` array of UTF-8 text, one name per line
+/// (numpy: `bytes(a).decode().split("\n")`), since `.npy` has no portable string list.
+fn names_from_bytes(a: &NpyArray, path: &Path) -> Result<Vec<String>> {
+    let bad = || FormatError::at_field(path, "expression_names", "not UTF-8 bytes (uint8, 1-D)");
+    let bytes: Vec<u8> = a
+        .data
+        .iter()
+        .map(|&v| ((0.0..=255.0).contains(&v) && v.fract() == 0.0).then_some(v as u8))
+        .collect::<Option<_>>()
+        .filter(|_| a.shape.len() == 1)
+        .ok_or_else(bad)?;
+    let text = String::from_utf8(bytes).map_err(|_| bad())?;
+    Ok(if text.is_empty() { Vec::new() } else { text.split('\n').map(str::to_string).collect() })
+}
+
+/// `blendshape_names` from a `summary.json` beside the arrays, when present and readable.
+fn read_summary_names(dir: &Path) -> Option<Vec<String>> {
+    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v.get("blendshape_names")?
+        .as_array()?
+        .iter()
+        .map(|n| n.as_str().map(str::to_string))
+        .collect()
+}
+
+fn assemble(
+    path: &Path,
+    mut get: impl FnMut(&str) -> Result<Option<NpyArray>>,
+    names: Option<Vec<String>>,
+) -> Result<MorphableModel> {
+    let field_err = |f: &str, m: String| FormatError::at_field(path, f, m);
+    let mean = get("mean")?.ok_or_else(|| field_err("mean", "required array is missing".into()))?;
+    let mean = DVector::from_vec(mean.data);
+    let len = mean.len();
+    if len % 3 != 0 {
+        return Err(field_err("mean", format!("{len} values, not a multiple of 3")));
+    }
+    let (basis_name, basis) = match get("basis_orthonormal")? {
+        Some(b) => ("basis_orthonormal", b),
+        None => (
+            "basis",
+            get("basis")?.ok_or_else(|| {
+                field_err("basis_orthonormal", "required array (or `basis`) is missing".into())
+            })?,
+        ),
+    };
+    let basis = match basis.shape.as_slice() {
+        [r, k] if *r == len => DMatrix::from_row_slice(*r, *k, &basis.data),
+        [n, 3, k] if 3 * n == len => DMatrix::from_row_slice(len, *k, &basis.data),
+        s => {
+            return Err(field_err(
+                basis_name,
+                format!("shape {s:?} does not match the mean's {len} values (need {len}×K)"),
+            ));
+        }
+    };
+    let ev = get("eigenvalues")?
+        .ok_or_else(|| field_err("eigenvalues", "required array is missing".into()))?;
+    let eigenvalues = DVector::from_vec(ev.data);
+    if eigenvalues.len() != basis.ncols() {
+        return Err(field_err(
+            "eigenvalues",
+            format!("{} values for {} basis columns", eigenvalues.len(), basis.ncols()),
+        ));
+    }
+    let triangles = match get("triangles")? {
+        None => Vec::new(),
+        Some(t) => {
+            if t.shape.len() != 2 || t.shape[1] != 3 {
+                return Err(field_err("triangles", format!("shape {:?}, need T×3", t.shape)));
+            }
+            let n = len / 3;
+            let mut out = Vec::with_capacity(t.shape[0]);
+            for (i, c) in t.data.chunks_exact(3).enumerate() {
+                let mut tri = [0u32; 3];
+                for (k, &v) in c.iter().enumerate() {
+                    if v < 0.0 || v.fract() != 0.0 || v as usize >= n {
+                        return Err(field_err(
+                            "triangles",
+                            format!("triangle {i} has vertex {v}, the mean has {n} vertices"),
+                        ));
+                    }
+                    tri[k] = v as u32;
+                }
+                out.push(tri);
+            }
+            out
+        }
+    };
+    let expressions = match get("expression_blendshapes")? {
+        None => None,
+        Some(e) => {
+            let deltas = match e.shape.as_slice() {
+                [_, c] if *c == len => e.to_matrix().map(|m| m.transpose()),
+                [r, _] if *r == len => e.to_matrix(),
+                _ => None,
+            }
+            .ok_or_else(|| {
+                field_err(
+                    "expression_blendshapes",
+                    format!("shape {:?} does not match the mean's {len} values (need E×{len})", e.shape),
+                )
+            })?;
+            let k = deltas.ncols();
+            let names = match names {
+                Some(n) if n.len() == k => n,
+                _ => (0..k).map(|j| format!("expression_{j}")).collect(),
+            };
+            Some(Expressions { names, deltas })
+        }
+    };
+    let model = MorphableModel { shape: PcaModel { mean, basis, eigenvalues }, expressions, triangles };
+    model.validate().map_err(|e| FormatError::whole(path, e.to_string()))?;
+    Ok(model)
+}
+
+/// Writes a model as an `.npz` archive (f64 arrays, names as read by [`read_npz`]).
+///
+/// # Errors
+/// I/O errors, naming the file.
+pub fn write_npz(path: &Path, model: &MorphableModel) -> Result<()> {
+    let io = |e: std::io::Error| FormatError::io(path, e);
+    let mut npz = npyz::npz::NpzWriter::create(path).map_err(io)?;
+    let s = &model.shape;
+    let len = s.mean.len() as u64;
+    let k = s.basis.ncols() as u64;
+    let mut put = |name: &str, shape: &[u64], data: Vec<f64>| -> std::io::Result<()> {
+        let mut w = npz.array::<f64>(name, Default::default())?.default_dtype().shape(shape).begin_nd()?;
+        w.extend(data)?;
+        w.finish()
+    };
+    put("mean", &[len], s.mean.as_slice().to_vec()).map_err(io)?;
+    // C order: row r of the basis, all K columns, then the next row.
+    put("basis_orthonormal", &[len, k], s.basis.transpose().as_slice().to_vec()).map_err(io)?;
+    put("eigenvalues", &[k], s.eigenvalues.as_slice().to_vec()).map_err(io)?;
+    if let Some(e) = &model.expressions {
+        // E×3N in C order is the 3N×E matrix in column-major order.
+        put("expression_blendshapes", &[e.deltas.ncols() as u64, len], e.deltas.as_slice().to_vec())
+            .map_err(io)?;
+        let text = e.names.join("\n").into_bytes();
+        let mut w = npz
+            .array::<u8>("expression_names", Default::default())
+            .and_then(|b| b.default_dtype().shape(&[text.len() as u64]).begin_nd())
+            .map_err(io)?;
+        w.extend(text).map_err(io)?;
+        w.finish().map_err(io)?;
+    }
+    let mut w = npz
+        .array::<i32>("triangles", Default::default())
+        .and_then(|b| b.default_dtype().shape(&[model.triangles.len() as u64, 3]).begin_nd())
+        .map_err(io)?;
+    w.extend(model.triangles.iter().flat_map(|t| t.map(|v| v as i32))).map_err(io)?;
+    w.finish().map_err(io)?;
+    Ok(())
+}
+
+/// Writes an f32 `.npy` file of the given shape from C-order values (e.g. `shapes.npy`,
+/// frames × 3N).
+///
+/// # Errors
+/// A shape that does not match `data.len()`, or I/O errors, naming the file.
+pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
+    if shape.iter().product::<u64>() != data.len() as u64 {
+        return Err(FormatError::whole(
+            path,
+            format!("shape {shape:?} does not hold {} values", data.len()),
+        ));
+    }
+    let io = |e: std::io::Error| FormatError::io(path, e);
+    let file = std::fs::File::create(path).map_err(io)?;
+    let mut w = npyz::WriteOptions::new()
+        .default_dtype()
+        .shape(shape)
+        .writer(std::io::BufWriter::new(file))
+        .begin_nd()
+        .map_err(io)?;
+    w.extend(data.iter().copied()).map_err(io)?;
+    w.finish().map_err(io)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fortran_reorder_matches_c() {
+        // 2×3 matrix [[1,2,3],[4,5,6]] in Fortran order is 1 4 2 5 3 6.
+        let c = fortran_to_c(&[1.0, 4.0, 2.0, 5.0, 3.0, 6.0], &[2, 3]);
+        assert_eq!(c, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]);
+    }
+
+    #[test]
+    fn npz_round_trip_and_size_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut basis = DMatrix::zeros(6, 2);
+        basis[(0, 0)] = 1.0;
+        basis[(5, 1)] = 1.0;
+        let model = MorphableModel {
+            shape: PcaModel {
+                mean: DVector::from_vec(vec![0.5, 1.0, 1.5, 2.0, 2.5, 3.0]),
+                basis,
+                eigenvalues: DVector::from_vec(vec![3.0, 1.0]),
+            },
+            expressions: Some(Expressions {
+                names: vec!["jaw open".into()],
+                deltas: DMatrix::from_column_slice(6, 1, &[0.0, 1.0, 0.0, 0.0, -1.0, 0.0]),
+            }),
+            triangles: vec![[0, 1, 1]],
+        };
+        let p = dir.path().join("m.npz");
+        write_npz(&p, &model).unwrap();
+        assert_eq!(read_npz(&p).unwrap(), model);
+
+        // A folder whose basis has the wrong number of rows names the field.
+        let f = dir.path().join("folder");
+        std::fs::create_dir(&f).unwrap();
+        write_npy_f32(&f.join("mean.npy"), &[6], &[0.0; 6]).unwrap();
+        write_npy_f32(&f.join("basis.npy"), &[9, 1], &[0.0; 9]).unwrap();
+        write_npy_f32(&f.join("eigenvalues.npy"), &[1], &[1.0]).unwrap();
+        let e = read_npy_folder(&f).unwrap_err();
+        assert!(e.to_string().contains("field `basis`"), "{e}");
+        assert!(write_npy_f32(&f.join("x.npy"), &[2, 2], &[0.0; 3]).is_err());
+    }
+}

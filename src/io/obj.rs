@@ -1,0 +1,205 @@
+//! Wavefront OBJ meshes, read and written with vertex order kept exactly as in the file:
+//! for a morphable model the vertex index *is* the correspondence, so nothing is renumbered.
+//!
+//! Only `v` and `f` lines matter: `v x y z [w | r g b]` (extra numbers ignored) and
+//! `f a b c …` polygons whose references may be `v`, `v/vt`, `v//vn` or `v/vt/vn`, 1-based
+//! or negative (relative to the vertices read so far), and may point forward to vertices
+//! defined later in the file. Everything else (`vt`, `vn`, `g`, `o`, `usemtl`, …) is skipped.
+//! A general loader such as tobj renumbers vertices by first use; this one never does.
+
+use crate::io::error::{FormatError, Result};
+use crate::math::Point3;
+use crate::model::Mesh;
+use std::io::Write;
+use std::path::Path;
+
+/// Reads an OBJ file into a [`Mesh`], vertices in file order.
+///
+/// # Errors
+/// Unreadable file, a malformed `v` or `f` line, an index of 0, or a face pointing past the
+/// last vertex (or before the first, for a negative index): each names the line.
+pub fn read_obj(path: &Path) -> Result<Mesh> {
+    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let text = String::from_utf8_lossy(&bytes);
+    parse_obj(&text, path)
+}
+
+/// Parses OBJ text; `path` is used only in error messages.
+///
+/// # Errors
+/// As [`read_obj`].
+///
+/// ```
+/// use std::path::Path;
+/// let text = "v 0 0 0\nv 1 0 0\nf 3 1 2\nv 0 1 0\n"; // face points forward, kept as written
+/// let mesh = lipmap::io::obj::parse_obj(text, Path::new("t.obj")).unwrap();
+/// assert_eq!(mesh.faces, vec![vec![2, 0, 1]]);
+/// ```
+pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh> {
+    let mut vertices: Vec<Point3> = Vec::new();
+    let mut faces: Vec<Vec<u32>> = Vec::new();
+    // The line of each face, for errors found once all `v` lines are known.
+    let mut face_lines: Vec<usize> = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => {
+                let mut xyz = [0.0; 3];
+                for (k, slot) in xyz.iter_mut().enumerate() {
+                    let tok = tokens.next().ok_or_else(|| {
+                        FormatError::at_line(path, line_no, format!("`v` needs 3 numbers: `{raw}`"))
+                    })?;
+                    *slot = tok.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
+                        FormatError::at_line(
+                            path,
+                            line_no,
+                            format!("coordinate {} `{tok}` is not a finite number", k + 1),
+                        )
+                    })?;
+                }
+                vertices.push(Point3::new(xyz[0], xyz[1], xyz[2]));
+            }
+            Some("f") => {
+                let mut face = Vec::with_capacity(4);
+                for tok in tokens {
+                    let v = tok.split('/').next().unwrap_or("");
+                    let idx: i64 = v.parse().map_err(|_| {
+                        FormatError::at_line(path, line_no, format!("bad vertex reference `{tok}`"))
+                    })?;
+                    let resolved = if idx > 0 {
+                        idx - 1
+                    } else if idx < 0 {
+                        let r = vertices.len() as i64 + idx;
+                        if r < 0 {
+                            return Err(FormatError::at_line(
+                                path,
+                                line_no,
+                                format!(
+                                    "relative reference {idx} points before the first vertex \
+                                     ({} read so far)",
+                                    vertices.len()
+                                ),
+                            ));
+                        }
+                        r
+                    } else {
+                        return Err(FormatError::at_line(
+                            path,
+                            line_no,
+                            "vertex reference 0 (OBJ indices start at 1)",
+                        ));
+                    };
+                    let resolved = u32::try_from(resolved).map_err(|_| {
+                        FormatError::at_line(path, line_no, format!("vertex index {idx} too large"))
+                    })?;
+                    face.push(resolved);
+                }
+                if face.len() < 3 {
+                    return Err(FormatError::at_line(
+                        path,
+                        line_no,
+                        format!("a face needs at least 3 vertices, got {}", face.len()),
+                    ));
+                }
+                faces.push(face);
+                face_lines.push(line_no);
+            }
+            _ => {}
+        }
+    }
+    let mesh = Mesh { vertices, faces };
+    if let Some((f, v)) = mesh.first_face_out_of_range() {
+        return Err(FormatError::at_line(
+            path,
+            face_lines[f],
+            format!(
+                "face uses vertex {} but the file has only {} vertices",
+                v as u64 + 1,
+                mesh.vertices.len()
+            ),
+        ));
+    }
+    Ok(mesh)
+}
+
+/// Writes a mesh as OBJ: one `v` line per vertex in order (shortest exact decimal form,
+/// so a read gives back the same f64), then 1-based `f` lines as stored (polygons kept).
+///
+/// # Errors
+/// I/O errors, naming the file.
+pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
+    let file = std::fs::File::create(path).map_err(|e| FormatError::io(path, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    write_obj_to(&mut w, mesh).and_then(|_| w.flush()).map_err(|e| FormatError::io(path, e))
+}
+
+/// Writes OBJ text to any writer (see [`write_obj`]).
+///
+/// # Errors
+/// Errors of the writer.
+pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
+    writeln!(w, "# lipmap mesh: {} vertices, {} faces", mesh.vertices.len(), mesh.faces.len())?;
+    for p in &mesh.vertices {
+        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for f in &mesh.faces {
+        w.write_all(b"f")?;
+        for v in f {
+            write!(w, " {}", *v as u64 + 1)?;
+        }
+        w.write_all(b"\n")?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::error::Location;
+
+    const P: &str = "t.obj";
+
+    #[test]
+    fn keeps_vertex_order_and_resolves_every_reference_form() {
+        let text = "# test\nv 0 0 0\nv 1 0 0 1.0\nvt 0 0\nvn 0 0 1\n\
+                    g part\nf 2/1/1 1/1/1 -1//1 4/1\nv 0 1 0 0.5 0.5 0.5\nv 1 1 0\n\
+                    o other\nf -1 -2 1\n";
+        let m = parse_obj(text, Path::new(P)).unwrap();
+        assert_eq!(m.vertices.len(), 4);
+        assert_eq!(m.vertices[1], Point3::new(1.0, 0.0, 0.0));
+        assert_eq!(m.vertices[2], Point3::new(0.0, 1.0, 0.0));
+        // -1 after two vertices is vertex 1 (0-based); 4 points forward to the last vertex.
+        assert_eq!(m.faces[0], vec![1, 0, 1, 3]);
+        // A new `o` group does not restart numbering.
+        assert_eq!(m.faces[1], vec![3, 2, 0]);
+    }
+
+    #[test]
+    fn round_trips_through_write() {
+        let text = "v 0.1 -2.5 3e-3\nv 1 0 0\nv 0 1 0\nv 1 1 1\nf 4 2 1 3\n";
+        let m = parse_obj(text, Path::new(P)).unwrap();
+        let mut out = Vec::new();
+        write_obj_to(&mut out, &m).unwrap();
+        let back = parse_obj(std::str::from_utf8(&out).unwrap(), Path::new(P)).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let e = parse_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", Path::new(P)).unwrap_err();
+        assert_eq!(e.location, Location::Line(4));
+        assert!(e.to_string().contains("t.obj:4"), "{e}");
+        let e = parse_obj("v 0 0 0\nf -1 -2 -3\n", Path::new(P)).unwrap_err();
+        assert_eq!(e.location, Location::Line(2));
+        let e = parse_obj("v 0 0\n", Path::new(P)).unwrap_err();
+        assert_eq!(e.location, Location::Line(1));
+        let e = parse_obj("v 0 0 x\n", Path::new(P)).unwrap_err();
+        assert!(e.message.contains("`x`"));
+        let e = parse_obj("v 0 0 0\nv 0 0 0\nv 0 0 0\nf 0 1 2\n", Path::new(P)).unwrap_err();
+        assert_eq!(e.location, Location::Line(4));
+        let e = parse_obj("v 0 0 0\nv 0 0 0\nf 1 2\n", Path::new(P)).unwrap_err();
+        assert_eq!(e.location, Location::Line(3));
+    }
+}

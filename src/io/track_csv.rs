@@ -1,0 +1,378 @@
+//! lipmap CSV, the lossless landmark format (`frame,point,x,y,visible,confidence,source`),
+//! plus the small CSV table reader shared by the OpenFace and phone-CSV parsers.
+//!
+//! One row per point, 0-based frames and points, 0-based pixel coordinates printed with
+//! shortest round-trip decimals, so a track written and read back is bit-identical. The
+//! `visible`, `confidence` and `source` columns are optional on read (defaults: visible,
+//! no confidence, tracked); points a frame does not list are read as not visible.
+//! Three optional frame-level columns follow when a track has such values (an OpenFace
+//! import): `timestamp` (s), `frame_confidence` and `success` (0/1), repeated on every row
+//! of the frame and required to agree.
+
+use super::error::{FormatError, Result};
+use super::pts::shorten;
+use crate::landmarks::ibug::N_LANDMARKS;
+use crate::landmarks::track::{FrameLandmarks, LandmarkPoint, PointSource, Track};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The header lipmap writes; on read the first four columns are required, in any order.
+pub const TRACK_CSV_HEADER: &str = "frame,point,x,y,visible,confidence,source";
+
+/// The optional frame-level columns, written after the header above when needed.
+pub const TRACK_CSV_FRAME_COLUMNS: &str = "timestamp,frame_confidence,success";
+
+const KNOWN_COLUMNS: [&str; 10] = [
+    "frame",
+    "point",
+    "x",
+    "y",
+    "visible",
+    "confidence",
+    "source",
+    "timestamp",
+    "frame_confidence",
+    "success",
+];
+
+/// Frame-level values read from one row.
+#[derive(Clone, Copy, PartialEq)]
+struct FrameFields {
+    timestamp: Option<f64>,
+    confidence: Option<f32>,
+    success: bool,
+}
+
+/// A parsed CSV: header names and the data rows with their 1-based line numbers.
+pub(crate) struct CsvTable {
+    pub header: Vec<String>,
+    pub rows: Vec<(usize, csv::StringRecord)>,
+}
+
+impl CsvTable {
+    /// Index of the column called exactly `name`.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+}
+
+/// Reads CSV text (fields trimmed, header required, all rows the same width).
+pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let header: Vec<String> =
+        reader.headers().map_err(|e| csv_error(path, &e))?.iter().map(str::to_string).collect();
+    if header.iter().all(String::is_empty) {
+        return Err(FormatError::at_line(path, 1, "empty file: a header line is required"));
+    }
+    for (i, h) in header.iter().enumerate() {
+        if header[..i].contains(h) {
+            return Err(FormatError::at_line(path, 1, format!("column `{}` appears twice", shorten(h))));
+        }
+    }
+    let mut rows = Vec::new();
+    for rec in reader.records() {
+        let rec = rec.map_err(|e| csv_error(path, &e))?;
+        let line = rec.position().map_or(0, |p| p.line() as usize);
+        rows.push((line, rec));
+    }
+    Ok(CsvTable { header, rows })
+}
+
+/// A csv crate error as a one-line `FormatError` at the line where it happened.
+pub(crate) fn csv_error(path: &Path, e: &csv::Error) -> FormatError {
+    match e.kind() {
+        csv::ErrorKind::UnequalLengths { pos, expected_len, len } => FormatError::at_line(
+            path,
+            pos.as_ref().map_or(0, |p| p.line() as usize),
+            format!("{len} fields, but the header has {expected_len}"),
+        ),
+        csv::ErrorKind::Utf8 { pos, .. } => FormatError::at_line(
+            path,
+            pos.as_ref().map_or(0, |p| p.line() as usize),
+            "text is not valid UTF-8",
+        ),
+        _ => FormatError::whole(path, e.to_string()),
+    }
+}
+
+/// One field parsed as a finite number, or an error naming the line and column.
+pub(crate) fn parse_f64_field(
+    rec: &csv::StringRecord,
+    idx: usize,
+    name: &str,
+    path: &Path,
+    line: usize,
+) -> Result<f64> {
+    let s = rec.get(idx).unwrap_or("");
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(FormatError::at_line(
+            path,
+            line,
+            format!("column `{name}`: `{}` is not a finite number", shorten(s)),
+        )),
+    }
+}
+
+/// One field parsed as a finite `f32` (a value beyond `f32` range is an error, not `inf`).
+pub(crate) fn parse_f32_field(
+    rec: &csv::StringRecord,
+    idx: usize,
+    name: &str,
+    path: &Path,
+    line: usize,
+) -> Result<f32> {
+    let s = rec.get(idx).unwrap_or("");
+    match s.parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(FormatError::at_line(
+            path,
+            line,
+            format!("column `{name}`: `{}` is not a finite number", shorten(s)),
+        )),
+    }
+}
+
+/// One field parsed as a whole number, or an error naming the line and column.
+pub(crate) fn parse_usize_field(
+    rec: &csv::StringRecord,
+    idx: usize,
+    name: &str,
+    path: &Path,
+    line: usize,
+) -> Result<usize> {
+    let s = rec.get(idx).unwrap_or("");
+    s.parse::<usize>().map_err(|_| {
+        FormatError::at_line(
+            path,
+            line,
+            format!("column `{name}`: `{}` is not a whole number", shorten(s)),
+        )
+    })
+}
+
+/// Parses lipmap CSV text into a track (frames ascending).
+///
+/// # Errors
+/// A missing required column, an unknown column, a bad number, a point id outside 0..68,
+/// a bad `visible`/`source` value or a point given twice, each naming the line.
+///
+/// # Examples
+/// ```
+/// # use std::path::Path;
+/// let t = lipmap::io::track_csv::parse_track_csv("frame,point,x,y\n0,48,10.5,20\n", Path::new("t.csv")).unwrap();
+/// assert!(t.frames[0].points[48].visible && !t.frames[0].points[0].visible);
+/// ```
+pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
+    let table = read_csv_table(text, path)?;
+    for h in &table.header {
+        if !KNOWN_COLUMNS.contains(&h.as_str()) {
+            return Err(FormatError::at_line(
+                path,
+                1,
+                format!("unknown column `{}` (expected {TRACK_CSV_HEADER})", shorten(h)),
+            ));
+        }
+    }
+    let need = |name: &str| {
+        table.column(name).ok_or_else(|| {
+            FormatError::at_line(path, 1, format!("missing column `{name}` (expected {TRACK_CSV_HEADER})"))
+        })
+    };
+    let (c_frame, c_point, c_x, c_y) = (need("frame")?, need("point")?, need("x")?, need("y")?);
+    let (c_vis, c_conf, c_src) =
+        (table.column("visible"), table.column("confidence"), table.column("source"));
+    let (c_time, c_fconf, c_success) =
+        (table.column("timestamp"), table.column("frame_confidence"), table.column("success"));
+
+    let mut frames: BTreeMap<usize, (FrameFields, Vec<Option<LandmarkPoint>>)> = BTreeMap::new();
+    for (line, rec) in &table.rows {
+        let line = *line;
+        let frame = parse_usize_field(rec, c_frame, "frame", path, line)?;
+        let point = parse_usize_field(rec, c_point, "point", path, line)?;
+        if point >= N_LANDMARKS {
+            return Err(FormatError::at_line(
+                path,
+                line,
+                format!("column `point`: {point} is out of range 0..{}", N_LANDMARKS - 1),
+            ));
+        }
+        let x = parse_f64_field(rec, c_x, "x", path, line)?;
+        let y = parse_f64_field(rec, c_y, "y", path, line)?;
+        let visible = match c_vis.map_or("", |c| rec.get(c).unwrap_or("")) {
+            "" | "1" | "true" => true,
+            "0" | "false" => false,
+            other => {
+                return Err(FormatError::at_line(
+                    path,
+                    line,
+                    format!("column `visible`: `{}` is not 0 or 1", shorten(other)),
+                ));
+            }
+        };
+        let confidence = match c_conf {
+            Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                Some(parse_f32_field(rec, c, "confidence", path, line)?)
+            }
+            _ => None,
+        };
+        let src_text = c_src.map_or("", |c| rec.get(c).unwrap_or(""));
+        let source = PointSource::parse(src_text).ok_or_else(|| {
+            FormatError::at_line(
+                path,
+                line,
+                format!(
+                    "column `source`: `{}` is not tracked, corrected or interpolated",
+                    shorten(src_text)
+                ),
+            )
+        })?;
+        let fields = FrameFields {
+            timestamp: match c_time {
+                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                    Some(parse_f64_field(rec, c, "timestamp", path, line)?)
+                }
+                _ => None,
+            },
+            confidence: match c_fconf {
+                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                    Some(parse_f32_field(rec, c, "frame_confidence", path, line)?)
+                }
+                _ => None,
+            },
+            success: match c_success.map_or("", |c| rec.get(c).unwrap_or("")) {
+                "" | "1" => true,
+                "0" => false,
+                other => {
+                    return Err(FormatError::at_line(
+                        path,
+                        line,
+                        format!("column `success`: `{}` is not 0 or 1", shorten(other)),
+                    ));
+                }
+            },
+        };
+        let entry = frames.entry(frame).or_insert_with(|| (fields, vec![None; N_LANDMARKS]));
+        if entry.0 != fields {
+            return Err(FormatError::at_line(
+                path,
+                line,
+                format!("frame {frame}: timestamp, frame_confidence or success differ from its earlier rows"),
+            ));
+        }
+        let slot = &mut entry.1[point];
+        if slot.is_some() {
+            return Err(FormatError::at_line(
+                path,
+                line,
+                format!("point {point} of frame {frame} is given twice"),
+            ));
+        }
+        *slot = Some(LandmarkPoint { x, y, visible, confidence, source });
+    }
+    let frames = frames
+        .into_iter()
+        .map(|(f, (fields, pts))| {
+            let mut fl = FrameLandmarks::new(
+                f,
+                pts.into_iter().map(|p| p.unwrap_or(LandmarkPoint::missing())).collect(),
+            );
+            fl.timestamp = fields.timestamp;
+            fl.confidence = fields.confidence;
+            fl.success = fields.success;
+            fl
+        })
+        .collect();
+    Ok(Track::new(frames))
+}
+
+/// Reads a lipmap CSV file.
+///
+/// # Errors
+/// I/O failures and everything `parse_track_csv` rejects.
+pub fn read_track_csv(path: &Path) -> Result<Track> {
+    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    parse_track_csv(&text, path)
+}
+
+/// The lipmap CSV text of a track: every point of every frame, one row each; the
+/// frame-level columns are added only when some frame has a timestamp, a confidence or
+/// `success = false`.
+pub fn format_track_csv(track: &Track) -> String {
+    let frame_cols =
+        track.frames.iter().any(|f| f.timestamp.is_some() || f.confidence.is_some() || !f.success);
+    let mut s = String::with_capacity(64 + track.frames.len() * N_LANDMARKS * 32);
+    s.push_str(TRACK_CSV_HEADER);
+    if frame_cols {
+        s.push(',');
+        s.push_str(TRACK_CSV_FRAME_COLUMNS);
+    }
+    s.push('\n');
+    for f in &track.frames {
+        for (i, p) in f.points.iter().enumerate() {
+            let _ = write!(s, "{},{},{},{},{},", f.frame, i, p.x, p.y, u8::from(p.visible));
+            if let Some(c) = p.confidence {
+                let _ = write!(s, "{c}");
+            }
+            let _ = write!(s, ",{}", p.source.as_str());
+            if frame_cols {
+                s.push(',');
+                if let Some(t) = f.timestamp {
+                    let _ = write!(s, "{t}");
+                }
+                s.push(',');
+                if let Some(c) = f.confidence {
+                    let _ = write!(s, "{c}");
+                }
+                let _ = write!(s, ",{}", u8::from(f.success));
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// Writes a track as lipmap CSV.
+///
+/// # Errors
+/// I/O failures, naming `path`.
+pub fn write_track_csv(track: &Track, path: &Path) -> Result<()> {
+    std::fs::write(path, format_track_csv(track)).map_err(|e| FormatError::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lossless_round_trip() {
+        let mut pts: Vec<LandmarkPoint> =
+            (0..N_LANDMARKS).map(|i| LandmarkPoint::tracked(i as f64 * 0.1 + 1e-7, 1.0 / 3.0)).collect();
+        pts[3].visible = false;
+        pts[4].confidence = Some(0.123_456_79);
+        pts[5].source = PointSource::Corrected;
+        pts[6].source = PointSource::Interpolated;
+        let mut f = FrameLandmarks::new(7, pts);
+        let plain = Track::new(vec![f.clone()]);
+        assert!(format_track_csv(&plain).starts_with("frame,point,x,y,visible,confidence,source\n"));
+        assert_eq!(parse_track_csv(&format_track_csv(&plain), Path::new("t.csv")).unwrap(), plain);
+        f.timestamp = Some(0.2);
+        f.confidence = Some(0.5);
+        f.success = false;
+        let track = Track::new(vec![f]);
+        let back = parse_track_csv(&format_track_csv(&track), Path::new("t.csv")).unwrap();
+        assert_eq!(back, track);
+    }
+
+    #[test]
+    fn non_numeric_coordinate_names_line() {
+        let e = parse_track_csv("frame,point,x,y\n0,1,2,3\n0,2,abc,3\n", Path::new("t.csv"))
+            .unwrap_err();
+        assert_eq!(e.to_string(), "t.csv:3: column `x`: `abc` is not a finite number");
+    }
+}

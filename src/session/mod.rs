@@ -1,0 +1,560 @@
+//! Sessions: everything a user does on a set of clips, in one JSON file
+//! (`sessions/NAME.lipmap.json`), saved atomically, versioned, and locked while edited.
+//!
+//! Start with `Session::load` / `Session::save` and `SessionLock::acquire`; edits go through
+//! `set_correction`/`clear_correction` (the tracker's values are never changed), the landmarks
+//! a fit should use come from `effective_frame`, and fits are cached with `store_fits` and
+//! checked with `stale_frames`. The file format is described in docs/session-format.md.
+
+pub mod cache;
+pub mod corrections;
+pub mod migrate;
+pub mod model;
+pub mod store;
+
+pub use cache::{CachedFrame, FitCacheEntry};
+pub use corrections::Corrections;
+pub use migrate::CURRENT_SCHEMA;
+pub use model::{Clip, FramesRef, MapRef, ModelRef, Session, View};
+pub use store::{LockInfo, SessionLock};
+
+use crate::fit::{FitSettings, FrameFit};
+use crate::io::frames::{FrameError, FrameOptions, FrameSource};
+use crate::landmarks::{FrameLandmarks, LandmarkPoint, Track};
+use migrate::SchemaVersion;
+use std::path::{Path, PathBuf};
+
+/// The default folder of session files, relative to the working directory.
+pub const SESSIONS_DIR: &str = "sessions";
+
+/// The default file of a session named `name`: `sessions/NAME.lipmap.json`.
+pub fn default_path(name: &str) -> PathBuf {
+    Path::new(SESSIONS_DIR).join(format!("{name}.lipmap.json"))
+}
+
+/// Why a session could not be read, written, locked or edited.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    /// Bad JSON or a bad field, at serde_json's 1-based line and column.
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    Parse { path: PathBuf, line: usize, column: usize, message: String },
+    #[error(
+        "{}: this session was written by a newer lipmap (session schema {found}; this build reads up to {supported}); update lipmap to open it",
+        path.display()
+    )]
+    NewerSchema { path: PathBuf, found: u32, supported: u32 },
+    /// A missing or malformed `schema_version`, or a failed migration.
+    #[error("{}: {message}", path.display())]
+    Schema { path: PathBuf, message: String },
+    #[error(
+        "{} is open in another editor: {holder}; close it there first (if that editor crashed on another machine, delete {})",
+        session.display(),
+        lock.display()
+    )]
+    Locked { session: PathBuf, lock: PathBuf, holder: LockInfo },
+    /// Content that parses but breaks a rule (duplicate clip names, non-finite numbers).
+    #[error("{}: {message}", path.display())]
+    Invalid { path: PathBuf, message: String },
+    #[error("no clip {index} (the session has {count})")]
+    NoClip { index: usize, count: usize },
+    #[error("clip {clip:?}: {message}")]
+    Edit { clip: String, message: String },
+}
+
+/// `path` made absolute against the working directory, `.`/`..` folded.
+pub fn absolute(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    store::normalize_lexically(&abs)
+}
+
+fn parent_dir(abs_file: &Path) -> PathBuf {
+    abs_file.parent().map(PathBuf::from).unwrap_or_else(|| PathBuf::from("/"))
+}
+
+fn parse_error(path: &Path, e: &serde_json::Error) -> SessionError {
+    // serde_json's Display appends " at line L column C"; the position is in the prefix.
+    let full = e.to_string();
+    let suffix = format!(" at line {} column {}", e.line(), e.column());
+    let message = full.strip_suffix(&suffix).unwrap_or(&full).to_string();
+    SessionError::Parse { path: path.to_path_buf(), line: e.line(), column: e.column(), message }
+}
+
+impl Session {
+    /// Reads the session at `path`, migrating an older schema; paths become absolute.
+    ///
+    /// # Errors
+    /// `Io`; `Parse` with serde_json's line and column; `NewerSchema` for a file from a newer
+    /// lipmap; `Schema` when the version is missing or a migration fails; `Invalid` when
+    /// the content breaks a rule (e.g. two clips with one name).
+    pub fn load(path: &Path) -> Result<Session, SessionError> {
+        let abs = absolute(path);
+        let text = std::fs::read_to_string(&abs)
+            .map_err(|source| SessionError::Io { path: abs.clone(), source })?;
+        let base = parent_dir(&abs);
+        let version =
+            match migrate::peek_schema_version(&text).map_err(|e| parse_error(&abs, &e))? {
+                SchemaVersion::Version(v) => v,
+                SchemaVersion::Missing => {
+                    return Err(SessionError::Schema {
+                        path: abs,
+                        message: "no `schema_version`: not a lipmap session file".into(),
+                    });
+                }
+                SchemaVersion::NotANumber(v) => {
+                    return Err(SessionError::Schema {
+                        path: abs,
+                        message: format!("`schema_version` must be a whole number, found {v}"),
+                    });
+                }
+            };
+        if version > CURRENT_SCHEMA {
+            return Err(SessionError::NewerSchema {
+                path: abs,
+                found: version,
+                supported: CURRENT_SCHEMA,
+            });
+        }
+        let mut session: Session = if version == CURRENT_SCHEMA {
+            store::with_base_dir(&base, || serde_json::from_str(&text))
+                .map_err(|e| parse_error(&abs, &e))?
+        } else {
+            let tree: serde_json::Value =
+                serde_json::from_str(&text).map_err(|e| parse_error(&abs, &e))?;
+            drop(text);
+            let tree = migrate::migrate(tree, version, migrate::STEPS, CURRENT_SCHEMA)
+                .map_err(|message| SessionError::Schema { path: abs.clone(), message })?;
+            store::with_base_dir(&base, || serde_json::from_value(tree)).map_err(|e| {
+                SessionError::Schema { path: abs.clone(), message: format!("after upgrade: {e}") }
+            })?
+        };
+        session.base_dir = base;
+        if session.name.is_empty() {
+            session.name = model::session_name_of(&abs);
+        }
+        session.validate().map_err(|message| SessionError::Invalid { path: abs, message })?;
+        Ok(session)
+    }
+
+    /// Writes the session to `path` atomically (temp file, fsync, rename, fsync folder),
+    /// keeping the previous versions as `NAME.bak`, `NAME.bak.2`, `NAME.bak.3`. Paths are
+    /// written relative to `path`'s folder. Take a `SessionLock` first when editing.
+    ///
+    /// # Errors
+    /// `Invalid` when the session breaks a rule (nothing is written), `Io` when the file
+    /// cannot be written; the file on disk is unchanged in both cases.
+    pub fn save(&self, path: &Path) -> Result<(), SessionError> {
+        let abs = absolute(path);
+        let bytes = self.to_json(&abs)?;
+        store::write_atomically(&abs, &bytes)
+    }
+
+    /// The exact bytes `save` writes for a file at `path`.
+    ///
+    /// # Errors
+    /// `Invalid` when the session breaks a rule or holds a path that is not UTF-8.
+    pub fn to_json(&self, path: &Path) -> Result<Vec<u8>, SessionError> {
+        let abs = absolute(path);
+        self.validate().map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
+        let mut out = Vec::with_capacity(1 << 16);
+        let base = parent_dir(&abs);
+        let mut ser =
+            serde_json::Serializer::with_formatter(&mut out, store::ShallowPretty::new(5));
+        store::with_base_dir(&base, || serde::Serialize::serialize(self, &mut ser))
+            .map_err(|e| SessionError::Invalid { path: abs.clone(), message: e.to_string() })?;
+        out.push(b'\n');
+        Ok(out)
+    }
+
+    /// Checks the rules serde cannot: unique clip names, positive frame rates, and finite
+    /// numbers everywhere (JSON has no NaN; serde_json would write `null` and the file would
+    /// not load again).
+    ///
+    /// # Errors
+    /// A message naming the clip, frame and point at fault.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.schema_version != CURRENT_SCHEMA {
+            return Err(format!(
+                "schema_version is {}, this build writes {CURRENT_SCHEMA}",
+                self.schema_version
+            ));
+        }
+        let mut names = std::collections::BTreeSet::new();
+        for clip in &self.clips {
+            let c = &clip.name;
+            if !names.insert(c.as_str()) {
+                return Err(format!("two clips are named {c:?}"));
+            }
+            for (label, v) in std::iter::once(("front", &clip.front))
+                .chain(clip.side.as_ref().map(|s| ("side", s)))
+            {
+                if !(v.fps.is_finite() && v.fps > 0.0 && v.offset_s.is_finite()) {
+                    return Err(format!(
+                        "clip {c:?}: {label} view needs a positive fps and a finite offset"
+                    ));
+                }
+            }
+            let bad_point = |p: &LandmarkPoint| {
+                !(p.x.is_finite() && p.y.is_finite())
+                    || p.confidence.is_some_and(|v| !v.is_finite())
+            };
+            for f in &clip.tracked.frames {
+                if f.points.len() != crate::landmarks::N_LANDMARKS {
+                    return Err(format!(
+                        "clip {c:?}: tracked frame {} has {} points",
+                        f.frame,
+                        f.points.len()
+                    ));
+                }
+                if f.timestamp.is_some_and(|t| !t.is_finite())
+                    || f.confidence.is_some_and(|v| !v.is_finite())
+                {
+                    return Err(format!(
+                        "clip {c:?}: tracked frame {} has a non-finite timestamp or confidence",
+                        f.frame
+                    ));
+                }
+                if let Some(i) = f.points.iter().position(bad_point) {
+                    return Err(format!(
+                        "clip {c:?}: tracked frame {} point {i} is not finite",
+                        f.frame
+                    ));
+                }
+            }
+            for (frame, pts) in &clip.corrections.points {
+                if let Some((i, _)) =
+                    pts.iter().find(|(i, p)| **i >= crate::landmarks::N_LANDMARKS || bad_point(p))
+                {
+                    return Err(format!(
+                        "clip {c:?}: correction of frame {frame} point {i} is out of range or not finite"
+                    ));
+                }
+            }
+            if let Some(a) = &clip.alignment
+                && let Some(p) =
+                    a.phones.iter().find(|p| !(p.start.is_finite() && p.end.is_finite()))
+            {
+                return Err(format!("clip {c:?}: phone {:?} has non-finite times", p.label));
+            }
+        }
+        for e in &self.fit_cache {
+            if let Some(f) = e.frames.iter().find(|f| cache::storable_fit(f.fit.clone()) != f.fit) {
+                return Err(format!(
+                    "clip {:?}: cached fit of frame {} has non-finite values",
+                    e.clip, f.fit.frame
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    // -- clips ------------------------------------------------------------------------
+
+    /// Adds a clip, returning its index.
+    ///
+    /// # Errors
+    /// `Edit` when a clip of that name exists.
+    pub fn add_clip(&mut self, clip: Clip) -> Result<usize, SessionError> {
+        if self.clip_index(&clip.name).is_some() {
+            return Err(SessionError::Edit {
+                clip: clip.name,
+                message: "a clip of this name exists".into(),
+            });
+        }
+        self.clips.push(clip);
+        Ok(self.clips.len() - 1)
+    }
+
+    /// Index of the clip named `name`.
+    pub fn clip_index(&self, name: &str) -> Option<usize> {
+        self.clips.iter().position(|c| c.name == name)
+    }
+
+    /// Clip `index`.
+    ///
+    /// # Errors
+    /// `NoClip` when out of range.
+    pub fn clip(&self, index: usize) -> Result<&Clip, SessionError> {
+        self.clips.get(index).ok_or(SessionError::NoClip { index, count: self.clips.len() })
+    }
+
+    fn clip_mut(&mut self, index: usize) -> Result<&mut Clip, SessionError> {
+        let count = self.clips.len();
+        self.clips.get_mut(index).ok_or(SessionError::NoClip { index, count })
+    }
+
+    /// Opens the front view's frames of clip `index` (fps and size from the session).
+    ///
+    /// # Errors
+    /// `FrameError` from `FrameSource::open`; an unknown clip is reported as `Invalid`.
+    pub fn open_frames(&self, index: usize, cache_mb: usize) -> Result<FrameSource, FrameError> {
+        let clip = self.clips.get(index).ok_or_else(|| FrameError::Invalid {
+            path: self.base_dir.clone(),
+            message: format!("no clip {index}"),
+        })?;
+        open_view(&clip.front, cache_mb)
+    }
+
+    /// Opens the side view of clip `index`, if it has one.
+    ///
+    /// # Errors
+    /// As `open_frames`.
+    pub fn open_side_frames(
+        &self,
+        index: usize,
+        cache_mb: usize,
+    ) -> Result<Option<FrameSource>, FrameError> {
+        match self.clips.get(index).and_then(|c| c.side.as_ref()) {
+            Some(v) => open_view(v, cache_mb).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    // -- landmarks and corrections ---------------------------------------------------------
+
+    /// The landmarks a fit should use for `frame` of clip `clip`: the tracked ones with the
+    /// corrections applied. `None` for an unknown clip or a frame with no landmarks.
+    pub fn effective_frame(&self, clip: usize, frame: usize) -> Option<FrameLandmarks> {
+        let c = self.clips.get(clip)?;
+        c.corrections.effective_frame(&c.tracked, frame)
+    }
+
+    /// The whole clip's effective landmarks.
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn effective_track(&self, clip: usize) -> Result<Track, SessionError> {
+        let c = self.clip(clip)?;
+        Ok(c.corrections.effective_track(&c.tracked))
+    }
+
+    /// Records a corrected (or interpolated) point; the tracked value stays as it was.
+    ///
+    /// # Errors
+    /// `NoClip`; `Edit` for a point index ≥ 68 or non-finite coordinates.
+    pub fn set_correction(
+        &mut self,
+        clip: usize,
+        frame: usize,
+        point: usize,
+        p: LandmarkPoint,
+    ) -> Result<(), SessionError> {
+        let c = self.clip_mut(clip)?;
+        c.corrections
+            .set(frame, point, p)
+            .map_err(|message| SessionError::Edit { clip: c.name.clone(), message })
+    }
+
+    /// Removes a correction, returning it; the tracked point shows again.
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn clear_correction(
+        &mut self,
+        clip: usize,
+        frame: usize,
+        point: usize,
+    ) -> Result<Option<LandmarkPoint>, SessionError> {
+        Ok(self.clip_mut(clip)?.corrections.clear(frame, point))
+    }
+
+    /// The corrections layer of a clip.
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn corrections_of(&self, clip: usize) -> Result<&Corrections, SessionError> {
+        Ok(&self.clip(clip)?.corrections)
+    }
+
+    /// Marks `frame` reviewed or not.
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn set_reviewed(
+        &mut self,
+        clip: usize,
+        frame: usize,
+        reviewed: bool,
+    ) -> Result<(), SessionError> {
+        self.clip_mut(clip)?.corrections.set_reviewed(frame, reviewed);
+        Ok(())
+    }
+
+    // -- fit cache ------------------------------------------------------------------------
+
+    /// Hash of what every frame's fit shares: the head mesh, model, blendshapes and
+    /// landmark map references (paths relative to the session folder, so moving the project
+    /// keeps the cache valid). Editing a model file in place is not detected.
+    pub fn context_hash(&self) -> String {
+        let mut h = cache::Fnv64::default();
+        let mut path = |tag: &str, p: Option<&Path>| {
+            h.str(tag);
+            if let Some(p) = p {
+                h.str(&store::relativize(p, &self.base_dir).to_string_lossy());
+            }
+        };
+        path("mesh", self.head_mesh.as_deref());
+        path("model", self.model.as_ref().map(|m| m.path.as_path()));
+        path("blendshapes", self.model.as_ref().and_then(|m| m.blendshapes.as_deref()));
+        path("map", self.landmark_map.file.as_deref());
+        h.str("inline");
+        if let Some(m) = &self.landmark_map.inline {
+            for (k, v) in m {
+                h.u64(*k as u64).u64(*v as u64);
+            }
+        }
+        h.hex()
+    }
+
+    fn cache_entry(&self, clip: &str, settings: &FitSettings) -> Option<&cache::FitCacheEntry> {
+        self.fit_cache.iter().find(|e| e.clip == clip && &e.settings == settings)
+    }
+
+    /// Caches `fits` of clip `clip` made with `settings` from the current effective
+    /// landmarks, merging with fresh fits already cached for those settings. Non-finite
+    /// numbers are zeroed and the frame marked failed (JSON cannot hold them).
+    ///
+    /// # Errors
+    /// `NoClip`; `Edit` when a fit names a frame without landmarks.
+    pub fn store_fits(
+        &mut self,
+        clip: usize,
+        settings: &FitSettings,
+        fits: Vec<FrameFit>,
+    ) -> Result<(), SessionError> {
+        let c = self.clip(clip)?;
+        let name = c.name.clone();
+        let context = self.context_hash();
+        let mut new = Vec::with_capacity(fits.len());
+        for fit in fits {
+            let Some(frame) = c.corrections.effective_frame(&c.tracked, fit.frame) else {
+                return Err(SessionError::Edit {
+                    clip: name,
+                    message: format!("fit of frame {} which has no landmarks", fit.frame),
+                });
+            };
+            new.push(CachedFrame {
+                input: cache::frame_input_hash(&frame, settings.set),
+                fit: cache::storable_fit(fit),
+            });
+        }
+        let clip_input = settings.clip.then(|| self.clip_input_hash(clip, settings));
+        let pos = self.fit_cache.iter().position(|e| e.clip == name && &e.settings == settings);
+        let mut entry = match pos {
+            Some(i) => self.fit_cache.remove(i),
+            None => FitCacheEntry {
+                clip: name.clone(),
+                settings: settings.clone(),
+                context: context.clone(),
+                clip_input: None,
+                frames: Vec::new(),
+            },
+        };
+        if entry.context != context || entry.clip_input != clip_input {
+            // Made from other inputs: none of the old frames can be reused.
+            entry.frames.clear();
+        }
+        entry.context = context;
+        entry.clip_input = clip_input;
+        entry.merge(new);
+        self.fit_cache.push(entry); // most recently stored last
+        let of_clip: Vec<usize> =
+            (0..self.fit_cache.len()).filter(|&i| self.fit_cache[i].clip == name).collect();
+        if of_clip.len() > cache::MAX_CACHED_SETTINGS_PER_CLIP {
+            let drop_n = of_clip.len() - cache::MAX_CACHED_SETTINGS_PER_CLIP;
+            for &i in of_clip[..drop_n].iter().rev() {
+                self.fit_cache.remove(i);
+            }
+        }
+        Ok(())
+    }
+
+    fn clip_input_hash(&self, clip: usize, settings: &FitSettings) -> String {
+        let c = &self.clips[clip];
+        let frames: Vec<FrameLandmarks> = c
+            .corrections
+            .frames_with_landmarks(&c.tracked)
+            .into_iter()
+            .filter_map(|f| c.corrections.effective_frame(&c.tracked, f))
+            .collect();
+        cache::clip_input_hash(&frames, settings.set)
+    }
+
+    /// The cached fit of `frame`, if it is still valid for the current landmarks, model and map.
+    pub fn cached_fit(
+        &self,
+        clip: usize,
+        settings: &FitSettings,
+        frame: usize,
+    ) -> Option<&FrameFit> {
+        let c = self.clips.get(clip)?;
+        let entry = self.cache_entry(&c.name, settings)?;
+        if entry.context != self.context_hash() {
+            return None;
+        }
+        if settings.clip
+            && entry.clip_input.as_deref() != Some(self.clip_input_hash(clip, settings).as_str())
+        {
+            return None;
+        }
+        let cached = entry.frame(frame)?;
+        let now = c.corrections.effective_frame(&c.tracked, frame)?;
+        (cached.input == cache::frame_input_hash(&now, settings.set)).then_some(&cached.fit)
+    }
+
+    /// Every still-valid cached fit of the clip, ascending by frame.
+    pub fn cached_fits(&self, clip: usize, settings: &FitSettings) -> Vec<&FrameFit> {
+        let stale: std::collections::BTreeSet<usize> =
+            self.stale_frames_with(clip, settings).into_iter().collect();
+        let Some(c) = self.clips.get(clip) else { return Vec::new() };
+        self.cache_entry(&c.name, settings)
+            .map(|e| {
+                e.frames.iter().filter(|f| !stale.contains(&f.fit.frame)).map(|f| &f.fit).collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Frames of clip `clip` that need fitting under the session's `fit_settings`: frames
+    /// with landmarks and no valid cached fit.
+    pub fn stale_frames(&self, clip: usize) -> Vec<usize> {
+        self.stale_frames_with(clip, &self.fit_settings)
+    }
+
+    /// As `stale_frames`, for any settings.
+    pub fn stale_frames_with(&self, clip: usize, settings: &FitSettings) -> Vec<usize> {
+        let Some(c) = self.clips.get(clip) else { return Vec::new() };
+        let frames = c.corrections.frames_with_landmarks(&c.tracked);
+        let Some(entry) = self.cache_entry(&c.name, settings) else { return frames };
+        if entry.context != self.context_hash()
+            || (settings.clip
+                && entry.clip_input.as_deref()
+                    != Some(self.clip_input_hash(clip, settings).as_str()))
+        {
+            return frames;
+        }
+        frames
+            .into_iter()
+            .filter(|&f| {
+                let fresh =
+                    entry.frame(f).zip(c.corrections.effective_frame(&c.tracked, f)).is_some_and(
+                        |(cached, now)| cached.input == cache::frame_input_hash(&now, settings.set),
+                    );
+                !fresh
+            })
+            .collect()
+    }
+}
+
+/// Opens one view's frames with the fps and size the session knows.
+///
+/// # Errors
+/// `FrameError` from `FrameSource::open`.
+pub fn open_view(view: &View, cache_mb: usize) -> Result<FrameSource, FrameError> {
+    let opts =
+        FrameOptions { fps: Some(view.fps), size: view.size, cache_mb, ..FrameOptions::default() };
+    match &view.source {
+        FramesRef::Images { dir } => FrameSource::open_folder(dir, &opts),
+        FramesRef::Video { file } => FrameSource::open_video(file, &opts),
+    }
+}

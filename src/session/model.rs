@@ -1,0 +1,359 @@
+//! The serde shape of a session file: `Session`, its `Clip`s and their views, and the model,
+//! map and fit references. Paths are absolute here and relative to the file on disk.
+//!
+//! Tracked landmarks are stored inline, as imported, in a compact per-frame form (`xy` holds
+//! the 136 coordinates) so a 10,000-frame clip stays a few tens of MB and loads in a fraction
+//! of a second; `landmarks_file` records where they came from. Edits live in `corrections`.
+
+use super::cache::FitCacheEntry;
+use super::corrections::Corrections;
+use super::migrate::CURRENT_SCHEMA;
+use super::store::{rel_path, rel_path_opt};
+use crate::alignment::Alignment;
+use crate::fit::FitSettings;
+use crate::landmarks::Track;
+use crate::model::landmark_map::LandmarkMap;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// Everything a user does on one set of clips. See docs/session-format.md.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Session {
+    /// Format version; a newer one is refused, older ones are migrated on load.
+    pub schema_version: u32,
+    /// Display name (defaults to the file name without `.lipmap.json`).
+    #[serde(default)]
+    pub name: String,
+    #[serde(default)]
+    pub clips: Vec<Clip>,
+    /// Head mesh (OBJ) the landmark map refers to.
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub head_mesh: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<ModelRef>,
+    #[serde(default)]
+    pub landmark_map: MapRef,
+    #[serde(default)]
+    pub fit_settings: FitSettings,
+    /// Cached fits of every clip (see `cache`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fit_cache: Vec<FitCacheEntry>,
+    /// Data owned by other parts of lipmap (TUI layout, ...), kept verbatim.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub extensions: BTreeMap<String, Value>,
+    /// Folder the session's relative paths were resolved against (the file's folder).
+    #[serde(skip)]
+    pub(crate) base_dir: PathBuf,
+}
+
+/// One recording: its frames, the tracker's landmarks, the corrections and the phones.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Clip {
+    /// Unique within the session.
+    pub name: String,
+    /// The front view, which the landmarks and fits refer to.
+    pub front: View,
+    /// An optional side view (for protrusion), with its own rate and offset.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub side: Option<View>,
+    /// The landmarks as the tracker gave them; never edited (see `corrections`).
+    #[serde(default, with = "compact_track")]
+    pub tracked: Track,
+    /// The file the tracked landmarks were imported from.
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub landmarks_file: Option<PathBuf>,
+    #[serde(default)]
+    pub corrections: Corrections,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub alignment: Option<Alignment>,
+    /// The file the alignment was imported from (TextGrid, .lab, CSV).
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub alignment_file: Option<PathBuf>,
+    /// Per-clip data owned by other parts of lipmap (side-view protrusion setup and values,
+    /// ...), kept verbatim.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub extensions: BTreeMap<String, Value>,
+}
+
+/// One camera's frames.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct View {
+    pub source: FramesRef,
+    /// Frames per second.
+    pub fps: f64,
+    /// `[width, height]` in pixels, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub size: Option<[u32; 2]>,
+    /// Seconds from the front view's frame 0 to this view's frame 0 (0 for the front view).
+    #[serde(default)]
+    pub offset_s: f64,
+}
+
+/// Where a view's frames are.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FramesRef {
+    /// A folder of PNG/JPEG/PPM images, natural name order.
+    Images {
+        #[serde(with = "rel_path")]
+        dir: PathBuf,
+    },
+    /// A video file, decoded with ffmpeg.
+    Video {
+        #[serde(with = "rel_path")]
+        file: PathBuf,
+    },
+}
+
+impl FramesRef {
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            Self::Images { dir } => dir,
+            Self::Video { file } => file,
+        }
+    }
+}
+
+/// The morphable model to fit.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModelRef {
+    /// eos `.bin`, `.npz`, or a folder of pose OBJs.
+    #[serde(with = "rel_path")]
+    pub path: PathBuf,
+    /// Blendshapes (expression part), when separate.
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub blendshapes: Option<PathBuf>,
+}
+
+/// Which mesh vertex is which iBUG point: an eos TOML mapping file and/or an inline map
+/// (0-based iBUG index -> vertex) that the TUI's labelling edits. Inline entries win.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MapRef {
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inline: Option<BTreeMap<usize, usize>>,
+}
+
+impl MapRef {
+    /// The inline map as a `LandmarkMap`, if there is one.
+    pub fn inline_map(&self) -> Option<LandmarkMap> {
+        self.inline.as_ref().map(|m| LandmarkMap { to_vertex: m.clone() })
+    }
+
+    /// Replaces the inline map (after labelling in the TUI).
+    pub fn set_inline(&mut self, map: &LandmarkMap) {
+        self.inline = Some(map.to_vertex.clone());
+    }
+}
+
+impl Session {
+    /// An empty session to be saved at `file` (relative paths will be relative to its folder).
+    pub fn new(file: &std::path::Path) -> Self {
+        let abs = super::absolute(file);
+        let name = session_name_of(&abs);
+        Self {
+            schema_version: CURRENT_SCHEMA,
+            name,
+            clips: Vec::new(),
+            head_mesh: None,
+            model: None,
+            landmark_map: MapRef::default(),
+            fit_settings: FitSettings::default(),
+            fit_cache: Vec::new(),
+            extensions: BTreeMap::new(),
+            base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
+        }
+    }
+
+    /// Folder the session's paths are relative to on disk.
+    pub fn base_dir(&self) -> &std::path::Path {
+        &self.base_dir
+    }
+}
+
+/// `NAME` of `.../NAME.lipmap.json`.
+pub fn session_name_of(file: &std::path::Path) -> String {
+    let n = file.file_name().and_then(|n| n.to_str()).unwrap_or("session");
+    n.strip_suffix(".lipmap.json").or_else(|| n.strip_suffix(".json")).unwrap_or(n).to_string()
+}
+
+impl Clip {
+    /// A clip with no landmarks yet.
+    pub fn new(name: impl Into<String>, front: View) -> Self {
+        Self {
+            name: name.into(),
+            front,
+            side: None,
+            tracked: Track::default(),
+            landmarks_file: None,
+            corrections: Corrections::default(),
+            alignment: None,
+            alignment_file: None,
+            extensions: BTreeMap::new(),
+        }
+    }
+}
+
+impl View {
+    /// A view at `fps` with no offset.
+    pub fn new(source: FramesRef, fps: f64) -> Self {
+        Self { source, fps, size: None, offset_s: 0.0 }
+    }
+}
+
+/// On-disk form of a `Track`: per frame `xy` (x0, y0, x1, y1, ...), then only what differs
+/// from a plain visible tracked point, so typical files carry no per-point objects.
+pub(crate) mod compact_track {
+    use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, PointSource, Track};
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::collections::BTreeMap;
+
+    #[derive(Serialize, Deserialize)]
+    struct Frame {
+        frame: usize,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        timestamp: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        confidence: Option<f32>,
+        #[serde(default = "yes", skip_serializing_if = "is_true")]
+        success: bool,
+        xy: Vec<f64>,
+        /// Indices of points marked not visible.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        hidden: Vec<usize>,
+        /// Per-point tracker confidence (`null` where absent); omitted when none has one.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        point_confidence: Option<Vec<Option<f32>>>,
+        /// Points whose source is not `tracked` (e.g. imported from an edited lipmap CSV).
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        sources: BTreeMap<usize, PointSource>,
+    }
+
+    fn yes() -> bool {
+        true
+    }
+
+    fn is_true(b: &bool) -> bool {
+        *b
+    }
+
+    #[derive(Serialize)]
+    struct FramesOut<'a>(#[serde(serialize_with = "ser_frames")] &'a [FrameLandmarks]);
+
+    fn ser_frames<S: Serializer>(frames: &&[FrameLandmarks], s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeSeq;
+        let mut seq = s.serialize_seq(Some(frames.len()))?;
+        for f in frames.iter() {
+            seq.serialize_element(&to_compact(f))?;
+        }
+        seq.end()
+    }
+
+    fn to_compact(f: &FrameLandmarks) -> Frame {
+        let any_conf = f.points.iter().any(|p| p.confidence.is_some());
+        Frame {
+            frame: f.frame,
+            timestamp: f.timestamp,
+            confidence: f.confidence,
+            success: f.success,
+            xy: f.points.iter().flat_map(|p| [p.x, p.y]).collect(),
+            hidden: f
+                .points
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| !p.visible)
+                .map(|(i, _)| i)
+                .collect(),
+            point_confidence: any_conf.then(|| f.points.iter().map(|p| p.confidence).collect()),
+            sources: f
+                .points
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.source != PointSource::Tracked)
+                .map(|(i, p)| (i, p.source))
+                .collect(),
+        }
+    }
+
+    fn from_compact(c: Frame) -> Result<FrameLandmarks, String> {
+        let n = c.frame;
+        if c.xy.len() != 2 * N_LANDMARKS {
+            return Err(format!(
+                "frame {n}: `xy` has {} numbers, expected {}",
+                c.xy.len(),
+                2 * N_LANDMARKS
+            ));
+        }
+        let mut points: Vec<LandmarkPoint> =
+            c.xy.chunks_exact(2).map(|xy| LandmarkPoint::tracked(xy[0], xy[1])).collect();
+        for i in c.hidden {
+            points
+                .get_mut(i)
+                .ok_or_else(|| format!("frame {n}: hidden point {i} out of range"))?
+                .visible = false;
+        }
+        if let Some(conf) = c.point_confidence {
+            if conf.len() != N_LANDMARKS {
+                return Err(format!(
+                    "frame {n}: `point_confidence` has {} entries, expected {N_LANDMARKS}",
+                    conf.len()
+                ));
+            }
+            for (p, c) in points.iter_mut().zip(conf) {
+                p.confidence = c;
+            }
+        }
+        for (i, s) in c.sources {
+            points
+                .get_mut(i)
+                .ok_or_else(|| format!("frame {n}: source of point {i} out of range"))?
+                .source = s;
+        }
+        Ok(FrameLandmarks {
+            frame: n,
+            timestamp: c.timestamp,
+            confidence: c.confidence,
+            success: c.success,
+            points,
+        })
+    }
+
+    pub fn serialize<S: Serializer>(track: &Track, s: S) -> Result<S::Ok, S::Error> {
+        FramesOut(&track.frames).serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Track, D::Error> {
+        // A visitor converts each frame as it is parsed, so the compact form of the whole
+        // clip is never held in memory beside the result.
+        struct Frames;
+        impl<'de> serde::de::Visitor<'de> for Frames {
+            type Value = Track;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a list of tracked frames")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Track, A::Error> {
+                let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
+                let mut last: Option<usize> = None;
+                while let Some(c) = seq.next_element::<Frame>()? {
+                    if last.is_some_and(|l| c.frame <= l) {
+                        return Err(A::Error::custom(format!(
+                            "tracked frame {} is out of order or repeated",
+                            c.frame
+                        )));
+                    }
+                    last = Some(c.frame);
+                    out.push(from_compact(c).map_err(A::Error::custom)?);
+                }
+                Ok(Track { frames: out })
+            }
+        }
+        d.deserialize_seq(Frames)
+    }
+}

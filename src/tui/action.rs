@@ -1,0 +1,262 @@
+//! `Action`: every user intent the TUI knows, as one serde enum (bindable in a keymap file),
+//! plus the internal replies from workers and the terminal (not bindable, never serialized).
+//!
+//! Keys become actions in `keymap`; only `update::update` turns actions into state changes.
+//! `Action::describe` gives the one-line text the help overlay and hints show.
+
+use super::app::FrameImage;
+use crate::fit::FrameFit;
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// A user intent or a reply from a worker.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Action {
+    // ---- everywhere ----
+    Quit,
+    ToggleHelp,
+    Save,
+    Undo,
+    Redo,
+    RunFit,
+    ShowFrames,
+    ShowHead,
+    ShowFit,
+    ShowAnalysis,
+    NextFrame,
+    PrevFrame,
+    FirstFrame,
+    LastFrame,
+    NextFlagged,
+    PrevFlagged,
+    NextUnreviewed,
+    /// Ask for a frame number and jump there.
+    GotoFramePrompt,
+    ZoomIn,
+    ZoomOut,
+    ZoomReset,
+    /// Pan the view by `dx, dy` tenths of the visible width/height.
+    Pan {
+        dx: i32,
+        dy: i32,
+    },
+    /// Centre the view on the selected point.
+    CenterOnPoint,
+    /// Close the top overlay or cancel the pending prompt.
+    Cancel,
+
+    // ---- frames and fit views: correcting landmarks ----
+    /// Move the selected point (or the selected scope) by `dx, dy` steps; a step is one image
+    /// pixel at zoom 1 and shrinks with zoom (sub-pixel moves when zoomed).
+    Nudge {
+        dx: i32,
+        dy: i32,
+    },
+    NextPoint,
+    PrevPoint,
+    /// Ask for a point number (0-based iBUG) and select it.
+    GotoPointPrompt,
+    /// Cycle what moves together: point → its group → mouth → all points.
+    CycleScope,
+    ToggleVisible,
+    CopyPointFromPrev,
+    CopyFrameFromPrev,
+    /// Ask for N and propagate the selected points' correction to the next N frames.
+    PropagatePrompt,
+    /// Interpolate the selected points between hand-corrected keyframes over the clip.
+    InterpolateSelected,
+    InterpolateAll,
+    RevertPoint,
+    ToggleReviewed,
+
+    // ---- head view: mesh and labelling ----
+    /// Rotate the head by `yaw, pitch` degrees.
+    Rotate {
+        yaw: i32,
+        pitch: i32,
+    },
+    ResetView,
+    /// Move the 2D labelling cursor by `dx, dy` hundredths of the head's radius (÷ zoom).
+    MoveCursor {
+        dx: i32,
+        dy: i32,
+    },
+    NextLabel,
+    PrevLabel,
+    /// Ask for the landmark number to label.
+    GotoLabelPrompt,
+    /// Assign the vertex under the 3D cursor to the landmark being labelled.
+    ConfirmLabel,
+    /// Remove the landmark's vertex from the map.
+    ClearLabel,
+    SaveMap,
+
+    // ---- analysis view ----
+    RowDown,
+    RowUp,
+    NextTable,
+    SortNextColumn,
+    SortReverse,
+    /// Jump to the frame of the selected row in the frames view.
+    OpenRow,
+
+    // ---- help overlay ----
+    ScrollDown,
+    ScrollUp,
+
+    // ---- internal: prompts, mouse, terminal and worker replies (not bindable) ----
+    #[serde(skip)]
+    PromptChar(char),
+    #[serde(skip)]
+    PromptBackspace,
+    #[serde(skip)]
+    PromptSubmit,
+    #[serde(skip)]
+    MouseDown {
+        col: u16,
+        row: u16,
+    },
+    #[serde(skip)]
+    MouseDrag {
+        col: u16,
+        row: u16,
+    },
+    #[serde(skip)]
+    MouseUp,
+    #[serde(skip)]
+    Resize {
+        width: u16,
+        height: u16,
+    },
+    #[serde(skip)]
+    FrameLoaded {
+        frame: usize,
+        image: Arc<FrameImage>,
+    },
+    #[serde(skip)]
+    FrameFailed {
+        frame: usize,
+        error: String,
+    },
+    #[serde(skip)]
+    FitProgress {
+        generation: u64,
+        done: usize,
+        total: usize,
+    },
+    #[serde(skip)]
+    FitDone {
+        generation: u64,
+        fits: Vec<FrameFit>,
+    },
+    #[serde(skip)]
+    FitFailed {
+        generation: u64,
+        error: String,
+    },
+    #[serde(skip)]
+    Saved {
+        generation: u64,
+    },
+    #[serde(skip)]
+    SaveFailed {
+        error: String,
+    },
+    #[serde(skip)]
+    Status(String),
+}
+
+impl Action {
+    /// One line for the help overlay and the status hints.
+    pub fn describe(&self) -> String {
+        let s = match self {
+            Self::Quit => "save and quit",
+            Self::ToggleHelp => "show or hide this help",
+            Self::Save => "save the session now",
+            Self::Undo => "undo the last edit",
+            Self::Redo => "redo the undone edit",
+            Self::RunFit => "fit the clip (re-fits only frames changed since the last fit)",
+            Self::ShowFrames => "frames view: correct landmarks",
+            Self::ShowHead => "head view: mesh and landmark labelling",
+            Self::ShowFit => "fit view: fitted vs tracked landmarks",
+            Self::ShowAnalysis => "analysis view: error tables and trajectories",
+            Self::NextFrame => "next frame",
+            Self::PrevFrame => "previous frame",
+            Self::FirstFrame => "first frame",
+            Self::LastFrame => "last frame",
+            Self::NextFlagged => "next flagged frame",
+            Self::PrevFlagged => "previous flagged frame",
+            Self::NextUnreviewed => "next frame not yet reviewed",
+            Self::GotoFramePrompt => "go to frame number…",
+            Self::ZoomIn => "zoom in",
+            Self::ZoomOut => "zoom out",
+            Self::ZoomReset => "fit the image to the view",
+            Self::Pan { .. } => "pan the view",
+            Self::CenterOnPoint => "centre the view on the selected point",
+            Self::Cancel => "cancel / close overlay",
+            Self::Nudge { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => "move point (large step)",
+            Self::Nudge { .. } => "move point (fine step; smaller when zoomed)",
+            Self::NextPoint => "select next point",
+            Self::PrevPoint => "select previous point",
+            Self::GotoPointPrompt => "select point by number (0-67)…",
+            Self::CycleScope => "move together: point / group / mouth / all",
+            Self::ToggleVisible => "toggle visible / occluded",
+            Self::CopyPointFromPrev => "copy selected points from the previous frame",
+            Self::CopyFrameFromPrev => "copy all points from the previous frame",
+            Self::PropagatePrompt => "propagate this correction to the next N frames…",
+            Self::InterpolateSelected => "interpolate selected points between keyframes",
+            Self::InterpolateAll => "interpolate all points between keyframes",
+            Self::RevertPoint => "revert selected points to the tracker's values",
+            Self::ToggleReviewed => "mark frame reviewed / not reviewed",
+            Self::Rotate { .. } => "rotate the head",
+            Self::ResetView => "reset rotation and zoom",
+            Self::MoveCursor { .. } => "move the 3D cursor",
+            Self::NextLabel => "label the next landmark",
+            Self::PrevLabel => "label the previous landmark",
+            Self::GotoLabelPrompt => "label landmark number…",
+            Self::ConfirmLabel => "assign the vertex under the cursor",
+            Self::ClearLabel => "remove this landmark's vertex",
+            Self::SaveMap => "save the landmark map (eos format)",
+            Self::RowDown => "next row",
+            Self::RowUp => "previous row",
+            Self::NextTable => "next table",
+            Self::SortNextColumn => "sort by the next column",
+            Self::SortReverse => "reverse the sort order",
+            Self::OpenRow => "open the row's frame in the frames view",
+            Self::ScrollDown => "scroll down",
+            Self::ScrollUp => "scroll up",
+            Self::PromptChar(_)
+            | Self::PromptBackspace
+            | Self::PromptSubmit
+            | Self::MouseDown { .. }
+            | Self::MouseDrag { .. }
+            | Self::MouseUp
+            | Self::Resize { .. }
+            | Self::FrameLoaded { .. }
+            | Self::FrameFailed { .. }
+            | Self::FitProgress { .. }
+            | Self::FitDone { .. }
+            | Self::FitFailed { .. }
+            | Self::Saved { .. }
+            | Self::SaveFailed { .. }
+            | Self::Status(_) => "internal",
+        };
+        match self {
+            Self::Pan { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
+            Self::Nudge { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
+            Self::Rotate { yaw, pitch } => format!("{s} {}", arrow(*yaw, *pitch)),
+            Self::MoveCursor { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
+            _ => s.to_string(),
+        }
+    }
+}
+
+fn arrow(dx: i32, dy: i32) -> &'static str {
+    match (dx.signum(), dy.signum()) {
+        (1, _) => "→",
+        (-1, _) => "←",
+        (_, 1) => "↓",
+        (_, -1) => "↑",
+        _ => "",
+    }
+}

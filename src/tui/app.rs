@@ -1,0 +1,472 @@
+//! `App`: the TUI's whole state as plain data (no widgets, no terminal handles), and the small
+//! value types it is made of: views, overlays, edit history, frame images, analysis tables.
+//!
+//! Only `update::update` changes an `App`; views read it. Side effects (decode a frame, run
+//! a fit, save) are queued in `App::effects` and carried out by the run loop's workers.
+
+use crate::alignment::Alignment;
+use crate::fit::{FitSettings, FrameFit};
+use crate::landmarks::edit::PointChange;
+use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries, flag_frames};
+use crate::landmarks::{N_LANDMARKS, Track};
+use crate::model::{LandmarkMap, Mesh, MorphableModel};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A decoded RGB frame, row-major, 3 bytes a pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameImage {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+}
+
+impl FrameImage {
+    /// The pixel at `(x, y)`, black outside the image.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        if x >= self.width || y >= self.height {
+            return [0, 0, 0];
+        }
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
+    }
+}
+
+/// Where frame images come from. Implementations must be cheap to share across threads;
+/// `load` runs on a worker thread, never on the UI thread.
+pub trait FrameProvider: Send + Sync {
+    /// Decodes the image of frame number `frame`.
+    ///
+    /// # Errors
+    /// When the frame does not exist or cannot be decoded.
+    fn load(&self, frame: usize) -> anyhow::Result<FrameImage>;
+}
+
+/// Frames from a list of image files, indexed by frame number.
+pub struct ImageFiles {
+    pub paths: BTreeMap<usize, PathBuf>,
+}
+
+impl ImageFiles {
+    /// Every `.png/.jpg/.jpeg/.ppm/.pgm` file of a folder, sorted by name, numbered from 0.
+    ///
+    /// # Errors
+    /// When the folder cannot be read.
+    pub fn from_folder(dir: &std::path::Path) -> anyhow::Result<Self> {
+        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
+                    matches!(
+                        e.to_ascii_lowercase().as_str(),
+                        "png" | "jpg" | "jpeg" | "ppm" | "pgm"
+                    )
+                })
+            })
+            .collect();
+        files.sort();
+        Ok(Self { paths: files.into_iter().enumerate().collect() })
+    }
+}
+
+impl FrameProvider for ImageFiles {
+    fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
+        let path =
+            self.paths.get(&frame).ok_or_else(|| anyhow::anyhow!("no image for frame {frame}"))?;
+        let img =
+            image::open(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?.into_rgb8();
+        Ok(FrameImage { width: img.width(), height: img.height(), rgb: img.into_raw() })
+    }
+}
+
+/// Frames held in memory (tests, benchmarks, the demo).
+pub struct MemoryFrames(pub BTreeMap<usize, Arc<FrameImage>>);
+
+impl FrameProvider for MemoryFrames {
+    fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
+        self.0
+            .get(&frame)
+            .map(|f| (**f).clone())
+            .ok_or_else(|| anyhow::anyhow!("no image for frame {frame}"))
+    }
+}
+
+/// The four views, switched with 1–4.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum View {
+    #[default]
+    Frames,
+    Head,
+    Fit,
+    Analysis,
+}
+
+/// What a prompt asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PromptKind {
+    GotoPoint,
+    GotoFrame,
+    Propagate,
+    GotoLabel,
+}
+
+impl PromptKind {
+    pub fn question(self) -> &'static str {
+        match self {
+            Self::GotoPoint => "point number (0-67)",
+            Self::GotoFrame => "frame number",
+            Self::Propagate => "propagate to how many next frames (Enter = 10)",
+            Self::GotoLabel => "landmark to label (0-67)",
+        }
+    }
+}
+
+/// Overlays stack over the view; the top one sees keys first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Overlay {
+    Help { scroll: u16 },
+    Prompt { kind: PromptKind, input: String },
+}
+
+/// Which points an edit moves together.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Scope {
+    #[default]
+    Point,
+    Group,
+    Mouth,
+    All,
+}
+
+impl Scope {
+    pub fn next(self) -> Self {
+        match self {
+            Self::Point => Self::Group,
+            Self::Group => Self::Mouth,
+            Self::Mouth => Self::All,
+            Self::All => Self::Point,
+        }
+    }
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Point => "point",
+            Self::Group => "group",
+            Self::Mouth => "mouth",
+            Self::All => "all",
+        }
+    }
+}
+
+/// Image zoom and pan: `zoom` 1 fits the frame to the view; `center` is the image pixel
+/// shown at the centre of the view (None = image centre). Kept across frames.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageView {
+    pub zoom: f64,
+    pub center: Option<(f64, f64)>,
+}
+
+impl Default for ImageView {
+    fn default() -> Self {
+        Self { zoom: 1.0, center: None }
+    }
+}
+
+/// One undoable edit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Edit {
+    Points(Vec<PointChange>),
+    Reviewed { frame: usize, now: bool },
+    Label { landmark: usize, before: Option<usize>, after: Option<usize> },
+}
+
+/// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
+/// smaller side) and the landmark being labelled.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeadView {
+    pub yaw: f64,
+    pub pitch: f64,
+    pub zoom: f64,
+    pub cursor: (f64, f64),
+    pub label: usize,
+}
+
+impl Default for HeadView {
+    fn default() -> Self {
+        Self { yaw: 0.0, pitch: 0.0, zoom: 1.0, cursor: (0.0, 0.0), label: 48 }
+    }
+}
+
+/// One analysis table: named columns of numbers, rows optionally tied to a frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AnalysisTable {
+    pub title: String,
+    pub columns: Vec<String>,
+    pub rows: Vec<AnalysisRow>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AnalysisRow {
+    pub label: String,
+    pub values: Vec<f64>,
+    /// The frame Enter jumps to (a worst frame, or the first frame of a phoneme).
+    pub frame: Option<usize>,
+}
+
+/// A measure's trajectory over the clip, video against the fitted head, by frame number.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Trajectory {
+    pub name: String,
+    pub video: Vec<(f64, f64)>,
+    pub model: Vec<(f64, f64)>,
+}
+
+/// What the analysis view shows; filled by the session bridge from `eval`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AnalysisData {
+    pub tables: Vec<AnalysisTable>,
+    pub trajectories: Vec<Trajectory>,
+}
+
+/// Analysis view cursor and sorting.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AnalysisView {
+    pub table: usize,
+    pub row: usize,
+    /// Column index to sort by (0 = label, k = values[k-1]).
+    pub sort_column: usize,
+    pub descending: bool,
+}
+
+/// The fit's progress and results.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitState {
+    /// Generation of the newest requested fit; replies from older ones are dropped.
+    pub generation: u64,
+    pub running: bool,
+    pub progress: (usize, usize),
+    /// By frame number.
+    pub fits: BTreeMap<usize, FrameFit>,
+    /// Frames edited since their fit (re-fit only these).
+    pub stale: BTreeSet<usize>,
+    pub error: Option<String>,
+}
+
+/// Work for the run loop to hand to workers or the session.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Effect {
+    /// Decode these frames, first one first (the rest are prefetch).
+    LoadFrames(Vec<usize>),
+    /// Fit these frames (all when `None`) of the current track.
+    Fit {
+        generation: u64,
+        frames: Option<Vec<usize>>,
+    },
+    /// Write the corrections, reviewed set and map to the session file.
+    Save,
+    SaveMap,
+    Quit,
+}
+
+/// Everything the TUI shows and edits.
+pub struct App {
+    pub title: String,
+    /// The tracker's landmarks as imported; never edited.
+    pub tracked: Track,
+    /// Effective landmarks: tracked with corrections and interpolations applied.
+    pub track: Track,
+    pub reviewed: BTreeSet<usize>,
+    pub alignment: Option<Alignment>,
+    pub fps: f64,
+    /// Position in `track.frames` of the current frame.
+    pub frame_pos: usize,
+    pub selected: usize,
+    pub scope: Scope,
+    pub view: View,
+    pub image_view: ImageView,
+    pub overlays: Vec<Overlay>,
+    pub undo: Vec<Edit>,
+    pub redo: Vec<Edit>,
+    /// An open undo entry a mouse drag keeps extending.
+    pub dragging: bool,
+    /// The current drag has already pushed its undo entry.
+    pub drag_open: bool,
+    /// The last save failed: `Quit` then leaves without trying again.
+    pub save_failed: bool,
+    /// Size of the clip's frames, known once one is decoded.
+    pub image_size: Option<(u32, u32)>,
+    /// Edits since the last save finished (autosave when > 0 and idle).
+    pub unsaved_edits: u64,
+    pub save_generation: u64,
+    pub quit_requested: bool,
+    pub should_quit: bool,
+    pub status: String,
+    /// Decoded frames by frame number, newest last in `cache_order`.
+    pub images: BTreeMap<usize, Arc<FrameImage>>,
+    pub cache_order: VecDeque<usize>,
+    pub cache_capacity: usize,
+    pub image_errors: BTreeMap<usize, String>,
+    pub flags: Vec<FrameFlags>,
+    pub flag_thresholds: FlagThresholds,
+    pub measures: Vec<MeasureSeries>,
+    pub mesh: Option<Arc<Mesh>>,
+    /// Unique mesh edges, computed once when the mesh is set (drawing reads them).
+    pub mesh_edges: Arc<Vec<[u32; 2]>>,
+    pub model: Option<Arc<MorphableModel>>,
+    pub map: Option<LandmarkMap>,
+    pub head: HeadView,
+    pub fit_settings: FitSettings,
+    pub fit: FitState,
+    pub analysis: AnalysisData,
+    pub analysis_view: AnalysisView,
+    pub term_size: (u16, u16),
+    pub effects: Vec<Effect>,
+}
+
+impl App {
+    /// A new app over a track; `tracked` is the tracker's original, `track` the effective one
+    /// (equal when there are no corrections yet).
+    pub fn new(title: impl Into<String>, tracked: Track, track: Track) -> Self {
+        let mut app = Self {
+            title: title.into(),
+            tracked,
+            track,
+            reviewed: BTreeSet::new(),
+            alignment: None,
+            fps: 25.0,
+            frame_pos: 0,
+            selected: 62,
+            scope: Scope::Point,
+            view: View::Frames,
+            image_view: ImageView::default(),
+            overlays: Vec::new(),
+            undo: Vec::new(),
+            redo: Vec::new(),
+            dragging: false,
+            drag_open: false,
+            save_failed: false,
+            image_size: None,
+            unsaved_edits: 0,
+            save_generation: 0,
+            quit_requested: false,
+            should_quit: false,
+            status: String::new(),
+            images: BTreeMap::new(),
+            cache_order: VecDeque::new(),
+            cache_capacity: 48,
+            image_errors: BTreeMap::new(),
+            flags: Vec::new(),
+            flag_thresholds: FlagThresholds::default(),
+            measures: Vec::new(),
+            mesh: None,
+            mesh_edges: Arc::new(Vec::new()),
+            model: None,
+            map: None,
+            head: HeadView::default(),
+            fit_settings: FitSettings::default(),
+            fit: FitState::default(),
+            analysis: AnalysisData::default(),
+            analysis_view: AnalysisView::default(),
+            term_size: (80, 24),
+            effects: Vec::new(),
+        };
+        app.recompute_flags();
+        app
+    }
+
+    /// Sets the head mesh and precomputes its unique edges for the wireframe.
+    pub fn set_mesh(&mut self, mesh: Arc<Mesh>) {
+        let mut edges = BTreeSet::new();
+        for f in &mesh.faces {
+            for k in 0..f.len() {
+                let (a, b) = (f[k], f[(k + 1) % f.len()]);
+                edges.insert(if a < b { [a, b] } else { [b, a] });
+            }
+        }
+        self.mesh_edges = Arc::new(edges.into_iter().collect());
+        self.mesh = Some(mesh);
+    }
+
+    /// Image size for drawing: the decoded frames' size, else a box around all landmarks
+    /// (so points can be drawn and edited while the first frame decodes).
+    pub fn frame_dims(&self) -> (u32, u32) {
+        if let Some(s) = self.image_size {
+            return s;
+        }
+        let (mut w, mut h) = (1.0f64, 1.0f64);
+        for p in self.track.frames.iter().flat_map(|f| f.points.iter()) {
+            w = w.max(p.x);
+            h = h.max(p.y);
+        }
+        ((w * 1.1).ceil() as u32, (h * 1.1).ceil() as u32)
+    }
+
+    /// Frame number of the current frame (0 when the track is empty).
+    pub fn frame(&self) -> usize {
+        self.track.frames.get(self.frame_pos).map_or(0, |f| f.frame)
+    }
+
+    pub fn n_frames(&self) -> usize {
+        self.track.len()
+    }
+
+    /// The points the current scope moves, around the selected point.
+    pub fn scope_indices(&self) -> Vec<usize> {
+        use crate::landmarks::ibug::{INNER_LIP, OUTER_LIP, group_of};
+        match self.scope {
+            Scope::Point => vec![self.selected],
+            Scope::Group => group_of(self.selected)
+                .map_or_else(|| vec![self.selected], |g| g.range.clone().collect()),
+            Scope::Mouth => (OUTER_LIP.start..INNER_LIP.end).collect(),
+            Scope::All => (0..N_LANDMARKS).collect(),
+        }
+    }
+
+    /// Flags of frame number `frame`, if any.
+    pub fn flags_of(&self, frame: usize) -> Option<&FrameFlags> {
+        self.flags.binary_search_by_key(&frame, |f| f.frame).ok().map(|i| &self.flags[i])
+    }
+
+    /// Recomputes the per-frame flags from the track, fits and measures.
+    pub fn recompute_flags(&mut self) {
+        let fits: Vec<FrameFit> = self.fit.fits.values().cloned().collect();
+        let fits = (!fits.is_empty()).then_some(fits);
+        self.flags =
+            flag_frames(&self.track, fits.as_deref(), &self.measures, &self.flag_thresholds);
+    }
+
+    /// The decoded image of the current frame, when cached.
+    pub fn current_image(&self) -> Option<&Arc<FrameImage>> {
+        self.images.get(&self.frame())
+    }
+
+    /// Inserts a decoded frame, evicting the least recently inserted beyond capacity.
+    pub fn cache_image(&mut self, frame: usize, image: Arc<FrameImage>) {
+        if self.images.insert(frame, image).is_none() {
+            self.cache_order.push_back(frame);
+        }
+        while self.cache_order.len() > self.cache_capacity {
+            if let Some(old) = self.cache_order.pop_front() {
+                if old == self.frame() {
+                    self.cache_order.push_back(old);
+                    continue;
+                }
+                self.images.remove(&old);
+            }
+        }
+    }
+
+    /// The top overlay, if any.
+    pub fn top_overlay(&self) -> Option<&Overlay> {
+        self.overlays.last()
+    }
+
+    /// Phone label at the current frame, from the alignment.
+    pub fn phone_label(&self) -> Option<String> {
+        let a = self.alignment.as_ref()?;
+        let f = self.track.frames.get(self.frame_pos)?;
+        let t = f.timestamp.unwrap_or(f.frame as f64 / self.fps);
+        a.phone_at(t).map(|p| p.label.clone())
+    }
+}

@@ -1,0 +1,170 @@
+//! The event loop: terminal events and worker replies become actions, `update` applies them,
+//! effects go to the workers and the session, and the screen is redrawn when something changed.
+//!
+//! Autosave: edits are saved once the user pauses (`AUTOSAVE_IDLE`) and never mid-drag; `q`
+//! saves what is left before quitting. The terminal is restored on return, error and panic.
+
+use super::action::Action;
+use super::app::{App, Effect};
+use super::keymap::Keymap;
+use super::session_bridge::SessionBridge;
+use super::update::{key_to_action, mouse_to_action, request_images, update};
+use super::views::draw;
+use super::widgets::terminal::TerminalGuard;
+use super::widgets::worker::{FitJob, Workers};
+use ratatui::Terminal;
+use ratatui::backend::Backend;
+use ratatui::crossterm::event::{self, Event};
+use std::path::Path;
+use std::sync::mpsc::{Receiver, channel};
+use std::time::{Duration, Instant};
+
+/// How long after the last edit the batch is saved.
+pub const AUTOSAVE_IDLE: Duration = Duration::from_millis(400);
+/// Longest wait for a terminal event before checking workers and autosave.
+const POLL: Duration = Duration::from_millis(30);
+
+/// Opens the session at `session_path` (first clip) in the terminal UI until the user quits.
+/// `keymap_path` overrides default keys (see `keymap`).
+///
+/// # Errors
+/// When the keymap or session cannot be read, the session is locked by another editor, or
+/// the terminal fails. The terminal is restored before the error is returned.
+pub fn run(session_path: &Path, keymap_path: Option<&Path>) -> anyhow::Result<()> {
+    let keymap = match keymap_path {
+        Some(p) => Keymap::load(p)?,
+        None => Keymap::default(),
+    };
+    let (mut app, mut bridge, provider) = SessionBridge::open(session_path, 0)?;
+    let (tx, rx) = channel();
+    let workers = Workers::start(provider, tx);
+    let mut guard = TerminalGuard::enter()?;
+    let size = guard.terminal.size()?;
+    app.term_size = (size.width, size.height);
+    request_images(&mut app);
+    let result = event_loop(&mut guard.terminal, &mut app, &keymap, &mut bridge, &workers, &rx);
+    drop(guard);
+    // Whatever happened in the loop, do not lose the last edits.
+    if app.unsaved_edits > 0 {
+        bridge.save(&app)?;
+    }
+    result
+}
+
+/// Applies an action and its follow-ups.
+pub fn apply(app: &mut App, action: Action) {
+    let mut next = Some(action);
+    while let Some(a) = next {
+        next = update(app, a);
+    }
+}
+
+fn event_loop<B: Backend>(
+    terminal: &mut Terminal<B>,
+    app: &mut App,
+    keymap: &Keymap,
+    bridge: &mut SessionBridge,
+    workers: &Workers,
+    rx: &Receiver<Action>,
+) -> anyhow::Result<()>
+where
+    B::Error: Send + Sync + 'static,
+{
+    let mut redraw = true;
+    let mut seen_edits = app.unsaved_edits;
+    let mut last_edit = Instant::now();
+    loop {
+        run_effects(app, bridge, workers);
+        if app.should_quit {
+            return Ok(());
+        }
+        if app.unsaved_edits != seen_edits {
+            seen_edits = app.unsaved_edits;
+            last_edit = Instant::now();
+        }
+        if app.unsaved_edits > 0 && !app.dragging && last_edit.elapsed() >= AUTOSAVE_IDLE {
+            apply(app, Action::Save);
+            run_effects(app, bridge, workers);
+            seen_edits = app.unsaved_edits;
+            redraw = true;
+        }
+        if redraw {
+            terminal.draw(|f| draw(app, keymap, f))?;
+            redraw = false;
+        }
+        if event::poll(POLL)? {
+            let action = match event::read()? {
+                Event::Key(k) => key_to_action(app, keymap, &k),
+                Event::Mouse(m) => mouse_to_action(&m),
+                Event::Resize(w, h) => Some(Action::Resize { width: w, height: h }),
+                _ => None,
+            };
+            if let Some(a) = action {
+                apply(app, a);
+            }
+            redraw = true;
+        }
+        while let Ok(a) = rx.try_recv() {
+            let to_store = match &a {
+                Action::FitDone { generation, fits } if *generation == app.fit.generation => {
+                    Some(fits.clone())
+                }
+                _ => None,
+            };
+            apply(app, a);
+            // Cache fits only when no edit happened since the request, so the cache key
+            // (the landmarks now in the session) is what the fit used.
+            if let Some(fits) = to_store.filter(|_| app.fit.stale.is_empty()) {
+                let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
+                if let Err(e) = stored {
+                    app.status = format!("fit cache not updated: {e:#}");
+                }
+            }
+            redraw = true;
+        }
+    }
+}
+
+/// Carries out queued effects.
+fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
+    for effect in std::mem::take(&mut app.effects) {
+        match effect {
+            Effect::LoadFrames(frames) => workers.request_frames(frames),
+            Effect::Fit { generation, frames } => {
+                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
+                    continue;
+                };
+                let landmarks = match &frames {
+                    Some(list) => list.iter().filter_map(|f| app.track.get(*f).cloned()).collect(),
+                    None => app.track.frames.clone(),
+                };
+                let image_height = f64::from(app.frame_dims().1);
+                workers.request_fit(FitJob {
+                    generation,
+                    model,
+                    map,
+                    settings: app.fit_settings.clone(),
+                    frames: landmarks,
+                    image_height,
+                });
+            }
+            Effect::Save => {
+                app.save_generation += 1;
+                let generation = app.save_generation;
+                let reply = match bridge.save(app) {
+                    Ok(()) => Action::Saved { generation },
+                    Err(e) => Action::SaveFailed { error: format!("{e:#}") },
+                };
+                apply(app, reply);
+            }
+            Effect::SaveMap => {
+                let msg = match bridge.save_map(app) {
+                    Ok(p) => format!("landmark map written to {}", p.display()),
+                    Err(e) => format!("map not saved: {e:#}"),
+                };
+                apply(app, Action::Status(msg));
+            }
+            Effect::Quit => {}
+        }
+    }
+}

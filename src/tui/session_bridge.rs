@@ -1,0 +1,211 @@
+//! The adapter between a `Session` and the TUI's `App`: open (lock, load, frames, mesh,
+//! model, map, cached fits), write the App's corrections, reviewed frames and map back into
+//! the session, and save atomically through `Session::save`.
+//!
+//! The App never sees the session's types, so the TUI's update and views work (and are
+//! tested) on plain data; only this file changes when the session format does.
+
+use super::app::{App, FrameImage, FrameProvider};
+use crate::fit::FrameFit;
+use crate::io::frames::FrameSource;
+use crate::landmarks::PointSource;
+use crate::landmarks::edit::corrections;
+use crate::model::{LandmarkMap, MorphableModel};
+use crate::session::{Session, SessionLock};
+use anyhow::Context;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Megabytes of decoded frames the session's frame source may cache (on top of the App's).
+const FRAME_CACHE_MB: usize = 256;
+
+/// Frames of a session clip, decoded by the session's `FrameSource`.
+pub struct SessionFrames(pub FrameSource);
+
+impl FrameProvider for SessionFrames {
+    fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
+        let img = self.0.get(frame)?;
+        Ok(FrameImage { width: img.width(), height: img.height(), rgb: img.as_raw().clone() })
+    }
+}
+
+/// Frames that cannot be shown (the session's frames are missing): every load fails with
+/// the reason, and the TUI still edits landmarks over a black background.
+pub struct NoFrames(pub String);
+
+impl FrameProvider for NoFrames {
+    fn load(&self, _frame: usize) -> anyhow::Result<FrameImage> {
+        anyhow::bail!("{}", self.0)
+    }
+}
+
+/// An open session: the file, its lock (released on drop) and the clip being edited.
+pub struct SessionBridge {
+    pub path: PathBuf,
+    pub session: Session,
+    pub clip: usize,
+    /// Map as loaded, so an unchanged map from a file is not copied inline.
+    loaded_map: Option<LandmarkMap>,
+    _lock: SessionLock,
+}
+
+/// Loads a morphable model by file kind: lipmap model file, eos `.bin`, `.npz`, or a folder
+/// of `.npy` arrays.
+///
+/// # Errors
+/// The reader's error, naming the file.
+pub fn load_model(path: &Path) -> anyhow::Result<MorphableModel> {
+    use crate::io::{eos_bin, model_file, npy_model};
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let model = if path.is_dir() {
+        npy_model::read_npy_folder(path)?
+    } else if model_file::is_model_file(path) {
+        model_file::read_model_file(path)?
+    } else if ext == "npz" {
+        npy_model::read_npz(path)?
+    } else {
+        eos_bin::read_eos_model(path)?
+    };
+    Ok(model)
+}
+
+impl SessionBridge {
+    /// Locks and loads the session at `path` and builds the App for clip `clip`, with the
+    /// frame provider for its images. Missing frames, mesh or model are reported in the
+    /// status line rather than refusing to open: landmarks can be corrected without them.
+    ///
+    /// # Errors
+    /// When the session cannot be locked or read, or has no clip `clip`.
+    pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
+        let lock = SessionLock::acquire(path)?;
+        let session = Session::load(path)?;
+        let c = session.clip(clip)?;
+        let tracked = c.tracked.clone();
+        let track = c.corrections.effective_track(&c.tracked);
+        let mut app = App::new(format!("{} · {}", session.name, c.name), tracked, track);
+        app.reviewed = c.corrections.reviewed.clone();
+        app.alignment = c.alignment.clone();
+        app.fps = c.front.fps;
+        app.image_size = c.front.size.map(|[w, h]| (w, h));
+        app.fit_settings = session.fit_settings.clone();
+        let mut problems: Vec<String> = Vec::new();
+
+        let provider: Arc<dyn FrameProvider> = match session.open_frames(clip, FRAME_CACHE_MB) {
+            Ok(src) => {
+                let [w, h] = src.size();
+                if w > 0 && h > 0 {
+                    app.image_size = Some((w, h));
+                }
+                Arc::new(SessionFrames(src))
+            }
+            Err(e) => {
+                problems.push(format!("frames: {e}"));
+                Arc::new(NoFrames(e.to_string()))
+            }
+        };
+        if let Some(mesh_path) = &session.head_mesh {
+            match crate::io::obj::read_obj(mesh_path) {
+                Ok(mesh) => app.set_mesh(Arc::new(mesh)),
+                Err(e) => problems.push(format!("mesh: {e}")),
+            }
+        }
+        if let Some(m) = &session.model {
+            match load_model(&m.path) {
+                Ok(model) => app.model = Some(Arc::new(model)),
+                Err(e) => problems.push(format!("model: {e:#}")),
+            }
+        }
+        let mut map = match &session.landmark_map.file {
+            Some(f) => match crate::io::landmark_map_toml::read_landmark_map(f) {
+                Ok(m) => Some(m),
+                Err(e) => {
+                    problems.push(format!("map: {e}"));
+                    None
+                }
+            },
+            None => None,
+        };
+        if let Some(inline) = session.landmark_map.inline_map() {
+            let m = map.get_or_insert_with(LandmarkMap::default);
+            m.to_vertex.extend(inline.to_vertex);
+        }
+        app.map = map.clone();
+        for fit in session.cached_fits(clip, &session.fit_settings) {
+            app.fit.fits.insert(fit.frame, fit.clone());
+        }
+        if !app.fit.fits.is_empty() {
+            app.recompute_flags();
+        }
+        if !problems.is_empty() {
+            app.status = problems.join("; ");
+        }
+        let bridge = Self { path: path.to_path_buf(), session, clip, loaded_map: map, _lock: lock };
+        Ok((app, bridge, provider))
+    }
+
+    /// Writes the App's corrections, reviewed frames and (changed) landmark map into the
+    /// session in memory. The tracker's landmarks are never touched.
+    ///
+    /// # Errors
+    /// When a correction is rejected by the session (non-finite, bad index).
+    pub fn write_back(&mut self, app: &App) -> anyhow::Result<()> {
+        let c = self.session.clips.get_mut(self.clip).context("the clip disappeared")?;
+        let mut fresh = crate::session::Corrections::default();
+        for (frame, index, p) in corrections(&app.tracked, &app.track) {
+            // Placeholders of frames the tracker missed are not corrections.
+            if p.source == PointSource::Tracked && app.tracked.get(frame).is_none() {
+                continue;
+            }
+            fresh.set(frame, index, p).map_err(|m| anyhow::anyhow!(m))?;
+        }
+        fresh.reviewed = app.reviewed.clone();
+        c.corrections = fresh;
+        if let Some(map) = &app.map
+            && self.loaded_map.as_ref() != Some(map)
+        {
+            self.session.landmark_map.set_inline(map);
+        }
+        Ok(())
+    }
+
+    /// `write_back` then an atomic save to the session file.
+    ///
+    /// # Errors
+    /// As `write_back` and `Session::save`.
+    pub fn save(&mut self, app: &App) -> anyhow::Result<()> {
+        self.write_back(app)?;
+        self.session.save(&self.path)?;
+        Ok(())
+    }
+
+    /// Caches fits in the session (call after `write_back`, so the cache keys match the
+    /// landmarks the fits were made from).
+    ///
+    /// # Errors
+    /// When a fit names a frame without landmarks.
+    pub fn store_fits(&mut self, app: &App, fits: Vec<FrameFit>) -> anyhow::Result<()> {
+        self.session.store_fits(self.clip, &app.fit_settings, fits)?;
+        Ok(())
+    }
+
+    /// Writes the landmark map in eos's TOML format beside the session (or to the session's
+    /// map file) and records the file in the session. Returns the path written.
+    ///
+    /// # Errors
+    /// When there is no map or the file cannot be written.
+    pub fn save_map(&mut self, app: &App) -> anyhow::Result<PathBuf> {
+        let map = app.map.as_ref().filter(|m| !m.is_empty()).context("no landmarks mapped yet")?;
+        let target = match &self.session.landmark_map.file {
+            Some(f) => f.clone(),
+            None => {
+                let dir = self.path.parent().unwrap_or(Path::new("."));
+                dir.join(format!("{}.ibug_map.txt", self.session.name))
+            }
+        };
+        crate::io::landmark_map_toml::write_landmark_map(&target, map)?;
+        self.session.landmark_map.file = Some(crate::session::absolute(&target));
+        self.session.landmark_map.set_inline(map);
+        self.loaded_map = Some(map.clone());
+        Ok(target)
+    }
+}

@@ -1,0 +1,165 @@
+//! Analysis view: the selected error table (sortable by any column; Enter opens a row's frame)
+//! over the W/H/P trajectories of video vs 3D, with phoneme boundaries and labels.
+//!
+//! `sorted_rows` is shared with `update` so Enter opens the row the user sees.
+
+use crate::tui::app::{AnalysisTable, AnalysisView, App};
+use ratatui::Frame;
+use ratatui::layout::{Constraint, Rect};
+use ratatui::style::{Color, Modifier, Style, Stylize};
+use ratatui::text::Line;
+use ratatui::widgets::canvas::{Canvas, Line as CLine};
+use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, TableState};
+
+/// Row indices of `table` in display order for the view's sort column and direction.
+pub fn sorted_rows(table: &AnalysisTable, view: &AnalysisView) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..table.rows.len()).collect();
+    let col = view.sort_column;
+    order.sort_by(|&a, &b| {
+        let (ra, rb) = (&table.rows[a], &table.rows[b]);
+        let o = if col == 0 {
+            ra.label.cmp(&rb.label)
+        } else {
+            let va = ra.values.get(col - 1).copied().unwrap_or(f64::NAN);
+            let vb = rb.values.get(col - 1).copied().unwrap_or(f64::NAN);
+            va.total_cmp(&vb)
+        };
+        if view.descending { o.reverse() } else { o }
+    });
+    order
+}
+
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    let Some(table) = app.analysis.tables.get(app.analysis_view.table) else {
+        frame.render_widget(
+            Paragraph::new(vec![
+                Line::from("No analysis yet.").bold(),
+                Line::from(
+                    "Fit the clip (f) and the per-phoneme and per-sentence tables appear here.",
+                ),
+            ])
+            .fg(Color::Gray),
+            area,
+        );
+        return;
+    };
+    let chart_h = if app.analysis.trajectories.is_empty() { 0 } else { area.height * 2 / 5 };
+    let table_area = Rect::new(area.x, area.y, area.width, area.height - chart_h);
+    draw_table(app, table, frame, table_area);
+    if chart_h >= 4 {
+        let n = app.analysis.trajectories.len() as u16;
+        let w = area.width / n.max(1);
+        for (k, t) in app.analysis.trajectories.iter().enumerate() {
+            let x = area.x + w * k as u16;
+            let width = if k as u16 + 1 == n { area.width - w * (n - 1) } else { w };
+            draw_trajectory(
+                app,
+                t,
+                frame,
+                Rect::new(x, area.y + area.height - chart_h, width, chart_h),
+            );
+        }
+    }
+}
+
+fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
+    let view = &app.analysis_view;
+    let order = sorted_rows(table, view);
+    let arrow = if view.descending { "▼" } else { "▲" };
+    let header: Vec<Cell> = std::iter::once("".to_string())
+        .chain(table.columns.iter().cloned())
+        .enumerate()
+        .map(|(i, mut name)| {
+            if i == 0 {
+                name = "row".into();
+            }
+            if i == view.sort_column {
+                name = format!("{name}{arrow}");
+            }
+            Cell::from(name)
+        })
+        .collect();
+    let rows = order.iter().map(|&i| {
+        let r = &table.rows[i];
+        let mut cells = vec![Cell::from(r.label.clone())];
+        cells.extend(
+            r.values
+                .iter()
+                .map(|v| Cell::from(if v.is_finite() { format!("{v:.3}") } else { "–".into() })),
+        );
+        Row::new(cells)
+    });
+    let mut widths = vec![Constraint::Min(10)];
+    widths.extend(table.columns.iter().map(|_| Constraint::Length(9)));
+    let n_tables = app.analysis.tables.len();
+    let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
+    let t = Table::new(rows, widths)
+        .header(Row::new(header).style(Style::new().bold().fg(Color::LightCyan)))
+        .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
+        .block(Block::bordered().title(title).border_style(Color::DarkGray));
+    let mut state =
+        TableState::default().with_selected(Some(view.row.min(order.len().saturating_sub(1))));
+    frame.render_stateful_widget(t, area, &mut state);
+}
+
+fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame, area: Rect) {
+    let all = t.video.iter().chain(&t.model);
+    let (mut x0, mut x1, mut y0, mut y1) =
+        (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for &(x, y) in all.filter(|p| p.0.is_finite() && p.1.is_finite()) {
+        (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
+    }
+    if !x0.is_finite() {
+        return;
+    }
+    let pad = ((y1 - y0) * 0.1).max(1e-6);
+    let (y0, y1) = (y0 - pad, y1 + pad);
+    let x1 = x1.max(x0 + 1.0);
+    let phones: Vec<(f64, f64, String)> = app
+        .alignment
+        .as_ref()
+        .map(|a| {
+            a.phones.iter().map(|p| (p.start * app.fps, p.end * app.fps, p.label.clone())).collect()
+        })
+        .unwrap_or_default();
+    let cur = app.frame() as f64;
+    let title = Line::from(vec![
+        format!(" {} ", t.name).bold(),
+        "video".fg(Color::LightCyan),
+        " vs ".into(),
+        "3D ".fg(Color::LightMagenta),
+    ]);
+    let canvas = Canvas::default()
+        .block(Block::bordered().title(title).border_style(Color::DarkGray))
+        .marker(ratatui::symbols::Marker::Braille)
+        .x_bounds([x0, x1])
+        .y_bounds([y0, y1])
+        .paint(|ctx| {
+            for (s, _, label) in &phones {
+                if *s >= x0 && *s <= x1 {
+                    ctx.draw(&CLine { x1: *s, y1: y0, x2: *s, y2: y1, color: Color::DarkGray });
+                    ctx.print(*s, y1, Line::from(label.clone()).fg(Color::Gray));
+                }
+            }
+            for w in t.video.windows(2) {
+                ctx.draw(&CLine {
+                    x1: w[0].0,
+                    y1: w[0].1,
+                    x2: w[1].0,
+                    y2: w[1].1,
+                    color: Color::LightCyan,
+                });
+            }
+            for w in t.model.windows(2) {
+                ctx.draw(&CLine {
+                    x1: w[0].0,
+                    y1: w[0].1,
+                    x2: w[1].0,
+                    y2: w[1].1,
+                    color: Color::LightMagenta,
+                });
+            }
+            ctx.draw(&CLine { x1: cur, y1: y0, x2: cur, y2: y1, color: Color::Yellow });
+        });
+    frame.render_widget(canvas, area);
+}

@@ -1,0 +1,126 @@
+//! Fit view: the frame with tracked points (dim) and fitted points (`+`, tracked + residual)
+//! side by side, the fit's progress, the frame's pose and RMS, the worst residuals, and the
+//! head wireframe from the front and the side in the frame's fitted pose.
+//!
+//! Editing keys work here as in the frames view (mode chain fit → frames → global).
+
+use super::frames::{draw_image, landmark_markers};
+use super::head::{draw_wireframe, rotation};
+use super::image_and_side;
+use crate::math::Matrix3;
+use crate::tui::app::App;
+use crate::tui::widgets::halfblock::Marker;
+use ratatui::Frame;
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Style, Stylize};
+use ratatui::text::Line;
+use ratatui::widgets::{Block, Borders, Gauge, Paragraph};
+
+/// Rotation of a fitted frame, R = Ry(yaw)·Rx(pitch)·Rz(roll) as `FrameFit` documents.
+fn fit_rotation(yaw: f64, pitch: f64, roll: f64) -> Matrix3 {
+    let rz =
+        nalgebra::Rotation3::from_axis_angle(&crate::math::Vector3::z_axis(), roll.to_radians());
+    rotation(yaw, pitch) * rz.into_inner()
+}
+
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    let (image, side) = image_and_side(area);
+    let f = app.frame();
+    let fit = app.fit.fits.get(&f);
+    let mut markers: Vec<Marker> = landmark_markers(app)
+        .into_iter()
+        .map(|mut m| {
+            if m.symbol != "●" {
+                m.symbol = "·";
+                m.style = Style::new().fg(Color::Gray);
+            }
+            m
+        })
+        .collect();
+    if let (Some(fit), Some(points)) = (fit, app.track.frames.get(app.frame_pos)) {
+        let fitted = points.points.iter().zip(&fit.residuals).filter_map(|(p, r)| {
+            r.map(|r| Marker {
+                x: p.x + r[0],
+                y: p.y + r[1],
+                symbol: "+",
+                style: Style::new().fg(Color::LightRed),
+            })
+        });
+        // Fitted under the selected marker, over the tracked ones.
+        let sel = markers.pop();
+        markers.extend(fitted);
+        markers.extend(sel);
+    }
+    draw_image(app, frame, image, &markers);
+    if side.width == 0 {
+        return;
+    }
+    let inner = Block::new().borders(Borders::LEFT).border_style(Color::DarkGray);
+    let content = inner.inner(side);
+    frame.render_widget(inner, side);
+    let mut y = content.y;
+    let bottom = content.y + content.height;
+    if app.fit.running || app.fit.progress.1 > 0 && app.fit.progress.0 < app.fit.progress.1 {
+        let (d, t) = app.fit.progress;
+        let ratio = if t == 0 { 0.0 } else { d as f64 / t as f64 };
+        frame.render_widget(
+            Gauge::default()
+                .ratio(ratio.clamp(0.0, 1.0))
+                .label(format!("fit {d}/{t}"))
+                .gauge_style(Color::LightCyan),
+            Rect::new(content.x, y, content.width, 1),
+        );
+        y += 1;
+    }
+    let mut lines: Vec<Line> = Vec::new();
+    match fit {
+        Some(fit) => {
+            lines.push(Line::from(format!("frame {f}  rms {:.2} px", fit.reproj_rms_px)).bold());
+            if let Some(why) = &fit.failed {
+                lines.push(Line::from(format!("failed: {why}")).fg(Color::LightRed));
+            }
+            lines.push(Line::from(format!(
+                "yaw {:.1} pitch {:.1} roll {:.1}",
+                fit.yaw, fit.pitch, fit.roll
+            )));
+            let mut worst: Vec<(usize, f64)> = fit
+                .residuals
+                .iter()
+                .enumerate()
+                .filter_map(|(i, r)| r.map(|r| (i, r[0].hypot(r[1]))))
+                .collect();
+            worst.sort_by(|a, b| b.1.total_cmp(&a.1));
+            lines.push(Line::from("worst points (px)").fg(Color::Gray));
+            for (i, r) in worst.iter().take(6) {
+                let mark = if *i == app.selected { "▸" } else { " " };
+                lines.push(Line::from(format!("{mark}{i:>2} {r:6.2}")));
+            }
+        }
+        None => {
+            lines.push(Line::from(format!("frame {f}: not fitted")).fg(Color::Gray));
+            if let Some(e) = &app.fit.error {
+                lines.push(Line::from(format!("error: {e}")).fg(Color::LightRed));
+            }
+            lines.push(Line::from("press f to fit the clip").fg(Color::DarkGray));
+        }
+    }
+    if app.fit.stale.contains(&f) {
+        lines.push(Line::from("edited since fit").fg(Color::Yellow));
+    }
+    let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
+    frame.render_widget(Paragraph::new(lines), Rect::new(content.x, y, content.width, text_h));
+    y += text_h;
+    // Front and side wireframes in the fitted pose, when there is room.
+    let room = bottom.saturating_sub(y);
+    if let (Some(mesh), Some(fit)) = (&app.mesh, fit)
+        && room >= 6
+    {
+        let half = content.width / 2;
+        let r = fit_rotation(fit.yaw, fit.pitch, fit.roll);
+        let side_r = rotation(90.0, 0.0) * r;
+        let front_area = Rect::new(content.x, y, half, room);
+        let side_area = Rect::new(content.x + half, y, content.width - half, room);
+        draw_wireframe(frame, front_area, mesh, &app.mesh_edges, &r, 1.0, |_, _| {});
+        draw_wireframe(frame, side_area, mesh, &app.mesh_edges, &side_r, 1.0, |_, _| {});
+    }
+}

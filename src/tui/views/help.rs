@@ -1,0 +1,67 @@
+//! The help overlay, generated from the keymap and the actions' descriptions (so it cannot
+//! drift from the real bindings): one section per keymap table of the current view.
+//!
+//! Keys bound to the same action are listed together.
+
+use crate::tui::app::App;
+use crate::tui::keymap::{KeyMode, Keymap};
+use crate::tui::update::mode_chain;
+use ratatui::Frame;
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Stylize};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::{Block, Clear, Paragraph};
+
+/// The help text lines for the current view.
+pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
+    let mut lines = Vec::new();
+    for mode in mode_chain(app).into_iter().filter(|m| *m != KeyMode::Help) {
+        let mut entries: Vec<(String, String)> = Vec::new();
+        let mut seen: Vec<&crate::tui::action::Action> = Vec::new();
+        for b in keymap.of_mode(mode) {
+            if seen.contains(&&b.action) {
+                continue;
+            }
+            seen.push(&b.action);
+            let keys: Vec<String> = keymap
+                .of_mode(mode)
+                .filter(|o| o.action == b.action)
+                .map(|o| o.key.to_string())
+                .collect();
+            entries.push((keys.join(" "), b.action.describe()));
+        }
+        if entries.is_empty() {
+            continue;
+        }
+        lines.push(Line::from(format!("{} keys", mode.name())).bold().fg(Color::LightMagenta));
+        let width = entries.iter().map(|e| e.0.chars().count()).max().unwrap_or(0).min(24);
+        for (k, d) in entries {
+            lines.push(Line::from(vec![
+                Span::from(format!("  {k:<width$} ")).fg(Color::LightCyan),
+                Span::from(d),
+            ]));
+        }
+    }
+    lines.push(Line::from("mouse: click selects the nearest point, drag moves it").fg(Color::Gray));
+    lines
+}
+
+pub fn draw(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Rect) {
+    let w = area.width.saturating_sub(4).min(90);
+    let h = area.height.saturating_sub(2);
+    if w < 10 || h < 3 {
+        return;
+    }
+    let r = Rect::new(area.x + (area.width - w) / 2, area.y + (area.height - h) / 2, w, h);
+    let lines = help_lines(app, keymap);
+    let max_scroll = (lines.len() as u16).saturating_sub(h.saturating_sub(2));
+    frame.render_widget(Clear, r);
+    frame.render_widget(
+        Paragraph::new(lines).scroll((scroll.min(max_scroll), 0)).block(
+            Block::bordered()
+                .title(" help · j/k scroll · ? close ")
+                .border_style(Color::LightMagenta),
+        ),
+        r,
+    );
+}

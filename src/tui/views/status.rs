@@ -1,0 +1,115 @@
+//! The title bar (clip and view tabs), the per-frame flag strip, the status line (message,
+//! hints from the keymap, save state) and the prompt line.
+//!
+//! Hints are looked up in the keymap so they always name the keys actually bound.
+
+use crate::tui::action::Action;
+use crate::tui::app::{App, PromptKind, View};
+use crate::tui::keymap::Keymap;
+use crate::tui::update::mode_chain;
+use ratatui::Frame;
+use ratatui::layout::Rect;
+use ratatui::style::{Color, Modifier, Style, Stylize};
+use ratatui::text::{Line, Span};
+use ratatui::widgets::Paragraph;
+
+pub fn draw_title(app: &App, frame: &mut Frame, area: Rect) {
+    if area.height == 0 {
+        return;
+    }
+    let tab = |n: &str, name: &str, v: View| {
+        let s = Span::from(format!(" {n} {name} "));
+        if app.view == v { s.reversed().bold() } else { s.fg(Color::Gray) }
+    };
+    let mut spans = vec![Span::from("lipmap ").bold().fg(Color::LightMagenta)];
+    spans.push(Span::from(format!("{} ", app.title)));
+    spans.push(tab("1", "frames", View::Frames));
+    spans.push(tab("2", "head", View::Head));
+    spans.push(tab("3", "fit", View::Fit));
+    spans.push(tab("4", "analysis", View::Analysis));
+    frame.render_widget(Paragraph::new(Line::from(spans)), area);
+}
+
+/// One cell per frame (or per bucket of frames when there are more frames than columns):
+/// `!` flagged (red), `✓` reviewed, `·` plain; the current frame's cell reversed.
+pub fn draw_strip(app: &App, frame: &mut Frame, area: Rect) {
+    if area.height == 0 || area.width == 0 {
+        return;
+    }
+    let n = app.n_frames();
+    if n == 0 {
+        return;
+    }
+    let cols = (area.width as usize).min(n);
+    let mut spans = Vec::with_capacity(cols);
+    let flagged: std::collections::BTreeSet<usize> = app.flags.iter().map(|f| f.frame).collect();
+    for c in 0..cols {
+        let (a, b) = (c * n / cols, ((c + 1) * n / cols).max(c * n / cols + 1));
+        let frames = &app.track.frames[a..b.min(n)];
+        let any_flag = frames.iter().any(|f| flagged.contains(&f.frame));
+        let all_reviewed = frames.iter().all(|f| app.reviewed.contains(&f.frame));
+        let (sym, colour) = if any_flag && !all_reviewed {
+            ("!", Color::LightRed)
+        } else if all_reviewed {
+            ("✓", Color::LightGreen)
+        } else if any_flag {
+            ("!", Color::Green)
+        } else {
+            ("·", Color::DarkGray)
+        };
+        let mut style = Style::new().fg(colour);
+        if (a..b).contains(&app.frame_pos) {
+            style = style.add_modifier(Modifier::REVERSED);
+        }
+        spans.push(Span::styled(sym, style));
+    }
+    frame.render_widget(Paragraph::new(Line::from(spans)), area);
+}
+
+pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
+    if area.height == 0 {
+        return;
+    }
+    let chain = mode_chain(app);
+    let key = |a: Action| keymap.key_for(&chain, &a).map_or(String::new(), |k| k.to_string());
+    let save = if app.unsaved_edits > 0 {
+        Span::from(" ● unsaved ").fg(Color::Yellow)
+    } else {
+        Span::from(" saved ").fg(Color::DarkGray)
+    };
+    let fit = if app.fit.running {
+        let (d, t) = app.fit.progress;
+        Span::from(format!(" fitting {d}/{t} ")).fg(Color::LightCyan)
+    } else {
+        Span::from("")
+    };
+    let msg = if app.status.is_empty() {
+        format!(
+            "{} help  {} quit  {} undo",
+            key(Action::ToggleHelp),
+            key(Action::Quit),
+            key(Action::Undo)
+        )
+    } else {
+        app.status.clone()
+    };
+    let right_len = (save.width() + fit.width()) as u16;
+    let left = Rect::new(area.x, area.y, area.width.saturating_sub(right_len), 1);
+    let right = Rect::new(area.x + left.width, area.y, area.width - left.width, 1);
+    frame.render_widget(Paragraph::new(msg), left);
+    frame.render_widget(Paragraph::new(Line::from(vec![fit, save])), right);
+}
+
+pub fn draw_prompt(kind: PromptKind, input: &str, frame: &mut Frame, area: Rect) {
+    if area.height == 0 {
+        return;
+    }
+    let line = Line::from(vec![
+        Span::from(format!("{}: ", kind.question())).fg(Color::LightCyan),
+        Span::from(input.to_string()).bold(),
+        Span::from("▏"),
+        Span::from("  Enter ok · Esc cancel").fg(Color::DarkGray),
+    ]);
+    frame.render_widget(ratatui::widgets::Clear, area);
+    frame.render_widget(Paragraph::new(line), area);
+}

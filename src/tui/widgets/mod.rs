@@ -1,0 +1,6 @@
+//! TUI building blocks with no view logic: the half-block image widget, the worker threads
+//! for decoding and fitting, and terminal setup/restore.
+
+pub mod halfblock;
+pub mod terminal;
+pub mod worker;

@@ -1,0 +1,210 @@
+//! Worker threads for the slow work (frame decoding, fitting) that replies with `Action`s
+//! over a channel, so the UI thread never blocks.
+//!
+//! Each worker has a one-request slot: a new request replaces the pending one (flipping
+//! through 50 frames decodes the newest, a drag does not queue 50 fits). Replies carry the
+//! frame number or fit generation; `update` drops stale ones.
+
+use crate::fit::{FitSettings, FrameFit};
+use crate::landmarks::FrameLandmarks;
+use crate::model::{LandmarkMap, MorphableModel};
+use crate::tui::action::Action;
+use crate::tui::app::FrameProvider;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Condvar, Mutex};
+
+/// A single pending request, replaced by newer ones.
+struct Slot<T> {
+    pending: Mutex<Option<T>>,
+    wake: Condvar,
+    closed: AtomicBool,
+}
+
+impl<T> Slot<T> {
+    fn new() -> Self {
+        Self { pending: Mutex::new(None), wake: Condvar::new(), closed: AtomicBool::new(false) }
+    }
+
+    fn put(&self, req: T) {
+        if let Ok(mut p) = self.pending.lock() {
+            *p = Some(req);
+            self.wake.notify_one();
+        }
+    }
+
+    /// Blocks until a request arrives; `None` once closed.
+    fn take(&self) -> Option<T> {
+        let mut p = self.pending.lock().ok()?;
+        loop {
+            if self.closed.load(Ordering::Acquire) {
+                return None;
+            }
+            if let Some(r) = p.take() {
+                return Some(r);
+            }
+            p = self.wake.wait(p).ok()?;
+        }
+    }
+
+    fn has_pending(&self) -> bool {
+        self.pending.lock().map(|p| p.is_some()).unwrap_or(false)
+    }
+
+    fn close(&self) {
+        self.closed.store(true, Ordering::Release);
+        if let Ok(_p) = self.pending.lock() {
+            self.wake.notify_all();
+        }
+    }
+}
+
+/// Everything a fit needs, copied so the worker does not share the `App`.
+pub struct FitJob {
+    pub generation: u64,
+    pub model: Arc<MorphableModel>,
+    pub map: LandmarkMap,
+    pub settings: FitSettings,
+    pub frames: Vec<FrameLandmarks>,
+    pub image_height: f64,
+}
+
+/// Runs the fit for the TUI: the one call into `crate::fit`, kept here so API changes stay
+/// local. `progress` receives the number of frames done.
+pub fn fit_for_tui(job: &FitJob, progress: &dyn Fn(usize)) -> Vec<FrameFit> {
+    crate::fit::fit_clip(
+        &job.model,
+        &job.map,
+        &job.frames,
+        job.image_height,
+        &job.settings,
+        Some(progress),
+    )
+}
+
+/// The decoding and fitting threads.
+pub struct Workers {
+    frames: Arc<Slot<Vec<usize>>>,
+    fits: Arc<Slot<FitJob>>,
+}
+
+impl Workers {
+    /// Starts one decoding thread over `provider` and one fitting thread, replying on `tx`.
+    pub fn start(provider: Arc<dyn FrameProvider>, tx: Sender<Action>) -> Self {
+        let frames: Arc<Slot<Vec<usize>>> = Arc::new(Slot::new());
+        let fits: Arc<Slot<FitJob>> = Arc::new(Slot::new());
+        {
+            let slot = frames.clone();
+            let tx = tx.clone();
+            std::thread::spawn(move || {
+                while let Some(list) = slot.take() {
+                    for frame in list {
+                        let reply = match provider.load(frame) {
+                            Ok(img) => Action::FrameLoaded { frame, image: Arc::new(img) },
+                            Err(e) => Action::FrameFailed { frame, error: format!("{e:#}") },
+                        };
+                        if tx.send(reply).is_err() {
+                            return;
+                        }
+                        // A newer request wins over the rest of this prefetch list.
+                        if slot.has_pending() {
+                            break;
+                        }
+                    }
+                }
+            });
+        }
+        {
+            let slot = fits.clone();
+            std::thread::spawn(move || {
+                while let Some(job) = slot.take() {
+                    let generation = job.generation;
+                    let total = job.frames.len();
+                    let ptx = Mutex::new(tx.clone());
+                    let progress = |done: usize| {
+                        if let Ok(t) = ptx.lock() {
+                            let _ = t.send(Action::FitProgress { generation, done, total });
+                        }
+                    };
+                    // A panic inside the fit must not take the UI down with it.
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        fit_for_tui(&job, &progress)
+                    }));
+                    let reply = match result {
+                        Ok(fits) => Action::FitDone { generation, fits },
+                        Err(_) => {
+                            Action::FitFailed { generation, error: "the fit panicked".into() }
+                        }
+                    };
+                    if tx.send(reply).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        Self { frames, fits }
+    }
+
+    /// Asks for frames to be decoded (first one first), replacing any pending request.
+    pub fn request_frames(&self, frames: Vec<usize>) {
+        self.frames.put(frames);
+    }
+
+    /// Asks for a fit, replacing any pending (not yet started) one.
+    pub fn request_fit(&self, job: FitJob) {
+        self.fits.put(job);
+    }
+}
+
+impl Drop for Workers {
+    fn drop(&mut self) {
+        // Threads finish their current item and exit; a running fit is not waited for.
+        self.frames.close();
+        self.fits.close();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tui::app::FrameImage;
+    use std::sync::mpsc;
+    use std::time::Duration;
+
+    struct Slow;
+    impl FrameProvider for Slow {
+        fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
+            std::thread::sleep(Duration::from_millis(30));
+            if frame == 99 {
+                anyhow::bail!("broken frame");
+            }
+            Ok(FrameImage { width: 1, height: 1, rgb: vec![frame as u8, 0, 0] })
+        }
+    }
+
+    #[test]
+    fn newest_request_wins_and_errors_reply() {
+        let (tx, rx) = mpsc::channel();
+        let w = Workers::start(Arc::new(Slow), tx);
+        w.request_frames(vec![1, 2, 3, 4, 5, 6]);
+        std::thread::sleep(Duration::from_millis(10));
+        w.request_frames(vec![99]);
+        let mut got = Vec::new();
+        while let Ok(a) = rx.recv_timeout(Duration::from_millis(500)) {
+            got.push(a);
+            if matches!(got.last(), Some(Action::FrameFailed { .. })) {
+                break;
+            }
+        }
+        let frames: Vec<usize> = got
+            .iter()
+            .filter_map(|a| match a {
+                Action::FrameLoaded { frame, .. } => Some(*frame),
+                _ => None,
+            })
+            .collect();
+        // Frame 1 was being decoded when 99 arrived; the rest of the prefetch was dropped.
+        assert_eq!(frames, vec![1]);
+        assert!(matches!(got.last(), Some(Action::FrameFailed { frame: 99, .. })));
+    }
+}

@@ -1,0 +1,669 @@
+//! Sessions and frame sources end to end: save/load round trips, relative paths, schema
+//! refusal, crash safety of saves, the editor lock, the fit cache, and frames from image
+//! folders and videos (real carphone data from ../shared when present).
+
+use lipmap::alignment::{Alignment, Phone};
+use lipmap::fit::{FitSettings, FrameFit};
+use lipmap::io::frames::{FrameError, FrameOptions, FrameSource};
+use lipmap::landmarks::{
+    FrameLandmarks, LandmarkPoint, LandmarkSet, N_LANDMARKS, PointSource, Track,
+};
+use lipmap::session::store::{backup_path, lock_path, temp_path};
+use lipmap::session::{
+    CURRENT_SCHEMA, Clip, FramesRef, LockInfo, MapRef, ModelRef, Session, SessionError,
+    SessionLock, View,
+};
+use proptest::prelude::*;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn frame(f: usize, seed: f64) -> FrameLandmarks {
+    let pts = (0..N_LANDMARKS)
+        .map(|i| {
+            LandmarkPoint::tracked(
+                100.0 + seed + i as f64 * 1.25,
+                50.0 + (f as f64 * 0.1 + i as f64).sin(),
+            )
+        })
+        .collect();
+    FrameLandmarks::new(f, pts)
+}
+
+fn session_with_frames(file: &Path, n: usize) -> Session {
+    let root = file.parent().unwrap().parent().unwrap();
+    let mut s = Session::new(file);
+    let mut clip =
+        Clip::new("clip1", View::new(FramesRef::Images { dir: root.join("frames") }, 29.97));
+    clip.tracked = Track::new((0..n).map(|f| frame(f, 0.0)).collect());
+    s.add_clip(clip).unwrap();
+    s
+}
+
+fn fit_of(frame: usize) -> FrameFit {
+    FrameFit {
+        frame,
+        yaw: 1.5,
+        pitch: -2.0,
+        roll: 0.25,
+        scale: 0.01,
+        tx: 3.0,
+        ty: -4.0,
+        identity: vec![0.1, -0.2],
+        expression: vec![],
+        reproj_rms_px: 1.2,
+        residuals: vec![None; N_LANDMARKS],
+        failed: None,
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Round trips and paths
+
+fn arb_point() -> impl Strategy<Value = LandmarkPoint> {
+    let coord = prop_oneof![-1e4..1e4f64, prop::num::f64::NORMAL, Just(0.0)];
+    (coord.clone(), coord, any::<bool>(), prop::option::of(0.0f32..1.0), 0..3u8).prop_map(
+        |(x, y, visible, confidence, s)| {
+            let source = [PointSource::Tracked, PointSource::Corrected, PointSource::Interpolated]
+                [s as usize];
+            LandmarkPoint { x, y, visible, confidence, source }
+        },
+    )
+}
+
+fn arb_frame(f: usize) -> impl Strategy<Value = FrameLandmarks> {
+    (
+        prop::collection::vec(arb_point(), N_LANDMARKS),
+        prop::option::of(0.0..100.0f64),
+        prop::option::of(0.0f32..1.0),
+        any::<bool>(),
+    )
+        .prop_map(move |(points, timestamp, confidence, success)| FrameLandmarks {
+            frame: f,
+            timestamp,
+            confidence,
+            success,
+            points,
+        })
+}
+
+type Parts = (
+    Vec<FrameLandmarks>,
+    Vec<(usize, usize, LandmarkPoint)>,
+    Vec<usize>,
+    Vec<(String, f64)>,
+    Vec<f64>,
+    bool,
+    String,
+    f64,
+);
+
+/// The random parts of a session; `build_session` places them under a real folder.
+fn arb_parts() -> impl Strategy<Value = Parts> {
+    let frames = prop::collection::btree_set(0..40usize, 0..6)
+        .prop_flat_map(|set| set.into_iter().map(arb_frame).collect::<Vec<_>>());
+    let corrections = prop::collection::vec((0..50usize, 0..N_LANDMARKS, arb_point()), 0..6);
+    let reviewed = prop::collection::vec(0..50usize, 0..4);
+    let phones = prop::collection::vec(("[a-zA-Z]{1,3}[0-2]?", 0.01..0.5f64), 0..5);
+    let fits = prop::collection::vec(-1e3..1e3f64, 0..4);
+    (frames, corrections, reviewed, phones, fits, any::<bool>(), "[a-z]{1,8}", -2.0..2.0f64)
+}
+
+/// A session with every optional part present in some cases.
+fn build_session(parts: Parts, file: &Path) -> Session {
+    let (frames, corr, reviewed, phones, coeffs, side, ext, offset) = parts;
+    let root = file.parent().unwrap().parent().unwrap().to_path_buf();
+    let mut s = Session::new(file);
+    s.head_mesh = Some(root.join("heads/h.obj"));
+    s.model = Some(ModelRef {
+        path: root.join("models/m.bin"),
+        blendshapes: side.then(|| root.join("models/b.bin")),
+    });
+    s.landmark_map = MapRef {
+        file: Some(root.join("maps/ibug.toml")),
+        inline: side.then(|| [(30, 114), (62, 7)].into()),
+    };
+    s.fit_settings.set = if side { LandmarkSet::F1 } else { LandmarkSet::F4 };
+    s.extensions.insert(ext.clone(), serde_json::json!({"n": offset, "v": [1, 2]}));
+    let mut clip =
+        Clip::new("c1", View::new(FramesRef::Video { file: root.join("video/a.mp4") }, 29.97));
+    clip.front.size = Some([176, 144]);
+    if side {
+        clip.side = Some(View {
+            source: FramesRef::Images { dir: root.join("side") },
+            fps: 50.0,
+            size: None,
+            offset_s: offset,
+        });
+    }
+    clip.tracked = Track::new(frames);
+    clip.landmarks_file = Some(root.join("lm/clip.csv"));
+    for (f, i, p) in corr {
+        clip.corrections.set(f, i, p).unwrap();
+    }
+    for f in reviewed {
+        clip.corrections.set_reviewed(f, true);
+    }
+    let mut t = 0.0;
+    clip.alignment = Some(Alignment {
+        phones: phones
+            .into_iter()
+            .map(|(label, d)| {
+                let p = Phone { start: t, end: t + d, label };
+                t += d;
+                p
+            })
+            .collect(),
+    });
+    clip.alignment_file = Some(root.join("align/a.TextGrid"));
+    clip.extensions
+        .insert("protrusion".into(), serde_json::json!({"line": [[1.5, 2.0], [3.0, 4.0]]}));
+    let ci = s.add_clip(clip).unwrap();
+    let fits: Vec<FrameFit> = s
+        .effective_track(ci)
+        .unwrap()
+        .frames
+        .iter()
+        .map(|f| FrameFit { identity: coeffs.clone(), ..fit_of(f.frame) })
+        .collect();
+    let settings = s.fit_settings.clone();
+    s.store_fits(ci, &settings, fits).unwrap();
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #[test]
+    fn save_then_load_gives_the_same_session(parts in arb_parts()) {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("sessions").join("p.lipmap.json");
+        let s = build_session(parts, &file);
+        s.save(&file).unwrap();
+        let back = Session::load(&file).unwrap();
+        prop_assert_eq!(&back, &s);
+        // Exact floats: the cache made before saving is still valid after loading.
+        prop_assert!(back.stale_frames(0).is_empty(), "stale after reload: {:?}", back.stale_frames(0));
+        // Saving the loaded session writes the same bytes.
+        prop_assert_eq!(back.to_json(&file).unwrap(), std::fs::read(&file).unwrap());
+    }
+}
+
+#[test]
+fn paths_are_relative_on_disk_and_follow_a_moved_project() {
+    let dir = tempfile::tempdir().unwrap();
+    let project = dir.path().join("project");
+    let file = project.join("sessions").join("a.lipmap.json");
+    let mut s = session_with_frames(&file, 2);
+    s.model = Some(ModelRef { path: project.join("models/sfm.bin"), blendshapes: None });
+    s.save(&file).unwrap();
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains(r#""dir": "../frames""#), "{text}");
+    assert!(text.contains(r#""path": "../models/sfm.bin""#), "{text}");
+    assert!(!text.contains(&dir.path().display().to_string()), "an absolute path leaked: {text}");
+
+    let moved = dir.path().join("moved");
+    std::fs::rename(&project, &moved).unwrap();
+    let back = Session::load(&moved.join("sessions/a.lipmap.json")).unwrap();
+    assert_eq!(back.clips[0].front.source.path(), moved.join("frames"));
+    assert_eq!(back.model.unwrap().path, moved.join("models/sfm.bin"));
+    assert_eq!(back.name, "a");
+}
+
+#[test]
+fn the_tracked_layer_is_never_changed_by_corrections() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions/c.lipmap.json");
+    let mut s = session_with_frames(&file, 3);
+    let before = s.clips[0].tracked.clone();
+    s.set_correction(0, 1, 62, LandmarkPoint::tracked(7.5, 8.5)).unwrap();
+    s.set_correction(0, 9, 0, LandmarkPoint::tracked(1.0, 2.0)).unwrap(); // untracked frame
+    assert!(s.set_correction(0, 1, 68, LandmarkPoint::tracked(0.0, 0.0)).is_err());
+    assert!(matches!(
+        s.set_correction(4, 1, 1, LandmarkPoint::tracked(0.0, 0.0)),
+        Err(SessionError::NoClip { .. })
+    ));
+    s.set_reviewed(0, 1, true).unwrap();
+    s.save(&file).unwrap();
+    let mut back = Session::load(&file).unwrap();
+    assert_eq!(back.clips[0].tracked, before);
+    let e = back.effective_frame(0, 1).unwrap();
+    assert_eq!((e.points[62].x, e.points[62].source), (7.5, PointSource::Corrected));
+    assert_eq!(back.effective_frame(0, 9).unwrap().visible_points().count(), 1);
+    assert!(back.corrections_of(0).unwrap().is_reviewed(1));
+    back.clear_correction(0, 1, 62).unwrap();
+    assert_eq!(back.effective_frame(0, 1).unwrap(), before.get(1).unwrap().clone());
+}
+
+// ---------------------------------------------------------------------------------------
+// Bad files
+
+#[test]
+fn a_session_from_a_newer_schema_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("new.lipmap.json");
+    let newer = CURRENT_SCHEMA + 1;
+    std::fs::write(
+        &file,
+        format!("{{\n  \"schema_version\": {newer},\n  \"clips\": [], \"future\": {{}}\n}}\n"),
+    )
+    .unwrap();
+    let err = Session::load(&file).unwrap_err();
+    assert!(matches!(err, SessionError::NewerSchema { found, .. } if found == newer), "{err:?}");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("newer lipmap")
+            && msg.contains(&format!("schema {newer}"))
+            && msg.contains("new.lipmap.json"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn load_errors_keep_serde_json_line_and_column() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("bad.lipmap.json");
+    std::fs::write(&file, "{\n  \"schema_version\": 1,\n  \"clips\": [,]\n}\n").unwrap();
+    match Session::load(&file).unwrap_err() {
+        SessionError::Parse { line, column, message, .. } => {
+            assert_eq!((line, column), (3, 13), "{message}");
+        }
+        e => panic!("expected a parse error, got {e}"),
+    }
+    // A bad field deep inside: the wrong number of coordinates in a frame.
+    std::fs::write(
+        &file,
+        "{\"schema_version\": 1, \"clips\": [{\"name\": \"a\",\n \"front\": {\"source\": {\"kind\": \"images\", \"dir\": \"f\"}, \"fps\": 25},\n \"tracked\": [{\"frame\": 0, \"xy\": [1, 2]}]}]}",
+    )
+    .unwrap();
+    let msg = Session::load(&file).unwrap_err().to_string();
+    assert!(
+        msg.contains("bad.lipmap.json:3:") && msg.contains("`xy` has 2 numbers, expected 136"),
+        "{msg}"
+    );
+    std::fs::write(&file, "{\"clips\": []}").unwrap();
+    assert!(Session::load(&file).unwrap_err().to_string().contains("not a lipmap session"));
+    std::fs::write(&file, "").unwrap();
+    assert!(matches!(Session::load(&file).unwrap_err(), SessionError::Parse { line: 1, .. }));
+}
+
+#[test]
+fn duplicate_clip_names_and_non_finite_values_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions/d.lipmap.json");
+    let mut s = session_with_frames(&file, 1);
+    let dup = s.clips[0].clone();
+    assert!(s.add_clip(dup.clone()).is_err());
+    s.clips.push(dup);
+    assert!(s.save(&file).unwrap_err().to_string().contains("two clips are named"));
+    assert!(!file.exists(), "nothing may be written for an invalid session");
+    s.clips.pop();
+    s.clips[0].tracked.frames[0].points[5].x = f64::NAN;
+    assert!(s.save(&file).unwrap_err().to_string().contains("point 5 is not finite"));
+    s.clips[0].tracked.frames[0].points[5].x = 1.0;
+    // A non-finite fit is stored as a failed frame instead of making the file unloadable.
+    let settings = FitSettings::default();
+    s.store_fits(0, &settings, vec![FrameFit { yaw: f64::NAN, ..fit_of(0) }]).unwrap();
+    s.save(&file).unwrap();
+    let back = Session::load(&file).unwrap();
+    assert!(back.cached_fit(0, &settings, 0).unwrap().failed.is_some());
+}
+
+// ---------------------------------------------------------------------------------------
+// Crash safety
+
+const SAVE_LOOP_ENV: &str = "LIPMAP_TEST_SAVE_LOOP";
+
+fn big_session(file: &Path, name: &str) -> Session {
+    let mut s = session_with_frames(file, 3000);
+    s.name = name.to_string();
+    s
+}
+
+/// Not a test on its own: the body of the child process `a_save_killed_midway_...` kills.
+#[test]
+fn child_process_saving_in_a_loop() {
+    let Some(file) = std::env::var_os(SAVE_LOOP_ENV) else { return };
+    let file = PathBuf::from(file);
+    let a = big_session(&file, "A");
+    let b = big_session(&file, "B");
+    println!("ready");
+    for i in 0.. {
+        let s = if i % 2 == 0 { &a } else { &b };
+        s.save(&file).unwrap();
+    }
+}
+
+#[test]
+fn a_save_killed_midway_leaves_the_previous_session_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("k.lipmap.json");
+    let original = big_session(&file, "original");
+    original.save(&file).unwrap();
+    let exe = std::env::current_exe().unwrap();
+    let mut seen = std::collections::BTreeSet::new();
+    let mut mid_save_kills = 0;
+    for delay_ms in [0u64, 40, 90, 170] {
+        let mut child = std::process::Command::new(&exe)
+            .args(["child_process_saving_in_a_loop", "--exact", "--nocapture", "--test-threads=1"])
+            .env(SAVE_LOOP_ENV, &file)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // Wait until the child has built its sessions and started saving.
+        let mut out = std::io::BufReader::new(child.stdout.take().unwrap());
+        let mut line = String::new();
+        while !line.contains("ready") {
+            line.clear();
+            if std::io::BufRead::read_line(&mut out, &mut line).unwrap() == 0 {
+                panic!("child exited before saving");
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+        child.kill().unwrap(); // SIGKILL: no destructors, no cleanup, like a crash
+        child.wait().unwrap();
+        let killed_mid_save = std::fs::read_dir(file.parent().unwrap())
+            .unwrap()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().contains(".tmp."));
+        if killed_mid_save {
+            mid_save_kills += 1;
+        }
+        let back = Session::load(&file).expect("the session must load after a crash mid-save");
+        assert!(["original", "A", "B"].contains(&back.name.as_str()), "{}", back.name);
+        let expected = big_session(&file, &back.name);
+        assert_eq!(back.clips, expected.clips);
+        seen.insert(back.name.clone());
+    }
+    // A later save still works and clears the dead child's temp files.
+    original.save(&file).unwrap();
+    let leftovers: Vec<_> = std::fs::read_dir(file.parent().unwrap())
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp."))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+    println!(
+        "versions seen after kills: {seen:?}; kills that left a temp file (mid-save): {mid_save_kills}"
+    );
+}
+
+#[test]
+fn a_partial_temp_file_from_a_crash_is_ignored() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("t.lipmap.json");
+    let s = session_with_frames(&file, 5);
+    s.save(&file).unwrap();
+    // Simulate a crash after writing half of the next version, before the rename.
+    let mut next = s.clone();
+    next.name = "next".into();
+    let bytes = next.to_json(&file).unwrap();
+    std::fs::write(temp_path(&file), &bytes[..bytes.len() / 2]).unwrap();
+    assert_eq!(Session::load(&file).unwrap(), s);
+    next.save(&file).unwrap();
+    assert_eq!(Session::load(&file).unwrap().name, "next");
+    assert!(!temp_path(&file).exists());
+}
+
+#[test]
+fn saves_rotate_three_backups() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("b.lipmap.json");
+    let mut s = session_with_frames(&file, 1);
+    for i in 0..5 {
+        s.name = format!("v{i}");
+        s.save(&file).unwrap();
+    }
+    let name_of = |p: PathBuf| Session::load(&p).unwrap().name;
+    assert_eq!(name_of(file.clone()), "v4");
+    assert_eq!(name_of(backup_path(&file, 1)), "v3");
+    assert_eq!(name_of(backup_path(&file, 2)), "v2");
+    assert_eq!(name_of(backup_path(&file, 3)), "v1");
+    assert!(!backup_path(&file, 4).exists());
+    assert!(backup_path(&file, 1).ends_with("b.lipmap.json.bak"));
+}
+
+// ---------------------------------------------------------------------------------------
+// Lock
+
+#[test]
+fn a_second_editor_is_refused_with_the_holder_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("l.lipmap.json");
+    let lock = SessionLock::acquire(&file).unwrap();
+    let me = LockInfo::current();
+    let err = SessionLock::acquire(&file).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, SessionError::Locked { .. }));
+    assert!(
+        msg.contains(&format!("{}@{}", me.user, me.host))
+            && msg.contains(&format!("pid {}", me.pid)),
+        "{msg}"
+    );
+    assert!(msg.contains("l.lipmap.json"), "{msg}");
+    drop(lock);
+    assert!(!lock_path(&file).exists(), "released on drop");
+    let _again = SessionLock::acquire(&file).unwrap();
+}
+
+#[test]
+fn a_stale_lock_on_this_host_is_taken_over_but_not_a_remote_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.lipmap.json");
+    // A process that has certainly exited.
+    let mut child = std::process::Command::new(std::env::current_exe().unwrap())
+        .arg("--list")
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let dead_pid = child.id();
+    child.wait().unwrap();
+    let mut stale = LockInfo::current();
+    stale.pid = dead_pid;
+    std::fs::write(lock_path(&file), serde_json::to_string(&stale).unwrap()).unwrap();
+    let lock = SessionLock::acquire(&file).expect("a dead holder's lock is taken over");
+    assert_eq!(SessionLock::holder(&file).unwrap().pid, std::process::id());
+    drop(lock);
+
+    let remote = LockInfo { host: "another-machine".into(), pid: dead_pid, ..LockInfo::current() };
+    std::fs::write(lock_path(&file), serde_json::to_string(&remote).unwrap()).unwrap();
+    let msg = SessionLock::acquire(&file).unwrap_err().to_string();
+    assert!(msg.contains("another-machine") && msg.contains("delete"), "{msg}");
+}
+
+// ---------------------------------------------------------------------------------------
+// Fit cache
+
+#[test]
+fn a_correction_makes_only_its_frame_stale() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("f.lipmap.json");
+    let mut s = session_with_frames(&file, 6);
+    s.model = Some(ModelRef { path: dir.path().join("m.bin"), blendshapes: None });
+    let settings = s.fit_settings.clone();
+    assert_eq!(s.stale_frames(0), (0..6).collect::<Vec<_>>());
+    s.store_fits(0, &settings, (0..6).map(fit_of).collect()).unwrap();
+    assert!(s.stale_frames(0).is_empty());
+
+    s.set_correction(0, 2, 62, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
+    assert_eq!(s.stale_frames(0), vec![2]);
+    // A jaw point is outside the default F4 set: the F4 fit is still valid.
+    s.set_correction(0, 4, 3, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
+    assert_eq!(s.stale_frames(0), vec![2]);
+    assert_eq!(s.cached_fits(0, &settings).len(), 5);
+    // Re-fitting the stale frame merges into the cache; saving and loading keeps it valid.
+    s.store_fits(0, &settings, vec![fit_of(2)]).unwrap();
+    s.save(&file).unwrap();
+    let mut s = Session::load(&file).unwrap();
+    assert!(s.stale_frames(0).is_empty());
+    // Other settings have their own entry; a changed model invalidates everything.
+    let f5 = FitSettings { set: LandmarkSet::F5, ..settings.clone() };
+    assert_eq!(s.stale_frames_with(0, &f5).len(), 6);
+    s.model.as_mut().unwrap().path = dir.path().join("other.bin");
+    assert_eq!(s.stale_frames(0).len(), 6);
+    assert!(s.cached_fit(0, &settings, 1).is_none());
+}
+
+#[test]
+fn a_clip_fit_goes_stale_as_a_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("g.lipmap.json");
+    let mut s = session_with_frames(&file, 4);
+    let settings = FitSettings { clip: true, ..FitSettings::default() };
+    s.store_fits(0, &settings, (0..4).map(fit_of).collect()).unwrap();
+    assert!(s.stale_frames_with(0, &settings).is_empty());
+    s.set_correction(0, 1, 50, LandmarkPoint::tracked(1.0, 1.0)).unwrap();
+    assert_eq!(s.stale_frames_with(0, &settings), vec![0, 1, 2, 3]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Frames
+
+#[test]
+fn image_folder_opens_in_natural_order_with_a_bounded_cache() {
+    let Some(dir) = lipmap::testdata::shared("data/carphone/frames") else { return };
+    let src = FrameSource::open(
+        &dir,
+        &FrameOptions { fps: Some(29.97), cache_mb: 1, ..FrameOptions::default() },
+    )
+    .unwrap();
+    assert_eq!((src.len(), src.size(), src.fps()), (120, [176, 144], 29.97));
+    assert!(src.frame_path(2).unwrap().ends_with("frame_0002.png"));
+    let f0 = src.get(0).unwrap();
+    assert_eq!(f0.dimensions(), (176, 144));
+    let direct = image::open(dir.join("frame_0000.png")).unwrap().into_rgb8();
+    assert_eq!(*f0, direct);
+    for i in 0..120 {
+        src.get(i).unwrap();
+    }
+    assert!(src.cached_bytes() <= 1 << 20, "cache holds {} bytes", src.cached_bytes());
+    assert!(src.is_cached(119) && !src.is_cached(0));
+    assert!(matches!(src.get(120), Err(FrameError::OutOfRange { len: 120, .. })));
+}
+
+#[test]
+fn frames_decode_from_several_threads() {
+    let Some(dir) = lipmap::testdata::shared("data/carphone/frames") else { return };
+    let src = Arc::new(FrameSource::open(&dir, &FrameOptions::default()).unwrap());
+    let handles: Vec<_> = (0..4)
+        .map(|t| {
+            let src = Arc::clone(&src);
+            std::thread::spawn(move || {
+                (t..120).step_by(4).map(|i| src.get(i).unwrap().len()).sum::<usize>()
+            })
+        })
+        .collect();
+    let total: usize = handles.into_iter().map(|h| h.join().unwrap()).sum();
+    assert_eq!(total, 120 * 176 * 144 * 3);
+}
+
+#[test]
+fn natural_sort_and_mixed_formats_in_a_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    for i in [1, 2, 10, 11, 3] {
+        let img = image::RgbImage::from_pixel(4, 3, image::Rgb([i as u8, 0, 0]));
+        let ext = if i == 3 { "ppm" } else { "png" };
+        img.save(dir.path().join(format!("frame{i}.{ext}"))).unwrap();
+    }
+    std::fs::write(dir.path().join("notes.txt"), "not a frame").unwrap();
+    std::fs::create_dir(dir.path().join("sub.png")).unwrap();
+    let src = FrameSource::open(dir.path(), &FrameOptions::default()).unwrap();
+    let order: Vec<u8> = (0..src.len()).map(|i| src.get(i).unwrap().get_pixel(0, 0)[0]).collect();
+    assert_eq!(order, vec![1, 2, 3, 10, 11]);
+    assert_eq!(src.fps(), lipmap::io::frames::DEFAULT_FOLDER_FPS);
+    // A frame of another size is an error naming it, not a panic.
+    image::RgbImage::new(5, 5).save(dir.path().join("frame12.png")).unwrap();
+    let src = FrameSource::open(dir.path(), &FrameOptions::default()).unwrap();
+    let msg = src.get(5).unwrap_err().to_string();
+    assert!(msg.contains("frame12.png") && msg.contains("5x5"), "{msg}");
+    let empty = tempfile::tempdir().unwrap();
+    assert!(matches!(
+        FrameSource::open(empty.path(), &FrameOptions::default()),
+        Err(FrameError::NoFrames { .. })
+    ));
+}
+
+fn ffmpeg_available() -> bool {
+    let ok = std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!(
+            "skipping: the `ffmpeg` program is not installed (Debian: apt-get install ffmpeg)"
+        );
+    }
+    ok
+}
+
+#[test]
+fn video_frames_match_the_decoded_pngs() {
+    let Some(video) = lipmap::testdata::shared("data/carphone/carphone_pristine.mp4") else {
+        return;
+    };
+    let Some(pngs) = lipmap::testdata::shared("data/carphone/frames") else { return };
+    if !ffmpeg_available() {
+        return;
+    }
+    let src =
+        FrameSource::open(&video, &FrameOptions { video_chunk: 8, ..FrameOptions::default() })
+            .unwrap();
+    assert_eq!((src.len(), src.size()), (120, [176, 144]));
+    assert!((src.fps() - 30000.0 / 1001.0).abs() < 1e-9);
+    // Out of order, across chunk borders, including the last frame.
+    for i in [37, 0, 8, 7, 119, 64] {
+        let got = src.get(i).unwrap();
+        let want = image::open(pngs.join(format!("frame_{i:04}.png"))).unwrap().into_rgb8();
+        let mad = got
+            .as_raw()
+            .iter()
+            .zip(want.as_raw())
+            .map(|(a, b)| (*a as f64 - *b as f64).abs())
+            .sum::<f64>()
+            / want.as_raw().len() as f64;
+        // Neighbouring frames differ by several grey levels on average; the same frame by
+        // at most colour-conversion rounding.
+        assert!(mad < 1.5, "frame {i}: mean abs difference {mad}");
+        if i > 0 {
+            let prev =
+                image::open(pngs.join(format!("frame_{:04}.png", i - 1))).unwrap().into_rgb8();
+            let mad_prev = got
+                .as_raw()
+                .iter()
+                .zip(prev.as_raw())
+                .map(|(a, b)| (*a as f64 - *b as f64).abs())
+                .sum::<f64>()
+                / prev.as_raw().len() as f64;
+            assert!(mad < mad_prev, "frame {i} matches frame {} better", i - 1);
+        }
+    }
+    assert!(src.is_cached(38) && !src.is_cached(48), "chunk of 8 around frame 37");
+    assert!(src.get(120).is_err());
+}
+
+#[test]
+fn a_missing_video_is_an_error_naming_it() {
+    let err = FrameSource::open(Path::new("/nonexistent/clip.mp4"), &FrameOptions::default())
+        .unwrap_err();
+    assert!(err.to_string().contains("/nonexistent/clip.mp4"), "{err}");
+    let missing = FrameError::ProgramMissing { program: "ffmpeg" }.to_string();
+    assert!(
+        missing.contains("`ffmpeg`") && missing.contains("apt-get install ffmpeg"),
+        "{missing}"
+    );
+}
+
+#[test]
+fn a_session_opens_its_clip_frames() {
+    let Some(frames) = lipmap::testdata::shared("data/carphone/frames") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("x.lipmap.json");
+    let mut s = Session::new(&file);
+    let mut clip = Clip::new("carphone", View::new(FramesRef::Images { dir: frames }, 29.97));
+    clip.side = Some(View { offset_s: 0.1, ..clip.front.clone() });
+    s.add_clip(clip).unwrap();
+    s.save(&file).unwrap();
+    let s = Session::load(&file).unwrap();
+    let src = s.open_frames(0, 16).unwrap();
+    assert_eq!((src.len(), src.fps()), (120, 29.97));
+    assert!(s.open_side_frames(0, 16).unwrap().is_some());
+}

@@ -1,0 +1,332 @@
+//! `update` driven by action sequences, no terminal: edits, undo/redo, interpolation,
+//! propagation, mouse drags, navigation, fits, labelling, quitting with unsaved edits.
+
+use lipmap::landmarks::PointSource;
+use lipmap::tui::app::{App, Effect, Overlay, Scope, View};
+use lipmap::tui::fixtures::{GLITCH_FRAME, synthetic_app};
+use lipmap::tui::update::key_to_action;
+use lipmap::tui::views::image_mapping;
+use lipmap::tui::{Action, Keymap, update};
+use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
+
+fn app() -> App {
+    let mut a = synthetic_app(20, 160, 120, false);
+    a.term_size = (80, 24);
+    a
+}
+
+fn run(app: &mut App, actions: impl IntoIterator<Item = Action>) {
+    for a in actions {
+        let mut next = Some(a);
+        while let Some(a) = next {
+            next = update(app, a);
+        }
+    }
+}
+
+fn point(app: &App, frame: usize, i: usize) -> lipmap::landmarks::LandmarkPoint {
+    app.track.get(frame).unwrap().points[i]
+}
+
+#[test]
+fn nudge_undo_redo() {
+    let mut a = app();
+    let before = point(&a, 0, 62);
+    let step = image_mapping(&a, a.term_size).unwrap().step_px();
+    run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::Nudge { dx: 0, dy: 10 }]);
+    let p = point(&a, 0, 62);
+    assert!((p.x - before.x - step).abs() < 1e-9);
+    assert!((p.y - before.y - 10.0 * step).abs() < 1e-9);
+    assert_eq!(p.source, PointSource::Corrected);
+    assert_eq!(a.tracked.get(0).unwrap().points[62], before, "tracker's value kept");
+    assert_eq!(a.unsaved_edits, 2);
+    run(&mut a, [Action::Undo, Action::Undo]);
+    assert_eq!(point(&a, 0, 62), before);
+    run(&mut a, [Action::Undo]);
+    assert_eq!(a.status, "nothing to undo");
+    run(&mut a, [Action::Redo]);
+    assert!((point(&a, 0, 62).x - before.x - step).abs() < 1e-9);
+    // A new edit clears the redo stack.
+    run(&mut a, [Action::NextPoint, Action::Nudge { dx: -1, dy: 0 }, Action::Redo]);
+    assert_eq!(a.status, "nothing to redo");
+}
+
+#[test]
+fn zoom_makes_steps_sub_pixel_and_is_kept_across_frames() {
+    let mut a = app();
+    let coarse = image_mapping(&a, a.term_size).unwrap().step_px();
+    run(&mut a, [Action::ZoomIn, Action::ZoomIn, Action::ZoomIn, Action::ZoomIn]);
+    let fine = image_mapping(&a, a.term_size).unwrap().step_px();
+    assert!((coarse / fine - 16.0).abs() < 1e-9);
+    assert!(fine < 1.0, "sub-pixel step when zoomed: {fine}");
+    run(&mut a, [Action::NextFrame, Action::NextFrame]);
+    assert_eq!(a.image_view.zoom, 16.0);
+    run(&mut a, [Action::ZoomReset]);
+    assert_eq!(a.image_view.zoom, 1.0);
+}
+
+#[test]
+fn group_scope_moves_the_mouth_together() {
+    let mut a = app();
+    run(&mut a, [Action::CycleScope, Action::CycleScope]);
+    assert_eq!(a.scope, Scope::Mouth);
+    let before: Vec<f64> = (0..68).map(|i| point(&a, 0, i).y).collect();
+    run(&mut a, [Action::Nudge { dx: 0, dy: 1 }]);
+    for (i, &y0) in before.iter().enumerate() {
+        let moved = point(&a, 0, i).y != y0;
+        assert_eq!(moved, (48..68).contains(&i), "point {i}");
+    }
+    run(&mut a, [Action::Undo]);
+    assert!((0..68).all(|i| point(&a, 0, i).y == before[i]));
+}
+
+#[test]
+fn interpolate_between_corrected_keyframes() {
+    let mut a = app();
+    run(&mut a, [Action::NextFrame, Action::Nudge { dx: 10, dy: 0 }]);
+    for _ in 0..4 {
+        run(&mut a, [Action::NextFrame]);
+    }
+    run(&mut a, [Action::Nudge { dx: -10, dy: 0 }, Action::InterpolateSelected]);
+    assert_eq!(a.status, "interpolated over 3 frames");
+    let (p1, p5) = (point(&a, 1, 62), point(&a, 5, 62));
+    for f in 2..5 {
+        let p = point(&a, f, 62);
+        let t = (f - 1) as f64 / 4.0;
+        assert!((p.x - (p1.x + t * (p5.x - p1.x))).abs() < 1e-9);
+        assert_eq!(p.source, PointSource::Interpolated);
+    }
+    assert_eq!(point(&a, 6, 62).source, PointSource::Tracked);
+    run(&mut a, [Action::Undo]);
+    assert!((2..5).all(|f| point(&a, f, 62).source == PointSource::Tracked));
+}
+
+#[test]
+fn propagate_through_the_prompt() {
+    let mut a = app();
+    let km = Keymap::default();
+    run(&mut a, [Action::Nudge { dx: 0, dy: -10 }]);
+    let off = point(&a, 0, 62).y - a.tracked.get(0).unwrap().points[62].y;
+    // t, 3, Enter — through the keymap, as a user would type it.
+    for code in [KeyCode::Char('t'), KeyCode::Char('3'), KeyCode::Enter] {
+        let act = key_to_action(&a, &km, &KeyEvent::new(code, KeyModifiers::NONE)).unwrap();
+        run(&mut a, [act]);
+    }
+    assert!(a.overlays.is_empty());
+    for f in 1..=3 {
+        let d = point(&a, f, 62).y - a.tracked.get(f).unwrap().points[62].y;
+        assert!((d - off).abs() < 1e-9, "frame {f}");
+    }
+    assert_eq!(point(&a, 4, 62), a.tracked.get(4).unwrap().points[62]);
+    run(&mut a, [Action::Undo]);
+    assert!((1..=3).all(|f| point(&a, f, 62) == a.tracked.get(f).unwrap().points[62]));
+}
+
+#[test]
+fn prompt_goto_point_and_bad_input() {
+    let mut a = app();
+    run(
+        &mut a,
+        [
+            Action::GotoPointPrompt,
+            Action::PromptChar('4'),
+            Action::PromptChar('8'),
+            Action::PromptSubmit,
+        ],
+    );
+    assert_eq!(a.selected, 48);
+    run(
+        &mut a,
+        [
+            Action::GotoPointPrompt,
+            Action::PromptChar('9'),
+            Action::PromptChar('9'),
+            Action::PromptSubmit,
+        ],
+    );
+    assert_eq!(a.selected, 48);
+    assert!(a.status.contains("no landmark"));
+    run(&mut a, [Action::GotoPointPrompt, Action::Cancel]);
+    assert!(a.overlays.is_empty());
+}
+
+#[test]
+fn copy_toggle_revert_and_review() {
+    let mut a = app();
+    run(&mut a, [Action::NextFrame, Action::CopyPointFromPrev]);
+    assert_eq!(point(&a, 1, 62).y, point(&a, 0, 62).y);
+    run(&mut a, [Action::ToggleVisible]);
+    assert!(!point(&a, 1, 62).visible);
+    run(&mut a, [Action::RevertPoint]);
+    assert_eq!(point(&a, 1, 62), a.tracked.get(1).unwrap().points[62]);
+    run(&mut a, [Action::CopyFrameFromPrev]);
+    assert!((0..68).all(|i| point(&a, 1, i).x == point(&a, 0, i).x));
+    run(&mut a, [Action::ToggleReviewed]);
+    assert!(a.reviewed.contains(&1));
+    run(&mut a, [Action::Undo]);
+    assert!(!a.reviewed.contains(&1));
+    run(&mut a, [Action::Redo, Action::FirstFrame, Action::NextUnreviewed]);
+    assert_eq!(a.frame(), 2, "frame 1 is reviewed, so 2 is next");
+}
+
+#[test]
+fn flagged_frame_navigation_finds_the_glitch() {
+    let mut a = app();
+    assert!(a.flags.iter().any(|f| f.frame == GLITCH_FRAME));
+    run(&mut a, [Action::NextFlagged]);
+    assert_eq!(a.frame(), GLITCH_FRAME);
+    // Fixing the glitch clears its flag.
+    run(
+        &mut a,
+        [
+            Action::GotoPointPrompt,
+            Action::PromptChar('4'),
+            Action::PromptChar('8'),
+            Action::PromptSubmit,
+        ],
+    );
+    let fixed = lipmap::tui::fixtures::face_points(GLITCH_FRAME, 160, 120)[48];
+    let cur = point(&a, GLITCH_FRAME, 48);
+    let edit =
+        lipmap::landmarks::edit::place_point(&mut a.track, GLITCH_FRAME, 48, fixed.x, fixed.y);
+    assert!(edit.is_ok() && cur.x != fixed.x);
+    a.recompute_flags();
+    assert!(a.flags_of(GLITCH_FRAME).is_none());
+    run(&mut a, [Action::LastFrame, Action::NextFlagged]);
+    assert!(a.status.contains("no flagged frame after"));
+}
+
+#[test]
+fn mouse_click_selects_nearest_and_drag_is_one_undo_step() {
+    let mut a = app();
+    let m = image_mapping(&a, a.term_size).unwrap();
+    let p48 = point(&a, 0, 48);
+    let (col, row, _) = m.image_to_cell(p48.x, p48.y).unwrap();
+    run(&mut a, [Action::MouseDown { col, row }]);
+    assert_eq!(a.selected, 48);
+    run(
+        &mut a,
+        [
+            Action::MouseDrag { col: col + 1, row },
+            Action::MouseDrag { col: col + 2, row: row + 1 },
+            Action::MouseDrag { col: col + 3, row: row + 1 },
+            Action::MouseUp,
+        ],
+    );
+    let moved = point(&a, 0, 48);
+    let (tx, ty) = m.cell_to_image(col + 3, row + 1).unwrap();
+    assert!((moved.x - tx).abs() < 1e-9 && (moved.y - ty).abs() < 1e-9);
+    assert_eq!(a.undo.len(), 1);
+    run(&mut a, [Action::Undo]);
+    assert_eq!(point(&a, 0, 48), p48);
+}
+
+#[test]
+fn frame_changes_request_uncached_images_only() {
+    let mut a = synthetic_app(10, 32, 24, false);
+    a.images.clear();
+    a.cache_order.clear();
+    run(&mut a, [Action::NextFrame]);
+    assert_eq!(a.effects, vec![Effect::LoadFrames(vec![1, 2, 3, 0])]);
+    a.effects.clear();
+    let img = std::sync::Arc::new(lipmap::tui::fixtures::face_image(1, 32, 24));
+    run(&mut a, [Action::FrameLoaded { frame: 1, image: img }]);
+    assert!(a.current_image().is_some());
+    run(&mut a, [Action::FrameFailed { frame: 2, error: "broken".into() }, Action::NextFrame]);
+    assert_eq!(a.effects, vec![Effect::LoadFrames(vec![3, 4])], "2 failed, 1 cached");
+}
+
+#[test]
+fn fit_refits_only_edited_frames_and_drops_stale_replies() {
+    let mut a = synthetic_app(10, 64, 48, true);
+    run(&mut a, [Action::RunFit]);
+    assert!(a.status.contains("no model"), "{}", a.status);
+    a.model = Some(std::sync::Arc::new(lipmap::model::MorphableModel {
+        shape: lipmap::model::PcaModel {
+            mean: lipmap::math::DVector::zeros(3),
+            basis: lipmap::math::DMatrix::zeros(3, 0),
+            eigenvalues: lipmap::math::DVector::zeros(0),
+        },
+        expressions: None,
+        triangles: vec![],
+    }));
+    run(&mut a, [Action::NextFrame, Action::Nudge { dx: 1, dy: 0 }, Action::RunFit]);
+    assert_eq!(a.effects.last(), Some(&Effect::Fit { generation: 1, frames: Some(vec![1]) }));
+    run(&mut a, [Action::RunFit]);
+    let mut fits = lipmap::tui::fixtures::synthetic_fits(&a.track);
+    fits[1].reproj_rms_px = 42.0;
+    run(&mut a, [Action::FitDone { generation: 1, fits: fits.clone() }]);
+    assert_ne!(a.fit.fits[&1].reproj_rms_px, 42.0, "stale generation dropped");
+    run(&mut a, [Action::FitDone { generation: 2, fits }]);
+    assert_eq!(a.fit.fits[&1].reproj_rms_px, 42.0);
+    assert!(!a.fit.running);
+}
+
+#[test]
+fn head_labelling_assigns_and_undoes() {
+    let mut a = app();
+    run(
+        &mut a,
+        [
+            Action::ShowHead,
+            Action::GotoLabelPrompt,
+            Action::PromptChar('3'),
+            Action::PromptChar('3'),
+            Action::PromptSubmit,
+        ],
+    );
+    assert_eq!(a.head.label, 33);
+    run(&mut a, [Action::ConfirmLabel]);
+    let v = a.map.as_ref().unwrap().vertex(33).expect("the cursor at the centre picks a vertex");
+    // Facing the viewer, the picked vertex is on the front (+z) side of the head.
+    assert!(a.mesh.as_ref().unwrap().vertices[v].z > 0.0);
+    assert_eq!(a.head.label, 34);
+    run(&mut a, [Action::Undo]);
+    assert_eq!(a.map.as_ref().unwrap().vertex(33), None);
+    run(&mut a, [Action::Rotate { yaw: 180, pitch: 0 }, Action::PrevLabel, Action::ConfirmLabel]);
+    let back = a.map.as_ref().unwrap().vertex(33).unwrap();
+    assert!(a.mesh.as_ref().unwrap().vertices[back].z < 0.0, "turned around, the back is in front");
+}
+
+#[test]
+fn analysis_enter_opens_the_row_frame_in_sorted_order() {
+    let mut a = synthetic_app(20, 64, 48, true);
+    run(
+        &mut a,
+        [Action::ShowAnalysis, Action::SortNextColumn, Action::SortReverse, Action::OpenRow],
+    );
+    // Sorted by W descending: the last phoneme has the largest W.
+    let last = a.analysis.tables[0].rows.last().unwrap().frame.unwrap();
+    assert_eq!(a.view, View::Frames);
+    assert_eq!(a.frame(), last);
+}
+
+#[test]
+fn quit_saves_first_and_help_toggles() {
+    let mut a = app();
+    run(&mut a, [Action::ToggleHelp]);
+    assert!(matches!(a.overlays.last(), Some(Overlay::Help { .. })));
+    run(&mut a, [Action::ToggleHelp]);
+    assert!(a.overlays.is_empty());
+    run(&mut a, [Action::Quit]);
+    assert!(a.should_quit, "nothing unsaved: quit at once");
+    let mut a = app();
+    run(&mut a, [Action::Nudge { dx: 1, dy: 1 }, Action::Quit]);
+    assert!(!a.should_quit);
+    assert_eq!(a.effects.last(), Some(&Effect::Save));
+    run(&mut a, [Action::Saved { generation: 1 }]);
+    assert!(a.should_quit);
+    // A failing save does not trap the user.
+    let mut a = app();
+    run(
+        &mut a,
+        [
+            Action::Nudge { dx: 1, dy: 1 },
+            Action::Quit,
+            Action::SaveFailed { error: "disk full".into() },
+        ],
+    );
+    assert!(!a.should_quit && a.status.contains("disk full"));
+    run(&mut a, [Action::Quit]);
+    assert!(a.should_quit);
+}

@@ -49,9 +49,7 @@ fn eos_bin_equals_the_npy_export() {
     // Both store f32; widening is exact, so equality holds to f32 precision and beyond.
     let s = |m: &MorphableModel| m.shape.mean.as_slice().to_vec();
     assert!(max_abs_diff(&s(&from_bin), &s(&from_npy)) <= 1e-6);
-    assert!(
-        max_abs_diff(from_bin.shape.basis.as_slice(), from_npy.shape.basis.as_slice()) <= 1e-7
-    );
+    assert!(max_abs_diff(from_bin.shape.basis.as_slice(), from_npy.shape.basis.as_slice()) <= 1e-7);
     assert!(
         max_abs_diff(from_bin.shape.eigenvalues.as_slice(), from_npy.shape.eigenvalues.as_slice())
             <= 1e-3
@@ -66,10 +64,9 @@ fn eos_bin_equals_the_npy_export() {
 
 #[test]
 fn eos_blendshapes_equal_the_npy_export() {
-    let (Some(bin), Some(dir)) = (
-        shared("peer/eos/share/expression_blendshapes_3448.bin"),
-        shared("peer/eos/model"),
-    ) else {
+    let (Some(bin), Some(dir)) =
+        (shared("peer/eos/share/expression_blendshapes_3448.bin"), shared("peer/eos/model"))
+    else {
         return;
     };
     let e = eos_bin::read_eos_blendshapes(&bin).unwrap();
@@ -169,7 +166,8 @@ fn makehuman_base_and_face_units_build_a_blendshape_model() {
     let j = m.expression_names().iter().position(|n| n == "jawOpen").unwrap();
     // jawOpen moves vertices down (−y, y up) more than anything else it does.
     let d = m.expressions.as_ref().unwrap().deltas.column(j);
-    let (imin, _) = d.iter().enumerate().fold((0, 0.0), |a, (i, v)| if *v < a.1 { (i, *v) } else { a });
+    let (imin, _) =
+        d.iter().enumerate().fold((0, 0.0), |a, (i, v)| if *v < a.1 { (i, *v) } else { a });
     assert_eq!(imin % 3, 1, "largest jawOpen offset is along y");
     let open = m.shape_at(&[], &{
         let mut b = vec![0.0; 52];

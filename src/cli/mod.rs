@@ -1,7 +1,56 @@
 //! The command line: clap definitions and one module per subcommand, each a thin front over
 //! the core. `main.rs` parses, calls `run`, and maps the outcome to an exit code.
 
+pub mod convert;
 pub mod exit;
 pub mod fit_files;
+pub mod phones;
+pub mod validate;
 
 pub use exit::Outcome;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+use std::io::Write;
+
+/// lipmap: map a speaker's tracked lip motion onto a 3D head and measure how well it follows.
+#[derive(Parser, Debug)]
+#[command(name = "lipmap", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Convert landmark files or phone alignments between formats.
+    Convert(convert::ConvertArgs),
+    /// Print a phone alignment as start,end,phone CSV.
+    Phones(phones::PhonesArgs),
+    /// Check that files parse; prints `ok` or the error for each.
+    Validate(validate::ValidateArgs),
+}
+
+/// Runs one parsed command.
+pub fn run(cli: Cli) -> Result<Outcome> {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    match cli.command {
+        Command::Convert(args) => {
+            let msg = convert::run(&args)?;
+            writeln!(out, "{msg}")?;
+            Ok(Outcome::Ok)
+        }
+        Command::Phones(args) => {
+            phones::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Validate(args) => {
+            let bad = validate::run(&args, &mut out)?;
+            if bad > 0 {
+                anyhow::bail!("{bad} of {} file(s) failed validation", args.files.len());
+            }
+            Ok(Outcome::Ok)
+        }
+    }
+}

@@ -16,7 +16,7 @@ use crate::model::{LandmarkMap, Mesh};
 pub const Y_MOUTH: f64 = -40.0;
 /// Lowest and highest grid rows (mm) and the row spacing.
 const Y_BOTTOM: f64 = -100.0;
-const ROWS: usize = 106;
+const ROWS: usize = 109;
 const DY: f64 = 2.0;
 /// Columns per row: the grid spans the face's width at each height.
 const COLS: usize = 61;
@@ -263,15 +263,15 @@ pub fn build_head() -> Head {
             continue;
         }
         let (x, y) = (p.x, p.y);
-        let mut c = SKIN;
-        if let Some((up, lo)) = lip_borders(x, cx_outer + 0.5)
-            && y <= up + 0.5
-            && y >= lo - 0.5
-        {
-            c = LIP;
-            if !lower[i] {
-                upper_lip.push(i);
-            }
+        // Lip colour fades into skin over about a millimetre either side of the vermilion
+        // border, so the 2 mm grid does not draw a staircase.
+        let inside = lip_borders(x, cx_outer + 0.5).map_or(-10.0, |(up, lo)| (up - y).min(y - lo));
+        let k = smoothstep((inside + 1.0) / 2.0);
+        let mut c: [u8; 3] = std::array::from_fn(|ch| {
+            (SKIN[ch] as f64 + k * (LIP[ch] as f64 - SKIN[ch] as f64)).round() as u8
+        });
+        if inside >= -0.5 && !lower[i] {
+            upper_lip.push(i);
         }
         for side in [-1.0, 1.0] {
             let (ex, ey) = (side * 32.0, 32.0);
@@ -414,7 +414,9 @@ mod tests {
         assert!(p(51).y > p(62).y + 5.0 && p(57).y < p(66).y - 5.0);
         assert!(p(30).z > p(51).z, "the nose tip is foremost");
         for l in [50, 51, 52, 56, 57, 58] {
-            assert_eq!(head.colours[head.landmarks.vertex(l).unwrap()], LIP, "landmark {l}");
+            let c = head.colours[head.landmarks.vertex(l).unwrap()];
+            let red = |c: [u8; 3]| c[0] as i32 - c[1] as i32;
+            assert!(red(c) > red(SKIN) + 20, "landmark {l}: {c:?}");
         }
         assert!(!head.upper_lip.is_empty());
     }

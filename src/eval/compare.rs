@@ -132,10 +132,8 @@ pub fn compare_configurations(
                 if c == baseline {
                     return None;
                 }
-                let (a, b): (Vec<f64>, Vec<f64>) = values
-                    .iter()
-                    .filter_map(|r| Some((r[c].get(m)?, r[baseline].get(m)?)))
-                    .unzip();
+                let (a, b): (Vec<f64>, Vec<f64>) =
+                    values.iter().filter_map(|r| Some((r[c].get(m)?, r[baseline].get(m)?))).unzip();
                 paired_t_test(&a, &b)
             })
         })

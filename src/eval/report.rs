@@ -6,8 +6,8 @@ use super::rmse::GroupRmse;
 use super::visemes::VisemeTable;
 use super::worst::{WorstFit, WorstFrame};
 use super::{PerMeasure, Utterance, rmse::sentence_rmse, stats};
-use crate::measure::indices::{BoundsTable, FacialIndex, FacialIndices, MatchVerdict};
 use crate::measure::Measure;
+use crate::measure::indices::{BoundsTable, FacialIndex, FacialIndices, MatchVerdict};
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use std::io::{self, Write};
 
@@ -97,7 +97,9 @@ impl Table {
     /// count: what a TUI table widget needs.
     pub fn formatted_rows(&self) -> Vec<Vec<String>> {
         (0..self.rows.len())
-            .map(|r| (0..self.headers.len()).map(|c| self.cell(r, c).display(self.precision)).collect())
+            .map(|r| {
+                (0..self.headers.len()).map(|c| self.cell(r, c).display(self.precision)).collect()
+            })
             .collect()
     }
 
@@ -240,7 +242,8 @@ pub fn sentence_table(utterances: &[Utterance]) -> Table {
         let rmse = sentence_rmse(u);
         let mut row = vec![Cell::text(&u.name)];
         let mut values: Vec<Option<f64>> = measures.iter().map(|m| rmse.get(*m)).collect();
-        values.extend(measures.iter().map(|m| stats::pearson(u.video.series(*m), u.head.series(*m))));
+        values
+            .extend(measures.iter().map(|m| stats::pearson(u.video.series(*m), u.head.series(*m))));
         values.extend(
             measures.iter().map(|m| stats::normalised_mse(u.video.series(*m), u.head.series(*m))),
         );
@@ -344,7 +347,9 @@ pub fn verdict_table(verdict: &MatchVerdict) -> Table {
     let mut t = Table::new("facial indices: speaker vs head", headers.map(String::from).to_vec());
     t.precision = 2;
     for r in &verdict.rows {
-        let class = |c: Option<crate::measure::IndexClass>| c.map_or(Cell::Empty, |c| Cell::text(c.as_str()));
+        let class = |c: Option<crate::measure::IndexClass>| {
+            c.map_or(Cell::Empty, |c| Cell::text(c.as_str()))
+        };
         t.push_row(vec![
             Cell::text(r.index.name()),
             Cell::num(Some(r.speaker)),

@@ -73,9 +73,8 @@ fn occurrences(
     for phone in &u.alignment.phones {
         let Some(k) = key(&phone.label) else { continue };
         let frames = Alignment::frames_of(phone, u.fps);
-        let v = PerMeasure::from_fn(|m| {
-            rmse_over(u.video.series(m), u.head.series(m), frames.clone())
-        });
+        let v =
+            PerMeasure::from_fn(|m| rmse_over(u.video.series(m), u.head.series(m), frames.clone()));
         out.entry(k).or_default().push(v);
     }
 }
@@ -83,7 +82,10 @@ fn occurrences(
 /// RMSE per group over many utterances: each occurrence's RMSE over the frames inside its
 /// interval, then the plain mean over occurrences (so a long phone weighs as much as a short
 /// one, as in the published per-phoneme tables). Groups sorted by label.
-pub fn group_rmse(utterances: &[Utterance], key: &dyn Fn(&str) -> Option<String>) -> Vec<GroupRmse> {
+pub fn group_rmse(
+    utterances: &[Utterance],
+    key: &dyn Fn(&str) -> Option<String>,
+) -> Vec<GroupRmse> {
     let mut map = BTreeMap::new();
     for u in utterances {
         occurrences(u, key, &mut map);
@@ -119,7 +121,12 @@ mod tests {
         let ph = |s: f64, e: f64, l: &str| Phone { start: s, end: e, label: l.into() };
         // 10 fps: B covers frames 0..2, AA 2..5, B again 5..6, P 6..8.
         let alignment = Alignment {
-            phones: vec![ph(0.0, 0.2, "B"), ph(0.2, 0.5, "AA1"), ph(0.5, 0.6, "b"), ph(0.6, 0.8, "P")],
+            phones: vec![
+                ph(0.0, 0.2, "B"),
+                ph(0.2, 0.5, "AA1"),
+                ph(0.5, 0.6, "b"),
+                ph(0.6, 0.8, "P"),
+            ],
         };
         let video = Trajectory { w: vec![Some(1.0); 8], h: vec![Some(0.0); 8], p: vec![] };
         let head_w = [2.0, 2.0, 1.0, 1.0, 4.0, 1.5, 1.0, 1.0];

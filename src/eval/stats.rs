@@ -93,12 +93,7 @@ pub struct TTest {
 /// assert!((t.p - 0.091_721_113_311_571_86).abs() < 1e-9); // scipy ttest_rel
 /// ```
 pub fn paired_t_test(a: &[f64], b: &[f64]) -> Option<TTest> {
-    let d: Vec<f64> = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| x - y)
-        .filter(|v| v.is_finite())
-        .collect();
+    let d: Vec<f64> = a.iter().zip(b).map(|(x, y)| x - y).filter(|v| v.is_finite()).collect();
     let n = d.len();
     if n < 2 || a.len() != b.len() {
         return None;

@@ -147,7 +147,8 @@ pub fn to_arpabet(label: &str) -> Option<String> {
 pub const ARPABET: [&str; 50] = [
     "AA", "AE", "AH", "AO", "AW", "AY", "B", "CH", "D", "DH", "EH", "ER", "EY", "F", "G", "HH",
     "IH", "IY", "JH", "K", "L", "M", "N", "NG", "OW", "OY", "P", "R", "S", "SH", "T", "TH", "UH",
-    "UW", "V", "W", "Y", "Z", "ZH", "AX", "AXR", "IX", "UX", "DX", "EL", "EM", "EN", "NX", "ENG", "WH",
+    "UW", "V", "W", "Y", "Z", "ZH", "AX", "AXR", "IX", "UX", "DX", "EL", "EM", "EN", "NX", "ENG",
+    "WH",
 ];
 
 impl VisemeTable {

@@ -81,14 +81,21 @@ pub fn parse_eos_blendshapes(bytes: &[u8], path: &Path) -> Result<Expressions> {
         let at = r.pos;
         let m = r.matrix(&format!("blendshape `{name}`"))?;
         if m.ncols() != 1 {
-            return Err(r.error_at(at, format!("blendshape `{name}` is {}×{}, not a column", m.nrows(), m.ncols())));
+            return Err(r.error_at(
+                at,
+                format!("blendshape `{name}` is {}×{}, not a column", m.nrows(), m.ncols()),
+            ));
         }
         if let Some(first) = columns.first()
             && first.len() != m.nrows()
         {
             return Err(r.error_at(
                 at,
-                format!("blendshape {j} `{name}` has {} rows, the first has {}", m.nrows(), first.len()),
+                format!(
+                    "blendshape {j} `{name}` has {} rows, the first has {}",
+                    m.nrows(),
+                    first.len()
+                ),
             ));
         }
         names.push(name);
@@ -144,9 +151,9 @@ impl<'a> Reader<'a> {
     }
 
     fn skip_array(&mut self, count: u64, item_bytes: u64, what: &str) -> Result<()> {
-        let n = count.checked_mul(item_bytes).ok_or_else(|| {
-            self.error_at(self.pos, format!("{what}: count {count} overflows"))
-        })?;
+        let n = count
+            .checked_mul(item_bytes)
+            .ok_or_else(|| self.error_at(self.pos, format!("{what}: count {count} overflows")))?;
         self.take(n, what).map(|_| ())
     }
 
@@ -160,9 +167,8 @@ impl<'a> Reader<'a> {
         }
         let (rows, cols) = (rows as usize, cols as usize);
         let data = self.take(rows as u64 * cols as u64 * 4, what)?;
-        let values = data.chunks_exact(4).map(|c| {
-            f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64
-        });
+        let values =
+            data.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64);
         Ok(DMatrix::from_iterator(rows, cols, values))
     }
 
@@ -170,7 +176,10 @@ impl<'a> Reader<'a> {
         let at = self.pos;
         let mean = self.matrix(&format!("{what} mean"))?;
         if mean.ncols() > 1 {
-            return Err(self.error_at(at, format!("{what} mean is {}×{}, not a column", mean.nrows(), mean.ncols())));
+            return Err(self.error_at(
+                at,
+                format!("{what} mean is {}×{}, not a column", mean.nrows(), mean.ncols()),
+            ));
         }
         let at_basis = self.pos;
         let basis = self.matrix(&format!("{what} basis"))?;
@@ -188,7 +197,11 @@ impl<'a> Reader<'a> {
         if eigenvalues.len() != basis.ncols() {
             return Err(self.error_at(
                 at_ev,
-                format!("{what}: {} eigenvalues for {} basis columns", eigenvalues.len(), basis.ncols()),
+                format!(
+                    "{what}: {} eigenvalues for {} basis columns",
+                    eigenvalues.len(),
+                    basis.ncols()
+                ),
             ));
         }
         let at_tri = self.pos;
@@ -200,7 +213,10 @@ impl<'a> Reader<'a> {
             for (k, slot) in tri.iter_mut().enumerate() {
                 let v = i32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes"));
                 *slot = u32::try_from(v).map_err(|_| {
-                    self.error_at(at_tri + 8 + 12 * t + 4 * k, format!("{what} triangle {t} has vertex {v}"))
+                    self.error_at(
+                        at_tri + 8 + 12 * t + 4 * k,
+                        format!("{what} triangle {t} has vertex {v}"),
+                    )
                 })?;
             }
             triangles.push(tri);

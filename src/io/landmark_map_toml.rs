@@ -43,29 +43,22 @@ pub fn parse_landmark_map(text: &str, path: &Path) -> Result<LandmarkMap> {
     let section = table.get(SECTION).ok_or_else(|| {
         FormatError::at_field(path, SECTION, "no [landmark_mappings] table in the file")
     })?;
-    let section = section
-        .as_table()
-        .ok_or_else(|| FormatError::at_field(path, SECTION, "is not a table"))?;
+    let section =
+        section.as_table().ok_or_else(|| FormatError::at_field(path, SECTION, "is not a table"))?;
     let mut map = LandmarkMap::default();
     for (key, value) in section {
         let line = line_of_key(text, key);
-        let id: usize = key
-            .parse()
-            .ok()
-            .filter(|id| (1..=N_LANDMARKS).contains(id))
-            .ok_or_else(|| {
+        let id: usize =
+            key.parse().ok().filter(|id| (1..=N_LANDMARKS).contains(id)).ok_or_else(|| {
                 FormatError::at_line(path, line, format!("`{key}` is not an iBUG id in 1..=68"))
             })?;
-        let vertex = value
-            .as_integer()
-            .and_then(|v| usize::try_from(v).ok())
-            .ok_or_else(|| {
-                FormatError::at_line(
-                    path,
-                    line,
-                    format!("vertex for iBUG {id} must be a non-negative integer, got {value}"),
-                )
-            })?;
+        let vertex = value.as_integer().and_then(|v| usize::try_from(v).ok()).ok_or_else(|| {
+            FormatError::at_line(
+                path,
+                line,
+                format!("vertex for iBUG {id} must be a non-negative integer, got {value}"),
+            )
+        })?;
         map.to_vertex.insert(id - 1, vertex);
     }
     Ok(map)
@@ -99,7 +92,9 @@ fn line_of_key(text: &str, key: &str) -> usize {
 pub fn format_landmark_map(map: &LandmarkMap) -> String {
     let mut s = String::new();
     s.push_str("# iBUG-68 landmark -> mesh vertex mapping, written by lipmap.\n");
-    s.push_str("# TOML, as eos's mapping files: iBUG ids are 1-based (1..68), vertices 0-based.\n\n");
+    s.push_str(
+        "# TOML, as eos's mapping files: iBUG ids are 1-based (1..68), vertices 0-based.\n\n",
+    );
     let _ = writeln!(s, "[{SECTION}]");
     for l in 0..N_LANDMARKS {
         let name = landmark_name(l);
@@ -136,7 +131,11 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap) -> Result<()> {
 pub fn read_landmark_map_json(path: &Path) -> Result<LandmarkMap> {
     let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-        FormatError::new(path, crate::io::error::Location::LineColumn(e.line(), e.column()), e.to_string())
+        FormatError::new(
+            path,
+            crate::io::error::Location::LineColumn(e.line(), e.column()),
+            e.to_string(),
+        )
     })?;
     let obj = v
         .get("ibug_to_sfm_vertex")
@@ -145,14 +144,13 @@ pub fn read_landmark_map_json(path: &Path) -> Result<LandmarkMap> {
         .ok_or_else(|| FormatError::whole(path, "expected an object of iBUG id -> vertex"))?;
     let mut map = LandmarkMap::default();
     for (key, value) in obj {
-        let id: usize = key
-            .parse()
-            .ok()
-            .filter(|id| (1..=N_LANDMARKS).contains(id))
-            .ok_or_else(|| FormatError::at_field(path, key.as_str(), "not an iBUG id in 1..=68"))?;
-        let vertex = value
-            .as_u64()
-            .ok_or_else(|| FormatError::at_field(path, key.as_str(), "vertex must be a non-negative integer"))?;
+        let id: usize =
+            key.parse().ok().filter(|id| (1..=N_LANDMARKS).contains(id)).ok_or_else(|| {
+                FormatError::at_field(path, key.as_str(), "not an iBUG id in 1..=68")
+            })?;
+        let vertex = value.as_u64().ok_or_else(|| {
+            FormatError::at_field(path, key.as_str(), "vertex must be a non-negative integer")
+        })?;
         map.to_vertex.insert(id - 1, vertex as usize);
     }
     Ok(map)

@@ -116,7 +116,10 @@ pub fn read_model_file(path: &Path) -> Result<MorphableModel> {
 pub fn decode_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
     let at = |o: usize, m: String| FormatError::new(path, Location::Offset(o as u64), m);
     if bytes.len() < HEADER_LEN {
-        return Err(at(bytes.len(), format!("truncated header: {} of {HEADER_LEN} bytes", bytes.len())));
+        return Err(at(
+            bytes.len(),
+            format!("truncated header: {} of {HEADER_LEN} bytes", bytes.len()),
+        ));
     }
     if &bytes[..8] != MAGIC {
         return Err(at(0, "not a lipmap model file (bad magic)".into()));
@@ -147,7 +150,10 @@ pub fn decode_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
     if fixed > bytes.len() as u64 {
         return Err(at(
             bytes.len(),
-            format!("truncated: the header promises at least {fixed} bytes, the file has {}", bytes.len()),
+            format!(
+                "truncated: the header promises at least {fixed} bytes, the file has {}",
+                bytes.len()
+            ),
         ));
     }
     let (len, k, ne, nt) = (len as usize, k as usize, ne as usize, nt as usize);
@@ -192,7 +198,8 @@ pub fn decode_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
         return Err(at(pos, format!("{} unexpected trailing bytes", bytes.len() - pos)));
     }
     let expressions = (ne > 0).then_some(Expressions { names, deltas });
-    let model = MorphableModel { shape: PcaModel { mean, basis, eigenvalues }, expressions, triangles };
+    let model =
+        MorphableModel { shape: PcaModel { mean, basis, eigenvalues }, expressions, triangles };
     model.validate().map_err(|e| FormatError::whole(path, e.to_string()))?;
     Ok(model)
 }

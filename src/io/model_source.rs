@@ -138,10 +138,8 @@ pub fn read_blendshapes_for(path: &Path, mean: &DVector) -> Result<Expressions> 
         if files.is_empty() {
             return Err(FormatError::whole(path, "no .target, .target.gz or .obj files in folder"));
         }
-        let shapes: Vec<Blendshape> = files
-            .par_iter()
-            .map(|f| read_one_blendshape(f, mean))
-            .collect::<Result<_>>()?;
+        let shapes: Vec<Blendshape> =
+            files.par_iter().map(|f| read_one_blendshape(f, mean)).collect::<Result<_>>()?;
         return stack(path, n, shapes);
     }
     if has_ext(path, "bin") {
@@ -216,8 +214,8 @@ pub fn build_model_from_obj_folder(dir: &Path, keep: Keep) -> Result<(MorphableM
         }
     }
     let shapes: Vec<DVector> = meshes.iter().map(|m| m.to_flat()).collect();
-    let summary =
-        build_pca_with_summary(&shapes, keep).map_err(|e| FormatError::whole(dir, e.to_string()))?;
+    let summary = build_pca_with_summary(&shapes, keep)
+        .map_err(|e| FormatError::whole(dir, e.to_string()))?;
     let model = MorphableModel::new(summary.model.clone(), None, meshes[0].triangles())
         .map_err(|e| FormatError::whole(&files[0], e.to_string()))?;
     Ok((model, summary))

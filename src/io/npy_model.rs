@@ -48,7 +48,8 @@ pub fn read_npy(path: &Path) -> Result<NpyArray> {
 fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<NpyArray> {
     let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
     let order = npy.order();
-    let bad = |e: std::io::Error| FormatError::at_field(path, field, format!("cannot read data: {e}"));
+    let bad =
+        |e: std::io::Error| FormatError::at_field(path, field, format!("cannot read data: {e}"));
     let (ty, size) = match npy.dtype() {
         npyz::DType::Plain(ts) => (ts.type_char(), ts.size_field()),
         other => {
@@ -60,13 +61,25 @@ fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<Np
         }
     };
     let data: Vec<f64> = match (ty, size) {
-        (TypeChar::Float, 4) => npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect(),
+        (TypeChar::Float, 4) => {
+            npy.into_vec::<f32>().map_err(bad)?.into_iter().map(f64::from).collect()
+        }
         (TypeChar::Float, 8) => npy.into_vec::<f64>().map_err(bad)?,
-        (TypeChar::Int, 4) => npy.into_vec::<i32>().map_err(bad)?.into_iter().map(f64::from).collect(),
-        (TypeChar::Int, 8) => npy.into_vec::<i64>().map_err(bad)?.into_iter().map(|v| v as f64).collect(),
-        (TypeChar::Uint, 1) => npy.into_vec::<u8>().map_err(bad)?.into_iter().map(f64::from).collect(),
-        (TypeChar::Uint, 4) => npy.into_vec::<u32>().map_err(bad)?.into_iter().map(f64::from).collect(),
-        (TypeChar::Uint, 8) => npy.into_vec::<u64>().map_err(bad)?.into_iter().map(|v| v as f64).collect(),
+        (TypeChar::Int, 4) => {
+            npy.into_vec::<i32>().map_err(bad)?.into_iter().map(f64::from).collect()
+        }
+        (TypeChar::Int, 8) => {
+            npy.into_vec::<i64>().map_err(bad)?.into_iter().map(|v| v as f64).collect()
+        }
+        (TypeChar::Uint, 1) => {
+            npy.into_vec::<u8>().map_err(bad)?.into_iter().map(f64::from).collect()
+        }
+        (TypeChar::Uint, 4) => {
+            npy.into_vec::<u32>().map_err(bad)?.into_iter().map(f64::from).collect()
+        }
+        (TypeChar::Uint, 8) => {
+            npy.into_vec::<u64>().map_err(bad)?.into_iter().map(|v| v as f64).collect()
+        }
         _ => {
             return Err(FormatError::at_field(
                 path,
@@ -75,7 +88,8 @@ fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<Np
             ));
         }
     };
-    let data = if order == Order::Fortran && shape.len() > 1 { fortran_to_c(&data, &shape) } else { data };
+    let data =
+        if order == Order::Fortran && shape.len() > 1 { fortran_to_c(&data, &shape) } else { data };
     Ok(NpyArray { shape, data })
 }
 
@@ -157,11 +171,7 @@ fn names_from_bytes(a: &NpyArray, path: &Path) -> Result<Vec<String>> {
 fn read_summary_names(dir: &Path) -> Option<Vec<String>> {
     let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
     let v: serde_json::Value = serde_json::from_str(&text).ok()?;
-    v.get("blendshape_names")?
-        .as_array()?
-        .iter()
-        .map(|n| n.as_str().map(str::to_string))
-        .collect()
+    v.get("blendshape_names")?.as_array()?.iter().map(|n| n.as_str().map(str::to_string)).collect()
 }
 
 fn assemble(
@@ -239,7 +249,10 @@ fn assemble(
             .ok_or_else(|| {
                 field_err(
                     "expression_blendshapes",
-                    format!("shape {:?} does not match the mean's {len} values (need E×{len})", e.shape),
+                    format!(
+                        "shape {:?} does not match the mean's {len} values (need E×{len})",
+                        e.shape
+                    ),
                 )
             })?;
             let k = deltas.ncols();
@@ -250,7 +263,8 @@ fn assemble(
             Some(Expressions { names, deltas })
         }
     };
-    let model = MorphableModel { shape: PcaModel { mean, basis, eigenvalues }, expressions, triangles };
+    let model =
+        MorphableModel { shape: PcaModel { mean, basis, eigenvalues }, expressions, triangles };
     model.validate().map_err(|e| FormatError::whole(path, e.to_string()))?;
     Ok(model)
 }
@@ -266,7 +280,8 @@ pub fn write_npz(path: &Path, model: &MorphableModel) -> Result<()> {
     let len = s.mean.len() as u64;
     let k = s.basis.ncols() as u64;
     let mut put = |name: &str, shape: &[u64], data: Vec<f64>| -> std::io::Result<()> {
-        let mut w = npz.array::<f64>(name, Default::default())?.default_dtype().shape(shape).begin_nd()?;
+        let mut w =
+            npz.array::<f64>(name, Default::default())?.default_dtype().shape(shape).begin_nd()?;
         w.extend(data)?;
         w.finish()
     };
@@ -276,8 +291,12 @@ pub fn write_npz(path: &Path, model: &MorphableModel) -> Result<()> {
     put("eigenvalues", &[k], s.eigenvalues.as_slice().to_vec()).map_err(io)?;
     if let Some(e) = &model.expressions {
         // E×3N in C order is the 3N×E matrix in column-major order.
-        put("expression_blendshapes", &[e.deltas.ncols() as u64, len], e.deltas.as_slice().to_vec())
-            .map_err(io)?;
+        put(
+            "expression_blendshapes",
+            &[e.deltas.ncols() as u64, len],
+            e.deltas.as_slice().to_vec(),
+        )
+        .map_err(io)?;
         let text = e.names.join("\n").into_bytes();
         let mut w = npz
             .array::<u8>("expression_names", Default::default())

@@ -114,10 +114,12 @@ impl TextGrid {
         }
     }
 
+    /// A tier named like a phone tier wins even when it is a point tier, so the caller
+    /// reports that instead of a vaguer "no phone tier".
     fn default_phone_tier(&self) -> Option<&Tier> {
         let intervals = || self.tiers.iter().filter(|t| matches!(t.kind, TierKind::Intervals(_)));
         for want in PHONE_TIER_NAMES {
-            let hit = intervals().find(|t| {
+            let hit = self.tiers.iter().find(|t| {
                 let n = t.name.trim().to_lowercase();
                 n == want || n.ends_with(&format!(" - {want}"))
             });
@@ -354,6 +356,8 @@ impl Parser<'_> {
     }
 }
 
+const BINARY_MESSAGE: &str = "binary TextGrids are not supported; save as text file";
+
 /// Parses TextGrid bytes (any supported encoding) into all its tiers.
 ///
 /// # Errors
@@ -370,6 +374,9 @@ impl Parser<'_> {
 /// assert_eq!(a.phones[1].label, "AA1");
 /// ```
 pub fn parse_textgrid(bytes: &[u8], path: &Path) -> Result<TextGrid> {
+    if bytes.starts_with(b"ooBinaryFile") {
+        return Err(FormatError::at_line(path, 1, BINARY_MESSAGE));
+    }
     let text = decode_text(bytes, path)?;
     parse_textgrid_str(&text, path)
 }
@@ -380,6 +387,9 @@ pub fn parse_textgrid(bytes: &[u8], path: &Path) -> Result<TextGrid> {
 /// As `parse_textgrid`.
 pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    if text.starts_with("ooBinaryFile") {
+        return Err(FormatError::at_line(path, 1, BINARY_MESSAGE));
+    }
     if text.trim_start().starts_with("\"Praat chronological TextGrid") {
         return Err(FormatError::at_line(path, 1, "chronological TextGrids are not supported; save as text file"));
     }
@@ -387,7 +397,7 @@ pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
     let (file_type, line) = p.string("the file type \"ooTextFile\"")?;
     if !file_type.starts_with("ooTextFile") {
         let msg = if file_type.starts_with("ooBinaryFile") {
-            "binary TextGrids are not supported; save as text file".to_string()
+            BINARY_MESSAGE.to_string()
         } else {
             format!("file type is \"{}\", expected \"ooTextFile\"", shorten(&file_type))
         };

@@ -394,10 +394,8 @@ impl BoundsTable {
             .trim(csv::Trim::All)
             .comment(Some(b'#'))
             .from_reader(text.as_bytes());
-        let headers = reader
-            .headers()
-            .map_err(|e| BoundsError::at(Some(1), None, e.to_string()))?
-            .clone();
+        let headers =
+            reader.headers().map_err(|e| BoundsError::at(Some(1), None, e.to_string()))?.clone();
         let col = |name: &str| {
             headers
                 .iter()
@@ -756,8 +754,9 @@ mod tests {
         let e = BoundsTable::from_csv_str("index,low,high\nfacial,1,2\nfacial,1,2\n").unwrap_err();
         assert!(e.message.contains("twice"));
         assert!(BoundsTable::from_csv_str("index,low\nfacial,1\n").is_err());
-        let e = BoundsTable::from_toml_str("[[bounds]]\nindex = \"facial\"\nlow = \"a\"\nhigh = 2\n")
-            .unwrap_err();
+        let e =
+            BoundsTable::from_toml_str("[[bounds]]\nindex = \"facial\"\nlow = \"a\"\nhigh = 2\n")
+                .unwrap_err();
         assert_eq!(e.line, Some(3));
         let fe = e.into_format_error(Path::new("b.toml")).to_string();
         assert!(fe.starts_with("b.toml:3:"), "{fe}");
@@ -828,10 +827,8 @@ mod tests {
             ],
         };
         // 10 fps: silence frames 0..3 and 6..10; frame 4 (in /m/) is the global minimum.
-        let h: Series = [0.3, 0.2, 0.25, 0.5, 0.0, 0.4, 0.3, 0.1, 0.1, 0.2]
-            .into_iter()
-            .map(Some)
-            .collect();
+        let h: Series =
+            [0.3, 0.2, 0.25, 0.5, 0.0, 0.4, 0.3, 0.1, 0.1, 0.2].into_iter().map(Some).collect();
         assert_eq!(
             choose_neutral_frame(&h, &al, 10.0),
             Some(NeutralFrame { frame: 7, in_silence: true })

@@ -243,10 +243,8 @@ pub fn trajectory_from_shapes<'a, I>(
 where
     I: IntoIterator<Item = Option<&'a DVector>>,
 {
-    let frames: Vec<Option<MouthMeasures>> = shapes
-        .into_iter()
-        .map(|s| s.and_then(|s| measure_shape(s, map, options).ok()))
-        .collect();
+    let frames: Vec<Option<MouthMeasures>> =
+        shapes.into_iter().map(|s| s.and_then(|s| measure_shape(s, map, options).ok())).collect();
     Trajectory::from_frames(&frames)
 }
 
@@ -299,8 +297,8 @@ pub fn remove_rigid_pose(
     let translation = cd - rotation * cs;
     let mut out = shape.clone();
     for k in 0..shape.len() / 3 {
-        let p = rotation * Vector3::new(shape[3 * k], shape[3 * k + 1], shape[3 * k + 2])
-            + translation;
+        let p =
+            rotation * Vector3::new(shape[3 * k], shape[3 * k + 1], shape[3 * k + 2]) + translation;
         out.fixed_rows_mut::<3>(3 * k).copy_from(&p);
     }
     Ok(out)
@@ -365,7 +363,8 @@ mod tests {
         let len = (35.0f64 * 35.0 + 18.0 * 18.0).sqrt();
         let sub = MeshMeasureOptions { reference: ReferencePlane::Subnasale, ..Default::default() };
         assert!((protrusion(&s, &map, &sub).unwrap() - 2.0 / len).abs() < 1e-12);
-        let fixed = MeshMeasureOptions { reference: ReferencePlane::FixedZ(0.0), ..Default::default() };
+        let fixed =
+            MeshMeasureOptions { reference: ReferencePlane::FixedZ(0.0), ..Default::default() };
         assert!((protrusion(&s, &map, &fixed).unwrap() - 24.0 / len).abs() < 1e-12);
         let set = MeshMeasureOptions {
             upper_lip: UpperLip::Vertices(vec![68, 69, 51]),
@@ -392,7 +391,8 @@ mod tests {
             measure_shape(&s, &map, &Default::default()),
             Err(MeasureError::MissingLandmark(62))
         );
-        let only = MeshMeasureOptions { upper_lip: UpperLip::Vertices(vec![]), ..Default::default() };
+        let only =
+            MeshMeasureOptions { upper_lip: UpperLip::Vertices(vec![]), ..Default::default() };
         assert_eq!(protrusion(&s, &map, &only), Err(MeasureError::NoUpperLip));
         let line = [27usize, 30, 27];
         assert!(matches!(

@@ -15,8 +15,8 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 
 pub use indices::{
-    BoundsTable, FacialIndex, FacialIndices, IndexBounds, IndexClass, MatchVerdict,
-    MatchWarning, choose_neutral_frame, facial_indices, match_speaker_head,
+    BoundsTable, FacialIndex, FacialIndices, IndexBounds, IndexClass, MatchVerdict, MatchWarning,
+    choose_neutral_frame, facial_indices, match_speaker_head,
 };
 pub use mesh::{MeshMeasureOptions, ReferencePlane, UpperLip, measure_shape};
 pub use mouth::{measure_frame, measure_points, min_max_normalise, reference_length};

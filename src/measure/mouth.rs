@@ -193,13 +193,20 @@ mod tests {
     fn min_max_rejects_constant_and_short_series() {
         assert_eq!(min_max_normalise(&[Some(1.0), Some(1.0)]), None);
         assert_eq!(min_max_normalise(&[Some(1.0), None]), None);
-        let t = Trajectory { w: vec![Some(1.0), Some(3.0)], h: vec![Some(2.0), Some(2.0)], p: vec![] };
+        let t =
+            Trajectory { w: vec![Some(1.0), Some(3.0)], h: vec![Some(2.0), Some(2.0)], p: vec![] };
         let n = t.min_max_normalised();
         assert_eq!(n.w, vec![Some(0.0), Some(1.0)]);
         assert_eq!(n.h, vec![None, None]);
     }
 
-    fn transform(pts: &[Option<Point2>], s: f64, angle: f64, tx: f64, ty: f64) -> Vec<Option<Point2>> {
+    fn transform(
+        pts: &[Option<Point2>],
+        s: f64,
+        angle: f64,
+        tx: f64,
+        ty: f64,
+    ) -> Vec<Option<Point2>> {
         let (sin, cos) = angle.sin_cos();
         pts.iter()
             .map(|p| {

@@ -158,7 +158,27 @@ pub struct ProfileSetup {
     /// A profile bump must stand out by this much (px) to count as a lip.
     #[serde(default = "default_min_prominence_px")]
     pub min_prominence_px: Real,
+    /// Follow head motion: the reference line is fixed to the head, not the image, by
+    /// registering each frame's upper-face profile to this one ([`capture_anchor`]).
+    /// `None` measures from the line as drawn (the published method, for a still head).
+    #[serde(default)]
+    pub anchor: Option<Anchor>,
 }
+
+/// The rigid upper-face profile (forehead, nasion, nose ridge to the tip) of the frame the
+/// reference line was set on. Articulation does not move it, so registering a frame's
+/// profile to it gives the head's in-plane motion (translation and pitch) in the side view.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Anchor {
+    /// The region holding that profile (px); like the crop, its rear edge lies inside the
+    /// face and its front edge in the background, with a few px of margin for motion.
+    pub region: Rect,
+    /// The profile's forward edge, one point per row, top to bottom (image px).
+    pub profile: Vec<Point2>,
+}
+
+/// A 2D rigid motion in image px: rotation about the origin, then translation.
+pub type Rigid2 = nalgebra::Isometry2<Real>;
 
 fn default_min_component_px() -> usize {
     50
@@ -184,6 +204,7 @@ impl ProfileSetup {
             nose: NoseLength::Unset,
             denoise: true,
             min_prominence_px: default_min_prominence_px(),
+            anchor: None,
         }
     }
 }
@@ -207,6 +228,8 @@ pub enum ProfileError {
     NoseNotFound,
     #[error("the nose length is not positive")]
     BadNoseLength,
+    #[error("the upper-face profile could not be registered to the anchor frame's: {0}")]
+    Registration(&'static str),
 }
 
 /// Otsu's threshold (Otsu 1979): the `t` maximising the between-class variance
@@ -679,6 +702,8 @@ pub struct LipProfile {
     pub stomion_px: Option<Point2>,
     /// The gray threshold used.
     pub threshold: u8,
+    /// This frame → anchor frame, when the setup follows head motion.
+    pub motion: Option<Rigid2>,
 }
 
 /// Measures the upper lip's protrusion in one frame.
@@ -699,6 +724,11 @@ pub fn measure_lip_profile(
 ) -> Result<LipProfile, ProfileError> {
     let line = &setup.reference_line;
     let normal = line.forward_normal(setup.facing).ok_or(ProfileError::BadReferenceLine)?;
+    let motion = match &setup.anchor {
+        Some(anchor) => Some(register_to_anchor(image, setup, anchor)?),
+        None => None,
+    };
+    let to_reference = motion.unwrap_or_else(Rigid2::identity);
     let sil = segment(
         image,
         setup.crop,
@@ -710,7 +740,8 @@ pub fn measure_lip_profile(
     let edges = sil.forward_edges();
     let edge: Vec<Option<Point2>> =
         edges.iter().enumerate().map(|(r, e)| e.map(|(u, _)| sil.to_image(u, r as Real))).collect();
-    let dist = |p: Point2| (p - line.a).dot(&normal);
+    // Distances are taken in the anchor frame: the line is fixed to the head.
+    let dist = |p: Point2| (to_reference * p - line.a).dot(&normal);
     // Rows without face act as deep concavities: the distance of the crop's rear edge.
     let floor = (0..sil.height)
         .map(|r| dist(sil.to_image(-0.5, r as Real)))
@@ -738,9 +769,15 @@ pub fn measure_lip_profile(
     {
         return Err(ProfileError::LipAtCropEdge);
     }
-    // The point on the profile at the refined row whose distance is the refined maximum.
+    // The image point on the refined row whose distance is the refined maximum: distance is
+    // linear in x, with slope n·R·e_x.
     let y = sil.region.y as Real + row;
-    let x = line.a.x + (p_px - (y - line.a.y) * normal.y) / normal.x;
+    let at_zero = dist(Point2::new(0.0, y));
+    let slope = normal.dot(&(to_reference.rotation * Vector2::x()));
+    if slope.abs() < 0.5 {
+        return Err(ProfileError::BadReferenceLine);
+    }
+    let x = (p_px - at_zero) / slope;
     let concavity = |range: std::ops::Range<usize>| {
         let r = range.clone().min_by(|&a, &b| smoothed[a].total_cmp(&smoothed[b]))?;
         // A concavity at the crop edge is only where the curve left the crop.
@@ -757,7 +794,137 @@ pub fn measure_lip_profile(
         subnasale_px,
         stomion_px,
         threshold: sil.threshold,
+        motion,
     })
+}
+
+/// The forward edge of `region` in `image`, one point per row (image px), leaving out rows
+/// whose face reaches the region's front edge (clipped, not an edge).
+fn region_profile(
+    image: &GrayImage,
+    setup: &ProfileSetup,
+    region: Rect,
+) -> Result<Vec<Point2>, ProfileError> {
+    let sil = segment(
+        image,
+        region,
+        setup.facing,
+        setup.threshold,
+        setup.denoise,
+        setup.min_component_px,
+    )?;
+    Ok(sil
+        .forward_edges()
+        .into_iter()
+        .enumerate()
+        .filter_map(|(r, e)| e.filter(|e| !e.1).map(|(u, _)| sil.to_image(u, r as Real)))
+        .collect())
+}
+
+/// Records the upper-face profile inside `region` of `image` (the frame the reference line
+/// is drawn on) as the anchor that later frames are registered to.
+///
+/// # Errors
+/// Segmentation errors, or [`ProfileError::Registration`] when fewer than
+/// [`MIN_REGISTRATION_ROWS`] rows hold an edge.
+pub fn capture_anchor(
+    image: &GrayImage,
+    setup: &ProfileSetup,
+    region: Rect,
+) -> Result<Anchor, ProfileError> {
+    let profile = region_profile(image, setup, region)?;
+    if profile.len() < MIN_REGISTRATION_ROWS {
+        return Err(ProfileError::Registration("too few profile rows in the anchor region"));
+    }
+    Ok(Anchor { region, profile })
+}
+
+/// Fewest profile rows a registration uses (three parameters, and noise to average).
+pub const MIN_REGISTRATION_ROWS: usize = 12;
+
+/// The closest point to `p` on the polyline `line` (consecutive points one row apart),
+/// searched among segments starting within 4 rows of `p`; with the segment's unit normal.
+/// Points beyond either end of the polyline have none: they would pull sideways.
+fn closest_on_profile(line: &[Point2], p: Point2) -> Option<(Point2, Vector2)> {
+    let y0 = line.first()?.y;
+    let k = ((p.y - y0).round() as isize).clamp(0, line.len() as isize - 1) as usize;
+    let mut best: Option<(Real, Point2, Vector2)> = None;
+    for i in k.saturating_sub(4)..(k + 4).min(line.len().saturating_sub(1)) {
+        let (a, b) = (line[i], line[i + 1]);
+        let d = b - a;
+        let len2 = d.norm_squared();
+        if !(len2 > 1e-12) || d.y.abs() > 1.5 {
+            continue; // a gap in the rows, not a segment
+        }
+        let t = ((p - a).dot(&d) / len2).clamp(0.0, 1.0);
+        if (i == 0 && t == 0.0) || (i + 2 == line.len() && t == 1.0) {
+            continue;
+        }
+        let q = a + d * t;
+        let dist = (p - q).norm();
+        if best.is_none_or(|b| dist < b.0) {
+            let n = Vector2::new(d.y, -d.x) / len2.sqrt();
+            best = Some((dist, q, n));
+        }
+    }
+    best.map(|(_, q, n)| (q, n))
+}
+
+/// The rigid motion taking this frame's upper-face profile onto the anchor's: point-to-line
+/// ICP (Chen & Medioni 1992) over the profile rows, each step a linearised least-squares fit
+/// of a small rotation (about the points' centroid) and a translation, pairs farther than
+/// 4 px (2 px after three steps) left out.
+///
+/// # Errors
+/// Segmentation errors; [`ProfileError::Registration`] with too few rows or paired points,
+/// a profile without enough shape to fix all three parameters, or no convergence.
+pub fn register_to_anchor(
+    image: &GrayImage,
+    setup: &ProfileSetup,
+    anchor: &Anchor,
+) -> Result<Rigid2, ProfileError> {
+    let points = region_profile(image, setup, anchor.region)?;
+    if points.len() < MIN_REGISTRATION_ROWS || anchor.profile.len() < MIN_REGISTRATION_ROWS {
+        return Err(ProfileError::Registration("too few profile rows"));
+    }
+    let mut motion = Rigid2::identity();
+    for iteration in 0..30 {
+        let gate = if iteration < 3 { 4.0 } else { 2.0 };
+        let moved: Vec<Point2> = points.iter().map(|p| motion * p).collect();
+        let pairs: Vec<(Point2, Point2, Vector2)> = moved
+            .iter()
+            .filter_map(|&p| {
+                let (q, n) = closest_on_profile(&anchor.profile, p)?;
+                ((p - q).norm() <= gate).then_some((p, q, n))
+            })
+            .collect();
+        if pairs.len() < MIN_REGISTRATION_ROWS {
+            return Err(ProfileError::Registration("too few paired profile points"));
+        }
+        let c = pairs.iter().fold(Vector2::zeros(), |acc, (p, _, _)| acc + p.coords)
+            / pairs.len() as Real;
+        let mut ata = nalgebra::Matrix3::<Real>::zeros();
+        let mut atb = nalgebra::Vector3::<Real>::zeros();
+        for (p, q, n) in &pairs {
+            let r = p.coords - c;
+            let row = nalgebra::Vector3::new(n.dot(&Vector2::new(-r.y, r.x)), n.x, n.y);
+            ata += row * row.transpose();
+            atb -= row * n.dot(&(p - q));
+        }
+        // A straight profile leaves sliding along it free: refuse rather than guess.
+        let eig = ata.symmetric_eigenvalues();
+        if !(eig.min() > 1e-6 * eig.max().max(1e-12)) {
+            return Err(ProfileError::Registration("the profile is too straight"));
+        }
+        let delta = ata.cholesky().ok_or(ProfileError::Registration("singular"))?.solve(&atb);
+        let rot = nalgebra::Rotation2::new(delta[0]);
+        let step = Rigid2::new(c - rot * c + Vector2::new(delta[1], delta[2]), delta[0]);
+        motion = step * motion;
+        if delta[0].abs() < 1e-7 && delta[1].hypot(delta[2]) < 1e-5 {
+            return Ok(motion);
+        }
+    }
+    Err(ProfileError::Registration("no convergence"))
 }
 
 /// The nose root and tip found on the full frame's profile.
@@ -912,32 +1079,41 @@ pub struct ProfilePoint {
     pub p_norm: Option<Real>,
     #[serde(default)]
     pub source: PointSource,
+    /// This frame → anchor frame (head motion), when the setup follows the head; a
+    /// corrected point of this frame is measured through it too.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<Rigid2>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failed: Option<String>,
 }
 
 impl ProfilePoint {
-    /// A measurement at `point` (image px): P from the setup's line, normalised by `nose_px`.
+    /// A measurement at `point` (image px): P from the setup's line (after `motion` into the
+    /// anchor frame, when given), normalised by `nose_px`.
     pub fn at(
         frame: usize,
         point: Point2,
         setup: &ProfileSetup,
         nose_px: Option<Real>,
         source: PointSource,
+        motion: Option<Rigid2>,
     ) -> Self {
-        match setup.reference_line.signed_distance(point, setup.facing) {
+        let moved = motion.map_or(point, |m| m * point);
+        match setup.reference_line.signed_distance(moved, setup.facing) {
             Some(p) => Self {
                 frame,
                 upper_lip_px: Some(point),
                 p_px: Some(p),
                 p_norm: nose_px.map(|l| p / l),
                 source,
+                motion,
                 failed: None,
             },
             None => Self::failure(frame, &ProfileError::BadReferenceLine),
         }
     }
 
+    /// A failed frame, saying why.
     pub fn failure(frame: usize, error: &ProfileError) -> Self {
         Self {
             frame,
@@ -945,7 +1121,20 @@ impl ProfilePoint {
             p_px: None,
             p_norm: None,
             source: PointSource::Tracked,
+            motion: None,
             failed: Some(error.to_string()),
+        }
+    }
+
+    fn measured(frame: usize, m: &LipProfile, nose_px: Option<Real>) -> Self {
+        Self {
+            frame,
+            upper_lip_px: Some(m.upper_lip_px),
+            p_px: Some(m.p_px),
+            p_norm: nose_px.map(|l| m.p_px / l),
+            source: PointSource::Tracked,
+            motion: m.motion,
+            failed: None,
         }
     }
 }
@@ -958,20 +1147,16 @@ pub fn measure_frame(
     nose_px: Option<Real>,
 ) -> ProfilePoint {
     match measure_lip_profile(image, setup) {
-        Ok(m) => ProfilePoint {
-            frame,
-            upper_lip_px: Some(m.upper_lip_px),
-            p_px: Some(m.p_px),
-            p_norm: nose_px.map(|l| m.p_px / l),
-            source: PointSource::Tracked,
-            failed: None,
-        },
+        Ok(m) => ProfilePoint::measured(frame, &m, nose_px),
         Err(e) => ProfilePoint::failure(frame, &e),
     }
 }
 
 /// Measures the rendered side view of a fitted head exactly as a video frame, so head and
 /// speaker are measured alike. A nose length `FromProfile` is found on the render itself.
+/// Give it a setup made on a render of the head (e.g. [`propose_setup`] on the neutral
+/// render): an anchor captured on the speaker's video would register the head's profile to
+/// the speaker's.
 ///
 /// # Errors
 /// As [`measure_lip_profile`] and [`resolve_nose_length`].
@@ -982,14 +1167,7 @@ pub fn measure_render(
     let gray = image::imageops::grayscale(render);
     let nose = resolve_nose_length(setup, &gray)?;
     let m = measure_lip_profile(&gray, setup)?;
-    Ok(ProfilePoint {
-        frame: 0,
-        upper_lip_px: Some(m.upper_lip_px),
-        p_px: Some(m.p_px),
-        p_norm: nose.map(|l| m.p_px / l),
-        source: PointSource::Tracked,
-        failed: None,
-    })
+    Ok(ProfilePoint::measured(0, &m, nose))
 }
 
 /// Measures a clip's frames (numbered from 0 in iteration order) in parallel. A nose length
@@ -1092,7 +1270,14 @@ impl ProfileTrack {
     pub fn effective(&self, frame: usize, setup: &ProfileSetup) -> Option<ProfilePoint> {
         match self.corrected.get(&frame) {
             Some(&p) => {
-                Some(ProfilePoint::at(frame, p, setup, self.nose_length_px, PointSource::Corrected))
+                Some(ProfilePoint::at(
+                frame,
+                p,
+                setup,
+                self.nose_length_px,
+                PointSource::Corrected,
+                self.automatic(frame).and_then(|a| a.motion),
+            ))
             }
             None => self.automatic(frame).cloned(),
         }

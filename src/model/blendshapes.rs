@@ -113,9 +113,8 @@ mod tests {
 
     #[test]
     fn base_plus_blendshapes_reproduces_targets() {
-        let base = Mesh::from_flat(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![vec![
-            0, 1, 2,
-        ]]);
+        let base =
+            Mesh::from_flat(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0], vec![vec![0, 1, 2]]);
         let flat = base.to_flat();
         let target = DVector::from_vec(vec![0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0]);
         let b = Blendshape::from_target_shape("t", &flat, &target).unwrap();

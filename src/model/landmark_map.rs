@@ -35,8 +35,12 @@ impl LandmarkMap {
     /// assert_eq!(map.restricted_to(LandmarkSet::F1).len(), 1); // lips only: 62
     /// ```
     pub fn restricted_to(&self, set: LandmarkSet) -> LandmarkMap {
-        let to_vertex =
-            self.to_vertex.iter().filter(|(l, _)| set.contains(**l)).map(|(&l, &v)| (l, v)).collect();
+        let to_vertex = self
+            .to_vertex
+            .iter()
+            .filter(|(l, _)| set.contains(**l))
+            .map(|(&l, &v)| (l, v))
+            .collect();
         LandmarkMap { to_vertex }
     }
 

@@ -51,9 +51,10 @@ impl Mesh {
     /// The first face (index, vertex) that points past the last vertex, if any.
     pub fn first_face_out_of_range(&self) -> Option<(usize, u32)> {
         let n = self.vertices.len();
-        self.faces.iter().enumerate().find_map(|(i, f)| {
-            f.iter().find(|&&v| v as usize >= n).map(|&v| (i, v))
-        })
+        self.faces
+            .iter()
+            .enumerate()
+            .find_map(|(i, f)| f.iter().find(|&&v| v as usize >= n).map(|&v| (i, v)))
     }
 }
 
@@ -63,9 +64,10 @@ mod tests {
 
     #[test]
     fn flat_round_trip_and_fan() {
-        let m = Mesh::from_flat(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0], vec![
-            vec![0, 1, 2, 3],
-        ]);
+        let m = Mesh::from_flat(
+            &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0],
+            vec![vec![0, 1, 2, 3]],
+        );
         assert_eq!(Mesh::from_flat(m.to_flat().as_slice(), m.faces.clone()), m);
         assert_eq!(m.triangles(), vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.first_face_out_of_range(), None);

@@ -182,9 +182,10 @@ pub fn build_pca_with_summary(shapes: &[DVector], keep: Keep) -> Result<PcaSumma
         PcaMethod::Covariance => vectors.columns(0, k).into_owned(),
     };
     for mut col in basis.column_iter_mut() {
-        let (imax, _) = col.iter().enumerate().fold((0, 0.0), |acc, (i, v)| {
-            if v.abs() > acc.1 { (i, v.abs()) } else { acc }
-        });
+        let (imax, _) = col
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |acc, (i, v)| if v.abs() > acc.1 { (i, v.abs()) } else { acc });
         if col[imax] < 0.0 {
             col.neg_mut();
         }
@@ -195,9 +196,9 @@ pub fn build_pca_with_summary(shapes: &[DVector], keep: Keep) -> Result<PcaSumma
 
 fn check_keep(keep: Keep) -> Result<(), ModelError> {
     match keep {
-        Keep::VarianceFraction(f) if !(f > 0.0 && f <= 1.0) => Err(ModelError::InvalidKeep(
-            format!("variance fraction {f} is outside (0, 1]"),
-        )),
+        Keep::VarianceFraction(f) if !(f > 0.0 && f <= 1.0) => {
+            Err(ModelError::InvalidKeep(format!("variance fraction {f} is outside (0, 1]")))
+        }
         Keep::Components(0) => Err(ModelError::InvalidKeep("zero components requested".into())),
         _ => Ok(()),
     }
@@ -257,8 +258,8 @@ mod tests {
             // Total variance is preserved: the sum of eigenvalues equals the trace of the
             // sample covariance.
             let m = &s.model.mean;
-            let trace: f64 =
-                shapes.iter().map(|x| (x - m).norm_squared()).sum::<f64>() / (shapes.len() - 1) as f64;
+            let trace: f64 = shapes.iter().map(|x| (x - m).norm_squared()).sum::<f64>()
+                / (shapes.len() - 1) as f64;
             assert!((s.all_eigenvalues.sum() - trace).abs() < 1e-8 * trace);
             assert!((s.variance_explained() - 1.0).abs() < 1e-9);
             // Every shape is reconstructed exactly by 3 components.

@@ -3,6 +3,7 @@
 //!
 //! Keys bound to the same action are listed together.
 
+use crate::tui::action::Action;
 use crate::tui::app::App;
 use crate::tui::keymap::{KeyMode, Keymap};
 use crate::tui::update::mode_chain;
@@ -16,26 +17,34 @@ use ratatui::widgets::{Block, Clear, Paragraph};
 pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
     let mut lines = Vec::new();
     for mode in mode_chain(app).into_iter().filter(|m| *m != KeyMode::Help) {
-        let mut entries: Vec<(String, String)> = Vec::new();
-        let mut seen: Vec<&crate::tui::action::Action> = Vec::new();
+        // Group by description without its direction arrow, so the four arrows of one
+        // action kind share a line: "left h, right l, up k, down j".
+        let mut entries: Vec<(String, Vec<String>)> = Vec::new();
+        let mut done: Vec<&crate::tui::action::Action> = Vec::new();
         for b in keymap.of_mode(mode) {
-            if seen.contains(&&b.action) {
+            if done.contains(&&b.action) {
                 continue;
             }
-            seen.push(&b.action);
+            done.push(&b.action);
             let keys: Vec<String> = keymap
                 .of_mode(mode)
                 .filter(|o| o.action == b.action)
                 .map(|o| o.key.to_string())
                 .collect();
-            entries.push((keys.join(" "), b.action.describe()));
+            let desc = b.action.describe();
+            let base = desc.trim_end_matches(['←', '→', '↑', '↓']).trim_end().to_string();
+            match entries.iter_mut().find(|e| e.0 == base) {
+                Some(e) => e.1.push(keys.join(" ")),
+                None => entries.push((base, vec![keys.join(" ")])),
+            }
         }
         if entries.is_empty() {
             continue;
         }
         lines.push(Line::from(format!("{} keys", mode.name())).bold().fg(Color::LightMagenta));
-        let width = entries.iter().map(|e| e.0.chars().count()).max().unwrap_or(0).min(24);
-        for (k, d) in entries {
+        let width = entries.iter().map(|e| e.1.join(", ").chars().count()).max().unwrap_or(0).min(30);
+        for (d, keys) in entries {
+            let k = keys.join(", ");
             lines.push(Line::from(vec![
                 Span::from(format!("  {k:<width$} ")).fg(Color::LightCyan),
                 Span::from(d),
@@ -55,11 +64,19 @@ pub fn draw(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Re
     let r = Rect::new(area.x + (area.width - w) / 2, area.y + (area.height - h) / 2, w, h);
     let lines = help_lines(app, keymap);
     let max_scroll = (lines.len() as u16).saturating_sub(h.saturating_sub(2));
+    let chain = [KeyMode::Help];
+    let key = |a: Action| keymap.key_for(&chain, &a).map_or("?".to_string(), |k| k.to_string());
+    let title = format!(
+        " help · {}/{} scroll · {} close ",
+        key(Action::ScrollDown),
+        key(Action::ScrollUp),
+        key(Action::ToggleHelp)
+    );
     frame.render_widget(Clear, r);
     frame.render_widget(
         Paragraph::new(lines).scroll((scroll.min(max_scroll), 0)).block(
             Block::bordered()
-                .title(" help · j/k scroll · ? close ")
+                .title(title)
                 .border_style(Color::LightMagenta),
         ),
         r,

@@ -1,0 +1,135 @@
+//! Every view drawn into ratatui's TestBackend at 80×24 and 160×48 and compared with the
+//! committed snapshots in tests/snapshots/ (review changes with `cargo insta review`).
+
+use lipmap::tui::app::App;
+use lipmap::tui::fixtures::synthetic_app;
+use lipmap::tui::views::draw;
+use lipmap::tui::{Action, Keymap, update};
+use ratatui::Terminal;
+use ratatui::backend::TestBackend;
+
+const SIZES: [(u16, u16); 2] = [(80, 24), (160, 48)];
+
+fn app_at(size: (u16, u16)) -> App {
+    let mut a = synthetic_app(24, 176, 144, true);
+    a.term_size = size;
+    a
+}
+
+fn apply(app: &mut App, actions: &[Action]) {
+    for a in actions {
+        let mut next = Some(a.clone());
+        while let Some(a) = next {
+            next = update(app, a);
+        }
+    }
+}
+
+fn render(app: &App) -> Terminal<TestBackend> {
+    let mut t = Terminal::new(TestBackend::new(app.term_size.0, app.term_size.1)).unwrap();
+    t.draw(|f| draw(app, &Keymap::default(), f)).unwrap();
+    t
+}
+
+fn check(name: &str, actions: &[Action]) {
+    for size in SIZES {
+        let mut app = app_at(size);
+        apply(&mut app, actions);
+        let t = render(&app);
+        insta::assert_snapshot!(format!("{name}_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
+fn frames_view() {
+    check("frames", &[]);
+}
+
+#[test]
+fn frames_view_zoomed_on_the_mouth_after_an_edit() {
+    check(
+        "frames_zoomed",
+        &[Action::ZoomIn, Action::ZoomIn, Action::Nudge { dx: 3, dy: 2 }, Action::CycleScope],
+    );
+}
+
+#[test]
+fn frames_view_on_a_flagged_frame() {
+    check("frames_flagged", &[Action::NextFlagged]);
+}
+
+#[test]
+fn frames_view_while_decoding() {
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.images.clear();
+        app.cache_order.clear();
+        let t = render(&app);
+        insta::assert_snapshot!(format!("frames_loading_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
+fn help_overlay() {
+    check("help", &[Action::ToggleHelp]);
+}
+
+#[test]
+fn prompt_line() {
+    check("prompt", &[Action::PropagatePrompt, Action::PromptChar('1'), Action::PromptChar('2')]);
+}
+
+#[test]
+fn head_view() {
+    check("head", &[Action::ShowHead, Action::Rotate { yaw: 30, pitch: 15 }]);
+}
+
+#[test]
+fn head_view_help() {
+    check("head_help", &[Action::ShowHead, Action::ToggleHelp]);
+}
+
+#[test]
+fn fit_view() {
+    check("fit", &[Action::ShowFit]);
+}
+
+#[test]
+fn fit_view_running() {
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.fit.fits.clear();
+        app.fit.running = true;
+        app.fit.progress = (7, 24);
+        apply(&mut app, &[Action::ShowFit]);
+        let t = render(&app);
+        insta::assert_snapshot!(format!("fit_running_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
+fn analysis_view() {
+    check("analysis", &[Action::ShowAnalysis, Action::RowDown, Action::RowDown]);
+}
+
+#[test]
+fn analysis_view_empty() {
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.analysis = Default::default();
+        apply(&mut app, &[Action::ShowAnalysis]);
+        let t = render(&app);
+        insta::assert_snapshot!(format!("analysis_empty_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
+fn tiny_terminal_does_not_panic() {
+    for size in [(1, 1), (10, 3), (20, 5), (49, 12)] {
+        for view in [Action::ShowFrames, Action::ShowHead, Action::ShowFit, Action::ShowAnalysis] {
+            let mut app = app_at(size);
+            apply(&mut app, &[view, Action::ToggleHelp]);
+            render(&app);
+        }
+    }
+}

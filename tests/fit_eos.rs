@@ -234,31 +234,43 @@ fn per_frame_defaults_are_no_worse_than_eos() {
     assert!(fig.mouth_rms_mm <= 3.69 && fig.rot_err_deg <= 2.43, "{fig:?}");
 }
 
-/// Evaluates settings from the environment on a set: `LIPMAP_SET_DIR` (default eos's),
-/// `LIPMAP_LAMBDA`, `LIPMAP_LAMBDA_EXPR`, `LIPMAP_ITERS`, `LIPMAP_CLIP` (0/1),
-/// `LIPMAP_SMOOTH`, `LIPMAP_FSET` (F1..F5), `LIPMAP_POSE_STEPS`.
+/// Evaluates a grid of settings on sets made by eos's `synthetic_eos_test.py`:
+/// `LIPMAP_SET_DIRS` (comma-separated, default eos's reference set) and `LIPMAP_GRID`, lines
+/// `key=value,key=value` separated by `;` (keys: lambda, lexp, iters, clip, smooth, fset, pose).
 #[test]
 #[ignore]
 fn sweep_settings() {
     let Some(eos) = lipmap::testdata::shared("peer/eos") else { return };
     let model = load_model(&eos.join("model"));
     let map = load_map(&eos.join("model"));
-    let dir = std::env::var("LIPMAP_SET_DIR").map(PathBuf::from).unwrap_or(eos.join("reference"));
-    let set = read_synthetic_set(&dir);
-    let env = |k: &str| std::env::var(k).ok();
-    let mut s = FitSettings::default();
-    if let Some(v) = env("LIPMAP_LAMBDA") { s.lambda = v.parse().unwrap() }
-    if let Some(v) = env("LIPMAP_LAMBDA_EXPR") { s.lambda_expression = v.parse().unwrap() }
-    if let Some(v) = env("LIPMAP_ITERS") { s.iterations = v.parse().unwrap() }
-    if let Some(v) = env("LIPMAP_CLIP") { s.clip = v == "1" }
-    if let Some(v) = env("LIPMAP_SMOOTH") { s.temporal_smoothness = v.parse().unwrap() }
-    if let Some(v) = env("LIPMAP_FSET") { s.set = v.parse().unwrap() }
-    if let Some(v) = env("LIPMAP_POSE_STEPS") { s.pose_refinement_steps = v.parse().unwrap() }
-    let fits = fit_clip(&model, &map, &set.frames, set.height, &s, None);
-    let fig = figures(&model, &map, &set, &fits);
-    println!(
-        "RESULT set={} lambda={} lexp={} iters={} clip={} smooth={} fset={} pose={} mouth={:.3} gap_bias={:+.3} gap_mae={:.3} rot={:.3} failed={}",
-        dir.display(), s.lambda, s.lambda_expression, s.iterations, s.clip, s.temporal_smoothness, s.set,
-        s.pose_refinement_steps, fig.mouth_rms_mm, fig.gap_bias_mm, fig.gap_mae_mm, fig.rot_err_deg, fig.failed
-    );
+    let dirs: Vec<PathBuf> = std::env::var("LIPMAP_SET_DIRS")
+        .map(|v| v.split(',').map(PathBuf::from).collect())
+        .unwrap_or_else(|_| vec![eos.join("reference")]);
+    let sets: Vec<SyntheticSet> = dirs.iter().map(|d| read_synthetic_set(d)).collect();
+    let grid = std::env::var("LIPMAP_GRID").unwrap_or_default();
+    for line in grid.split(';') {
+        let mut s = FitSettings::default();
+        for kv in line.split(',').filter(|kv| !kv.is_empty()) {
+            let (k, v) = kv.split_once('=').unwrap();
+            match k.trim() {
+                "lambda" => s.lambda = v.parse().unwrap(),
+                "lexp" => s.lambda_expression = v.parse().unwrap(),
+                "iters" => s.iterations = v.parse().unwrap(),
+                "clip" => s.clip = v == "1",
+                "smooth" => s.temporal_smoothness = v.parse().unwrap(),
+                "fset" => s.set = v.parse().unwrap(),
+                "pose" => s.pose_refinement_steps = v.parse().unwrap(),
+                other => panic!("unknown key {other}"),
+            }
+        }
+        for (dir, set) in dirs.iter().zip(&sets) {
+            let fits = fit_clip(&model, &map, &set.frames, set.height, &s, None);
+            let fig = figures(&model, &map, set, &fits);
+            println!(
+                "RESULT {:>10} [{line}] mouth={:.3} gap_bias={:+.3} gap_mae={:.3} rot={:.3} failed={}",
+                dir.file_name().unwrap().to_string_lossy(),
+                fig.mouth_rms_mm, fig.gap_bias_mm, fig.gap_mae_mm, fig.rot_err_deg, fig.failed
+            );
+        }
+    }
 }

@@ -51,7 +51,12 @@ fn assert_same_points(orig: &Track, back: &Track, rounded: bool, what: &str) {
         for (i, (p, q)) in a.points.iter().zip(&b.points).enumerate() {
             assert_eq!(p.visible, q.visible, "{what}: frame {} point {i} visibility", a.frame);
             if p.visible {
-                assert_eq!(expected_xy(p, rounded), (q.x, q.y), "{what}: frame {} point {i}", a.frame);
+                assert_eq!(
+                    expected_xy(p, rounded),
+                    (q.x, q.y),
+                    "{what}: frame {} point {i}",
+                    a.frame
+                );
             }
         }
     }
@@ -147,7 +152,12 @@ fn synthetic_track() -> Track {
     let frames = (0..3)
         .map(|f| {
             let mut pts: Vec<LandmarkPoint> = (0..68)
-                .map(|i| LandmarkPoint::tracked(10.0 + i as f64 * 1.37 + f as f64 / 3.0, 50.0 + 0.1 * i as f64))
+                .map(|i| {
+                    LandmarkPoint::tracked(
+                        10.0 + i as f64 * 1.37 + f as f64 / 3.0,
+                        50.0 + 0.1 * i as f64,
+                    )
+                })
                 .collect();
             pts[5].visible = false;
             pts[6].confidence = Some(0.25);
@@ -169,7 +179,10 @@ fn lipmap_csv_is_lossless_and_openface_keeps_frame_fields() {
     assert_eq!(through(&track, LandmarkFormat::LipmapCsv, dir.path(), 0), track);
     let of = through(&track, LandmarkFormat::OpenFace, dir.path(), 1);
     for (a, b) in track.frames.iter().zip(&of.frames) {
-        assert_eq!((a.frame, a.timestamp, a.confidence, a.success), (b.frame, b.timestamp, b.confidence, b.success));
+        assert_eq!(
+            (a.frame, a.timestamp, a.confidence, a.success),
+            (b.frame, b.timestamp, b.confidence, b.success)
+        );
         assert_eq!(a.points[9].x, b.points[9].x);
     }
     // The folder numbers frames by position, so the gaps (0, 2, 4) close up.
@@ -196,10 +209,16 @@ fn check_alignment_formats(a: &Alignment, what: &str) {
         let back = parse_alignment_as(&text, Path::new("x"), f, None).unwrap();
         assert_eq!(back.phones.len(), a.phones.len(), "{what} via {f}");
         match f {
-            AlignmentFormat::TextGrid | AlignmentFormat::PhonesCsv => assert_eq!(&back, a, "{what} via {f}"),
+            AlignmentFormat::TextGrid | AlignmentFormat::PhonesCsv => {
+                assert_eq!(&back, a, "{what} via {f}")
+            }
             AlignmentFormat::HtkLab | AlignmentFormat::Xlabel => {
                 for (p, q) in a.phones.iter().zip(&back.phones) {
-                    assert_eq!(grouping_label(&p.label), grouping_label(&q.label), "{what} via {f}");
+                    assert_eq!(
+                        grouping_label(&p.label),
+                        grouping_label(&q.label),
+                        "{what} via {f}"
+                    );
                     let tol = if f == AlignmentFormat::HtkLab { 5.1e-8 } else { 0.0 };
                     assert!((p.end - q.end).abs() <= tol, "{what} via {f}: {p:?} vs {q:?}");
                     if f == AlignmentFormat::HtkLab || contiguous {
@@ -233,7 +252,10 @@ fn praatio_bobby_long_format_arpabet() {
     let path = dir.join("bobby_phones.TextGrid");
     let a = read_alignment(&path, None).unwrap();
     assert_eq!(a.phones.len(), 15);
-    assert_eq!(a.phones[0], Phone { start: 0.0124716553288, end: 0.06469123242311078, label: String::new() });
+    assert_eq!(
+        a.phones[0],
+        Phone { start: 0.0124716553288, end: 0.06469123242311078, label: String::new() }
+    );
     assert_eq!(phones(&a)[2], (0.08438971390281873, 0.23285789838876556, "AA1"));
     assert_eq!(grouping_label(&a.phones[2].label), "AA");
     assert_eq!(a.phones[14].end, 1.194625);
@@ -243,11 +265,17 @@ fn praatio_bobby_long_format_arpabet() {
     // The words file has no phone tier: the default fails naming the tiers; an index works.
     let words = dir.join("bobby_words.TextGrid");
     let e = read_alignment(&words, None).unwrap_err().to_string();
-    assert!(e.ends_with("no phone tier (tiers: 1 `word`, 2 `phrase`); choose one by name or number"), "{e}");
+    assert!(
+        e.ends_with("no phone tier (tiers: 1 `word`, 2 `phrase`); choose one by name or number"),
+        "{e}"
+    );
     let w = read_alignment(&words, Some(&TierChoice::Index(1))).unwrap();
     assert_eq!(w.phones[1].label, "BOBBY");
     let by_name = read_alignment(&words, Some(&"PHRASE".parse().unwrap())).unwrap();
-    assert_eq!(by_name.phones.len(), parse_textgrid(&std::fs::read(&words).unwrap(), &words).unwrap().tiers[1].kind_len());
+    assert_eq!(
+        by_name.phones.len(),
+        parse_textgrid(&std::fs::read(&words).unwrap(), &words).unwrap().tiers[1].kind_len()
+    );
 }
 
 trait KindLen {
@@ -268,7 +296,10 @@ fn praatio_mary_short_format_ipa_crlf_with_point_tier() {
     let Some(dir) = shared("data/speech/praatio_examples") else { return };
     let path = dir.join("mary.TextGrid");
     let grid = parse_textgrid(&std::fs::read(&path).unwrap(), &path).unwrap();
-    assert_eq!(grid.tiers.iter().map(|t| t.name.as_str()).collect::<Vec<_>>(), ["phone", "word", "pitch"]);
+    assert_eq!(
+        grid.tiers.iter().map(|t| t.name.as_str()).collect::<Vec<_>>(),
+        ["phone", "word", "pitch"]
+    );
     assert_eq!(grid.xmax, 1.869687);
     let a = read_alignment(&path, None).unwrap();
     assert_eq!(a.phones.len(), 16);
@@ -287,7 +318,10 @@ fn praat_generated_textgrid_phoneme_tier() {
     let path = dir.join("praat_bin_blue.TextGrid");
     let a = read_alignment(&path, None).unwrap();
     assert_eq!(a.phones.len(), 21);
-    assert_eq!(phones(&a)[..4], [(0.0, 0.012, ""), (0.012, 0.05, "b"), (0.05, 0.14, "ɪ"), (0.14, 0.224, "n")]);
+    assert_eq!(
+        phones(&a)[..4],
+        [(0.0, 0.012, ""), (0.012, 0.05, "b"), (0.05, 0.14, "ɪ"), (0.14, 0.224, "n")]
+    );
     let words = read_alignment(&path, Some(&TierChoice::Name("word".into()))).unwrap();
     assert_eq!(words.phones[1].label, "bin");
     check_encodings(&path, None, &a);

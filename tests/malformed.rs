@@ -54,15 +54,39 @@ const CASES: &[(&str, Reader, &str)] = &[
     // lipmap CSV
     ("lipmap_point_68.csv", landmarks, ":3: column `point`: 68 is out of range 0..67"),
     ("lipmap_bad_visible.csv", landmarks, ":2: column `visible`: `yes` is not 0 or 1"),
-    ("lipmap_bad_source.csv", landmarks, ":2: column `source`: `guessed` is not tracked, corrected or interpolated"),
+    (
+        "lipmap_bad_source.csv",
+        landmarks,
+        ":2: column `source`: `guessed` is not tracked, corrected or interpolated",
+    ),
     ("lipmap_duplicate_point.csv", landmarks, ":4: point 5 of frame 0 is given twice"),
-    ("lipmap_missing_y.csv", landmarks, ":1: missing column `y` (expected frame,point,x,y,visible,confidence,source)"),
-    ("lipmap_unknown_column.csv", landmarks, ":1: unknown column `colour` (expected frame,point,x,y,visible,confidence,source)"),
+    (
+        "lipmap_missing_y.csv",
+        landmarks,
+        ":1: missing column `y` (expected frame,point,x,y,visible,confidence,source)",
+    ),
+    (
+        "lipmap_unknown_column.csv",
+        landmarks,
+        ":1: unknown column `colour` (expected frame,point,x,y,visible,confidence,source)",
+    ),
     ("lipmap_negative_frame.csv", landmarks, ":2: column `frame`: `-1` is not a whole number"),
     ("lipmap_non_numeric_y.csv", landmarks, ":3: column `y`: `two` is not a finite number"),
-    ("lipmap_bad_confidence.csv", landmarks, ":2: column `confidence`: `high` is not a finite number"),
-    ("lipmap_frame_fields_disagree.csv", landmarks, ":3: frame 0: timestamp, frame_confidence or success differ from its earlier rows"),
-    ("landmarks_unknown.csv", landmarks, ":1: not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV)"),
+    (
+        "lipmap_bad_confidence.csv",
+        landmarks,
+        ":2: column `confidence`: `high` is not a finite number",
+    ),
+    (
+        "lipmap_frame_fields_disagree.csv",
+        landmarks,
+        ":3: frame 0: timestamp, frame_confidence or success differ from its earlier rows",
+    ),
+    (
+        "landmarks_unknown.csv",
+        landmarks,
+        ":1: not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV)",
+    ),
     // dlib imglab XML
     ("dlib_part_68.xml", landmarks, ":9: part name `68` is out of range 00..67"),
     ("dlib_part_name_text.xml", landmarks, ":6: part name `mouth` is out of range 00..67"),
@@ -70,29 +94,81 @@ const CASES: &[(&str, Reader, &str)] = &[
     ("dlib_bad_y.xml", landmarks, ":9: part `05`: `y` = `1O` is not a number"),
     ("dlib_duplicate_part.xml", landmarks, ":9: part `01` appears twice in this box"),
     ("dlib_part_without_name.xml", landmarks, ":6: <part> has no `name`"),
-    ("dlib_mismatched_tag.xml", landmarks, ":9: bad XML: ill-formed document: expected `</box>`, but `</image>` was found"),
+    (
+        "dlib_mismatched_tag.xml",
+        landmarks,
+        ":9: bad XML: ill-formed document: expected `</box>`, but `</image>` was found",
+    ),
     ("dlib_no_images.xml", landmarks, ": no <image> elements: not a dlib imglab landmark file"),
     ("dlib_truncated.xml", landmarks, ":9: file ends inside an <image>"),
     ("dlib_nested_image.xml", landmarks, ":3: <image> inside <image>"),
     // Praat TextGrid
-    ("tg_overlap.TextGrid", alignment, ":24: interval 3 of tier `phones` starts at 0.45, before interval 2 ends at 0.5 (overlap)"),
-    ("tg_end_before_start.TextGrid", alignment, ":20: interval 2 of tier `phones` ends (0.3) before it starts (0.5)"),
+    (
+        "tg_overlap.TextGrid",
+        alignment,
+        ":24: interval 3 of tier `phones` starts at 0.45, before interval 2 ends at 0.5 (overlap)",
+    ),
+    (
+        "tg_end_before_start.TextGrid",
+        alignment,
+        ":20: interval 2 of tier `phones` ends (0.3) before it starts (0.5)",
+    ),
     ("tg_bad_number.TextGrid", alignment, ":21: `0.5x` is not a number"),
-    ("tg_truncated.TextGrid", alignment, ":27: file ends where the xmin of interval 4 of tier `phones` was expected"),
-    ("tg_wrong_object_class.TextGrid", alignment, ":2: object class is \"Sound\", expected \"TextGrid\""),
+    (
+        "tg_truncated.TextGrid",
+        alignment,
+        ":27: file ends where the xmin of interval 4 of tier `phones` was expected",
+    ),
+    (
+        "tg_wrong_object_class.TextGrid",
+        alignment,
+        ":2: object class is \"Sound\", expected \"TextGrid\"",
+    ),
     ("tg_binary.TextGrid", alignment, ":1: binary TextGrids are not supported; save as text file"),
-    ("tg_binary_quoted.TextGrid", alignment, ":1: binary TextGrids are not supported; save as text file"),
+    (
+        "tg_binary_quoted.TextGrid",
+        alignment,
+        ":1: binary TextGrids are not supported; save as text file",
+    ),
     ("tg_unclosed_string.TextGrid", alignment, ":26: string never closes"),
-    ("tg_bad_tier_class.TextGrid", alignment, ":10: tier class is \"FormantTier\", expected \"IntervalTier\" or \"TextTier\""),
-    ("tg_no_phone_tier.TextGrid", alignment, ": no phone tier (tiers: 1 `words`, 2 `syllables`); choose one by name or number"),
+    (
+        "tg_bad_tier_class.TextGrid",
+        alignment,
+        ":10: tier class is \"FormantTier\", expected \"IntervalTier\" or \"TextTier\"",
+    ),
+    (
+        "tg_no_phone_tier.TextGrid",
+        alignment,
+        ": no phone tier (tiers: 1 `words`, 2 `syllables`); choose one by name or number",
+    ),
     ("tg_invalid_utf8.TextGrid", alignment, ":22: text is neither UTF-8 nor UTF-16"),
-    ("tg_utf16_odd_length.TextGrid", alignment, ": byte 1030: UTF-16 text with an odd number of bytes"),
-    ("tg_fractional_size.TextGrid", alignment, ":14: the size of tier `phones` must be a whole number, found 2.5"),
+    (
+        "tg_utf16_odd_length.TextGrid",
+        alignment,
+        ": byte 1030: UTF-16 text with an odd number of bytes",
+    ),
+    (
+        "tg_fractional_size.TextGrid",
+        alignment,
+        ":14: the size of tier `phones` must be a whole number, found 2.5",
+    ),
     ("tg_missing_exists.TextGrid", alignment, ":7: expected <exists> or <absent>, found number 1"),
-    ("tg_point_tier_chosen.TextGrid", alignment, ":7: tier `phones` is a point tier, not an interval tier"),
-    ("tg_empty.TextGrid", alignment, ":1: file ends where the file type \"ooTextFile\" was expected"),
+    (
+        "tg_point_tier_chosen.TextGrid",
+        alignment,
+        ":7: tier `phones` is a point tier, not an interval tier",
+    ),
+    (
+        "tg_empty.TextGrid",
+        alignment,
+        ":1: file ends where the file type \"ooTextFile\" was expected",
+    ),
     // HTK / Festival .lab
-    ("lab_overlap.lab", alignment, ":3: phone `AA1` starts at 0.35, before `B` ends at 0.4 (overlap)"),
+    (
+        "lab_overlap.lab",
+        alignment,
+        ":3: phone `AA1` starts at 0.35, before `B` ends at 0.4 (overlap)",
+    ),
     ("lab_end_before_start.lab", alignment, ":2: phone `B` ends (0.1) before it starts (0.2)"),
     ("lab_two_fields.lab", alignment, ":2: expected `start end label`, found `2000000 4000000`"),
     ("lab_bad_time.lab", alignment, ":2: end time `0.3O` is not a non-negative number"),
@@ -104,7 +180,11 @@ const CASES: &[(&str, Reader, &str)] = &[
     ("xlabel_missing_color.lab", alignment, ":2: expected `end color label`, found `0.22`"),
     // start,end,phone CSV
     ("phones_missing_end.csv", alignment, ":1: missing column `end` (expected start,end,phone)"),
-    ("phones_overlap.csv", alignment, ":4: phone `AA1` starts at 0.3, before `B` ends at 0.4 (overlap)"),
+    (
+        "phones_overlap.csv",
+        alignment,
+        ":4: phone `AA1` starts at 0.3, before `B` ends at 0.4 (overlap)",
+    ),
     ("phones_non_numeric.csv", alignment, ":3: column `end`: `later` is not a finite number"),
     ("phones_negative_start.csv", alignment, ":2: column `start`: -0.1 is negative"),
     ("phones_ragged.csv", alignment, ":3: 2 fields, but the header has 3"),
@@ -118,11 +198,19 @@ fn every_malformed_file_gives_its_exact_one_line_error() {
         let expected = format!("{}{expected_tail}", path.display());
         match read(&path) {
             Ok(()) => failures.push(format!("{name}: parsed without error")),
-            Err(got) if got != expected => failures.push(format!("{name}:\n  got      {got}\n  expected {expected}")),
+            Err(got) if got != expected => {
+                failures.push(format!("{name}:\n  got      {got}\n  expected {expected}"))
+            }
             Err(got) => assert!(!got.contains('\n'), "{name}: message spans lines"),
         }
     }
-    assert!(failures.is_empty(), "{} of {} cases wrong:\n{}", failures.len(), CASES.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases wrong:\n{}",
+        failures.len(),
+        CASES.len(),
+        failures.join("\n")
+    );
 }
 
 #[test]

@@ -667,17 +667,3 @@ fn a_session_opens_its_clip_frames() {
     assert_eq!((src.len(), src.fps()), (120, 29.97));
     assert!(s.open_side_frames(0, 16).unwrap().is_some());
 }
-
-#[test]
-fn zz_tmp_show() {
-    let Some(p) = std::env::var_os("LIPMAP_SHOW") else { return };
-    let file = PathBuf::from(p);
-    let mut s = session_with_frames(&file, 2);
-    s.clips[0].tracked.frames[0].points[3].visible = false;
-    s.set_correction(0, 1, 62, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
-    s.set_reviewed(0, 1, true).unwrap();
-    s.clips[0].alignment = Some(Alignment { phones: vec![Phone { start: 0.0, end: 0.1, label: "B".into() }] });
-    let settings = s.fit_settings.clone();
-    s.store_fits(0, &settings, vec![fit_of(0)]).unwrap();
-    s.save(&file).unwrap();
-}

@@ -2,7 +2,7 @@
 //! tier must write and read back to the same phones.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use lipmap::io::textgrid::{format_textgrid, parse_textgrid, TierChoice};
+use lipmap::io::textgrid::{TierChoice, format_textgrid, parse_textgrid};
 use std::path::Path;
 
 fuzz_target!(|data: &[u8]| {

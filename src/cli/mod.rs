@@ -4,6 +4,7 @@
 pub mod convert;
 pub mod exit;
 pub mod fit_files;
+pub mod model_cmd;
 pub mod phones;
 pub mod validate;
 
@@ -29,6 +30,9 @@ pub enum Command {
     Phones(phones::PhonesArgs),
     /// Check that files parse; prints `ok` or the error for each.
     Validate(validate::ValidateArgs),
+    /// Build a 3DMM from pose OBJs, or describe a model.
+    #[command(subcommand)]
+    Model(model_cmd::ModelCommand),
 }
 
 /// Runs one parsed command.
@@ -43,6 +47,10 @@ pub fn run(cli: Cli) -> Result<Outcome> {
         }
         Command::Phones(args) => {
             phones::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Model(cmd) => {
+            model_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Validate(args) => {

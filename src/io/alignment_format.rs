@@ -30,7 +30,8 @@ pub enum AlignmentFormat {
 }
 
 impl AlignmentFormat {
-    pub const ALL: [AlignmentFormat; 4] = [Self::TextGrid, Self::HtkLab, Self::Xlabel, Self::PhonesCsv];
+    pub const ALL: [AlignmentFormat; 4] =
+        [Self::TextGrid, Self::HtkLab, Self::Xlabel, Self::PhonesCsv];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -105,8 +106,12 @@ pub fn parse_alignment_as(
     tier: Option<&TierChoice>,
 ) -> Result<Alignment> {
     match format {
-        AlignmentFormat::TextGrid => textgrid::parse_textgrid_str(text, path)?.alignment(tier, path),
-        AlignmentFormat::HtkLab => htk_lab::parse_htk_lab(text.strip_prefix('\u{feff}').unwrap_or(text), path),
+        AlignmentFormat::TextGrid => {
+            textgrid::parse_textgrid_str(text, path)?.alignment(tier, path)
+        }
+        AlignmentFormat::HtkLab => {
+            htk_lab::parse_htk_lab(text.strip_prefix('\u{feff}').unwrap_or(text), path)
+        }
         AlignmentFormat::Xlabel => htk_lab::parse_xlabel(text, path),
         AlignmentFormat::PhonesCsv => phones_csv::parse_phones_csv(text, path),
     }

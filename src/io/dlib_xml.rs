@@ -122,13 +122,19 @@ pub fn parse_dlib_xml(text: &str, path: &Path) -> Result<Track> {
         return Err(FormatError::at_line(path, line, "file ends inside an <image>"));
     }
     if frames.is_empty() {
-        return Err(FormatError::whole(path, "no <image> elements: not a dlib imglab landmark file"));
+        return Err(FormatError::whole(
+            path,
+            "no <image> elements: not a dlib imglab landmark file",
+        ));
     }
     Ok(Track::new(frames))
 }
 
 fn finish_frame(frame: usize, points: Vec<Option<LandmarkPoint>>) -> FrameLandmarks {
-    FrameLandmarks::new(frame, points.into_iter().map(|p| p.unwrap_or(LandmarkPoint::missing())).collect())
+    FrameLandmarks::new(
+        frame,
+        points.into_iter().map(|p| p.unwrap_or(LandmarkPoint::missing())).collect(),
+    )
 }
 
 /// The iBUG id and position of one `<part name=… x=… y=…/>`.
@@ -140,7 +146,8 @@ fn parse_part(
 ) -> Result<(usize, LandmarkPoint)> {
     let (mut name, mut x, mut y) = (None, None, None);
     for attr in e.attributes() {
-        let attr = attr.map_err(|err| FormatError::at_line(path, line, format!("bad attribute: {err}")))?;
+        let attr =
+            attr.map_err(|err| FormatError::at_line(path, line, format!("bad attribute: {err}")))?;
         let value = attr
             .decode_and_unescape_value(reader.decoder())
             .map_err(|err| FormatError::at_line(path, line, format!("bad attribute value: {err}")))?
@@ -226,8 +233,10 @@ pub fn format_dlib_xml_with_names(track: &Track, image_name: &dyn Fn(usize) -> S
             .map(|(i, p)| (i, p.x.round() as i64, p.y.round() as i64))
             .collect();
         if !visible.is_empty() {
-            let (l, r) = visible.iter().fold((i64::MAX, i64::MIN), |(l, r), p| (l.min(p.1), r.max(p.1)));
-            let (t, b) = visible.iter().fold((i64::MAX, i64::MIN), |(t, b), p| (t.min(p.2), b.max(p.2)));
+            let (l, r) =
+                visible.iter().fold((i64::MAX, i64::MIN), |(l, r), p| (l.min(p.1), r.max(p.1)));
+            let (t, b) =
+                visible.iter().fold((i64::MAX, i64::MIN), |(t, b), p| (t.min(p.2), b.max(p.2)));
             let _ = writeln!(
                 s,
                 "    <box top='{t}' left='{l}' width='{}' height='{}'>",
@@ -264,10 +273,14 @@ mod tests {
 
     #[test]
     fn round_trip_rounds_and_keeps_missing() {
-        let mut pts: Vec<LandmarkPoint> =
-            (0..N_LANDMARKS).map(|i| LandmarkPoint::tracked(i as f64 + 0.4, 2.0 * i as f64 + 0.6)).collect();
+        let mut pts: Vec<LandmarkPoint> = (0..N_LANDMARKS)
+            .map(|i| LandmarkPoint::tracked(i as f64 + 0.4, 2.0 * i as f64 + 0.6))
+            .collect();
         pts[10].visible = false;
-        let track = Track::new(vec![FrameLandmarks::new(0, pts), FrameLandmarks::new(1, vec![LandmarkPoint::missing(); 68])]);
+        let track = Track::new(vec![
+            FrameLandmarks::new(0, pts),
+            FrameLandmarks::new(1, vec![LandmarkPoint::missing(); 68]),
+        ]);
         let back = parse_dlib_xml(&format_dlib_xml(&track), Path::new("l.xml")).unwrap();
         assert_eq!(back.len(), 2);
         let p = &back.frames[0].points;

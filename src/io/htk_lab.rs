@@ -84,7 +84,9 @@ pub fn parse_htk_lab(text: &str, path: &Path) -> Result<Alignment> {
     let all_integer = rows.iter().all(|r| is_integer(r.start) && is_integer(r.end));
     let htk_units = all_integer
         && rows.iter().any(|r| {
-            [r.start, r.end].iter().any(|s| s.parse::<u64>().map_or(true, |v| v > MAX_INTEGER_SECONDS))
+            [r.start, r.end]
+                .iter()
+                .any(|s| s.parse::<u64>().map_or(true, |v| v > MAX_INTEGER_SECONDS))
         });
     let mut phones: Vec<Phone> = Vec::with_capacity(rows.len());
     for r in &rows {
@@ -110,12 +112,22 @@ pub fn parse_htk_lab(text: &str, path: &Path) -> Result<Alignment> {
 }
 
 /// Appends a phone after checking it ends after it starts and does not overlap the last.
-pub(crate) fn push_phone(phones: &mut Vec<Phone>, p: Phone, path: &Path, line: usize) -> Result<()> {
+pub(crate) fn push_phone(
+    phones: &mut Vec<Phone>,
+    p: Phone,
+    path: &Path,
+    line: usize,
+) -> Result<()> {
     if p.end < p.start {
         return Err(FormatError::at_line(
             path,
             line,
-            format!("phone `{}` ends ({}) before it starts ({})", shorten(&p.label), p.end, p.start),
+            format!(
+                "phone `{}` ends ({}) before it starts ({})",
+                shorten(&p.label),
+                p.end,
+                p.start
+            ),
         ));
     }
     if let Some(prev) = phones.last()
@@ -266,12 +278,17 @@ mod tests {
     #[test]
     fn overlap_names_line() {
         let e = parse_lab("0 0.5 a\n0.4 0.6 b\n", Path::new("a.lab")).unwrap_err();
-        assert_eq!(e.to_string(), "a.lab:2: phone `b` starts at 0.4, before `a` ends at 0.5 (overlap)");
+        assert_eq!(
+            e.to_string(),
+            "a.lab:2: phone `b` starts at 0.4, before `a` ends at 0.5 (overlap)"
+        );
     }
 
     #[test]
     fn xlabel_round_trip() {
-        let a = parse_lab("separator ;\n#\n0.22 100 pau\n0.3127 100 b ; stress=0\n", Path::new("x")).unwrap();
+        let a =
+            parse_lab("separator ;\n#\n0.22 100 pau\n0.3127 100 b ; stress=0\n", Path::new("x"))
+                .unwrap();
         assert_eq!(a.phones[1], Phone { start: 0.22, end: 0.3127, label: "b".into() });
         assert_eq!(parse_lab(&format_xlabel(&a), Path::new("x")).unwrap(), a);
     }

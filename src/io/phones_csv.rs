@@ -30,12 +30,20 @@ pub fn parse_phones_csv(text: &str, path: &Path) -> Result<Alignment> {
     let table = read_csv_table(text, path)?;
     let need = |name: &str| {
         table.column(name).ok_or_else(|| {
-            FormatError::at_line(path, 1, format!("missing column `{name}` (expected {PHONES_CSV_HEADER})"))
+            FormatError::at_line(
+                path,
+                1,
+                format!("missing column `{name}` (expected {PHONES_CSV_HEADER})"),
+            )
         })
     };
     let (c_start, c_end) = (need("start")?, need("end")?);
     let c_label = table.column("phone").or_else(|| table.column("label")).ok_or_else(|| {
-        FormatError::at_line(path, 1, format!("missing column `phone` (expected {PHONES_CSV_HEADER})"))
+        FormatError::at_line(
+            path,
+            1,
+            format!("missing column `phone` (expected {PHONES_CSV_HEADER})"),
+        )
     })?;
     let mut phones = Vec::with_capacity(table.rows.len());
     for (line, rec) in &table.rows {
@@ -43,7 +51,11 @@ pub fn parse_phones_csv(text: &str, path: &Path) -> Result<Alignment> {
         let start = parse_f64_field(rec, c_start, "start", path, line)?;
         let end = parse_f64_field(rec, c_end, "end", path, line)?;
         if start < 0.0 {
-            return Err(FormatError::at_line(path, line, format!("column `start`: {start} is negative")));
+            return Err(FormatError::at_line(
+                path,
+                line,
+                format!("column `start`: {start} is negative"),
+            ));
         }
         let label = rec.get(c_label).unwrap_or("").to_string();
         push_phone(&mut phones, Phone { start, end, label }, path, line)?;

@@ -291,9 +291,12 @@ pub fn natural_cmp(a: &str, b: &str) -> Ordering {
             (Some(_), None) => return Ordering::Greater,
             (Some((ia, ca)), Some((ib, cb))) => {
                 if ca.is_ascii_digit() && cb.is_ascii_digit() {
-                    let ea = a[ia..].find(|c: char| !c.is_ascii_digit()).map_or(a.len(), |e| ia + e);
-                    let eb = b[ib..].find(|c: char| !c.is_ascii_digit()).map_or(b.len(), |e| ib + e);
-                    let (da, db) = (a[ia..ea].trim_start_matches('0'), b[ib..eb].trim_start_matches('0'));
+                    let ea =
+                        a[ia..].find(|c: char| !c.is_ascii_digit()).map_or(a.len(), |e| ia + e);
+                    let eb =
+                        b[ib..].find(|c: char| !c.is_ascii_digit()).map_or(b.len(), |e| ib + e);
+                    let (da, db) =
+                        (a[ia..ea].trim_start_matches('0'), b[ib..eb].trim_start_matches('0'));
                     let ord = da.len().cmp(&db.len()).then_with(|| da.cmp(db));
                     if ord != Ordering::Equal {
                         return ord;

@@ -84,23 +84,33 @@ impl TextGrid {
     /// No such tier, a point tier, or no default candidate (the message lists the tiers).
     pub fn alignment(&self, choice: Option<&TierChoice>, path: &Path) -> Result<Alignment> {
         let tier = match choice {
-            Some(TierChoice::Index(i)) => {
-                self.tiers.get(i.wrapping_sub(1)).ok_or_else(|| {
+            Some(TierChoice::Index(i)) => self.tiers.get(i.wrapping_sub(1)).ok_or_else(|| {
+                FormatError::whole(
+                    path,
+                    format!(
+                        "no tier {i}: the TextGrid has {} tiers ({})",
+                        self.tiers.len(),
+                        self.tier_list()
+                    ),
+                )
+            })?,
+            Some(TierChoice::Name(n)) => self
+                .tiers
+                .iter()
+                .find(|t| t.name.trim().eq_ignore_ascii_case(n.trim()))
+                .ok_or_else(|| {
                     FormatError::whole(
                         path,
-                        format!("no tier {i}: the TextGrid has {} tiers ({})", self.tiers.len(), self.tier_list()),
+                        format!("no tier named `{n}` (tiers: {})", self.tier_list()),
                     )
-                })?
-            }
-            Some(TierChoice::Name(n)) => {
-                self.tiers.iter().find(|t| t.name.trim().eq_ignore_ascii_case(n.trim())).ok_or_else(
-                    || FormatError::whole(path, format!("no tier named `{n}` (tiers: {})", self.tier_list())),
-                )?
-            }
+                })?,
             None => self.default_phone_tier().ok_or_else(|| {
                 FormatError::whole(
                     path,
-                    format!("no phone tier (tiers: {}); choose one by name or number", self.tier_list()),
+                    format!(
+                        "no phone tier (tiers: {}); choose one by name or number",
+                        self.tier_list()
+                    ),
                 )
             })?,
         };
@@ -237,7 +247,8 @@ impl Lexer<'_> {
                 }
                 b if b.is_ascii_whitespace() => self.pos += 1,
                 b'!' => {
-                    self.pos = self.text[self.pos..].find('\n').map_or(self.text.len(), |i| self.pos + i);
+                    self.pos =
+                        self.text[self.pos..].find('\n').map_or(self.text.len(), |i| self.pos + i);
                 }
                 b'"' => {
                     let start_line = self.line;
@@ -245,7 +256,11 @@ impl Lexer<'_> {
                     let mut i = self.pos + 1;
                     loop {
                         let Some(off) = self.text[i..].find('"') else {
-                            return Err(FormatError::at_line(self.path, start_line, "string never closes"));
+                            return Err(FormatError::at_line(
+                                self.path,
+                                start_line,
+                                "string never closes",
+                            ));
                         };
                         s.push_str(&self.text[i..i + off]);
                         i += off + 1;
@@ -341,7 +356,10 @@ impl Parser<'_> {
                 if v >= 0.0 && v.fract() == 0.0 && v < 1e12 {
                     Ok((v as usize, line))
                 } else {
-                    Err(self.err(line, format!("{what} must be a whole number, found {}", shorten(&raw))))
+                    Err(self.err(
+                        line,
+                        format!("{what} must be a whole number, found {}", shorten(&raw)),
+                    ))
                 }
             }
             (t, line) => Err(self.err(line, format!("expected {what}, found {}", t.describe()))),
@@ -391,7 +409,11 @@ pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
         return Err(FormatError::at_line(path, 1, BINARY_MESSAGE));
     }
     if text.trim_start().starts_with("\"Praat chronological TextGrid") {
-        return Err(FormatError::at_line(path, 1, "chronological TextGrids are not supported; save as text file"));
+        return Err(FormatError::at_line(
+            path,
+            1,
+            "chronological TextGrids are not supported; save as text file",
+        ));
     }
     let mut p = Parser { lex: Lexer { text, pos: 0, line: 1, path }, last_line: 1 };
     let (file_type, line) = p.string("the file type \"ooTextFile\"")?;
@@ -405,7 +427,9 @@ pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
     }
     let (class, line) = p.string("the object class \"TextGrid\"")?;
     if class != "TextGrid" {
-        return Err(p.err(line, format!("object class is \"{}\", expected \"TextGrid\"", shorten(&class))));
+        return Err(
+            p.err(line, format!("object class is \"{}\", expected \"TextGrid\"", shorten(&class)))
+        );
     }
     let (xmin, _) = p.num("the TextGrid's xmin")?;
     let (xmax, line) = p.num("the TextGrid's xmax")?;
@@ -416,7 +440,11 @@ pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
     let n_tiers = match flag {
         Tok::Flag(f) if f == "exists" => p.count("the number of tiers")?.0,
         Tok::Flag(f) if f == "absent" => 0,
-        t => return Err(p.err(line, format!("expected <exists> or <absent>, found {}", t.describe()))),
+        t => {
+            return Err(
+                p.err(line, format!("expected <exists> or <absent>, found {}", t.describe()))
+            );
+        }
     };
     let mut tiers = Vec::new();
     for tier_no in 1..=n_tiers {
@@ -440,7 +468,10 @@ pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
             other => {
                 return Err(p.err(
                     tier_line,
-                    format!("tier class is \"{}\", expected \"IntervalTier\" or \"TextTier\"", shorten(other)),
+                    format!(
+                        "tier class is \"{}\", expected \"IntervalTier\" or \"TextTier\"",
+                        shorten(other)
+                    ),
                 ));
             }
         };
@@ -559,7 +590,10 @@ mod tests {
                 bytes.extend(if little { u.to_le_bytes() } else { u.to_be_bytes() });
             }
             let grid = parse_textgrid(&bytes, Path::new("t")).unwrap();
-            assert_eq!(grid.alignment(Some(&TierChoice::Index(1)), Path::new("t")).unwrap(), sample());
+            assert_eq!(
+                grid.alignment(Some(&TierChoice::Index(1)), Path::new("t")).unwrap(),
+                sample()
+            );
         }
     }
 

@@ -71,7 +71,11 @@ pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
     }
     for (i, h) in header.iter().enumerate() {
         if header[..i].contains(h) {
-            return Err(FormatError::at_line(path, 1, format!("column `{}` appears twice", shorten(h))));
+            return Err(FormatError::at_line(
+                path,
+                1,
+                format!("column `{}` appears twice", shorten(h)),
+            ));
         }
     }
     let mut rows = Vec::new();
@@ -181,7 +185,11 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
     }
     let need = |name: &str| {
         table.column(name).ok_or_else(|| {
-            FormatError::at_line(path, 1, format!("missing column `{name}` (expected {TRACK_CSV_HEADER})"))
+            FormatError::at_line(
+                path,
+                1,
+                format!("missing column `{name}` (expected {TRACK_CSV_HEADER})"),
+            )
         })
     };
     let (c_frame, c_point, c_x, c_y) = (need("frame")?, need("point")?, need("x")?, need("y")?);
@@ -262,7 +270,9 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
             return Err(FormatError::at_line(
                 path,
                 line,
-                format!("frame {frame}: timestamp, frame_confidence or success differ from its earlier rows"),
+                format!(
+                    "frame {frame}: timestamp, frame_confidence or success differ from its earlier rows"
+                ),
             ));
         }
         let slot = &mut entry.1[point];
@@ -351,15 +361,18 @@ mod tests {
 
     #[test]
     fn lossless_round_trip() {
-        let mut pts: Vec<LandmarkPoint> =
-            (0..N_LANDMARKS).map(|i| LandmarkPoint::tracked(i as f64 * 0.1 + 1e-7, 1.0 / 3.0)).collect();
+        let mut pts: Vec<LandmarkPoint> = (0..N_LANDMARKS)
+            .map(|i| LandmarkPoint::tracked(i as f64 * 0.1 + 1e-7, 1.0 / 3.0))
+            .collect();
         pts[3].visible = false;
         pts[4].confidence = Some(0.123_456_79);
         pts[5].source = PointSource::Corrected;
         pts[6].source = PointSource::Interpolated;
         let mut f = FrameLandmarks::new(7, pts);
         let plain = Track::new(vec![f.clone()]);
-        assert!(format_track_csv(&plain).starts_with("frame,point,x,y,visible,confidence,source\n"));
+        assert!(
+            format_track_csv(&plain).starts_with("frame,point,x,y,visible,confidence,source\n")
+        );
         assert_eq!(parse_track_csv(&format_track_csv(&plain), Path::new("t.csv")).unwrap(), plain);
         f.timestamp = Some(0.2);
         f.confidence = Some(0.5);

@@ -1304,7 +1304,10 @@ impl ProfileTrack {
 ///   beyond the nose tip (background), clipped to the frame;
 /// - reference line: vertical through the subnasale (the frontal plane seen with the camera
 ///   level; tilt it by hand when the camera is pitched);
-/// - nose length: the two points found, fixed once.
+/// - nose length: the two points found, fixed once;
+/// - anchor: the profile from 0.8 nose heights above the nasion down to just under the tip,
+///   so the line follows the head ([`ProfileSetup::anchor`]; set it to `None` to measure
+///   from the line as drawn, as the published method did).
 ///
 /// # Errors
 /// Segmentation errors, [`ProfileError::NoseNotFound`] or [`ProfileError::NoUpperLip`] when
@@ -1341,21 +1344,34 @@ pub fn propose_setup(frame: &GrayImage, facing: Facing) -> Result<ProfileSetup, 
     let (w, h) = frame.dimensions();
     let top = tip_row + sn_off / 2;
     let bottom = ((sn_row as Real + 0.9 * len).round() as usize).min(h as usize);
-    let u_rear = (sn_u - 0.5 * len).floor().max(0.0);
-    let u_front = (tip_u + 0.25 * len).ceil().min(w as Real - 1.0);
-    if bottom <= top + 2 || u_front <= u_rear + 2.0 {
+    let u_rear = sn_u - 0.5 * len;
+    let u_front = tip_u + 0.25 * len;
+    if bottom <= top + 2 || u_front <= u_rear.max(0.0) + 2.0 {
         return Err(ProfileError::NoUpperLip(0.02 * len));
     }
-    let width = (u_front - u_rear) as u32 + 1;
-    let x = match facing {
-        Facing::Right => u_rear as u32,
-        Facing::Left => w - 1 - u_front as u32,
+    // Forward-coordinate columns [u0, u1] and rows [r0, r1) as an image rectangle.
+    let rect = |u0: Real, u1: Real, r0: usize, r1: usize| {
+        let (u0, u1) = (u0.floor().max(0.0) as u32, u1.ceil().min(w as Real - 1.0) as u32);
+        let x = match facing {
+            Facing::Right => u0,
+            Facing::Left => w - 1 - u1,
+        };
+        Rect::new(x, r0 as u32, u1 - u0 + 1, (r1 - r0) as u32)
     };
     let mut setup = ProfileSetup::new(
-        Rect::new(x, top as u32, width, (bottom - top) as u32),
+        rect(u_rear, u_front, top, bottom),
         ReferenceLine::vertical(sn_pt.x),
         facing,
     );
     setup.nose = NoseLength::Points { root: nose.root, tip: nose.tip };
+    // The anchor: forehead above the nasion down to just under the nose tip, rigid parts.
+    let root_row = nose.root.y.round() as usize;
+    let root_u = profile[root_row].map_or(tip_u - len, |p| p.1);
+    let a_top = root_row.saturating_sub((0.8 * (tip_row - root_row) as Real) as usize);
+    let a_bottom = (tip_row + sn_off / 4 + 1).min(top);
+    if a_bottom > a_top + MIN_REGISTRATION_ROWS {
+        let region = rect(root_u.min(tip_u) - 0.4 * len, u_front, a_top, a_bottom);
+        setup.anchor = Some(capture_anchor(frame, &setup, region)?);
+    }
     Ok(setup)
 }

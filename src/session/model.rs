@@ -128,7 +128,9 @@ pub struct ModelRef {
 }
 
 /// Which mesh vertex is which iBUG point: an eos TOML mapping file and/or an inline map
-/// (0-based iBUG index -> vertex) that the TUI's labelling edits. Inline entries win.
+/// (0-based iBUG index -> vertex) that the TUI's labelling edits. When `inline` is present
+/// it is the whole map (labelling starts from a copy of the file's map, so an unmapped point
+/// can be removed); `file` then only records where it started from.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MapRef {
     #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
@@ -141,6 +143,19 @@ impl MapRef {
     /// The inline map as a `LandmarkMap`, if there is one.
     pub fn inline_map(&self) -> Option<LandmarkMap> {
         self.inline.as_ref().map(|m| LandmarkMap { to_vertex: m.clone() })
+    }
+
+    /// The map to fit with: the inline map if present, else the file's (read with
+    /// `io::landmark_map_toml`), else `None`.
+    ///
+    /// # Errors
+    /// The file's `FormatError` (path and line).
+    pub fn resolve(&self) -> Result<Option<LandmarkMap>, crate::io::FormatError> {
+        match (&self.inline, &self.file) {
+            (Some(_), _) => Ok(self.inline_map()),
+            (None, Some(path)) => crate::io::landmark_map_toml::read_landmark_map(path).map(Some),
+            (None, None) => Ok(None),
+        }
     }
 
     /// Replaces the inline map (after labelling in the TUI).

@@ -120,7 +120,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         let side_r = rotation(90.0, 0.0) * r;
         let front_area = Rect::new(content.x, y, half, room);
         let side_area = Rect::new(content.x + half, y, content.width - half, room);
-        draw_wireframe(frame, front_area, mesh, &app.mesh_edges, &r, 1.0, |_, _| {});
-        draw_wireframe(frame, side_area, mesh, &app.mesh_edges, &side_r, 1.0, |_, _| {});
+        draw_wireframe(frame, front_area, mesh, &app.mesh_edges, &r, 1.0, |_, _, _| {});
+        draw_wireframe(frame, side_area, mesh, &app.mesh_edges, &side_r, 1.0, |_, _, _| {});
     }
 }

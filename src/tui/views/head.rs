@@ -17,9 +17,12 @@ use ratatui::widgets::canvas::{Canvas, Line as CLine, Points};
 use ratatui::widgets::{Block, Borders, Paragraph};
 
 /// Pick radius around the cursor, in head units at zoom 1.
-const PICK_RADIUS: f64 = 0.06;
-/// Vertices this far (head units) behind the frontmost candidate count as hidden.
-const DEPTH_TOLERANCE: f64 = 0.08;
+const PICK_RADIUS: f64 = 0.15;
+/// A vertex this far (head units) behind the depth buffer is hidden.
+const DEPTH_TOLERANCE: f64 = 0.03;
+/// Depth buffer resolution over the head's bounding square.
+const ZBUF: usize = 192;
+const ZBUF_EXTENT: f64 = 1.05;
 
 /// Rotation matrix for yaw (about y) then pitch (about x), degrees.
 pub fn rotation(yaw_deg: f64, pitch_deg: f64) -> Matrix3 {
@@ -49,21 +52,66 @@ pub fn project(mesh: &Mesh, rot: &Matrix3) -> Vec<(f64, f64, f64)> {
         .collect()
 }
 
-/// The vertex under the 2D cursor: among vertices within the pick radius, those near the
-/// frontmost depth are visible; of these the nearest to the cursor. `None` when none is near.
+fn zcell(v: f64) -> usize {
+    (((v + ZBUF_EXTENT) / (2.0 * ZBUF_EXTENT) * ZBUF as f64).floor().max(0.0) as usize)
+        .min(ZBUF - 1)
+}
+
+/// Which projected vertices are visible: a coarse depth buffer of the faces (fan-triangulated),
+/// then a vertex is visible when nothing covers it from closer. Without faces all are visible.
+pub fn visible_vertices(mesh: &Mesh, pts: &[(f64, f64, f64)]) -> Vec<bool> {
+    let mut zbuf = vec![f64::NEG_INFINITY; ZBUF * ZBUF];
+    let centre = |c: usize| (c as f64 + 0.5) / ZBUF as f64 * 2.0 * ZBUF_EXTENT - ZBUF_EXTENT;
+    for f in &mesh.faces {
+        for k in 1..f.len().saturating_sub(1) {
+            let tri = [f[0], f[k], f[k + 1]].map(|i| pts.get(i as usize).copied());
+            let [Some(a), Some(b), Some(c)] = tri else { continue };
+            let det = (b.1 - c.1) * (a.0 - c.0) + (c.0 - b.0) * (a.1 - c.1);
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            let (x0, x1) = (zcell(a.0.min(b.0).min(c.0)), zcell(a.0.max(b.0).max(c.0)));
+            let (y0, y1) = (zcell(a.1.min(b.1).min(c.1)), zcell(a.1.max(b.1).max(c.1)));
+            for cy in y0..=y1 {
+                let y = centre(cy);
+                for cx in x0..=x1 {
+                    let x = centre(cx);
+                    let l1 = ((b.1 - c.1) * (x - c.0) + (c.0 - b.0) * (y - c.1)) / det;
+                    let l2 = ((c.1 - a.1) * (x - c.0) + (a.0 - c.0) * (y - c.1)) / det;
+                    let l3 = 1.0 - l1 - l2;
+                    if l1 >= -1e-9 && l2 >= -1e-9 && l3 >= -1e-9 {
+                        let z = l1 * a.2 + l2 * b.2 + l3 * c.2;
+                        let cell = &mut zbuf[cy * ZBUF + cx];
+                        *cell = cell.max(z);
+                    }
+                }
+            }
+        }
+    }
+    pts.iter()
+        .map(|p| {
+            let front = zbuf[zcell(p.1) * ZBUF + zcell(p.0)];
+            !front.is_finite() || p.2 >= front - DEPTH_TOLERANCE
+        })
+        .collect()
+}
+
+/// The 3D cursor: the visible vertex nearest the 2D cursor, within the pick radius.
+/// `None` when no visible vertex is near.
 pub fn pick_vertex(mesh: &Mesh, view: &HeadView) -> Option<usize> {
     let pts = project(mesh, &rotation(view.yaw, view.pitch));
+    let visible = visible_vertices(mesh, &pts);
+    pick_from(&pts, &visible, view)
+}
+
+fn pick_from(pts: &[(f64, f64, f64)], visible: &[bool], view: &HeadView) -> Option<usize> {
     let (cx, cy) = (view.cursor.0, -view.cursor.1);
     let radius = PICK_RADIUS / view.zoom;
-    let near: Vec<(usize, f64, f64)> = pts
-        .iter()
+    pts.iter()
         .enumerate()
-        .map(|(i, p)| (i, (p.0 - cx).hypot(p.1 - cy), p.2))
+        .filter(|(i, _)| visible[*i])
+        .map(|(i, p)| (i, (p.0 - cx).hypot(p.1 - cy)))
         .filter(|c| c.1 <= radius)
-        .collect();
-    let front = near.iter().map(|c| c.2).fold(f64::NEG_INFINITY, f64::max);
-    near.into_iter()
-        .filter(|c| c.2 >= front - DEPTH_TOLERANCE)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|c| c.0)
 }
@@ -76,12 +124,13 @@ pub fn draw_wireframe(
     edges: &[[u32; 2]],
     rot: &Matrix3,
     zoom: f64,
-    overlay: impl Fn(&mut ratatui::widgets::canvas::Context, &[(f64, f64, f64)]),
+    overlay: impl Fn(&mut ratatui::widgets::canvas::Context, &[(f64, f64, f64)], &[bool]),
 ) {
     if area.width == 0 || area.height == 0 {
         return;
     }
     let pts = project(mesh, rot);
+    let visible = visible_vertices(mesh, &pts);
     // Braille dots are about square: 2×4 per cell of aspect 1:2.
     let aspect = f64::from(area.width) / (2.0 * f64::from(area.height));
     let (hy, hx) = (1.05 / zoom, 1.05 / zoom * aspect);
@@ -94,12 +143,13 @@ pub fn draw_wireframe(
                 let (Some(a), Some(b)) = (pts.get(e[0] as usize), pts.get(e[1] as usize)) else {
                     continue;
                 };
-                // Back-facing edges are dimmed by drawing only the front half in depth.
-                let colour = if a.2 + b.2 < 0.0 { Color::DarkGray } else { Color::Gray };
-                ctx.draw(&CLine { x1: a.0, y1: a.1, x2: b.0, y2: b.1, color: colour });
+                // Hidden-line removal by vertex visibility keeps a dense mesh readable.
+                if visible[e[0] as usize] && visible[e[1] as usize] {
+                    ctx.draw(&CLine { x1: a.0, y1: a.1, x2: b.0, y2: b.1, color: Color::Gray });
+                }
             }
             ctx.layer();
-            overlay(ctx, &pts);
+            overlay(ctx, &pts, &visible);
         });
     frame.render_widget(canvas, area);
 }
@@ -123,12 +173,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 &app.mesh_edges,
                 &rotation(h.yaw, h.pitch),
                 h.zoom,
-                |ctx, pts| {
+                |ctx, pts, visible| {
                     let mapped: Vec<(f64, f64)> = map
                         .to_vertex
                         .iter()
-                        .filter(|(l, _)| **l != label)
-                        .filter_map(|(_, v)| pts.get(*v).filter(|p| p.2 > -0.2).map(|p| (p.0, p.1)))
+                        .filter(|(l, v)| **l != label && visible.get(**v) == Some(&true))
+                        .filter_map(|(_, v)| pts.get(*v).map(|p| (p.0, p.1)))
                         .collect();
                     ctx.draw(&Points { coords: &mapped, color: Color::LightGreen });
                     if let Some(p) = map.vertex(label).and_then(|v| pts.get(v)) {
@@ -197,26 +247,32 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tui::fixtures::synthetic_mesh;
 
     #[test]
-    fn picks_the_front_vertex_under_the_cursor() {
-        // Two vertices at the same x, y: one in front (z = +1), one behind (z = −1),
-        // and a far one to set the bounding box.
-        let mesh = Mesh {
-            vertices: vec![
-                Point3::new(0.0, 0.0, 1.0),
-                Point3::new(0.0, 0.0, -1.0),
-                Point3::new(1.0, 1.0, 0.0),
-                Point3::new(-1.0, -1.0, 0.0),
-            ],
-            faces: vec![],
-        };
+    fn picks_a_visible_vertex_under_the_cursor() {
+        let mesh = synthetic_mesh();
         let view = HeadView::default();
-        assert_eq!(pick_vertex(&mesh, &view), Some(0));
-        // Turned around, the other one is in front.
-        let back = HeadView { yaw: 180.0, ..view };
-        assert_eq!(pick_vertex(&mesh, &back), Some(1));
-        let away = HeadView { cursor: (0.3, 0.0), ..view };
-        assert_eq!(pick_vertex(&mesh, &away), None);
+        let front = pick_vertex(&mesh, &view).unwrap();
+        assert!(mesh.vertices[front].z > 0.0);
+        // Turned around, the back of the head is in front.
+        let back = pick_vertex(&mesh, &HeadView { yaw: 180.0, ..view }).unwrap();
+        assert!(mesh.vertices[back].z < 0.0);
+        // Far outside the head there is nothing to pick.
+        assert_eq!(pick_vertex(&mesh, &HeadView { cursor: (1.4, 0.0), ..view }), None);
+    }
+
+    #[test]
+    fn about_half_of_a_closed_head_is_visible() {
+        let mesh = synthetic_mesh();
+        let pts = project(&mesh, &rotation(20.0, 10.0));
+        let vis = visible_vertices(&mesh, &pts);
+        let n = vis.iter().filter(|v| **v).count() as f64 / vis.len() as f64;
+        assert!((0.35..0.7).contains(&n), "visible fraction {n}");
+        for (p, v) in pts.iter().zip(&vis) {
+            if p.2 < -0.3 {
+                assert!(!v, "a vertex well behind the centre is hidden");
+            }
+        }
     }
 }

@@ -42,7 +42,8 @@ pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
             continue;
         }
         lines.push(Line::from(format!("{} keys", mode.name())).bold().fg(Color::LightMagenta));
-        let width = entries.iter().map(|e| e.1.join(", ").chars().count()).max().unwrap_or(0).min(30);
+        let width =
+            entries.iter().map(|e| e.1.join(", ").chars().count()).max().unwrap_or(0).min(30);
         for (d, keys) in entries {
             let k = keys.join(", ");
             lines.push(Line::from(vec![
@@ -74,11 +75,9 @@ pub fn draw(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Re
     );
     frame.render_widget(Clear, r);
     frame.render_widget(
-        Paragraph::new(lines).scroll((scroll.min(max_scroll), 0)).block(
-            Block::bordered()
-                .title(title)
-                .border_style(Color::LightMagenta),
-        ),
+        Paragraph::new(lines)
+            .scroll((scroll.min(max_scroll), 0))
+            .block(Block::bordered().title(title).border_style(Color::LightMagenta)),
         r,
     );
 }

@@ -1,0 +1,119 @@
+//! `lipmap model build|info`: build a 3DMM by PCA over a folder of pose OBJs (optionally with
+//! blendshapes) and write lipmap's model file; print a model's size and variance explained.
+
+use crate::io::model_file::{self, Precision};
+use crate::io::model_source;
+use crate::model::pca::{Keep, variance_explained};
+use anyhow::{Result, bail};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(clap::Subcommand, Debug)]
+pub enum ModelCommand {
+    /// Build a model by PCA over a folder of pose OBJs with identical topology.
+    Build(BuildArgs),
+    /// Print a model's size and the variance its components explain.
+    Info(InfoArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct BuildArgs {
+    /// Folder of pose OBJs (same vertex count and order in every file).
+    pub poses: PathBuf,
+    /// Output model file (lipmap's format; see docs/model-format.md).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Keep the fewest components explaining this fraction of the variance.
+    #[arg(long, default_value_t = 0.98, conflicts_with = "components")]
+    pub variance: f64,
+    /// Keep exactly this many components instead.
+    #[arg(long)]
+    pub components: Option<usize>,
+    /// Expression blendshapes to add (eos .bin, folder of .target or OBJ files).
+    #[arg(long)]
+    pub blendshapes: Option<PathBuf>,
+    /// Store 8-byte floats (default 4-byte).
+    #[arg(long)]
+    pub f64: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct InfoArgs {
+    /// A model: eos .bin, .npz, folder of .npy parts, lipmap model file, or folder of pose OBJs.
+    pub model: PathBuf,
+    /// Expression blendshapes to load with it.
+    #[arg(long)]
+    pub blendshapes: Option<PathBuf>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(cmd: &ModelCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        ModelCommand::Build(a) => build(a, out),
+        ModelCommand::Info(a) => info(a, out),
+    }
+}
+
+fn build(a: &BuildArgs, out: &mut dyn Write) -> Result<()> {
+    if !(a.variance > 0.0 && a.variance <= 1.0) {
+        bail!("--variance must be in (0, 1], got {}", a.variance);
+    }
+    let keep = a.components.map_or(Keep::VarianceFraction(a.variance), Keep::Components);
+    let (mut model, summary) = model_source::build_model_from_obj_folder(&a.poses, keep)?;
+    if let Some(b) = &a.blendshapes {
+        model = model_source::with_blendshapes(model, b)?;
+    }
+    let precision = if a.f64 { Precision::F64 } else { Precision::F32 };
+    model_file::write_model_file(&a.out, &model, precision)?;
+    writeln!(
+        out,
+        "{}: {} vertices, {} components ({:.1} % of variance, {} poses), {} expressions",
+        a.out.display(),
+        model.num_vertices(),
+        model.num_shape_components(),
+        100.0 * summary.variance_explained(),
+        summary.all_eigenvalues.len() + 1,
+        model.num_expressions()
+    )?;
+    Ok(())
+}
+
+fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
+    let model = model_source::load_model(&a.model, a.blendshapes.as_deref())?;
+    let e = &model.shape.eigenvalues;
+    let cumulative: Vec<f64> = (1..=e.len()).map(|k| variance_explained(e, k)).collect();
+    if a.json {
+        let v = serde_json::json!({
+            "vertices": model.num_vertices(),
+            "triangles": model.triangles.len(),
+            "shape_components": model.num_shape_components(),
+            "expressions": model.expression_names(),
+            "eigenvalues": e.as_slice(),
+            "cumulative_variance_of_kept": cumulative,
+        });
+        serde_json::to_writer_pretty(&mut *out, &v)?;
+        writeln!(out)?;
+        return Ok(());
+    }
+    writeln!(out, "model        {}", a.model.display())?;
+    writeln!(out, "vertices     {}", model.num_vertices())?;
+    writeln!(out, "triangles    {}", model.triangles.len())?;
+    writeln!(out, "components   {}", model.num_shape_components())?;
+    writeln!(
+        out,
+        "expressions  {} {}",
+        model.num_expressions(),
+        model.expression_names().join(" ")
+    )?;
+    if !cumulative.is_empty() {
+        writeln!(out, "variance explained (share of the kept components' total):")?;
+        for k in [1usize, 2, 3, 5, 10, 20, 50] {
+            if k <= cumulative.len() {
+                writeln!(out, "  first {k:>3}  {:6.2} %", 100.0 * cumulative[k - 1])?;
+            }
+        }
+    }
+    Ok(())
+}

@@ -130,5 +130,31 @@ fn main() {
         b.iter(|| s.save(black_box(&out)).expect("save"))
     });
     group.finish();
+    bench_video(&mut c);
     c.final_summary();
+}
+
+/// Opening (probe only) and decoding from the shared carphone video, when ffmpeg and the
+/// shared data are present.
+fn bench_video(c: &mut Criterion) {
+    let Some(video) = lipmap::testdata::shared("data/carphone/carphone_pristine.mp4") else {
+        return;
+    };
+    let opts = lipmap::io::frames::FrameOptions::default();
+    if FrameSource::open(&video, &opts).is_err() {
+        println!("skipping video benchmarks: ffmpeg/ffprobe missing (apt-get install ffmpeg)");
+        return;
+    }
+    let mut group = c.benchmark_group("video");
+    group.bench_function("open_carphone_probe", |b| {
+        b.iter(|| FrameSource::open(black_box(&video), &opts).expect("open"))
+    });
+    // A cold chunk: a fresh source each time, so frame 60 needs one ffmpeg run (16 frames).
+    group.bench_function("first_frame_of_a_cold_chunk", |b| {
+        b.iter_with_setup(
+            || FrameSource::open(&video, &opts).expect("open"),
+            |src| src.get(black_box(60)).expect("frame").len(),
+        )
+    });
+    group.finish();
 }

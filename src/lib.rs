@@ -20,3 +20,4 @@ pub mod measure;
 pub mod tui;
 pub mod demo;
 pub mod eval;
+pub mod workflow;

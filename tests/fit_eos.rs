@@ -260,6 +260,7 @@ fn sweep_settings() {
                 "smooth" => s.temporal_smoothness = v.parse().unwrap(),
                 "fset" => s.set = v.parse().unwrap(),
                 "pose" => s.pose_refinement_steps = v.parse().unwrap(),
+                "tol" => s.convergence_tolerance = v.parse().unwrap(),
                 other => panic!("unknown key {other}"),
             }
         }
@@ -267,9 +268,10 @@ fn sweep_settings() {
             let fits = fit_clip(&model, &map, &set.frames, set.height, &s, None);
             let fig = figures(&model, &map, set, &fits);
             println!(
-                "RESULT {:>10} [{line}] mouth={:.3} gap_bias={:+.3} gap_mae={:.3} rot={:.3} failed={}",
+                "RESULT {:>10} [{line}] mouth={:.3} gap_bias={:+.3} gap_mae={:.3} rot={:.3} failed={} reproj={:.3}",
                 dir.file_name().unwrap().to_string_lossy(),
-                fig.mouth_rms_mm, fig.gap_bias_mm, fig.gap_mae_mm, fig.rot_err_deg, fig.failed
+                fig.mouth_rms_mm, fig.gap_bias_mm, fig.gap_mae_mm, fig.rot_err_deg, fig.failed,
+                median(fits.iter().map(|f| f.reproj_rms_px).collect())
             );
         }
     }

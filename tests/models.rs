@@ -252,3 +252,50 @@ fn fitted_mesh_exports_with_vertex_order_kept() {
     assert_eq!(back.triangles(), m.triangles);
     assert_eq!(m.vertex(&shape, 114), Some(back.vertices[114]));
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn mesh_strategy() -> impl Strategy<Value = Mesh> {
+        (3usize..30).prop_flat_map(|n| {
+            let vertices = proptest::collection::vec(
+                (-1e3f64..1e3, -1e3f64..1e3, -1e3f64..1e3)
+                    .prop_map(|(x, y, z)| Point3::new(x, y, z)),
+                n,
+            );
+            let faces =
+                proptest::collection::vec(proptest::collection::vec(0..n as u32, 3..6), 0..20);
+            (vertices, faces).prop_map(|(vertices, faces)| Mesh { vertices, faces })
+        })
+    }
+
+    proptest! {
+        /// Written OBJ reads back identically: no vertex is renumbered, dropped or moved,
+        /// whatever order the faces reference them in (unreferenced vertices included).
+        #[test]
+        fn obj_round_trip_keeps_identity(mesh in mesh_strategy()) {
+            let mut out = Vec::new();
+            obj::write_obj_to(&mut out, &mesh).unwrap();
+            let back = obj::parse_obj(std::str::from_utf8(&out).unwrap(), std::path::Path::new("p.obj")).unwrap();
+            prop_assert_eq!(back, mesh);
+        }
+
+        /// Faces written with negative (relative) indices after all vertices resolve to the
+        /// same vertices as 1-based ones.
+        #[test]
+        fn relative_indices_resolve_like_absolute(mesh in mesh_strategy()) {
+            let n = mesh.vertices.len() as i64;
+            let mut text = String::new();
+            for p in &mesh.vertices {
+                text.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
+            }
+            for f in &mesh.faces {
+                let refs: Vec<String> = f.iter().map(|&v| format!("{}/1/1", v as i64 - n)).collect();
+                text.push_str(&format!("f {}\n", refs.join(" ")));
+            }
+            let back = obj::parse_obj(&text, std::path::Path::new("p.obj")).unwrap();
+            prop_assert_eq!(back, mesh);
+        }
+    }
+}

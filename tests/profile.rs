@@ -15,7 +15,7 @@ const BACK: f64 = 230.0;
 /// (110, 160), subnasale (125, 130), upper lip (140, 140 + lip), stomion, lower lip, chin, neck.
 fn front_edge(lip: f64) -> Vec<(f64, f64)> {
     vec![
-        (-1.0, 120.0),
+        (-30.0, 120.0 - 29.0 * 8.0 / 41.0),
         (40.0, 128.0),
         (70.0, 118.0),
         (110.0, 160.0),
@@ -27,7 +27,7 @@ fn front_edge(lip: f64) -> Vec<(f64, f64)> {
         (175.0, 122.0),
         (195.0, 130.0),
         (215.0, 100.0),
-        (261.0, 90.0),
+        (290.0, 100.0 - 75.0 * 10.0 / 46.0),
     ]
 }
 
@@ -338,6 +338,48 @@ fn setup_defaults_fill_missing_fields() {
     assert_eq!(manual, Threshold::Manual(90));
 }
 
+/// The front edge moved rigidly: rotated by `deg` about (100, 140), then shifted.
+fn moved_edge(lip: f64, deg: f64, dx: f64, dy: f64) -> Vec<(f64, f64)> {
+    let (s, c) = deg.to_radians().sin_cos();
+    front_edge(lip)
+        .into_iter()
+        .map(|(y, x)| {
+            let (u, v) = (x - 100.0, y - 140.0);
+            (140.0 + s * u + c * v + dy, 100.0 + c * u - s * v + dx)
+        })
+        .collect()
+}
+
+#[test]
+fn anchored_line_follows_head_motion() {
+    let still = draw(&front_edge(0.0), FACE, BACK);
+    let setup = propose_setup(&still, Facing::Right).unwrap();
+    let anchor = setup.anchor.clone().expect("an anchor is proposed");
+    assert!(anchor.region.y + anchor.region.height <= setup.crop.y, "{anchor:?}");
+    let base = measure_lip_profile(&still, &setup).unwrap();
+    assert!(base.motion.unwrap().translation.vector.norm() < 0.05, "{:?}", base.motion);
+    let fixed = ProfileSetup { anchor: None, ..setup.clone() };
+    // The head moves by a pixel or two and pitches by 1.5°; the lip does not move on it.
+    let (deg, dx, dy) = (1.5, 1.7, -1.3);
+    let moved = draw(&moved_edge(0.0, deg, dx, dy), FACE, BACK);
+    let m = measure_lip_profile(&moved, &setup).unwrap();
+    assert!((m.p_px - base.p_px).abs() < 0.3, "anchored P {} vs {}", m.p_px, base.p_px);
+    let angle = m.motion.unwrap().rotation.angle().to_degrees();
+    assert!((angle + deg).abs() < 0.3, "recovered pitch {angle}");
+    let f = measure_lip_profile(&moved, &fixed).unwrap();
+    assert!((f.p_px - base.p_px).abs() > 1.0, "a fixed line sees the motion: {}", f.p_px);
+    // The reported point is in the moved frame's pixels, near the moved lip vertex.
+    let (s, c) = deg.to_radians().sin_cos();
+    let lip = Point2::new(100.0 + c * 40.0 + dx, 140.0 + s * 40.0 + dy);
+    assert!(close(m.upper_lip_px, lip, 1.0), "{:?} vs {lip:?}", m.upper_lip_px);
+    // A correction in the moved frame is measured through the same motion.
+    let auto = measure_frame(0, &moved, &setup, None);
+    let mut track = ProfileTrack::new(vec![auto.clone()], None);
+    track.correct(0, auto.upper_lip_px.unwrap());
+    let e = track.effective(0, &setup).unwrap();
+    assert!((e.p_px.unwrap() - auto.p_px.unwrap()).abs() < 1e-6);
+}
+
 /// Column `name` of a demo `truth.csv`.
 fn truth_column(csv: &str, name: &str) -> Vec<f64> {
     let mut lines = csv.lines();
@@ -347,7 +389,8 @@ fn truth_column(csv: &str, name: &str) -> Vec<f64> {
 }
 
 fn rmse(a: &[Option<f64>], b: &[Option<f64>]) -> f64 {
-    let d: Vec<f64> = a.iter().zip(b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).powi(2))).collect();
+    let d: Vec<f64> =
+        a.iter().zip(b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).powi(2))).collect();
     (d.iter().sum::<f64>() / d.len() as f64).sqrt()
 }
 
@@ -365,7 +408,9 @@ fn demo_side_frames_match_the_true_protrusion() {
     let clip = &out.speakers[0].clips[0];
     let side = clip.side_dir.as_ref().unwrap();
     let load = |f: usize| -> Result<GrayImage, String> {
-        image::open(side.join(format!("frame_{f:05}.png"))).map(|i| i.to_luma8()).map_err(|e| e.to_string())
+        image::open(side.join(format!("frame_{f:05}.png")))
+            .map(|i| i.to_luma8())
+            .map_err(|e| e.to_string())
     };
     let setup = propose_setup(&load(0).unwrap(), Facing::Right).unwrap();
     eprintln!("{setup:?}");
@@ -376,11 +421,22 @@ fn demo_side_frames_match_the_true_protrusion() {
     let ref_u = truth_column(&csv, "ref_side_u");
     let measured: Vec<Option<f64>> = points.iter().map(|p| p.p_norm).collect();
     for (i, p) in points.iter().enumerate() {
-        eprintln!("{i} truth {:.4} meas {:?} lip_u {:.2} ({:.2}) ref_u {:.2} {:?}", truth[i].unwrap(), p.p_norm, lip_u[i], p.upper_lip_px.map_or(0.0, |q| q.x), ref_u[i], p.failed);
+        eprintln!(
+            "{i} truth {:.4} meas {:?} lip_u {:.2} ({:.2}) ref_u {:.2} {:?}",
+            truth[i].unwrap(),
+            p.p_norm,
+            lip_u[i],
+            p.upper_lip_px.map_or(0.0, |q| q.x),
+            ref_u[i],
+            p.failed
+        );
     }
     let mt = lipmap::measure::min_max_normalise(&truth).unwrap();
     let mm = lipmap::measure::min_max_normalise(&measured).unwrap();
     let e = rmse(&mt, &mm);
     eprintln!("RMSE after min-max {e:.4}");
+    let oracle: Vec<Option<f64>> = lip_u.iter().zip(&ref_u).map(|(a, b)| Some(a - b)).collect();
+    let mo = lipmap::measure::min_max_normalise(&oracle).unwrap();
+    eprintln!("oracle (image lip − eye columns) vs truth {:.4}; measured vs oracle {:.4}", rmse(&mt, &mo), rmse(&mm, &mo));
     assert!(e <= 0.05, "RMSE {e}");
 }

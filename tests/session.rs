@@ -667,3 +667,18 @@ fn a_session_opens_its_clip_frames() {
     assert_eq!((src.len(), src.fps()), (120, 29.97));
     assert!(s.open_side_frames(0, 16).unwrap().is_some());
 }
+
+#[test]
+fn the_landmark_map_comes_from_the_file_until_labelled_inline() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = dir.path().join("ibug_to_head.txt");
+    std::fs::write(&toml, "[landmark_mappings]\n31 = 114 # nose tip\n63 = 7\n").unwrap();
+    let mut map = MapRef { file: Some(toml), inline: None };
+    let from_file = map.resolve().unwrap().unwrap();
+    assert_eq!((from_file.vertex(30), from_file.vertex(62)), (Some(114), Some(7)));
+    let mut edited = from_file.clone();
+    edited.to_vertex.remove(&62);
+    map.set_inline(&edited);
+    let now = map.resolve().unwrap().unwrap();
+    assert_eq!((now.vertex(30), now.vertex(62)), (Some(114), None));
+}

@@ -133,3 +133,21 @@ fn tiny_terminal_does_not_panic() {
         }
     }
 }
+
+#[test]
+fn moving_one_point_sends_only_a_few_cells() {
+    use lipmap::tui::fixtures::counting_terminal;
+    use std::sync::atomic::Ordering;
+    let keymap = Keymap::default();
+    let mut app = synthetic_app(4, 320, 240, true);
+    app.term_size = (120, 40);
+    let (mut term, bytes) = counting_terminal(120, 40).unwrap();
+    term.draw(|f| draw(&app, &keymap, f)).unwrap();
+    let full = bytes.swap(0, Ordering::Relaxed);
+    apply(&mut app, &[Action::Nudge { dx: 0, dy: 2 }]);
+    term.draw(|f| draw(&app, &keymap, f)).unwrap();
+    let moved = bytes.swap(0, Ordering::Relaxed);
+    // The point's old and new cells, the side panel's numbers, the status line.
+    assert!(moved < 2_000, "one point moved: {moved} bytes (full draw {full})");
+    assert!(full > 20 * moved, "full draw {full} vs one point {moved}");
+}

@@ -1,2 +1,227 @@
-//! `lipmap fit --model … --landmarks …`: the headless files-in, files-out fit.
-//! (Being written by the fitting work; wired into main.rs by the lead.)
+//! `lipmap fit --model … --landmarks …`: the headless files-in, files-out fit. Reads a model,
+//! a landmark map and a lipmap landmark CSV; writes `fit.csv` and `shapes.npy` into `--out`.
+//!
+//! Every unreadable input is an error naming the file; the core does the fitting
+//! (`fit::Fitter`), this module only reads, reports progress and writes.
+
+use crate::cli::exit::Outcome;
+use crate::cli::progress::frames_bar;
+use crate::fit::{FitSettings, FrameFit, Fitter, fitted_shape};
+use crate::io::{landmark_map_toml, model_source, npy_model, track_csv};
+use crate::landmarks::LandmarkSet;
+use crate::model::LandmarkMap;
+use anyhow::{Context, Result, bail};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `lipmap fit`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct FitFilesArgs {
+    /// Model: eos `.bin`, `.npz`, a `.npy` folder, a lipmap model file or a folder of pose OBJs.
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Expression blendshapes to add to the model (eos `.bin`, `.npy`, `.target`/OBJ folder).
+    #[arg(long)]
+    pub blendshapes: Option<PathBuf>,
+    /// Landmark map: eos TOML (1-based iBUG ids) or eos's `landmarks_and_contours.json`.
+    #[arg(long)]
+    pub mapping: PathBuf,
+    /// lipmap landmark CSV: `frame,point,x,y[,visible,confidence,source]`, pixels, y down.
+    #[arg(long)]
+    pub landmarks: PathBuf,
+    /// Image size in pixels, `WxH` (the height flips y for the camera).
+    #[arg(long, value_parser = parse_image_size)]
+    pub image_size: (u32, u32),
+    /// Landmark set driving the fit (F1 lips … F5 all); default as `FitSettings`.
+    #[arg(long)]
+    pub set: Option<LandmarkSet>,
+    /// Identity prior weight λ (eos convention, σ² = 3 px²); default as `FitSettings`.
+    #[arg(long)]
+    pub lambda: Option<f64>,
+    /// Camera/shape iterations; default as `FitSettings`.
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Fit the clip as one person: one identity, pose and expression per frame.
+    #[arg(long)]
+    pub clip: bool,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Parses `WxH` (e.g. `1280x720`).
+pub fn parse_image_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .trim()
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("image size `{s}` is not WxH (e.g. 1280x720)"))?;
+    let parse = |v: &str| v.trim().parse::<u32>().ok().filter(|&n| n > 0);
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!("image size `{s}` needs two positive integers, WxH")),
+    }
+}
+
+impl FitFilesArgs {
+    /// The fit settings these arguments ask for, defaults elsewhere.
+    pub fn settings(&self) -> FitSettings {
+        let mut s = FitSettings { clip: self.clip, ..FitSettings::default() };
+        if let Some(set) = self.set {
+            s.set = set;
+        }
+        if let Some(l) = self.lambda {
+            s.lambda = l;
+        }
+        if let Some(n) = self.iterations {
+            s.iterations = n;
+        }
+        s
+    }
+}
+
+fn read_mapping(path: &Path) -> Result<LandmarkMap> {
+    let is_json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    Ok(if is_json {
+        landmark_map_toml::read_landmark_map_json(path)?
+    } else {
+        landmark_map_toml::read_landmark_map(path)?
+    })
+}
+
+/// Runs the fit and writes the outputs; `Outcome::Partial` when some frames failed.
+///
+/// # Errors
+/// Unreadable or invalid inputs (naming the file), a map that points past the model's
+/// vertices, bad settings, or output that cannot be written.
+pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
+    let settings = args.settings();
+    if !(settings.lambda.is_finite() && settings.lambda >= 0.0) {
+        bail!("--lambda must be a finite number >= 0, got {}", settings.lambda);
+    }
+    let model = model_source::load_model(&args.model, args.blendshapes.as_deref())?;
+    let map = read_mapping(&args.mapping)?;
+    if let Some(v) = map.max_vertex().filter(|&v| v >= model.num_vertices()) {
+        bail!(
+            "{}: maps a landmark to vertex {v}, but the model {} has {} vertices",
+            args.mapping.display(),
+            args.model.display(),
+            model.num_vertices()
+        );
+    }
+    let track = track_csv::read_track_csv(&args.landmarks)?;
+    if track.is_empty() {
+        bail!("{}: no frames", args.landmarks.display());
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
+
+    let height = f64::from(args.image_size.1);
+    let fitter = Fitter::new(&model, &map, &settings);
+    if fitter.basis().len() < 4 {
+        bail!(
+            "{}: only {} landmarks of set {} are mapped; a fit needs at least 4",
+            args.mapping.display(),
+            fitter.basis().len(),
+            settings.set
+        );
+    }
+    let bar = frames_bar(track.len() as u64, if settings.clip { "fitting clip" } else { "fitting frames" });
+    let t0 = Instant::now();
+    let progress = |n: usize| bar.set_position(n as u64);
+    let fits = fitter.fit_frames(&track.frames, height, Some(&progress));
+    let elapsed = t0.elapsed();
+    bar.finish_and_clear();
+
+    let fit_csv = args.out.join("fit.csv");
+    write_fit_csv(&fit_csv, &fits)?;
+    let shapes = args.out.join("shapes.npy");
+    let n3 = 3 * model.num_vertices();
+    let mut data = Vec::with_capacity(fits.len() * n3);
+    for f in &fits {
+        data.extend(fitted_shape(&model, f).iter().map(|&v| v as f32));
+    }
+    npy_model::write_npy_f32(&shapes, &[fits.len() as u64, n3 as u64], &data)?;
+
+    let failed = fits.iter().filter(|f| f.failed.is_some()).count();
+    let mut rms: Vec<f64> = fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
+    rms.sort_by(|a, b| a.total_cmp(b));
+    let median = rms.get(rms.len() / 2).copied().unwrap_or(f64::NAN);
+    println!(
+        "fitted {} frames ({} failed, {}) in {:.1} ms ({:.3} ms/frame); median reprojection RMS {:.2} px; wrote {} and {}",
+        fits.len(),
+        failed,
+        if settings.clip { "clip" } else { "per frame" },
+        elapsed.as_secs_f64() * 1e3,
+        elapsed.as_secs_f64() * 1e3 / fits.len() as f64,
+        median,
+        fit_csv.display(),
+        shapes.display()
+    );
+    Ok(if failed > 0 { Outcome::Partial } else { Outcome::Ok })
+}
+
+/// Runs the fit and writes the outputs (see [`run_with_outcome`]).
+///
+/// # Errors
+/// As [`run_with_outcome`].
+pub fn run(args: &FitFilesArgs) -> Result<()> {
+    run_with_outcome(args).map(|_| ())
+}
+
+/// Writes `frame,yaw,pitch,roll,scale,tx,ty,reproj_rms_px,failed` (failed: empty, or the
+/// reason).
+fn write_fit_csv(path: &Path, fits: &[FrameFit]) -> Result<()> {
+    let err = |e: csv::Error| anyhow::anyhow!("{}: {e}", path.display());
+    let mut w = csv::Writer::from_path(path).map_err(err)?;
+    w.write_record(["frame", "yaw", "pitch", "roll", "scale", "tx", "ty", "reproj_rms_px", "failed"])
+        .map_err(err)?;
+    for f in fits {
+        let num = |v: f64| format!("{v:.6}");
+        w.write_record([
+            f.frame.to_string(),
+            num(f.yaw),
+            num(f.pitch),
+            num(f.roll),
+            num(f.scale),
+            num(f.tx),
+            num(f.ty),
+            num(f.reproj_rms_px),
+            f.failed.clone().unwrap_or_default(),
+        ])
+        .map_err(err)?;
+    }
+    w.flush().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_size_parses_and_rejects() {
+        assert_eq!(parse_image_size("1280x720"), Ok((1280, 720)));
+        assert!(parse_image_size("1280").is_err());
+        assert!(parse_image_size("0x5").is_err());
+    }
+
+    #[test]
+    fn missing_landmarks_file_is_named() {
+        let Some(eos) = crate::testdata::shared("peer/eos") else { return };
+        let dir = tempfile::tempdir().unwrap();
+        let args = FitFilesArgs {
+            model: eos.join("model"),
+            blendshapes: None,
+            mapping: eos.join("share/ibug_to_sfm.txt"),
+            landmarks: dir.path().join("nope.csv"),
+            image_size: (1280, 720),
+            set: None,
+            lambda: None,
+            iterations: None,
+            clip: false,
+            out: dir.path().join("out"),
+        };
+        let e = run(&args).unwrap_err().to_string();
+        assert!(e.contains("nope.csv"), "{e}");
+    }
+}

@@ -2,10 +2,14 @@
 //! the core. `main.rs` parses, calls `run`, and maps the outcome to an exit code.
 
 pub mod convert;
+pub mod eval_cmd;
 pub mod exit;
 pub mod fit_files;
 pub mod model_cmd;
+pub mod new;
+pub mod output;
 pub mod phones;
+pub mod progress;
 pub mod validate;
 
 pub use exit::Outcome;
@@ -24,6 +28,12 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Create a session from frames, landmarks, an alignment, a head, a model and a map.
+    New(new::NewArgs),
+    /// Add a clip to a session.
+    Import(new::ImportArgs),
+    /// Per-sentence and per-phoneme W/H/P error tables (fits what is not cached).
+    Eval(eval_cmd::EvalArgs),
     /// Convert landmark files or phone alignments between formats.
     Convert(convert::ConvertArgs),
     /// Print a phone alignment as start,end,phone CSV.
@@ -43,6 +53,18 @@ pub fn run(cli: Cli) -> Result<Outcome> {
         Command::Convert(args) => {
             let msg = convert::run(&args)?;
             writeln!(out, "{msg}")?;
+            Ok(Outcome::Ok)
+        }
+        Command::New(args) => {
+            writeln!(out, "{}", new::run_new(&args)?)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Import(args) => {
+            writeln!(out, "{}", new::run_import(&args)?)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Eval(args) => {
+            eval_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Phones(args) => {

@@ -304,11 +304,9 @@ pub fn build_head() -> Head {
     for (l, &target) in targets.iter().enumerate().skip(17).take(31) {
         to_vertex.insert(l, nearest(target, None));
     }
-    for l in 49..=53 {
-        to_vertex.insert(l, nearest(targets[l], Some(false)));
-    }
-    for l in 55..=59 {
-        to_vertex.insert(l, nearest(targets[l], Some(true)));
+    for (l, &target) in targets.iter().enumerate().take(60).skip(49) {
+        // 49–53 on the upper lip, 55–59 on the lower; 54 is the corner, set below.
+        to_vertex.insert(l, nearest(target, Some(l > 54)));
     }
     to_vertex.insert(48, grid(row_mouth, centre - OUTER_CORNER_COLS) as usize);
     to_vertex.insert(54, grid(row_mouth, centre + OUTER_CORNER_COLS) as usize);
@@ -413,7 +411,7 @@ mod tests {
         assert!(p(60).x < p(64).x && p(48).x < p(60).x && p(64).x < p(54).x);
         assert!(p(51).y > p(62).y + 5.0 && p(57).y < p(66).y - 5.0);
         assert!(p(30).z > p(51).z, "the nose tip is foremost");
-        for l in [50, 51, 52, 56, 57, 58] {
+        for l in [51, 57, 61, 62, 63, 65, 66, 67] {
             let c = head.colours[head.landmarks.vertex(l).unwrap()];
             let red = |c: [u8; 3]| c[0] as i32 - c[1] as i32;
             assert!(red(c) > red(SKIN) + 20, "landmark {l}: {c:?}");

@@ -180,8 +180,11 @@ fn head_motion(rng: &mut StdRng, n_frames: usize, fps: f64) -> Vec<HeadMotion> {
         let phase = rng.random_range(0.0..std::f64::consts::TAU);
         move |t: f64| a * (std::f64::consts::TAU * f * t + phase).sin()
     };
-    let (yaw, pitch, roll) = (wave(2.5, 0.35), wave(1.2, 0.5), wave(1.5, 0.27));
-    let (tx, ty, tz) = (wave(1.0, 0.3), wave(0.8, 0.45), wave(1.0, 0.25));
+    // Pitch and forward motion (z) are kept smaller than the rest: in the side view they
+    // shift the lips relative to a reference line set once per clip, and a real profile
+    // recording would be rejected if the head moved that much.
+    let (yaw, pitch, roll) = (wave(2.5, 0.35), wave(0.8, 0.5), wave(1.5, 0.27));
+    let (tx, ty, tz) = (wave(1.0, 0.3), wave(0.8, 0.45), wave(0.4, 0.25));
     (0..n_frames)
         .map(|f| {
             let t = f as f64 / fps;
@@ -347,6 +350,7 @@ struct TruthRow {
     w: f64,
     h: f64,
     p: f64,
+    p_lip: f64,
     w_img: f64,
     h_img: f64,
     motion: HeadMotion,
@@ -357,7 +361,7 @@ struct TruthRow {
     articulation: Articulation,
 }
 
-const TRUTH_HEADER: &str = "frame,time,phone,viseme,w,h,p,w_img,h_img,yaw,pitch,roll,scale,tx,ty,\
+const TRUTH_HEADER: &str = "frame,time,phone,viseme,w,h,p,p_lip,w_img,h_img,yaw,pitch,roll,scale,tx,ty,\
 side_scale,side_tx,side_ty,lip_side_u,ref_side_u,head_tx_mm,head_ty_mm,head_tz_mm";
 
 fn format_truth(rows: &[TruthRow]) -> String {
@@ -371,13 +375,14 @@ fn format_truth(rows: &[TruthRow]) -> String {
         let (fp, sp) = (&r.front.pose, &r.side.pose);
         let _ = write!(
             s,
-            "{f},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.4},{:.4},{:.6},{:.4},{:.4},{:.3},{:.3},{:.4},{:.4},{:.4}",
+            "{f},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.4},{:.4},{:.6},{:.4},{:.4},{:.3},{:.3},{:.4},{:.4},{:.4}",
             r.time,
             r.phone,
             r.viseme,
             r.w,
             r.h,
             r.p,
+            r.p_lip,
             r.w_img,
             r.h_img,
             r.motion.yaw,
@@ -439,11 +444,7 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
     let out = &opts.out_dir;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
 
-    let mut head = head::build_head();
-    for p in &mut head.mesh.vertices {
-        *p = quantise(p);
-    }
-    let fields = ArticulationFields::new(&head);
+    let (head, fields) = demo_head();
 
     let head_obj = out.join("head.obj");
     crate::io::obj::write_obj(&head_obj, &head.mesh)?;
@@ -481,6 +482,10 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
     let specs =
         opts.speaker_specs.clone().unwrap_or_else(|| speakers::default_specs(opts.speakers));
     let measure_opts = MeshMeasureOptions::default();
+    let lip_region_opts = MeshMeasureOptions {
+        upper_lip: crate::measure::UpperLip::Vertices(head.upper_lip.clone()),
+        ..MeshMeasureOptions::default()
+    };
     let mut speaker_outputs = Vec::new();
     let mut speaker_list: Vec<Speaker> = Vec::new();
     let mut jobs = Vec::new();
@@ -511,6 +516,10 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
                 let flat = Mesh { vertices: verts, faces: Vec::new() }.to_flat();
                 let m = measure_shape(&flat, &head.landmarks, &measure_opts)
                     .map_err(|e| anyhow::anyhow!("measuring frame {f} of {name}: {e}"))?;
+                let p_lip = measure_shape(&flat, &head.landmarks, &lip_region_opts)
+                    .map_err(|e| anyhow::anyhow!("measuring frame {f} of {name}: {e}"))?
+                    .p
+                    .unwrap_or(f64::NAN);
                 let verts = Mesh::from_flat(flat.as_slice(), Vec::new()).vertices;
                 let (front, side) = frame_cameras(&motion[f], opts.width, opts.height);
                 let pts: Vec<Point2> = (0..N_LANDMARKS)
@@ -537,6 +546,7 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
                     w: m.w,
                     h: m.h,
                     p: m.p.unwrap_or(f64::NAN),
+                    p_lip,
                     w_img: img.w,
                     h_img: img.h,
                     motion: motion[f],
@@ -663,8 +673,14 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
 
 /// The demo head, its articulation fields and the rendering colours, for callers that want
 /// to pose and render it themselves (TUI previews, benchmarks).
+///
+/// Vertices are rounded to 0.1 µm, as `generate` writes them, so this head is exactly the
+/// one in `head.obj`.
 pub fn demo_head() -> (Head, ArticulationFields) {
-    let head = head::build_head();
+    let mut head = head::build_head();
+    for p in &mut head.mesh.vertices {
+        *p = quantise(p);
+    }
     let fields = ArticulationFields::new(&head);
     (head, fields)
 }

@@ -162,7 +162,7 @@ impl VisemeTable {
     /// ```
     pub fn class_of(&self, label: &str) -> Option<&str> {
         let a = to_arpabet(label)?;
-        self.classes.iter().find(|c| c.phones.iter().any(|p| *p == a)).map(|c| c.id.as_str())
+        self.classes.iter().find(|c| c.phones.contains(&a)).map(|c| c.id.as_str())
     }
 
     /// The description of a class id.

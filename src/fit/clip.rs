@@ -11,9 +11,10 @@
 
 use super::camera::{self, OrthoPose};
 use super::shape::{
-    FrameObservations, LandmarkBasis, gradient_rhs, nonnegative_quadratic, normal_matrix,
+    FrameObservations, LandmarkBasis, apply_forces, dot, gradient_rhs, landmark_forces, nonnegative_quadratic, normal_matrix,
+    projector,
 };
-use crate::math::{DMatrix, DVector, Point2, Point3, Real};
+use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
 use rayon::prelude::*;
 
 /// Solver parameters in the units of the equations (see `FitSettings` for their meaning).
@@ -27,6 +28,8 @@ pub struct SolverParams {
     pub pose_refinement_steps: usize,
     pub sigma2: Real,
     pub min_points: usize,
+    /// Stop iterating when the objective falls by less than this fraction.
+    pub tolerance: Real,
 }
 
 /// The state of one frame during and after a fit.
@@ -49,40 +52,54 @@ pub struct GroupFit {
     pub frames: Vec<FrameState>,
 }
 
-fn coefficients(alpha: &DVector, beta: &DVector) -> Vec<Real> {
-    alpha.iter().chain(beta.iter()).copied().collect()
+/// Landmark points of a frame: the identity part (shared) plus the frame's expression offsets.
+fn frame_points(basis: &LandmarkBasis, id_pts: &[Vector3], beta: &DVector) -> Vec<Vector3> {
+    let kid = basis.k_id;
+    id_pts
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut q = *p;
+            for j in 0..3 {
+                q[j] += dot(&basis.row(i, j)[kid..], beta.as_slice());
+            }
+            q
+        })
+        .collect()
 }
 
-/// Active landmark points of a frame and their current 3D positions.
-fn correspondences(
+/// Identity part `mean + B_id·α` of every landmark point.
+fn identity_points(basis: &LandmarkBasis, alpha: &DVector) -> Vec<Vector3> {
+    let mut c = vec![0.0; basis.num_coefficients()];
+    c[..basis.k_id].copy_from_slice(alpha.as_slice());
+    basis.points_partial(&c, 0..basis.k_id)
+}
+
+/// Pose of one frame for the landmark points `pts`: eos's linear estimate, then Gauss–Newton
+/// refinement; with a `previous` pose (and refinement on) Gauss–Newton starts from it instead,
+/// since the shape moves little between iterations.
+fn estimate_pose(
     basis: &LandmarkBasis,
     obs: &FrameObservations,
-    c: &[Real],
-) -> (Vec<Point2>, Vec<Point3>, Vec<Real>) {
+    pts: &[Vector3],
+    image_height: Real,
+    params: &SolverParams,
+    previous: Option<&OrthoPose>,
+) -> Result<OrthoPose, String> {
     let mut p2 = Vec::with_capacity(obs.num_active);
     let mut p3 = Vec::with_capacity(obs.num_active);
     let mut w = Vec::with_capacity(obs.num_active);
     for i in 0..basis.len() {
         if obs.active[i] {
             p2.push(obs.points[i]);
-            p3.push(basis.point(i, c));
+            p3.push(Point3::from(pts[i]));
             w.push(basis.weights[i]);
         }
     }
-    (p2, p3, w)
-}
-
-/// Pose of one frame for the shape with coefficients `c`: eos's linear estimate, then
-/// Gauss–Newton refinement.
-fn estimate_pose(
-    basis: &LandmarkBasis,
-    obs: &FrameObservations,
-    c: &[Real],
-    image_height: Real,
-    params: &SolverParams,
-) -> Result<OrthoPose, String> {
-    let (p2, p3, w) = correspondences(basis, obs, c);
-    let pose = camera::estimate_orthographic_pose(&p2, &p3, image_height).map_err(|e| e.to_string())?;
+    let pose = match previous {
+        Some(p) if params.pose_refinement_steps > 0 => *p,
+        _ => camera::estimate_orthographic_pose(&p2, &p3, image_height).map_err(|e| e.to_string())?,
+    };
     Ok(if params.pose_refinement_steps > 0 {
         camera::refine_orthographic_pose(&pose, &p2, &p3, Some(&w), image_height, params.pose_refinement_steps)
     } else {
@@ -90,13 +107,13 @@ fn estimate_pose(
     })
 }
 
-/// Expressions of one frame with identity fixed: minimises the data term plus
-/// `λ_e|β|² + μ·Σ_nbr |β − β_nbr|²`, with β ≥ 0 when asked.
+/// Expressions of one frame with identity fixed (`id_pts` = identity part of the points):
+/// minimises the data term plus `λ_e|β|² + μ·Σ_nbr |β − β_nbr|²`, with β ≥ 0 when asked.
 fn solve_expressions(
     basis: &LandmarkBasis,
     obs: &FrameObservations,
     state: &mut FrameState,
-    alpha: &DVector,
+    id_pts: &[Vector3],
     neighbours: &[&DVector],
     image_height: Real,
     params: &SolverParams,
@@ -106,8 +123,7 @@ fn solve_expressions(
         return;
     }
     let mut n = normal_matrix(basis, obs, &state.pose, params.sigma2, kid..k, kid..k);
-    let c = coefficients(alpha, &DVector::zeros(basis.k_exp));
-    let mut g = gradient_rhs(basis, obs, &state.pose, image_height, params.sigma2, &c, kid..k);
+    let mut g = gradient_rhs(basis, obs, &state.pose, image_height, params.sigma2, id_pts, kid..k);
     let mu = params.temporal_smoothness;
     for d in 0..basis.k_exp {
         n[(d, d)] += params.lambda_expression + mu * neighbours.len() as Real;
@@ -129,58 +145,121 @@ fn solve_expressions(
 
 /// Identity shared by the frames, jointly with each frame's free expressions (eliminated by a
 /// Schur complement); clamped expressions stay at 0. The prior λ_id·|α|² enters once.
+/// The identity block of all frames is one Gram combination with the frames' projectors
+/// summed (`Σ_f s_f²·Q_f`), corrected only for points a frame does not see.
 fn solve_identity(
     basis: &LandmarkBasis,
     observations: &[FrameObservations],
     states: &[FrameState],
+    mean_pts: &[Vector3],
     image_height: Real,
     params: &SolverParams,
 ) -> Option<DVector> {
     let (kid, k) = (basis.k_id, basis.num_coefficients());
-    let zeros = vec![0.0; k];
-    let parts: Vec<(DMatrix, DVector)> = observations
-        .par_iter()
-        .zip(states.par_iter())
-        .filter(|(_, s)| s.failed.is_none())
-        .map(|(obs, st)| {
-            let pose = &st.pose;
-            let mut s = normal_matrix(basis, obs, pose, params.sigma2, 0..kid, 0..kid);
-            let g = gradient_rhs(basis, obs, pose, image_height, params.sigma2, &zeros, 0..k);
-            let mut r = g.rows(0, kid).into_owned();
-            let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
-            if !free.is_empty() {
-                let nab = normal_matrix(basis, obs, pose, params.sigma2, 0..kid, kid..k);
-                let nbb = normal_matrix(basis, obs, pose, params.sigma2, kid..k, kid..k);
-                let m = free.len();
-                let mut nff = DMatrix::from_fn(m, m, |a, b| nbb[(free[a], free[b])]);
-                for d in 0..m {
-                    nff[(d, d)] += params.lambda_expression;
-                }
-                let naf = DMatrix::from_fn(kid, m, |a, b| nab[(a, free[b])]);
-                let gf = DVector::from_fn(m, |a, _| g[kid + free[a]]);
-                if let Some(ch) = nff.cholesky() {
-                    // S −= N_aF·N_FF⁻¹·N_Fa ; r −= N_aF·N_FF⁻¹·g_F
-                    let x = ch.solve(&naf.transpose()); // m × kid
-                    s.gemm(-1.0, &naf, &x, 1.0);
-                    let y = ch.solve(&gf);
-                    r.gemv(-1.0, &naf, &y, 1.0);
-                }
-            }
-            (s, r)
-        })
-        .collect();
-    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    let mut r = DVector::zeros(kid);
-    for (sp, rp) in &parts {
-        s += sp;
-        r += rp;
+    let mut q_sum = Matrix3::zeros();
+    for st in states.iter().filter(|s| s.failed.is_none()) {
+        q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
     }
+    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
+    basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
+    let per_frame = |(obs, st): (&FrameObservations, &FrameState)| -> (Option<DMatrix>, DVector, Vec<Vector3>) {
+        let pose = &st.pose;
+        let scale = pose.s * pose.s / params.sigma2;
+        let mut corr: Option<DMatrix> = None;
+        for (i, &a) in obs.active.iter().enumerate() {
+            if !a {
+                let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+                basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, c);
+            }
+        }
+        let forces = landmark_forces(basis, obs, pose, image_height, params.sigma2, mean_pts);
+        // The identity part of the gradient is applied once for the clip (summed forces);
+        // here only the Schur correction of r.
+        let g = apply_forces(basis, &forces, kid..k);
+        let mut r = DVector::zeros(kid);
+        let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
+        if !free.is_empty() {
+            // Columns of the expression block against everything: rows 0..K, cols kid..K.
+            let nx = normal_matrix(basis, obs, pose, params.sigma2, 0..k, kid..k);
+            let m = free.len();
+            let mut nff = DMatrix::from_fn(m, m, |a, b| nx[(kid + free[a], free[b])]);
+            for d in 0..m {
+                nff[(d, d)] += params.lambda_expression;
+            }
+            let naf = DMatrix::from_fn(kid, m, |a, b| nx[(a, free[b])]);
+            let gf = DVector::from_fn(m, |a, _| g[free[a]]);
+            if let Some(ch) = nff.cholesky() {
+                // S −= N_aF·N_FF⁻¹·N_Fa ; r −= N_aF·N_FF⁻¹·g_F
+                let x = ch.solve(&naf.transpose()); // m × kid
+                let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+                c.gemm(-1.0, &naf, &x, 1.0);
+                let y = ch.solve(&gf);
+                r.gemv(-1.0, &naf, &y, 1.0);
+            }
+        }
+        (corr, r, forces)
+    };
+    let pairs = observations.iter().zip(states).filter(|(_, s)| s.failed.is_none());
+    let parts: Vec<(Option<DMatrix>, DVector, Vec<Vector3>)> = if observations.len() > 1 {
+        pairs.collect::<Vec<_>>().into_par_iter().map(per_frame).collect()
+    } else {
+        pairs.map(per_frame).collect()
+    };
+    let mut r = DVector::zeros(kid);
+    let mut forces = vec![Vector3::zeros(); basis.len()];
+    for (c, rp, fp) in &parts {
+        if let Some(c) = c {
+            s += c;
+        }
+        r += rp;
+        for (a, b) in forces.iter_mut().zip(fp) {
+            *a += b;
+        }
+    }
+    r += apply_forces(basis, &forces, 0..kid);
     let a = s.cholesky()?.solve(&r);
     a.iter().all(|v| v.is_finite()).then_some(a)
 }
 
+/// The objective: weighted squared reprojection error over σ², plus the priors.
+fn objective(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    states: &[FrameState],
+    id_pts: &[Vector3],
+    alpha: &DVector,
+    image_height: Real,
+    params: &SolverParams,
+) -> Real {
+    let mut cost = params.lambda_identity * alpha.norm_squared();
+    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
+        let pts = frame_points(basis, id_pts, &st.beta);
+        for (i, p) in pts.iter().enumerate() {
+            if obs.active[i] {
+                let d = st.pose.project(&Point3::from(*p), image_height) - obs.points[i];
+                cost += basis.weights[i] * d.norm_squared() / params.sigma2;
+            }
+        }
+        cost += params.lambda_expression * st.beta.norm_squared();
+    }
+    cost
+}
+
+/// Runs `f` over frames, in parallel when there is more than one.
+fn for_each_frame<F>(states: &mut [FrameState], f: F)
+where
+    F: Fn(usize, &mut FrameState) + Sync + Send,
+{
+    if states.len() > 1 {
+        states.par_iter_mut().enumerate().for_each(|(i, st)| f(i, st));
+    } else {
+        states.iter_mut().enumerate().for_each(|(i, st)| f(i, st));
+    }
+}
+
 /// Fits a group of frames that share one identity. Frames with too few usable points or a
-/// degenerate camera are marked failed and left out of the identity.
+/// degenerate camera are marked failed and left out of the identity. With `alpha_fixed` the
+/// identity is not solved (pose and expressions only).
 pub fn fit_group(
     basis: &LandmarkBasis,
     observations: &[FrameObservations],
@@ -199,34 +278,41 @@ pub fn fit_group(
                 None
             };
             FrameState {
-                pose: OrthoPose { r: crate::math::Matrix3::identity(), s: 1.0, tx: 0.0, ty: 0.0 },
+                pose: OrthoPose { r: Matrix3::identity(), s: 1.0, tx: 0.0, ty: 0.0 },
                 beta: DVector::zeros(kexp),
                 free: vec![false; kexp],
                 failed,
             }
         })
         .collect();
+    let mean_pts = basis.points_partial(&vec![0.0; basis.num_coefficients()], 0..0);
 
-    let pose_step = |states: &mut [FrameState], alpha: &DVector| {
-        states.par_iter_mut().zip(observations.par_iter()).for_each(|(st, obs)| {
+    let pose_step = |states: &mut [FrameState], id_pts: &[Vector3], warm: bool| {
+        for_each_frame(states, |f, st| {
             if st.failed.is_some() {
                 return;
             }
-            match estimate_pose(basis, obs, &coefficients(alpha, &st.beta), image_height, params) {
+            let pts = frame_points(basis, id_pts, &st.beta);
+            let prev = warm.then_some(&st.pose);
+            match estimate_pose(basis, &observations[f], &pts, image_height, params, prev) {
                 Ok(p) => st.pose = p,
                 Err(e) => st.failed = Some(e),
             }
         });
     };
-    let expression_step = |states: &mut Vec<FrameState>, alpha: &DVector| {
-        let old: Vec<DVector> = states.iter().map(|s| s.beta.clone()).collect();
-        let frame_no: Vec<usize> = observations.iter().map(|o| o.frame).collect();
-        states.par_iter_mut().enumerate().for_each(|(f, st)| {
+    let frame_no: Vec<usize> = observations.iter().map(|o| o.frame).collect();
+    let expression_step = |states: &mut [FrameState], id_pts: &[Vector3]| {
+        let old: Vec<DVector> = if params.temporal_smoothness > 0.0 {
+            states.iter().map(|s| s.beta.clone()).collect()
+        } else {
+            Vec::new()
+        };
+        for_each_frame(states, |f, st| {
             if st.failed.is_some() {
                 return;
             }
             let mut nb: Vec<&DVector> = Vec::new();
-            if params.temporal_smoothness > 0.0 {
+            if !old.is_empty() {
                 if f > 0 && frame_no[f - 1] + 1 == frame_no[f] {
                     nb.push(&old[f - 1]);
                 }
@@ -234,23 +320,32 @@ pub fn fit_group(
                     nb.push(&old[f + 1]);
                 }
             }
-            solve_expressions(basis, &observations[f], st, alpha, &nb, image_height, params);
+            solve_expressions(basis, &observations[f], st, id_pts, &nb, image_height, params);
         });
     };
 
     // Start: pose from the mean shape, expressions from that pose (as eos does).
-    pose_step(&mut states, &alpha);
-    expression_step(&mut states, &alpha);
+    let mut id_pts = identity_points(basis, &alpha);
+    pose_step(&mut states, &id_pts, false);
+    expression_step(&mut states, &id_pts);
+    let mut last = Real::INFINITY;
     for _ in 0..params.iterations {
-        pose_step(&mut states, &alpha);
+        pose_step(&mut states, &id_pts, true);
         if alpha_fixed.is_none() && kid > 0 {
-            match solve_identity(basis, observations, &states, image_height, params) {
+            match solve_identity(basis, observations, &states, &mean_pts, image_height, params) {
                 Some(a) => alpha = a,
                 None => break,
             }
+            id_pts = identity_points(basis, &alpha);
         }
-        expression_step(&mut states, &alpha);
+        expression_step(&mut states, &id_pts);
+        // Stop once the objective stops falling (DESIGN §5.3).
+        let cost = objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
+        if !(cost < last * (1.0 - params.tolerance)) {
+            break;
+        }
+        last = cost;
     }
-    pose_step(&mut states, &alpha);
+    pose_step(&mut states, &id_pts, true);
     GroupFit { alpha, frames: states }
 }

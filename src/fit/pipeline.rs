@@ -50,6 +50,7 @@ impl<'m> Fitter<'m> {
             pose_refinement_steps: s.pose_refinement_steps,
             sigma2: EOS_SIGMA_SQUARED,
             min_points: 4,
+            tolerance: s.convergence_tolerance,
         }
     }
 

@@ -32,6 +32,13 @@ pub struct FitSettings {
     /// Gauss–Newton steps refining each linear camera estimate (0 = eos's linear camera only).
     #[serde(default = "default_pose_refinement_steps")]
     pub pose_refinement_steps: usize,
+    /// Iterations stop early when the fit's objective falls by less than this fraction.
+    #[serde(default = "default_convergence_tolerance")]
+    pub convergence_tolerance: f64,
+}
+
+fn default_convergence_tolerance() -> f64 {
+    FitSettings::default().convergence_tolerance
 }
 
 fn default_true() -> bool {
@@ -45,16 +52,21 @@ fn default_pose_refinement_steps() -> usize {
 impl Default for FitSettings {
     fn default() -> Self {
         Self {
-            set: LandmarkSet::F4,
-            lambda: 30.0,
-            lambda_expression: 30.0,
-            iterations: 5,
+            // Every mapped landmark (unmapped jaw points are ignored anyway); docs/fitting.md.
+            set: LandmarkSet::F5,
+            // λ = σ²/3 for an assumed landmark error σ = 3 px (eos: 30, i.e. σ ≈ 9.5 px).
+            lambda: 3.0,
+            // Same unit-variance prior and noise as the identity, so the same weight.
+            lambda_expression: 3.0,
+            // The camera/shape alternation converges slowly along the pose–identity valley.
+            iterations: 15,
             clip: false,
             temporal_smoothness: 0.0,
             max_reproj_rms_px: 20.0,
             landmark_weights: Vec::new(),
             nonnegative_expressions: true,
             pose_refinement_steps: 3,
+            convergence_tolerance: 1e-4,
         }
     }
 }

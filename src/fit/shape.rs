@@ -143,6 +143,19 @@ impl LandmarkBasis {
         Point3::from(p)
     }
 
+    /// Landmark points `mean + B·c` for the coefficients `c[cols]` only (the rest taken as 0).
+    pub fn points_partial(&self, c: &[Real], cols: std::ops::Range<usize>) -> Vec<Vector3> {
+        (0..self.len())
+            .map(|i| {
+                let mut p = self.mean[i];
+                for j in 0..3 {
+                    p[j] += dot(&self.row(i, j)[cols.clone()], &c[cols.clone()]);
+                }
+                p
+            })
+            .collect()
+    }
+
     /// Adds `scale · Σⱼₖ Qⱼₖ·Mⱼₖ[rows, cols]` over ALL landmarks to `out` (shape rows × cols).
     pub(crate) fn add_gram_block(
         &self,
@@ -259,38 +272,60 @@ pub(crate) fn normal_matrix(
     n
 }
 
-/// `−AᵀΩb` over coefficient range `cols`, where `b` is the residual of the shape with
-/// coefficients `c` (full length K, `c[cols]` is typically 0 so b is the fixed part's residual).
+/// Per-landmark "forces" `hᵢ = wᵢ/σ²·s·R₂ᵀ·bᵢ` (3-vectors, zero for unused points) of the
+/// residuals `bᵢ` of the landmark points `base`: `−AᵀΩb = −Σᵢ Bᵢᵀhᵢ`. Splitting the gradient
+/// this way lets a clip sum the forces of all frames first and apply the rows once.
+pub(crate) fn landmark_forces(
+    basis: &LandmarkBasis,
+    obs: &FrameObservations,
+    pose: &OrthoPose,
+    image_height: Real,
+    sigma2: Real,
+    base: &[Vector3],
+) -> Vec<Vector3> {
+    let (r1, r2) = (pose.r.row(0).transpose(), pose.r.row(1).transpose());
+    base.iter()
+        .enumerate()
+        .map(|(i, x)| {
+            if !obs.active[i] {
+                return Vector3::zeros();
+            }
+            let bu = pose.s * (r1.dot(x) + pose.tx) - obs.points[i].x;
+            let bv = pose.s * (r2.dot(x) + pose.ty) - (image_height - obs.points[i].y);
+            (r1 * bu + r2 * bv) * (pose.s * basis.weights[i] / sigma2)
+        })
+        .collect()
+}
+
+/// `−Σᵢ Bᵢ[:, cols]ᵀ·hᵢ` for per-landmark forces `h`.
+pub(crate) fn apply_forces(basis: &LandmarkBasis, forces: &[Vector3], cols: std::ops::Range<usize>) -> DVector {
+    let mut g = DVector::zeros(cols.len());
+    for (i, h) in forces.iter().enumerate() {
+        for j in 0..3 {
+            let hj = h[j];
+            if hj == 0.0 {
+                continue;
+            }
+            for (gv, r) in g.iter_mut().zip(&basis.row(i, j)[cols.clone()]) {
+                *gv -= hj * r;
+            }
+        }
+    }
+    g
+}
+
+/// `−AᵀΩb` over coefficient range `cols`, where `b` is the residual of the landmark points
+/// `base` (one per basis landmark: the shape with the solved-for coefficients at 0).
 pub(crate) fn gradient_rhs(
     basis: &LandmarkBasis,
     obs: &FrameObservations,
     pose: &OrthoPose,
     image_height: Real,
     sigma2: Real,
-    c: &[Real],
+    base: &[Vector3],
     cols: std::ops::Range<usize>,
 ) -> DVector {
-    let mut g = DVector::zeros(cols.len());
-    for i in 0..basis.len() {
-        if !obs.active[i] {
-            continue;
-        }
-        let x = basis.point(i, c).coords;
-        let cam = pose.r * x;
-        let bu = pose.s * (cam.x + pose.tx) - obs.points[i].x;
-        let bv = pose.s * (cam.y + pose.ty) - (image_height - obs.points[i].y);
-        // Aᵢᵀbᵢ = s·Bᵢᵀ·R₂ᵀ·bᵢ; h = s·R₂ᵀ·bᵢ is a 3-vector.
-        let f = basis.weights[i] / sigma2;
-        let h = (pose.r.row(0).transpose() * bu + pose.r.row(1).transpose() * bv) * (pose.s * f);
-        for j in 0..3 {
-            let row = &basis.row(i, j)[cols.clone()];
-            let hj = h[j];
-            for (gv, r) in g.iter_mut().zip(row) {
-                *gv -= hj * r;
-            }
-        }
-    }
-    g
+    apply_forces(basis, &landmark_forces(basis, obs, pose, image_height, sigma2, base), cols)
 }
 
 /// eos's `fit_shape_to_landmarks_linear`: coefficients `cols` that minimise
@@ -314,7 +349,8 @@ pub fn fit_coefficients_linear(
     for d in 0..cols.len() {
         n[(d, d)] += lambda;
     }
-    let g = gradient_rhs(basis, obs, pose, image_height, sigma2, &c0, cols);
+    let base: Vec<Vector3> = (0..basis.len()).map(|i| basis.point(i, &c0).coords).collect();
+    let g = gradient_rhs(basis, obs, pose, image_height, sigma2, &base, cols);
     let x = n.cholesky()?.solve(&g);
     x.iter().all(|v| v.is_finite()).then_some(x)
 }

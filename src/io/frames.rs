@@ -76,7 +76,7 @@ impl Default for FrameOptions {
 
 enum Kind {
     Folder { dir: PathBuf, files: Vec<PathBuf> },
-    Video { file: PathBuf, start_time: f64, decode_lock: Mutex<()> },
+    Video { file: PathBuf, decode_lock: Mutex<()> },
 }
 
 /// A clip's frames, decoded lazily. `Send + Sync`: share it in an `Arc` with worker threads.
@@ -196,7 +196,6 @@ impl FrameSource {
         Ok(Self {
             kind: Kind::Video {
                 file: file.to_path_buf(),
-                start_time: info.start_time,
                 decode_lock: Mutex::new(()),
             },
             len,
@@ -274,7 +273,7 @@ impl FrameSource {
                 self.lock_cache().insert(i, img.clone());
                 Ok(img)
             }
-            Kind::Video { file, start_time, decode_lock } => {
+            Kind::Video { file, decode_lock } => {
                 // One ffmpeg at a time: a second thread asking for the same chunk waits and
                 // then finds it cached instead of decoding it again.
                 let _guard = decode_lock.lock().unwrap_or_else(|p| p.into_inner());
@@ -283,7 +282,7 @@ impl FrameSource {
                 }
                 let first = i / self.chunk * self.chunk;
                 let count = self.chunk.min(self.len - first);
-                let frames = self.decode_video_chunk(file, *start_time, first, count)?;
+                let frames = self.decode_video_chunk(file, first, count)?;
                 if frames.len() <= i - first {
                     return Err(FrameError::Program {
                         path: file.clone(),
@@ -335,13 +334,12 @@ impl FrameSource {
     fn decode_video_chunk(
         &self,
         file: &Path,
-        start_time: f64,
         first: usize,
         count: usize,
     ) -> Result<Vec<Arc<RgbImage>>, FrameError> {
         // Half a frame early: the frame at exactly `first / fps` is then the first one kept.
         let t = ((first as f64 - 0.5) / self.fps).max(0.0);
-        let _ = start_time; // ffmpeg offsets `-ss` by the file's start time itself.
+        // `-ss` is relative to the file's start time (ffmpeg adds it unless -seek_timestamp).
         let [w, h] = self.size;
         let output = Command::new("ffmpeg")
             .args(["-nostdin", "-v", "error", "-ss"])
@@ -449,13 +447,12 @@ struct VideoInfo {
     size: Option<[u32; 2]>,
     frames: Option<usize>,
     duration: Option<f64>,
-    start_time: f64,
 }
 
 fn probe_with_ffprobe(file: &Path) -> Result<VideoInfo, FrameError> {
     let output = Command::new("ffprobe")
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
-        .arg("stream=width,height,avg_frame_rate,r_frame_rate,nb_frames,duration,start_time:format=duration")
+        .arg("stream=width,height,avg_frame_rate,r_frame_rate,nb_frames,duration:format=duration")
         .args(["-of", "default=noprint_wrappers=1"])
         .arg(file)
         .stdin(Stdio::null())
@@ -498,7 +495,6 @@ fn parse_ffprobe(text: &str) -> VideoInfo {
         size,
         frames: map.get("nb_frames").and_then(|v| v.parse().ok()).filter(|&n: &usize| n > 0),
         duration: num("duration"),
-        start_time: num("start_time").unwrap_or(0.0),
     }
 }
 
@@ -543,16 +539,10 @@ fn parse_ffmpeg_banner(text: &str) -> VideoInfo {
     for line in text.lines() {
         let line = line.trim();
         if let Some(rest) = line.strip_prefix("Duration:") {
-            let mut parts = rest.split(',');
-            if let Some(d) = parts.next() {
+            if let Some(d) = rest.split(',').next() {
                 let hms: Vec<f64> = d.trim().split(':').filter_map(|x| x.parse().ok()).collect();
                 if hms.len() == 3 {
                     info.duration = Some(hms[0] * 3600.0 + hms[1] * 60.0 + hms[2]);
-                }
-            }
-            for p in parts {
-                if let Some(s) = p.trim().strip_prefix("start:") {
-                    info.start_time = s.trim().parse().unwrap_or(0.0);
                 }
             }
         } else if line.starts_with("Stream #") && line.contains("Video:") && info.size.is_none() {

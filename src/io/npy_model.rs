@@ -183,7 +183,7 @@ fn assemble(
     let mean = get("mean")?.ok_or_else(|| field_err("mean", "required array is missing".into()))?;
     let mean = DVector::from_vec(mean.data);
     let len = mean.len();
-    if len % 3 != 0 {
+    if !len.is_multiple_of(3) {
         return Err(field_err("mean", format!("{len} values, not a multiple of 3")));
     }
     let (basis_name, basis) = match get("basis_orthonormal")? {

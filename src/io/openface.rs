@@ -13,7 +13,7 @@ use super::pts::shorten;
 use super::track_csv::{parse_f32_field, parse_f64_field, parse_usize_field, read_csv_table};
 use crate::landmarks::ibug::N_LANDMARKS;
 use crate::landmarks::track::{FrameLandmarks, LandmarkPoint, Track};
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -33,19 +33,31 @@ use std::path::Path;
 /// ```
 pub fn parse_openface_csv(text: &str, path: &Path) -> Result<Track> {
     let table = read_csv_table(text, path)?;
+    let by_name: HashMap<&str, usize> =
+        table.header.iter().enumerate().map(|(i, h)| (h.as_str(), i)).collect();
     let mut coord_cols: Vec<Option<(usize, usize)>> = Vec::with_capacity(N_LANDMARKS);
     for i in 0..N_LANDMARKS {
         let (xn, yn) = (format!("x_{i}"), format!("y_{i}"));
-        coord_cols.push(match (table.column(&xn), table.column(&yn)) {
-            (Some(cx), Some(cy)) => Some((cx, cy)),
-            (None, None) => None,
-            (Some(_), None) => {
-                return Err(FormatError::at_line(path, 1, format!("column `{xn}` has no `{yn}`")));
-            }
-            (None, Some(_)) => {
-                return Err(FormatError::at_line(path, 1, format!("column `{yn}` has no `{xn}`")));
-            }
-        });
+        coord_cols.push(
+            match (by_name.get(xn.as_str()).copied(), by_name.get(yn.as_str()).copied()) {
+                (Some(cx), Some(cy)) => Some((cx, cy)),
+                (None, None) => None,
+                (Some(_), None) => {
+                    return Err(FormatError::at_line(
+                        path,
+                        1,
+                        format!("column `{xn}` has no `{yn}`"),
+                    ));
+                }
+                (None, Some(_)) => {
+                    return Err(FormatError::at_line(
+                        path,
+                        1,
+                        format!("column `{yn}` has no `{xn}`"),
+                    ));
+                }
+            },
+        );
     }
     let c_frame = table.column("frame");
     let c_face = table.column("face_id");
@@ -106,11 +118,11 @@ pub fn parse_openface_csv(text: &str, path: &Path) -> Result<Track> {
             }
         };
         let mut points = Vec::with_capacity(N_LANDMARKS);
-        for (i, cols) in coord_cols.iter().enumerate() {
+        for cols in &coord_cols {
             points.push(match cols {
                 Some((cx, cy)) => {
-                    let x = parse_f64_field(rec, *cx, &format!("x_{i}"), path, line)?;
-                    let y = parse_f64_field(rec, *cy, &format!("y_{i}"), path, line)?;
+                    let x = parse_f64_field(rec, *cx, &table.header[*cx], path, line)?;
+                    let y = parse_f64_field(rec, *cy, &table.header[*cy], path, line)?;
                     LandmarkPoint { visible: success, ..LandmarkPoint::tracked(x, y) }
                 }
                 None => LandmarkPoint::missing(),

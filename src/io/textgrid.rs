@@ -164,7 +164,7 @@ impl TextGrid {
 /// Invalid UTF-8 (naming the line) or UTF-16 (naming the byte offset).
 pub fn decode_text(bytes: &[u8], path: &Path) -> Result<String> {
     let utf16 = |body: &[u8], little: bool, base: u64| -> Result<String> {
-        if body.len() % 2 != 0 {
+        if !body.len().is_multiple_of(2) {
             return Err(FormatError::new(
                 path,
                 Location::Offset(base + body.len() as u64 - 1),

@@ -69,8 +69,9 @@ pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
     if header.iter().all(String::is_empty) {
         return Err(FormatError::at_line(path, 1, "empty file: a header line is required"));
     }
-    for (i, h) in header.iter().enumerate() {
-        if header[..i].contains(h) {
+    let mut seen = std::collections::HashSet::with_capacity(header.len());
+    for h in &header {
+        if !seen.insert(h.as_str()) {
             return Err(FormatError::at_line(
                 path,
                 1,

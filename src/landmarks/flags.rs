@@ -68,7 +68,7 @@ pub struct FlagThresholds {
     pub residual_sigmas: f64,
     /// ...and above this floor in pixels.
     pub residual_min_px: f64,
-    /// Robust z-score above which a measure value is an outlier.
+    /// Robust z-score of a measure's break from its neighbours above which it is flagged.
     pub measure_z: f64,
 }
 
@@ -80,7 +80,7 @@ impl Default for FlagThresholds {
             min_confidence: 0.8,
             residual_sigmas: 4.0,
             residual_min_px: 1.0,
-            measure_z: 4.0,
+            measure_z: 6.0,
         }
     }
 }
@@ -200,18 +200,32 @@ pub fn fit_flags(fits: &[FrameFit], th: &FlagThresholds) -> Vec<(usize, FlagReas
     out
 }
 
-/// Values whose robust z-score exceeds the threshold. A constant series flags nothing.
+/// Half-width (frames) of the running median a measure value is compared with.
+pub const MEASURE_WINDOW: usize = 2;
+
+/// Values that break from their temporal neighbourhood: the residual from the running median
+/// of ±`MEASURE_WINDOW` values, as a robust z-score over the clip. A tracker glitch stands out;
+/// a wide-open mouth held for a few frames does not (comparing with the clip's median would
+/// flag every open frame of a mostly closed clip). A constant series flags nothing.
 pub fn measure_flags(series: &MeasureSeries, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
-    let values: Vec<f64> = series.values.iter().map(|v| v.1).collect();
-    let Some((med, sigma)) = median_sigma(&values) else { return Vec::new() };
-    if sigma <= 0.0 {
+    let values: Vec<(usize, f64)> =
+        series.values.iter().copied().filter(|(_, v)| v.is_finite()).collect();
+    let residuals: Vec<(usize, f64)> = (0..values.len())
+        .map(|i| {
+            let lo = i.saturating_sub(MEASURE_WINDOW);
+            let hi = (i + MEASURE_WINDOW + 1).min(values.len());
+            let window: Vec<f64> = values[lo..hi].iter().map(|v| v.1).collect();
+            (values[i].0, values[i].1 - median(window))
+        })
+        .collect();
+    let r: Vec<f64> = residuals.iter().map(|v| v.1).collect();
+    let Some((med, sigma)) = median_sigma(&r) else { return Vec::new() };
+    if sigma <= 1e-12 {
         return Vec::new();
     }
-    series
-        .values
-        .iter()
-        .filter(|(_, v)| v.is_finite())
-        .map(|&(f, v)| (f, (v - med) / sigma))
+    residuals
+        .into_iter()
+        .map(|(f, v)| (f, (v - med) / sigma))
         .filter(|(_, z)| z.abs() > th.measure_z)
         .map(|(f, z)| (f, FlagReason::MeasureOutlier { measure: series.name.clone(), z }))
         .collect()
@@ -292,6 +306,16 @@ mod tests {
         let flags = flag_frames(&smooth_track(20), Some(&fits), &[], &FlagThresholds::default());
         assert_eq!(flags.iter().map(|f| f.frame).collect::<Vec<_>>(), vec![7, 9]);
         assert!(matches!(flags[1].reasons[0], FlagReason::FitFailed { .. }));
+    }
+
+    #[test]
+    fn a_held_open_mouth_is_not_an_outlier() {
+        // Mostly closed, open for 8 frames: real articulation, not a glitch.
+        let values: Vec<(usize, f64)> = (0..40)
+            .map(|f| (f, if (10..18).contains(&f) { 0.5 } else { 0.02 + 0.002 * (f % 3) as f64 }))
+            .collect();
+        let s = MeasureSeries { name: "H".into(), values };
+        assert!(measure_flags(&s, &FlagThresholds::default()).is_empty());
     }
 
     #[test]

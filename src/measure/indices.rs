@@ -11,7 +11,8 @@ use super::{MeasureError, Series};
 use crate::alignment::{Alignment, grouping_label};
 use crate::io::error::{FormatError, Location};
 use crate::landmarks::FrameLandmarks;
-use crate::math::Point2;
+use crate::math::{DVector, Point2};
+use crate::model::LandmarkMap;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::Path;
@@ -221,7 +222,7 @@ pub fn indices_from_distances(d: &FacialDistances) -> Result<FacialIndices, Meas
     for (v, index) in values.iter_mut().zip(FacialIndex::ALL) {
         let (num, den) = index.ratio();
         let den = d.get(den);
-        if !(den > 1e-12) {
+        if den.is_nan() || den <= 1e-12 {
             return Err(MeasureError::DegenerateReference(den));
         }
         *v = 100.0 * d.get(num) / den;
@@ -256,6 +257,16 @@ pub fn facial_indices(points: &[Option<Point2>]) -> Result<FacialIndices, Measur
 /// As [`facial_indices`]; occluded points count as missing.
 pub fn frame_indices(frame: &FrameLandmarks) -> Result<FacialIndices, MeasureError> {
     facial_indices(&super::mouth::visible_points(frame))
+}
+
+/// The facial indices of a head shape (flat model-space `x0 y0 z0 …`, typically its
+/// neutral pose or the model mean) on the frontal projection of its mapped landmark
+/// vertices, as issue 6 asks for the head side of the speaker–head match.
+///
+/// # Errors
+/// As [`facial_indices`]; an unmapped landmark counts as missing.
+pub fn shape_indices(shape: &DVector, map: &LandmarkMap) -> Result<FacialIndices, MeasureError> {
+    facial_indices(&super::mesh::frontal_landmarks(shape, map))
 }
 
 /// An index value's class against its bounds.
@@ -346,12 +357,14 @@ impl BoundsError {
 
     /// The same error naming the file it came from.
     pub fn into_format_error(self, path: &Path) -> FormatError {
-        let location = match (self.line, self.field) {
-            (Some(l), _) => Location::Line(l),
-            (None, Some(f)) => Location::Field(f),
-            (None, None) => Location::None,
-        };
-        FormatError::new(path, location, self.message)
+        match (self.line, self.field) {
+            (Some(l), Some(f)) => {
+                FormatError::at_line(path, l, format!("field `{f}`: {}", self.message))
+            }
+            (Some(l), None) => FormatError::at_line(path, l, self.message),
+            (None, Some(f)) => FormatError::new(path, Location::Field(f), self.message),
+            (None, None) => FormatError::whole(path, self.message),
+        }
     }
 }
 
@@ -711,6 +724,24 @@ mod tests {
         assert!((ix.get(FacialIndex::VerticalMouthHeight) - 100.0 * 17.0 / 120.0).abs() < 1e-9);
         assert!((ix.get(FacialIndex::NoseUpperLip) - 100.0 * 15.0 / 70.0).abs() < 1e-9);
         assert!((ix.get(FacialIndex::MouthWidth) - 100.0 * 50.0 / 90.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn head_shape_uses_frontal_projection() {
+        // The sample face as a mesh: z must not matter, vertex k = landmark k.
+        let pts = sample_points();
+        let mut flat = Vec::new();
+        for (k, p) in pts.iter().enumerate() {
+            let p = p.unwrap_or(Point2::new(k as f64, -(k as f64)));
+            flat.extend([p.x, p.y, (k % 5) as f64 * 7.0]);
+        }
+        let map = LandmarkMap { to_vertex: (0..68).map(|i| (i, i)).collect() };
+        let a = shape_indices(&DVector::from_vec(flat), &map).unwrap();
+        assert_eq!(a, facial_indices(&pts).unwrap());
+        let mut partial = map.clone();
+        partial.to_vertex.remove(&8);
+        let zeros = DVector::zeros(68 * 3);
+        assert_eq!(shape_indices(&zeros, &partial), Err(MeasureError::MissingLandmark(8)));
     }
 
     #[test]

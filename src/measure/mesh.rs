@@ -117,7 +117,11 @@ pub fn frontal_landmarks(shape: &DVector, map: &LandmarkMap) -> Vec<Option<Point
 }
 
 fn check_shape(shape: &DVector) -> Result<(), MeasureError> {
-    if shape.len() % 3 == 0 { Ok(()) } else { Err(MeasureError::BadShapeLength(shape.len())) }
+    if shape.len().is_multiple_of(3) {
+        Ok(())
+    } else {
+        Err(MeasureError::BadShapeLength(shape.len()))
+    }
 }
 
 /// The z of the reference plane for `shape`.
@@ -178,7 +182,7 @@ pub fn protrusion(
     .ok_or(MeasureError::NoUpperLip)?;
     let length =
         (landmark_vertex(shape, map, NASION)? - landmark_vertex(shape, map, NOSE_TIP)?).norm();
-    if !(length > 1e-12) || !length.is_finite() {
+    if !length.is_finite() || length <= 1e-12 {
         return Err(MeasureError::DegenerateReference(length));
     }
     Ok((foremost - z_ref) / length)
@@ -221,7 +225,7 @@ pub fn measure_shape(
             let v = |i| landmark_vertex(shape, map, i);
             let eye_mid = nalgebra::center(&v(RIGHT_ENDOCANTHION)?, &v(LEFT_ENDOCANTHION)?);
             let reference = (eye_mid - v(NOSE_TIP)?).norm();
-            if !(reference > 1e-12) {
+            if reference.is_nan() || reference <= 1e-12 {
                 return Err(MeasureError::DegenerateReference(reference));
             }
             let w = (v(INNER_LIP_RIGHT)? - v(INNER_LIP_LEFT)?).norm();

@@ -16,7 +16,7 @@ use std::fmt;
 
 pub use indices::{
     BoundsTable, FacialIndex, FacialIndices, IndexBounds, IndexClass, MatchVerdict, MatchWarning,
-    choose_neutral_frame, facial_indices, match_speaker_head,
+    choose_neutral_frame, facial_indices, match_speaker_head, shape_indices,
 };
 pub use mesh::{MeshMeasureOptions, ReferencePlane, UpperLip, measure_shape};
 pub use mouth::{measure_frame, measure_points, min_max_normalise, reference_length};

@@ -115,7 +115,7 @@ pub fn min_max_normalise(series: &[Option<f64>]) -> Option<Series> {
         (lo.min(v), hi.max(v), n + 1)
     });
     let range = hi - lo;
-    if n < 2 || !(range > 0.0) || !range.is_finite() {
+    if n < 2 || !range.is_finite() || range <= 0.0 {
         return None;
     }
     Some(series.iter().map(|v| v.filter(|v| v.is_finite()).map(|v| (v - lo) / range)).collect())

@@ -652,18 +652,27 @@ fn smooth(y: &[Real]) -> Vec<Real> {
         .collect()
 }
 
+/// Samples within this many rows of a maximum, and this far (px) below it, shape its
+/// parabola. Wide enough that on hard-edged (aliased) renders, where each row's edge is
+/// quantised to ±½ px, a dozen rows average the quantisation out; narrow enough that a
+/// lip (radius of curvature ≥ 5 px) is still a parabola over it.
+const APEX_ROWS: usize = 12;
+const APEX_DROP_PX: Real = 4.0;
+
 /// Refines a maximum of `y` near `index`: the vertex of a least-squares parabola through the
-/// samples within 2 of the raw maximum and within 1 px of its value (a rounded lip is a
-/// parabola there; a sharp polygon corner keeps 3 samples, whose parabola peaks within a few
-/// hundredths of the corner). Falls back to the raw maximum when the fit is flat or its
-/// vertex leaves the window.
+/// contiguous samples within [`APEX_ROWS`] of the raw maximum and within [`APEX_DROP_PX`]
+/// of its value. Falls back to the raw maximum when the fit is flat or its vertex leaves
+/// the window.
 fn refine_maximum(y: &[Real], index: usize) -> (Real, Real) {
     let n = y.len();
     let lo = index.saturating_sub(3);
     let hi = (index + 3).min(n - 1);
     let m = (lo..=hi).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(index);
-    let window: Vec<usize> =
-        (m.saturating_sub(2)..=(m + 2).min(n - 1)).filter(|&i| y[i] >= y[m] - 1.0).collect();
+    let keep = |i: usize| y[i] >= y[m] - APEX_DROP_PX;
+    let first =
+        (m.saturating_sub(APEX_ROWS)..=m).rev().take_while(|&i| keep(i)).last().unwrap_or(m);
+    let last = (m..=(m + APEX_ROWS).min(n - 1)).take_while(|&i| keep(i)).last().unwrap_or(m);
+    let window: Vec<usize> = (first..=last).collect();
     if window.len() >= 3 {
         // Fit y = c0 + c1 t + c2 t² with t = i − m.
         let mut ata = nalgebra::Matrix3::<Real>::zeros();
@@ -798,8 +807,18 @@ pub fn measure_lip_profile(
     })
 }
 
+/// Row σ of the Gaussian that smooths registration profiles, and its reach.
+const PROFILE_SIGMA_ROWS: Real = 2.5;
+const PROFILE_RADIUS_ROWS: usize = 7;
+
 /// The forward edge of `region` in `image`, one point per row (image px), leaving out rows
 /// whose face reaches the region's front edge (clipped, not an edge).
+///
+/// The x values are smoothed along each run of consecutive rows by a Gaussian of
+/// [`PROFILE_SIGMA_ROWS`], and each run loses [`PROFILE_RADIUS_ROWS`] rows at both ends
+/// (where the kernel would be cut). On hard-edged frames a slanted edge is a staircase whose
+/// steps sit on whole pixels; registering staircases locks onto whole-pixel shifts, while
+/// their smoothed ramps carry the sub-pixel position.
 fn region_profile(
     image: &GrayImage,
     setup: &ProfileSetup,
@@ -813,11 +832,26 @@ fn region_profile(
         setup.denoise,
         setup.min_component_px,
     )?;
-    Ok(sil
+    let raw: Vec<Option<Point2>> = sil
         .forward_edges()
         .into_iter()
         .enumerate()
-        .filter_map(|(r, e)| e.filter(|e| !e.1).map(|(u, _)| sil.to_image(u, r as Real)))
+        .map(|(r, e)| e.filter(|e| !e.1).map(|(u, _)| sil.to_image(u, r as Real)))
+        .collect();
+    let kernel: Vec<Real> = (0..=PROFILE_RADIUS_ROWS)
+        .map(|d| (-0.5 * (d as Real / PROFILE_SIGMA_ROWS).powi(2)).exp())
+        .collect();
+    let norm = kernel[0] + 2.0 * kernel[1..].iter().sum::<Real>();
+    let k = PROFILE_RADIUS_ROWS;
+    Ok((k..raw.len().saturating_sub(k))
+        .filter_map(|r| {
+            let p = raw[r]?;
+            let mut x = kernel[0] * p.x;
+            for d in 1..=k {
+                x += kernel[d] * (raw[r - d]?.x + raw[r + d]?.x);
+            }
+            Some(Point2::new(x / norm, p.y))
+        })
         .collect())
 }
 
@@ -838,6 +872,9 @@ pub fn capture_anchor(
     }
     Ok(Anchor { region, profile })
 }
+
+/// Cap on ICP steps; each costs one pass over the rows.
+const MAX_ICP_STEPS: usize = 50;
 
 /// Fewest profile rows a registration uses (three parameters, and noise to average).
 pub const MIN_REGISTRATION_ROWS: usize = 12;
@@ -888,7 +925,8 @@ pub fn register_to_anchor(
         return Err(ProfileError::Registration("too few profile rows"));
     }
     let mut motion = Rigid2::identity();
-    for iteration in 0..30 {
+    let mut last_step = Real::INFINITY;
+    for iteration in 0..MAX_ICP_STEPS {
         let gate = if iteration < 3 { 4.0 } else { 2.0 };
         let moved: Vec<Point2> = points.iter().map(|p| motion * p).collect();
         let pairs: Vec<(Point2, Point2, Vector2)> = moved
@@ -920,11 +958,15 @@ pub fn register_to_anchor(
         let rot = nalgebra::Rotation2::new(delta[0]);
         let step = Rigid2::new(c - rot * c + Vector2::new(delta[1], delta[2]), delta[0]);
         motion = step * motion;
-        if delta[0].abs() < 1e-7 && delta[1].hypot(delta[2]) < 1e-5 {
+        // Movement of the profile's farthest point, px.
+        let reach = pairs.iter().map(|(p, _, _)| (p.coords - c).norm()).fold(0.0, Real::max);
+        last_step = delta[0].abs() * reach + delta[1].hypot(delta[2]);
+        if last_step < 1e-4 {
             return Ok(motion);
         }
     }
-    Err(ProfileError::Registration("no convergence"))
+    // Pairs may keep switching segments by a hair: a last step this small is converged.
+    if last_step < 1e-2 { Ok(motion) } else { Err(ProfileError::Registration("no convergence")) }
 }
 
 /// The nose root and tip found on the full frame's profile.
@@ -1269,16 +1311,14 @@ impl ProfileTrack {
     /// when there is one, else the automatic point.
     pub fn effective(&self, frame: usize, setup: &ProfileSetup) -> Option<ProfilePoint> {
         match self.corrected.get(&frame) {
-            Some(&p) => {
-                Some(ProfilePoint::at(
+            Some(&p) => Some(ProfilePoint::at(
                 frame,
                 p,
                 setup,
                 self.nose_length_px,
                 PointSource::Corrected,
                 self.automatic(frame).and_then(|a| a.motion),
-            ))
-            }
+            )),
             None => self.automatic(frame).cloned(),
         }
     }

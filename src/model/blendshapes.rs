@@ -40,8 +40,8 @@ impl Blendshape {
 /// Stacks blendshapes as the columns of an [`Expressions`] block for a 3N-long shape.
 ///
 /// # Errors
-/// [`ModelError::ExpressionRows`] when a delta's length is not `len`; the index of the
-/// offending blendshape is in the message via [`ModelError::ShapeLength`].
+/// [`ModelError::ShapeLength`] (with the blendshape's index) when a delta's length is not
+/// `len`.
 pub fn expressions_from_blendshapes(
     len: usize,
     blendshapes: &[Blendshape],

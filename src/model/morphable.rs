@@ -196,7 +196,7 @@ impl MorphableModel {
     pub fn validate(&self) -> Result<(), ModelError> {
         let s = &self.shape;
         let len = s.mean.len();
-        if len % 3 != 0 {
+        if !len.is_multiple_of(3) {
             return Err(ModelError::MeanNotTriples(len));
         }
         if s.basis.nrows() != len {

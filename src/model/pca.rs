@@ -106,7 +106,7 @@ pub fn build_pca_with_summary(shapes: &[DVector], keep: Keep) -> Result<PcaSumma
         return Err(ModelError::TooFewShapes(n));
     }
     let d = shapes[0].len();
-    if d % 3 != 0 {
+    if !d.is_multiple_of(3) {
         return Err(ModelError::MeanNotTriples(d));
     }
     for (index, s) in shapes.iter().enumerate() {

@@ -4,7 +4,7 @@
 //! Keys become actions in `keymap`; only `update::update` turns actions into state changes.
 //! `Action::describe` gives the one-line text the help overlay and hints show.
 
-use super::app::FrameImage;
+use super::app::{AnalysisData, FrameImage};
 use crate::fit::FrameFit;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -155,6 +155,11 @@ pub enum Action {
         error: String,
     },
     #[serde(skip)]
+    AnalysisReady {
+        generation: u64,
+        data: AnalysisData,
+    },
+    #[serde(skip)]
     Saved {
         generation: u64,
     },
@@ -175,11 +180,11 @@ impl Action {
             Self::Save => "save the session now",
             Self::Undo => "undo the last edit",
             Self::Redo => "redo the undone edit",
-            Self::RunFit => "fit the clip (re-fits only frames changed since the last fit)",
+            Self::RunFit => "fit the clip (only frames edited since the last fit)",
             Self::ShowFrames => "frames view: correct landmarks",
-            Self::ShowHead => "head view: mesh and landmark labelling",
+            Self::ShowHead => "head view: mesh, landmark labelling",
             Self::ShowFit => "fit view: fitted vs tracked landmarks",
-            Self::ShowAnalysis => "analysis view: error tables and trajectories",
+            Self::ShowAnalysis => "analysis view: error tables, trajectories",
             Self::NextFrame => "next frame",
             Self::PrevFrame => "previous frame",
             Self::FirstFrame => "first frame",
@@ -194,19 +199,19 @@ impl Action {
             Self::Pan { .. } => "pan the view",
             Self::CenterOnPoint => "centre the view on the selected point",
             Self::Cancel => "cancel / close overlay",
-            Self::Nudge { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => "move point (large step)",
-            Self::Nudge { .. } => "move point (fine step; smaller when zoomed)",
+            Self::Nudge { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => "move point 10 screen pixels",
+            Self::Nudge { .. } => "move point 1 screen pixel (sub-pixel when zoomed)",
             Self::NextPoint => "select next point",
             Self::PrevPoint => "select previous point",
             Self::GotoPointPrompt => "select point by number (0-67)…",
-            Self::CycleScope => "move together: point / group / mouth / all",
+            Self::CycleScope => "what moves: point / group / mouth / all",
             Self::ToggleVisible => "toggle visible / occluded",
-            Self::CopyPointFromPrev => "copy selected points from the previous frame",
-            Self::CopyFrameFromPrev => "copy all points from the previous frame",
-            Self::PropagatePrompt => "propagate this correction to the next N frames…",
-            Self::InterpolateSelected => "interpolate selected points between keyframes",
+            Self::CopyPointFromPrev => "copy selected points from previous frame",
+            Self::CopyFrameFromPrev => "copy all points from previous frame",
+            Self::PropagatePrompt => "propagate correction to next N frames…",
+            Self::InterpolateSelected => "interpolate selected between keyframes",
             Self::InterpolateAll => "interpolate all points between keyframes",
-            Self::RevertPoint => "revert selected points to the tracker's values",
+            Self::RevertPoint => "revert selected points to tracker values",
             Self::ToggleReviewed => "mark frame reviewed / not reviewed",
             Self::Rotate { .. } => "rotate the head",
             Self::ResetView => "reset rotation and zoom",
@@ -237,6 +242,7 @@ impl Action {
             | Self::FitProgress { .. }
             | Self::FitDone { .. }
             | Self::FitFailed { .. }
+            | Self::AnalysisReady { .. }
             | Self::Saved { .. }
             | Self::SaveFailed { .. }
             | Self::Status(_) => "internal",

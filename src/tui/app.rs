@@ -198,7 +198,8 @@ impl Default for HeadView {
     }
 }
 
-/// One analysis table: named columns of numbers, rows optionally tied to a frame.
+/// One analysis table: named columns (the first is the row label), rows of display text with
+/// numeric sort keys, rows optionally tied to a frame.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AnalysisTable {
     pub title: String,
@@ -208,10 +209,23 @@ pub struct AnalysisTable {
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AnalysisRow {
-    pub label: String,
-    pub values: Vec<f64>,
+    /// One display string per column.
+    pub cells: Vec<String>,
+    /// Per column: the number to sort by, when the cell is numeric.
+    pub keys: Vec<Option<f64>>,
     /// The frame Enter jumps to (a worst frame, or the first frame of a phoneme).
     pub frame: Option<usize>,
+}
+
+impl AnalysisRow {
+    /// A row of a text label and numbers (3 decimals).
+    pub fn numbers(label: &str, values: &[f64], frame: Option<usize>) -> Self {
+        let mut cells = vec![label.to_string()];
+        cells.extend(values.iter().map(|v| format!("{v:.3}")));
+        let mut keys = vec![None];
+        keys.extend(values.iter().map(|v| Some(*v)));
+        Self { cells, keys, frame }
+    }
 }
 
 /// A measure's trajectory over the clip, video against the fitted head, by frame number.
@@ -234,7 +248,7 @@ pub struct AnalysisData {
 pub struct AnalysisView {
     pub table: usize,
     pub row: usize,
-    /// Column index to sort by (0 = label, k = values[k-1]).
+    /// Column index to sort by.
     pub sort_column: usize,
     pub descending: bool,
 }
@@ -266,7 +280,24 @@ pub enum Effect {
     /// Write the corrections, reviewed set and map to the session file.
     Save,
     SaveMap,
+    /// Recompute the analysis tables from the current track and fits.
+    Analyse {
+        generation: u64,
+    },
     Quit,
+}
+
+/// The video's W and H per frame as flaggable series.
+pub fn video_measures(track: &Track) -> Vec<MeasureSeries> {
+    use crate::measure::Measure;
+    let t = crate::measure::mouth::trajectory_from_track(track, None);
+    [Measure::W, Measure::H]
+        .into_iter()
+        .map(|m| MeasureSeries {
+            name: format!("video {}", m.as_str()),
+            values: t.series(m).iter().enumerate().filter_map(|(f, v)| v.map(|v| (f, v))).collect(),
+        })
+        .collect()
 }
 
 /// Everything the TUI shows and edits.
@@ -320,6 +351,8 @@ pub struct App {
     pub fit: FitState,
     pub analysis: AnalysisData,
     pub analysis_view: AnalysisView,
+    /// Generation of the newest requested analysis; older replies are dropped.
+    pub analysis_generation: u64,
     pub term_size: (u16, u16),
     pub effects: Vec<Effect>,
 }
@@ -368,6 +401,7 @@ impl App {
             fit: FitState::default(),
             analysis: AnalysisData::default(),
             analysis_view: AnalysisView::default(),
+            analysis_generation: 0,
             term_size: (80, 24),
             effects: Vec::new(),
         };
@@ -429,11 +463,14 @@ impl App {
     }
 
     /// Recomputes the per-frame flags from the track, fits and measures.
+    /// Measure outliers are looked for in the video's W and H (from the effective landmarks)
+    /// and in any extra series in `measures` (e.g. the fitted head's).
     pub fn recompute_flags(&mut self) {
         let fits: Vec<FrameFit> = self.fit.fits.values().cloned().collect();
         let fits = (!fits.is_empty()).then_some(fits);
-        self.flags =
-            flag_frames(&self.track, fits.as_deref(), &self.measures, &self.flag_thresholds);
+        let mut measures = video_measures(&self.track);
+        measures.extend(self.measures.iter().cloned());
+        self.flags = flag_frames(&self.track, fits.as_deref(), &measures, &self.flag_thresholds);
     }
 
     /// The decoded image of the current frame, when cached.
@@ -454,6 +491,14 @@ impl App {
                 }
                 self.images.remove(&old);
             }
+        }
+    }
+
+    /// Queues a fresh analysis (when there are fits to analyse).
+    pub fn request_analysis(&mut self) {
+        if !self.fit.fits.is_empty() && self.model.is_some() && self.map.is_some() {
+            self.analysis_generation += 1;
+            self.effects.push(Effect::Analyse { generation: self.analysis_generation });
         }
     }
 

@@ -195,21 +195,16 @@ pub fn synthetic_analysis(n_frames: usize) -> AnalysisData {
         .phones
         .iter()
         .enumerate()
-        .map(|(k, p)| AnalysisRow {
-            label: p.label.clone(),
-            values: vec![
-                0.05 + 0.01 * k as f64,
-                0.08 + 0.013 * ((k * 5) % 7) as f64,
-                0.02 * k as f64,
-            ],
-            frame: Some((p.start * 25.0).round() as usize),
+        .map(|(k, p)| {
+            let values =
+                [0.05 + 0.01 * k as f64, 0.08 + 0.013 * ((k * 5) % 7) as f64, 0.02 * k as f64];
+            AnalysisRow::numbers(&p.label, &values, Some((p.start * 25.0).round() as usize))
         })
         .collect();
     let worst = (0..5)
-        .map(|k| AnalysisRow {
-            label: format!("frame {}", (k * 7 + 3) % n_frames.max(1)),
-            values: vec![0.3 - 0.04 * k as f64],
-            frame: Some((k * 7 + 3) % n_frames.max(1)),
+        .map(|k| {
+            let f = (k * 7 + 3) % n_frames.max(1);
+            AnalysisRow::numbers(&format!("frame {f}"), &[0.3 - 0.04 * k as f64], Some(f))
         })
         .collect();
     let w = |f: usize| 0.6 + 0.1 * mouth_open(f);
@@ -218,12 +213,12 @@ pub fn synthetic_analysis(n_frames: usize) -> AnalysisData {
         tables: vec![
             AnalysisTable {
                 title: "RMSE per phoneme".into(),
-                columns: vec!["W".into(), "H".into(), "P".into()],
+                columns: vec!["phone".into(), "W".into(), "H".into(), "P".into()],
                 rows,
             },
             AnalysisTable {
                 title: "worst frames".into(),
-                columns: vec!["error".into()],
+                columns: vec!["frame".into(), "error".into()],
                 rows: worst,
             },
         ],
@@ -277,4 +272,41 @@ pub fn synthetic_frames(n_frames: usize, width: u32, height: u32) -> super::app:
     super::app::MemoryFrames(
         (0..n_frames).map(|f| (f, Arc::new(face_image(f, width, height)))).collect(),
     )
+}
+
+/// A `Write` that counts and discards bytes: a stand-in terminal for measuring what ratatui
+/// would send (escape sequences included) when a frame is drawn.
+#[derive(Clone, Debug, Default)]
+pub struct CountingWriter(pub Arc<std::sync::atomic::AtomicUsize>);
+
+impl std::io::Write for CountingWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.fetch_add(buf.len(), std::sync::atomic::Ordering::Relaxed);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// A fixed-size crossterm terminal writing into a `CountingWriter`; returns the counter.
+///
+/// # Errors
+/// Never in practice (no terminal is queried); kept for the `Terminal` API.
+pub fn counting_terminal(
+    width: u16,
+    height: u16,
+) -> std::io::Result<(
+    ratatui::Terminal<ratatui::backend::CrosstermBackend<CountingWriter>>,
+    Arc<std::sync::atomic::AtomicUsize>,
+)> {
+    let w = CountingWriter::default();
+    let counter = w.0.clone();
+    let area = ratatui::layout::Rect::new(0, 0, width, height);
+    let t = ratatui::Terminal::with_options(
+        ratatui::backend::CrosstermBackend::new(w),
+        ratatui::TerminalOptions { viewport: ratatui::Viewport::Fixed(area) },
+    )?;
+    Ok((t, counter))
 }

@@ -11,7 +11,7 @@ use super::session_bridge::SessionBridge;
 use super::update::{key_to_action, mouse_to_action, request_images, update};
 use super::views::draw;
 use super::widgets::terminal::TerminalGuard;
-use super::widgets::worker::{FitJob, Workers};
+use super::widgets::worker::{AnalysisJob, FitJob, Workers};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -42,6 +42,7 @@ pub fn run(session_path: &Path, keymap_path: Option<&Path>) -> anyhow::Result<()
     let size = guard.terminal.size()?;
     app.term_size = (size.width, size.height);
     request_images(&mut app);
+    app.request_analysis();
     let result = event_loop(&mut guard.terminal, &mut app, &keymap, &mut bridge, &workers, &rx);
     drop(guard);
     // Whatever happened in the loop, do not lose the last edits.
@@ -163,6 +164,21 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     Err(e) => format!("map not saved: {e:#}"),
                 };
                 apply(app, Action::Status(msg));
+            }
+            Effect::Analyse { generation } => {
+                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
+                    continue;
+                };
+                workers.request_analysis(AnalysisJob {
+                    generation,
+                    name: bridge.clip_name(),
+                    model,
+                    map,
+                    track: app.track.clone(),
+                    alignment: app.alignment.clone().unwrap_or_default(),
+                    fps: app.fps,
+                    fits: app.fit.fits.values().cloned().collect(),
+                });
             }
             Effect::Quit => {}
         }

@@ -10,7 +10,7 @@ use crate::fit::FrameFit;
 use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
-use crate::model::{LandmarkMap, MorphableModel};
+use crate::model::LandmarkMap;
 use crate::session::{Session, SessionLock};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -47,26 +47,6 @@ pub struct SessionBridge {
     /// Map as loaded, so an unchanged map from a file is not copied inline.
     loaded_map: Option<LandmarkMap>,
     _lock: SessionLock,
-}
-
-/// Loads a morphable model by file kind: lipmap model file, eos `.bin`, `.npz`, or a folder
-/// of `.npy` arrays.
-///
-/// # Errors
-/// The reader's error, naming the file.
-pub fn load_model(path: &Path) -> anyhow::Result<MorphableModel> {
-    use crate::io::{eos_bin, model_file, npy_model};
-    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-    let model = if path.is_dir() {
-        npy_model::read_npy_folder(path)?
-    } else if model_file::is_model_file(path) {
-        model_file::read_model_file(path)?
-    } else if ext == "npz" {
-        npy_model::read_npz(path)?
-    } else {
-        eos_bin::read_eos_model(path)?
-    };
-    Ok(model)
 }
 
 impl SessionBridge {
@@ -110,25 +90,16 @@ impl SessionBridge {
             }
         }
         if let Some(m) = &session.model {
-            match load_model(&m.path) {
+            match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
                 Ok(model) => app.model = Some(Arc::new(model)),
                 Err(e) => problems.push(format!("model: {e:#}")),
             }
         }
-        let mut map = match &session.landmark_map.file {
-            Some(f) => match crate::io::landmark_map_toml::read_landmark_map(f) {
-                Ok(m) => Some(m),
-                Err(e) => {
-                    problems.push(format!("map: {e}"));
-                    None
-                }
-            },
-            None => None,
-        };
-        if let Some(inline) = session.landmark_map.inline_map() {
-            let m = map.get_or_insert_with(LandmarkMap::default);
-            m.to_vertex.extend(inline.to_vertex);
-        }
+        // The session's rule: an inline map (from labelling) wins over the file.
+        let map = session.landmark_map.resolve().unwrap_or_else(|e| {
+            problems.push(format!("map: {e}"));
+            None
+        });
         app.map = map.clone();
         for fit in session.cached_fits(clip, &session.fit_settings) {
             app.fit.fits.insert(fit.frame, fit.clone());
@@ -166,6 +137,11 @@ impl SessionBridge {
             self.session.landmark_map.set_inline(map);
         }
         Ok(())
+    }
+
+    /// Name of the clip being edited.
+    pub fn clip_name(&self) -> String {
+        self.session.clips.get(self.clip).map_or_else(String::new, |c| c.name.clone())
     }
 
     /// `write_back` then an atomic save to the session file.

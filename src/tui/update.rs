@@ -274,8 +274,11 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
             };
         }
         A::SortNextColumn => {
-            let ncols =
-                app.analysis.tables.get(app.analysis_view.table).map_or(1, |t| t.columns.len() + 1);
+            let ncols = app
+                .analysis
+                .tables
+                .get(app.analysis_view.table)
+                .map_or(1, |t| t.columns.len().max(1));
             app.analysis_view.sort_column = (app.analysis_view.sort_column + 1) % ncols;
             app.analysis_view.row = 0;
         }
@@ -319,6 +322,7 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                     app.fit.fits.insert(f.frame, f);
                 }
                 app.recompute_flags();
+                app.request_analysis();
                 app.status = format!("fitted {n} frames ({failed} failed)");
             }
         }
@@ -327,6 +331,13 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 app.fit.running = false;
                 app.status = format!("fit failed: {error}");
                 app.fit.error = Some(error);
+            }
+        }
+        A::AnalysisReady { generation, data } => {
+            if generation == app.analysis_generation {
+                app.analysis = data;
+                let n = app.analysis.tables.len().max(1);
+                app.analysis_view.table = app.analysis_view.table.min(n - 1);
             }
         }
         A::Saved { generation } => {

@@ -17,12 +17,13 @@ pub fn sorted_rows(table: &AnalysisTable, view: &AnalysisView) -> Vec<usize> {
     let col = view.sort_column;
     order.sort_by(|&a, &b| {
         let (ra, rb) = (&table.rows[a], &table.rows[b]);
-        let o = if col == 0 {
-            ra.label.cmp(&rb.label)
-        } else {
-            let va = ra.values.get(col - 1).copied().unwrap_or(f64::NAN);
-            let vb = rb.values.get(col - 1).copied().unwrap_or(f64::NAN);
-            va.total_cmp(&vb)
+        let key = |r: &crate::tui::app::AnalysisRow| r.keys.get(col).copied().flatten();
+        let o = match (key(ra), key(rb)) {
+            (Some(x), Some(y)) => x.total_cmp(&y),
+            // Blank values sort last either way.
+            (Some(_), None) => std::cmp::Ordering::Less,
+            (None, Some(_)) => std::cmp::Ordering::Greater,
+            (None, None) => ra.cells.get(col).cmp(&rb.cells.get(col)),
         };
         if view.descending { o.reverse() } else { o }
     });
@@ -66,31 +67,35 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
     let view = &app.analysis_view;
     let order = sorted_rows(table, view);
     let arrow = if view.descending { "▼" } else { "▲" };
-    let header: Vec<Cell> = std::iter::once("".to_string())
-        .chain(table.columns.iter().cloned())
+    let header: Vec<Cell> = table
+        .columns
+        .iter()
         .enumerate()
-        .map(|(i, mut name)| {
-            if i == 0 {
-                name = "row".into();
-            }
+        .map(|(i, name)| {
             if i == view.sort_column {
-                name = format!("{name}{arrow}");
+                Cell::from(format!("{name}{arrow}"))
+            } else {
+                Cell::from(name.clone())
             }
-            Cell::from(name)
         })
         .collect();
-    let rows = order.iter().map(|&i| {
-        let r = &table.rows[i];
-        let mut cells = vec![Cell::from(r.label.clone())];
-        cells.extend(
-            r.values
+    let rows =
+        order.iter().map(|&i| Row::new(table.rows[i].cells.iter().map(|c| Cell::from(c.clone()))));
+    // Column widths from the content, the first (label) column taking what is left.
+    let widths: Vec<Constraint> = (0..table.columns.len())
+        .map(|c| {
+            let w = table
+                .rows
                 .iter()
-                .map(|v| Cell::from(if v.is_finite() { format!("{v:.3}") } else { "–".into() })),
-        );
-        Row::new(cells)
-    });
-    let mut widths = vec![Constraint::Min(10)];
-    widths.extend(table.columns.iter().map(|_| Constraint::Length(9)));
+                .filter_map(|r| r.cells.get(c))
+                .chain(std::iter::once(&table.columns[c]))
+                .map(|s| s.chars().count() + 1)
+                .max()
+                .unwrap_or(4)
+                .min(24) as u16;
+            if c == 0 { Constraint::Min(w) } else { Constraint::Length(w) }
+        })
+        .collect();
     let n_tables = app.analysis.tables.len();
     let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
     let t = Table::new(rows, widths)

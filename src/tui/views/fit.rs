@@ -80,7 +80,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 lines.push(Line::from(format!("failed: {why}")).fg(Color::LightRed));
             }
             lines.push(Line::from(format!(
-                "yaw {:.1} pitch {:.1} roll {:.1}",
+                "yaw {:.0}° pitch {:.0}° roll {:.0}°",
                 fit.yaw, fit.pitch, fit.roll
             )));
             let mut worst: Vec<(usize, f64)> = fit

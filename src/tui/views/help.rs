@@ -13,6 +13,9 @@ use ratatui::style::{Color, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, Clear, Paragraph};
 
+/// Widest key column before key lists move to a line of their own.
+const KEY_COLUMN: usize = 16;
+
 /// The help text lines for the current view.
 pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
     let mut lines = Vec::new();
@@ -42,14 +45,24 @@ pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
             continue;
         }
         lines.push(Line::from(format!("{} keys", mode.name())).bold().fg(Color::LightMagenta));
-        let width =
-            entries.iter().map(|e| e.1.join(", ").chars().count()).max().unwrap_or(0).min(30);
+        let width = entries
+            .iter()
+            .map(|e| e.1.join(", ").chars().count())
+            .filter(|w| *w <= KEY_COLUMN)
+            .max()
+            .unwrap_or(0);
         for (d, keys) in entries {
             let k = keys.join(", ");
-            lines.push(Line::from(vec![
-                Span::from(format!("  {k:<width$} ")).fg(Color::LightCyan),
-                Span::from(d),
-            ]));
+            if k.chars().count() > width {
+                // Long key lists get their own line rather than pushing the text off screen.
+                lines.push(Line::from(format!("  {k}")).fg(Color::LightCyan));
+                lines.push(Line::from(format!("  {:<width$} {d}", "")));
+            } else {
+                lines.push(Line::from(vec![
+                    Span::from(format!("  {k:<width$} ")).fg(Color::LightCyan),
+                    Span::from(d),
+                ]));
+            }
         }
     }
     lines.push(Line::from("mouse: click selects the nearest point, drag moves it").fg(Color::Gray));

@@ -5,11 +5,13 @@
 //! through 50 frames decodes the newest, a drag does not queue 50 fits). Replies carry the
 //! frame number or fit generation; `update` drops stale ones.
 
+use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
-use crate::landmarks::FrameLandmarks;
+use crate::landmarks::{FrameLandmarks, Track};
 use crate::model::{LandmarkMap, MorphableModel};
 use crate::tui::action::Action;
 use crate::tui::app::FrameProvider;
+use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Condvar, Mutex};
@@ -82,10 +84,132 @@ pub fn fit_for_tui(job: &FitJob, progress: &dyn Fn(usize)) -> Vec<FrameFit> {
     )
 }
 
-/// The decoding and fitting threads.
+/// Everything the analysis needs: the clip's effective landmarks, phones and fits.
+pub struct AnalysisJob {
+    pub generation: u64,
+    pub name: String,
+    pub model: Arc<MorphableModel>,
+    pub map: LandmarkMap,
+    pub track: Track,
+    pub alignment: Alignment,
+    pub fps: f64,
+    pub fits: Vec<FrameFit>,
+}
+
+/// Rows of the worst-frame tables shown in the analysis view.
+const N_WORST: usize = 20;
+
+/// Measures the video and the fitted head, evaluates them with `crate::workflow::evaluate`
+/// (min–max normalised, as the published method) and turns the report into the analysis
+/// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
+pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
+    use crate::eval::Utterance;
+    use crate::measure::{Measure, MeshMeasureOptions};
+    use crate::workflow::{Normalisation, evaluate, shapes_by_frame};
+    let n = job.track.frames.last().map_or(0, |f| f.frame + 1);
+    let mut video = crate::measure::mouth::trajectory_from_track(&job.track, Some(n));
+    let shapes = shapes_by_frame(&job.model, &job.fits, n);
+    let mut head = crate::measure::mesh::trajectory_from_shapes(
+        shapes.iter().map(|s| s.as_ref()),
+        &job.map,
+        &MeshMeasureOptions::default(),
+    );
+    for m in Measure::ALL {
+        video.series_mut(m).resize(n, None);
+        head.series_mut(m).resize(n, None);
+    }
+    let u = Utterance {
+        name: job.name.clone(),
+        speaker: None,
+        alignment: job.alignment.clone(),
+        fps: job.fps,
+        video,
+        head,
+    };
+    let report = evaluate(
+        std::slice::from_ref(&u),
+        &[(job.name.as_str(), job.fits.as_slice())],
+        Normalisation::MinMax,
+        N_WORST,
+    );
+    let first_frame_of = |label: &str| {
+        let key = crate::alignment::grouping_label(label);
+        job.alignment
+            .phones
+            .iter()
+            .find(|p| crate::alignment::grouping_label(&p.label) == key)
+            .map(|p| Alignment::frames_of(p, job.fps).start)
+    };
+    let tables = [
+        &report.phonemes,
+        &report.visemes,
+        &report.sentences,
+        &report.worst_frames,
+        &report.worst_fits,
+    ]
+    .into_iter()
+    .map(|t| table_for_tui(t, &first_frame_of, t.title == report.phonemes.title))
+    .collect();
+    let normalised = u.min_max_normalised();
+    let trajectories = Measure::ALL
+        .into_iter()
+        .filter(|m| {
+            normalised.video.series(*m).iter().any(Option::is_some)
+                || normalised.head.series(*m).iter().any(Option::is_some)
+        })
+        .map(|m| {
+            let pts = |s: &[Option<f64>]| -> Vec<(f64, f64)> {
+                s.iter().enumerate().filter_map(|(f, v)| v.map(|v| (f as f64, v))).collect()
+            };
+            Trajectory {
+                name: m.as_str().to_string(),
+                video: pts(normalised.video.series(m)),
+                model: pts(normalised.head.series(m)),
+            }
+        })
+        .collect();
+    AnalysisData { tables, trajectories }
+}
+
+/// An eval `Table` as an analysis table: a `frame` column gives the row's jump target; in the
+/// phoneme table the phone's first occurrence does.
+fn table_for_tui(
+    t: &crate::eval::Table,
+    first_frame_of: &dyn Fn(&str) -> Option<usize>,
+    phones: bool,
+) -> AnalysisTable {
+    use crate::eval::Cell;
+    let frame_col = t.headers.iter().position(|h| h == "frame");
+    let rows = t
+        .rows
+        .iter()
+        .map(|r| {
+            let cells: Vec<String> = (0..t.headers.len())
+                .map(|c| r.get(c).map_or(String::new(), |x| x.display(t.precision)))
+                .collect();
+            let keys = (0..t.headers.len())
+                .map(|c| match r.get(c) {
+                    Some(Cell::Num(v)) if v.is_finite() => Some(*v),
+                    Some(Cell::Int(i)) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect();
+            let frame = match (frame_col, r.get(frame_col.unwrap_or(usize::MAX))) {
+                (Some(_), Some(Cell::Int(i))) => usize::try_from(*i).ok(),
+                _ if phones => cells.first().and_then(|l| first_frame_of(l)),
+                _ => None,
+            };
+            AnalysisRow { cells, keys, frame }
+        })
+        .collect();
+    AnalysisTable { title: t.title.clone(), columns: t.headers.clone(), rows }
+}
+
+/// The decoding, fitting and analysis threads.
 pub struct Workers {
     frames: Arc<Slot<Vec<usize>>>,
     fits: Arc<Slot<FitJob>>,
+    analyses: Arc<Slot<AnalysisJob>>,
 }
 
 impl Workers {
@@ -93,6 +217,7 @@ impl Workers {
     pub fn start(provider: Arc<dyn FrameProvider>, tx: Sender<Action>) -> Self {
         let frames: Arc<Slot<Vec<usize>>> = Arc::new(Slot::new());
         let fits: Arc<Slot<FitJob>> = Arc::new(Slot::new());
+        let atx = tx.clone();
         {
             let slot = frames.clone();
             let tx = tx.clone();
@@ -142,7 +267,31 @@ impl Workers {
                 }
             });
         }
-        Self { frames, fits }
+        let analyses: Arc<Slot<AnalysisJob>> = Arc::new(Slot::new());
+        {
+            let slot = analyses.clone();
+            std::thread::spawn(move || {
+                while let Some(job) = slot.take() {
+                    let generation = job.generation;
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        analyse_for_tui(&job)
+                    }));
+                    let reply = match result {
+                        Ok(data) => Action::AnalysisReady { generation, data },
+                        Err(_) => Action::Status("the analysis failed (panic)".into()),
+                    };
+                    if atx.send(reply).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+        Self { frames, fits, analyses }
+    }
+
+    /// Asks for the analysis tables, replacing any pending request.
+    pub fn request_analysis(&self, job: AnalysisJob) {
+        self.analyses.put(job);
     }
 
     /// Asks for frames to be decoded (first one first), replacing any pending request.
@@ -161,6 +310,7 @@ impl Drop for Workers {
         // Threads finish their current item and exit; a running fit is not waited for.
         self.frames.close();
         self.fits.close();
+        self.analyses.close();
     }
 }
 

@@ -1,0 +1,119 @@
+//! `lipmap eval SESSION`: per-sentence, per-phoneme and per-viseme W/H/P RMSE tables and the
+//! worst frames; `--compare F1,F2,…` for the landmark-set table with paired t-tests.
+
+use crate::cli::new::session_path;
+use crate::cli::output::{FormatArgs, write_tables};
+use crate::eval::{Configuration, RowKey, Utterance, compare_configurations};
+use crate::fit::FitSettings;
+use crate::landmarks::LandmarkSet;
+use crate::measure::MeshMeasureOptions;
+use crate::session::{Session, SessionLock};
+use crate::workflow::{self, Normalisation, Resources};
+use anyhow::{Result, bail};
+use std::io::Write;
+
+/// Evaluate how faithfully the fitted head's lips follow the video.
+#[derive(clap::Args, Debug)]
+pub struct EvalArgs {
+    /// Session file or name.
+    pub session: String,
+    /// Compare landmark sets (fits each clip with each), e.g. F1,F2,F3,F4,F5; the first is
+    /// the baseline of the t-tests.
+    #[arg(long, value_delimiter = ',')]
+    pub compare: Vec<LandmarkSet>,
+    /// How video and head trajectories are put on one scale before comparing.
+    #[arg(long, value_enum, default_value_t = Normalisation::MinMax)]
+    pub normalise: Normalisation,
+    /// Number of worst frames to list.
+    #[arg(long, default_value_t = 10)]
+    pub worst: usize,
+    /// Only this clip.
+    #[arg(long)]
+    pub clip: Option<String>,
+    #[command(flatten)]
+    pub output: FormatArgs,
+}
+
+/// Fits (from cache where valid) and evaluates the selected clips of a session with
+/// `settings`; returns the utterances and each clip's fits.
+pub fn utterances_with(
+    session: &mut Session,
+    res: &Resources,
+    clips: &[usize],
+    settings: &FitSettings,
+) -> Result<(Vec<Utterance>, Vec<(String, Vec<crate::fit::FrameFit>)>)> {
+    let mut utterances = Vec::new();
+    let mut fits = Vec::new();
+    let bar = crate::cli::progress::frames_bar(0, "fitting");
+    for &c in clips {
+        let name = session.clip(c)?.name.clone();
+        bar.set_message(format!("fitting {name} ({})", settings.set));
+        let progress = |done: usize, total: usize| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        };
+        let clip_fits = workflow::fit_clip_cached(session, res, c, settings, Some(&progress))?;
+        utterances.push(workflow::utterance_of_clip(
+            session,
+            res,
+            c,
+            &clip_fits.fits,
+            &MeshMeasureOptions::default(),
+        )?);
+        fits.push((name, clip_fits.fits));
+    }
+    bar.finish_and_clear();
+    Ok((utterances, fits))
+}
+
+/// The clips selected by `--clip` (all when absent).
+pub fn select_clips(session: &Session, name: Option<&str>) -> Result<Vec<usize>> {
+    match name {
+        Some(n) => match session.clip_index(n) {
+            Some(i) => Ok(vec![i]),
+            None => bail!(
+                "no clip `{n}` in the session (clips: {})",
+                session.clips.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
+            ),
+        },
+        None => Ok((0..session.clips.len()).collect()),
+    }
+}
+
+pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
+    let path = session_path(&a.session);
+    // Evaluation fits what the cache lacks and stores it: the session changes, so lock it.
+    let _lock = SessionLock::acquire(&path)?;
+    let mut session = Session::load(&path)?;
+    let res = Resources::load(&session)?;
+    let clips = select_clips(&session, a.clip.as_deref())?;
+    if clips.iter().all(|&c| session.clips[c].alignment.is_none()) {
+        eprintln!(
+            "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
+        );
+    }
+    let base = session.fit_settings.clone();
+    if a.compare.is_empty() {
+        let (utterances, fits) = utterances_with(&mut session, &res, &clips, &base)?;
+        session.save(&path)?;
+        let fit_refs: Vec<(&str, &[crate::fit::FrameFit])> =
+            fits.iter().map(|(n, f)| (n.as_str(), f.as_slice())).collect();
+        let report = workflow::evaluate(&utterances, &fit_refs, a.normalise, a.worst);
+        write_tables(&report.tables(), a.output.format(), out)?;
+        return Ok(());
+    }
+    let mut configs = Vec::new();
+    for &set in &a.compare {
+        let settings = FitSettings { set, ..base.clone() };
+        let (utterances, _) = utterances_with(&mut session, &res, &clips, &settings)?;
+        let utterances = match a.normalise {
+            Normalisation::MinMax => utterances.iter().map(Utterance::min_max_normalised).collect(),
+            Normalisation::None => utterances,
+        };
+        configs.push(Configuration { name: set.to_string(), utterances });
+    }
+    session.save(&path)?;
+    let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
+    write_tables(&[&comparison.to_table()], a.output.format(), out)?;
+    Ok(())
+}

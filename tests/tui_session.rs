@@ -1,0 +1,93 @@
+//! The TUI's session adapter: open a session, edit through `update`, save, reopen; the
+//! correction is stored with source "corrected" beside the tracker's untouched value, and
+//! the session is locked while open.
+
+use lipmap::landmarks::PointSource;
+use lipmap::session::{Clip, FramesRef, Session, View};
+use lipmap::tui::fixtures::{face_image, synthetic_track};
+use lipmap::tui::session_bridge::SessionBridge;
+use lipmap::tui::{Action, App, update};
+
+const W: u32 = 96;
+const H: u32 = 72;
+
+fn apply(app: &mut App, actions: &[Action]) {
+    for a in actions {
+        let mut next = Some(a.clone());
+        while let Some(a) = next {
+            next = update(app, a);
+        }
+    }
+}
+
+fn make_session(dir: &std::path::Path) -> std::path::PathBuf {
+    let frames = dir.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for f in 0..6 {
+        let img = face_image(f, W, H);
+        image::RgbImage::from_raw(W, H, img.rgb)
+            .unwrap()
+            .save(frames.join(format!("frame_{f:04}.png")))
+            .unwrap();
+    }
+    let path = dir.join("s.lipmap.json");
+    let mut s = Session::new(&path);
+    let view =
+        View { source: FramesRef::Images { dir: frames }, fps: 25.0, size: None, offset_s: 0.0 };
+    let mut clip = Clip::new("clip1", view);
+    clip.tracked = synthetic_track(6, W, H);
+    s.add_clip(clip).unwrap();
+    s.save(&path).unwrap();
+    path
+}
+
+#[test]
+fn edits_round_trip_through_the_session_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = make_session(dir.path());
+    let original = synthetic_track(6, W, H).frames[0].points[62];
+    {
+        let (mut app, mut bridge, frames) = SessionBridge::open(&path, 0).unwrap();
+        assert_eq!(app.n_frames(), 6);
+        assert_eq!(app.image_size, Some((W, H)));
+        let img = frames.load(2).unwrap();
+        assert_eq!((img.width, img.height), (W, H));
+        // The session is locked while open.
+        let err = SessionBridge::open(&path, 0).err().expect("second editor refused").to_string();
+        assert!(err.contains("open in another editor"), "{err}");
+        app.term_size = (80, 24);
+        apply(&mut app, &[Action::Nudge { dx: 0, dy: -3 }, Action::ToggleReviewed]);
+        bridge.save(&app).unwrap();
+    }
+    let s = Session::load(&path).unwrap();
+    let c = &s.clips[0];
+    let fixed = c.corrections.get(0, 62).expect("correction stored");
+    assert_eq!(fixed.source, PointSource::Corrected);
+    assert!(fixed.y < original.y);
+    assert_eq!(c.tracked.frames[0].points[62], original, "tracker's value kept");
+    assert_eq!(c.corrections.len(), 1);
+    assert!(c.corrections.is_reviewed(0));
+
+    // Reopen: the correction is there; undoing everything and saving removes it.
+    let (mut app, mut bridge, _) = SessionBridge::open(&path, 0).unwrap();
+    assert_eq!(app.track.frames[0].points[62], *fixed);
+    assert!(app.reviewed.contains(&0));
+    app.term_size = (80, 24);
+    apply(&mut app, &[Action::RevertPoint, Action::ToggleReviewed]);
+    bridge.save(&app).unwrap();
+    drop(bridge);
+    let s = Session::load(&path).unwrap();
+    assert!(s.clips[0].corrections.is_empty());
+    assert!(!s.clips[0].corrections.is_reviewed(0));
+}
+
+#[test]
+fn missing_frames_still_open_for_landmark_editing() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = make_session(dir.path());
+    std::fs::remove_dir_all(dir.path().join("frames")).unwrap();
+    let (app, _bridge, frames) = SessionBridge::open(&path, 0).unwrap();
+    assert!(app.status.contains("frames"), "{}", app.status);
+    assert!(frames.load(0).is_err());
+    assert_eq!(app.n_frames(), 6);
+}

@@ -63,6 +63,29 @@ fn median_ms(reps: usize, mut f: impl FnMut()) -> f64 {
     t[reps / 2]
 }
 
+/// This thread's CPU time in seconds (Linux `/proc/thread-self/stat`, 100 Hz ticks), so a
+/// long loop can be timed without counting other processes on a busy machine.
+fn thread_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/stat").ok()?;
+    let after = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = after.split_whitespace().collect();
+    // Fields 14 and 15 (utime, stime) are at 11 and 12 after the command name.
+    Some((f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?) / 100.0)
+}
+
+/// CPU milliseconds per call of `f` on this thread, over at least two CPU seconds.
+fn cpu_ms_per_call(mut f: impl FnMut()) -> Option<f64> {
+    let start = thread_cpu_seconds()?;
+    let mut calls = 0usize;
+    while thread_cpu_seconds()? - start < 2.0 {
+        for _ in 0..10 {
+            f();
+        }
+        calls += 10;
+    }
+    Some((thread_cpu_seconds()? - start) * 1e3 / calls as f64)
+}
+
 /// Times eos-py live on the same landmarks when it is importable; returns ms per frame.
 fn eos_live_ms(eos: &Path) -> Option<f64> {
     let python = std::env::var("LIPMAP_EOS_PYTHON").unwrap_or_else(|_| "python3".into());
@@ -111,10 +134,18 @@ fn bench_fit(c: &mut Criterion) {
         let single = median_ms(301, || {
             black_box(fitter.fit_frame(black_box(&d.frames[7]), d.height));
         });
+        // Single-threaded CPU time per frame: the clip (or all frames) fitted on one thread.
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
+        let cpu = pool.install(|| {
+            cpu_ms_per_call(|| {
+                black_box(fitter.fit_frames(black_box(&d.frames), d.height, None));
+            })
+        });
         println!(
-            "fit {label}: {ms:.4} ms/frame (total/frames, {} threads); one frame alone {single:.4} ms; \
-             eos {EOS_MS_PER_FRAME} ms -> ratio {:.3}{}",
+            "fit {label}: {ms:.4} ms/frame wall (total/frames, {} threads); one frame alone {single:.4} ms; \
+             1-thread CPU {} ms/frame; eos {EOS_MS_PER_FRAME} ms -> ratio {:.3}{}",
             rayon::current_num_threads(),
+            cpu.map_or("?".into(), |c| format!("{:.4}", c / n)),
             ms / EOS_MS_PER_FRAME,
             eos_ms.map_or(String::new(), |e| format!("; eos-py live {e:.3} ms -> ratio {:.3}", ms / e)),
         );

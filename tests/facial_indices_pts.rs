@@ -45,8 +45,8 @@ fn check(name: &str, pinned_vertical_mouth_height: f64, pinned_facial: f64) {
 
     let d = hand_distances(&raw);
     let got = facial_distances(&pts).unwrap();
-    for k in 0..13 {
-        assert!((got.d[k] - d[k]).abs() < 1e-9, "{name} D{}: {} vs {}", k + 1, got.d[k], d[k]);
+    for (k, (g, h)) in got.d.iter().zip(&d).enumerate() {
+        assert!((g - h).abs() < 1e-9, "{name} D{}: {g} vs {h}", k + 1);
     }
     let by_hand = [
         (FacialIndex::Facial, d[0] / d[1]),

@@ -388,6 +388,34 @@ fn truth_column(csv: &str, name: &str) -> Vec<f64> {
     lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
 }
 
+/// Speaker 0's P per frame with the foremost point taken over the whole upper-lip
+/// vermilion (`UpperLip::Vertices`), which is what a silhouette shows; the demo's `p` column
+/// takes it over the mapped landmark vertices only (`UpperLip::MappedLandmarks`).
+fn vertex_truth_speaker0(csv: &str) -> Vec<Option<f64>> {
+    use lipmap::demo::visemes::{Articulation, N_PARAMS, PARAM_NAMES};
+    use lipmap::measure::{MeshMeasureOptions, UpperLip, mesh::protrusion};
+    let (head, fields) = lipmap::demo::demo_head();
+    let speaker = lipmap::demo::speakers::make_speaker(&head, 0, None, 1.0).unwrap();
+    let params: Vec<Vec<f64>> = PARAM_NAMES.iter().map(|n| truth_column(csv, n)).collect();
+    let opts = MeshMeasureOptions {
+        upper_lip: UpperLip::Vertices(head.upper_lip.clone()),
+        ..Default::default()
+    };
+    (0..params[0].len())
+        .map(|f| {
+            let mut a = [0.0; N_PARAMS];
+            for (k, v) in a.iter_mut().enumerate() {
+                *v = params[k][f];
+            }
+            let verts = speaker
+                .warp
+                .apply_all(&fields.apply(&head.mesh.vertices, &Articulation::from_array(a)));
+            let flat = lipmap::model::Mesh { vertices: verts, faces: Vec::new() }.to_flat();
+            protrusion(&flat, &head.landmarks, &opts).ok()
+        })
+        .collect()
+}
+
 fn rmse(a: &[Option<f64>], b: &[Option<f64>]) -> f64 {
     let d: Vec<f64> =
         a.iter().zip(b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).powi(2))).collect();
@@ -435,8 +463,83 @@ fn demo_side_frames_match_the_true_protrusion() {
     let mm = lipmap::measure::min_max_normalise(&measured).unwrap();
     let e = rmse(&mt, &mm);
     eprintln!("RMSE after min-max {e:.4}");
+    let vt = lipmap::measure::min_max_normalise(&vertex_truth_speaker0(&csv)).unwrap();
+    eprintln!("vs vermilion-vertex truth {:.4}", rmse(&vt, &mm));
     let oracle: Vec<Option<f64>> = lip_u.iter().zip(&ref_u).map(|(a, b)| Some(a - b)).collect();
     let mo = lipmap::measure::min_max_normalise(&oracle).unwrap();
-    eprintln!("oracle (image lip − eye columns) vs truth {:.4}; measured vs oracle {:.4}", rmse(&mt, &mo), rmse(&mm, &mo));
+    eprintln!(
+        "oracle (image lip − eye columns) vs truth {:.4}; measured vs oracle {:.4}",
+        rmse(&mt, &mo),
+        rmse(&mm, &mo)
+    );
     assert!(e <= 0.05, "RMSE {e}");
+}
+
+/// Per-sentence RMSE (after per-clip min–max on both sides) of automatic side-view P against
+/// the demo truth, over several speakers and whole sentences. Slow: run with
+/// `cargo test --release --test profile -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn demo_speakers_whole_sentences() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = lipmap::demo::DemoOptions {
+        out_dir: dir.path().to_path_buf(),
+        speakers: 3,
+        sentences: 2,
+        write_model: false,
+        ..Default::default()
+    };
+    let out = lipmap::demo::generate(&opts).unwrap();
+    let mut worst: f64 = 0.0;
+    for clip in out.speakers.iter().flat_map(|s| &s.clips) {
+        let side = clip.side_dir.as_ref().unwrap();
+        let load = |f: usize| -> Result<GrayImage, String> {
+            image::open(side.join(format!("frame_{f:05}.png")))
+                .map(|i| i.to_luma8())
+                .map_err(|e| e.to_string())
+        };
+        let setup = propose_setup(&load(0).unwrap(), Facing::Right).unwrap();
+        let points = extract_protrusion_with(clip.n_frames, load, &setup);
+        let csv = std::fs::read_to_string(&clip.truth_csv).unwrap();
+        let truth: Vec<Option<f64>> = truth_column(&csv, "p").into_iter().map(Some).collect();
+        let measured: Vec<Option<f64>> = points.iter().map(|p| p.p_norm).collect();
+        let failed = points.iter().filter(|p| p.failed.is_some()).count();
+        for p in points.iter().filter(|p| p.failed.is_some()) {
+            eprintln!("  frame {}: {}", p.frame, p.failed.as_deref().unwrap_or(""));
+        }
+        let e = rmse(
+            &lipmap::measure::min_max_normalise(&truth).unwrap(),
+            &lipmap::measure::min_max_normalise(&measured).unwrap(),
+        );
+        worst = worst.max(e);
+        if clip.dir.to_string_lossy().contains("speaker_00") {
+            let vt = lipmap::measure::min_max_normalise(&vertex_truth_speaker0(&csv)).unwrap();
+            eprintln!(
+                "  vs vermilion-vertex truth: RMSE {:.4}",
+                rmse(&vt, &lipmap::measure::min_max_normalise(&measured).unwrap())
+            );
+        }
+        if std::env::var_os("LIPMAP_DUMP").is_some() {
+            let (a, b) = (
+                lipmap::measure::min_max_normalise(&truth).unwrap(),
+                lipmap::measure::min_max_normalise(&measured).unwrap(),
+            );
+            let line: Vec<String> = a
+                .iter()
+                .zip(&b)
+                .map(|(x, y)| match (x, y) {
+                    (Some(x), Some(y)) => format!("{:+.0}", 100.0 * (y - x)),
+                    _ => "_".into(),
+                })
+                .collect();
+            eprintln!(
+                "  truth×100: {:?}",
+                a.iter().map(|x| (x.unwrap_or(0.0) * 100.0).round() as i32).collect::<Vec<_>>()
+            );
+            eprintln!("  err×100: {}", line.join(" "));
+        }
+        eprintln!("{} {} frames, {failed} failed: RMSE {e:.4}", clip.dir.display(), clip.n_frames);
+    }
+    eprintln!("worst per-sentence RMSE {worst:.4}");
+    assert!(worst <= 0.05);
 }

@@ -479,6 +479,7 @@ fn a_correction_makes_only_its_frame_stale() {
     let file = dir.path().join("sessions").join("f.lipmap.json");
     let mut s = session_with_frames(&file, 6);
     s.model = Some(ModelRef { path: dir.path().join("m.bin"), blendshapes: None });
+    s.fit_settings.set = LandmarkSet::F4;
     let settings = s.fit_settings.clone();
     assert_eq!(s.stale_frames(0), (0..6).collect::<Vec<_>>());
     s.store_fits(0, &settings, (0..6).map(fit_of).collect()).unwrap();
@@ -486,7 +487,7 @@ fn a_correction_makes_only_its_frame_stale() {
 
     s.set_correction(0, 2, 62, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
     assert_eq!(s.stale_frames(0), vec![2]);
-    // A jaw point is outside the default F4 set: the F4 fit is still valid.
+    // A jaw point is outside the F4 set: the F4 fit is still valid.
     s.set_correction(0, 4, 3, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
     assert_eq!(s.stale_frames(0), vec![2]);
     assert_eq!(s.cached_fits(0, &settings).len(), 5);

@@ -252,8 +252,12 @@ impl ArticulationFields {
             // Rounding pulls the corners in and pushes the lips' middle out a little.
             let lip_body = (-(x / (cxo + 4.0)).powi(4)).exp() * g(dy, 12.0);
             fields[2][v] = Vector3::new(-sign * s, 0.0, 0.3 * lip_body);
-            // Protrusion: the lips move forward, most at the midline.
-            fields[3][v] = Vector3::new(0.0, 0.0, lip_body);
+            // Protrusion: the lips move forward, most at the midline, and evert: the
+            // vermilion borders roll outward (up for the upper lip, down for the lower) while
+            // the seam stays, so a frontal camera sees protrusion as fuller lips, as it does
+            // on real speakers. Without that P would be invisible in the front view.
+            let evert = (-(x / (cxo + 2.0)).powi(4)).exp() * (dy / 9.0) * g(dy, 9.0) * 0.5;
+            fields[3][v] = Vector3::new(-0.12 * sign * s, evert, lip_body);
             // The inner lip edges move apart without the jaw; zero at the corners.
             let mid = mouth_lateral_weight(x, cxi);
             if !lower && dy >= 0.0 {

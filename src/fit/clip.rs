@@ -11,7 +11,7 @@
 
 use super::camera::{self, OrthoPose};
 use super::shape::{
-    FrameObservations, LandmarkBasis, apply_forces, dot, gradient_rhs, landmark_forces, nonnegative_quadratic, normal_matrix,
+    FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, dot, gradient_rhs, landmark_forces, nonnegative_quadratic, normal_matrix,
     projector,
 };
 use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
@@ -217,8 +217,7 @@ fn solve_identity(
         }
     }
     r += apply_forces(basis, &forces, 0..kid);
-    let a = s.cholesky()?.solve(&r);
-    a.iter().all(|v| v.is_finite()).then_some(a)
+    cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()).then_some(r)
 }
 
 /// The objective: weighted squared reprojection error over σ², plus the priors.

@@ -213,3 +213,123 @@ pub fn fitted_shape(model: &MorphableModel, fit: &FrameFit) -> DVector {
 pub fn project(fit: &FrameFit, point: Point3, image_height: Real) -> Point2 {
     pose_of(fit).project(&point, image_height)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::camera::{rotation_angle_between_deg, rotation_from_yaw_pitch_roll_deg};
+    use crate::landmarks::LandmarkPoint;
+    use crate::math::DMatrix;
+    use crate::model::{Expressions, PcaModel};
+    use proptest::prelude::*;
+
+    /// A small face-like model: 68 vertices on a curved sheet, 4 smooth identity modes and 2
+    /// expression offsets; landmark i ↦ vertex i.
+    fn toy_model() -> (MorphableModel, LandmarkMap) {
+        let n = N_LANDMARKS;
+        let mut mean = DVector::zeros(3 * n);
+        for i in 0..n {
+            let (x, y) = (((i % 9) as Real - 4.0) * 15.0, ((i / 9) as Real - 3.5) * 18.0);
+            mean[3 * i] = x;
+            mean[3 * i + 1] = y;
+            mean[3 * i + 2] = 50.0 - 0.005 * (x * x + y * y) + 4.0 * ((i * 7 % 5) as Real);
+        }
+        let raw = DMatrix::from_fn(3 * n, 4, |r, c| ((r * (c + 3)) as Real * 0.37).sin());
+        let basis = raw.qr().q();
+        let eigenvalues = DVector::from_vec(vec![9.0, 4.0, 2.0, 1.0]);
+        let deltas = DMatrix::from_fn(3 * n, 2, |r, c| if r % 3 == 1 { ((r + c) as Real * 0.11).cos() * 3.0 } else { 0.0 });
+        let model = MorphableModel {
+            shape: PcaModel { mean, basis, eigenvalues },
+            expressions: Some(Expressions { names: vec!["a".into(), "b".into()], deltas }),
+            triangles: vec![],
+        };
+        let map = LandmarkMap { to_vertex: (0..n).map(|i| (i, i)).collect() };
+        (model, map)
+    }
+
+    fn project_frame(model: &MorphableModel, pose: &OrthoPose, h: Real) -> FrameLandmarks {
+        let pts = (0..N_LANDMARKS)
+            .map(|i| {
+                let p = pose.project(&model.mean_vertex(i).unwrap(), h);
+                LandmarkPoint::tracked(p.x, p.y)
+            })
+            .collect();
+        FrameLandmarks::new(0, pts)
+    }
+
+    fn assert_flagged_and_finite(fit: &FrameFit) {
+        assert!(fit.failed.is_some());
+        let vals = [fit.yaw, fit.pitch, fit.roll, fit.scale, fit.tx, fit.ty, fit.reproj_rms_px];
+        assert!(vals.iter().all(|v| v.is_finite()));
+        assert!(fit.identity.iter().chain(&fit.expression).all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn degenerate_frames_are_flagged_not_panics() {
+        let (model, map) = toy_model();
+        let s = FitSettings::default();
+        let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(10.0, 5.0, 0.0), s: 2.0, tx: 300.0, ty: 200.0 };
+        let good = project_frame(&model, &pose, 720.0);
+        // Too few visible points.
+        let mut few = good.clone();
+        few.points.iter_mut().skip(3).for_each(|p| p.visible = false);
+        assert_flagged_and_finite(&fit_frame(&model, &map, &few, 720.0, &s));
+        // NaN and infinite coordinates everywhere.
+        let mut nan = good.clone();
+        nan.points.iter_mut().for_each(|p| p.x = Real::NAN);
+        assert_flagged_and_finite(&fit_frame(&model, &map, &nan, 720.0, &s));
+        let mut inf = good.clone();
+        inf.points.iter_mut().for_each(|p| p.y = Real::INFINITY);
+        assert_flagged_and_finite(&fit_frame(&model, &map, &inf, 720.0, &s));
+        // All points at one pixel (zero scale) and on one line (collinear).
+        let mut same = good.clone();
+        same.points.iter_mut().for_each(|p| (p.x, p.y) = (100.0, 100.0));
+        assert_flagged_and_finite(&fit_frame(&model, &map, &same, 720.0, &s));
+        let mut line = good.clone();
+        line.points.iter_mut().enumerate().for_each(|(i, p)| (p.x, p.y) = (i as Real, 2.0 * i as Real));
+        let fit = fit_frame(&model, &map, &line, 720.0, &s);
+        assert!(fit.reproj_rms_px.is_finite() && fit.scale.is_finite());
+        // A clip mixing bad and good frames still fits the good ones.
+        let fits = fit_clip(&model, &map, &[few, good.clone()], 720.0, &FitSettings { clip: true, ..s.clone() }, None);
+        assert!(fits[0].failed.is_some() && fits[1].failed.is_none());
+        // Residuals: 68 entries, Some exactly for used points.
+        assert_eq!(fits[1].residuals.len(), N_LANDMARKS);
+        assert!(fits[1].residuals.iter().all(|r| r.is_some()));
+    }
+
+    #[test]
+    fn residual_limit_flags_the_frame() {
+        let (model, map) = toy_model();
+        let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(0.0, 0.0, 0.0), s: 2.0, tx: 300.0, ty: 200.0 };
+        let mut lm = project_frame(&model, &pose, 720.0);
+        for (i, p) in lm.points.iter_mut().enumerate() {
+            p.x += if i % 2 == 0 { 40.0 } else { -40.0 };
+        }
+        let s = FitSettings { max_reproj_rms_px: 5.0, ..FitSettings::default() };
+        let fit = fit_frame(&model, &map, &lm, 720.0, &s);
+        assert!(fit.failed.as_deref().is_some_and(|f| f.contains("reprojection")), "{:?}", fit.failed);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        #[test]
+        fn fit_recovers_a_random_pose(yaw in -35.0..35.0f64, pitch in -20.0..20.0f64, roll in -20.0..20.0f64,
+                                      s in 0.8..3.0f64, tx in 150.0..350.0f64, ty in 120.0..250.0f64,
+                                      clip in any::<bool>()) {
+            let (model, map) = toy_model();
+            let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(yaw, pitch, roll), s, tx, ty };
+            let lm = project_frame(&model, &pose, 720.0);
+            let settings = FitSettings { clip, ..FitSettings::default() };
+            let fits = fit_clip(&model, &map, std::slice::from_ref(&lm), 720.0, &settings, None);
+            let fit = &fits[0];
+            prop_assert!(fit.failed.is_none(), "{:?}", fit.failed);
+            let est = pose_of(fit);
+            prop_assert!(rotation_angle_between_deg(&est.r, &pose.r) < 0.05);
+            prop_assert!((fit.scale / s - 1.0).abs() < 1e-3);
+            prop_assert!(fit.reproj_rms_px < 0.05);
+            let p = project(fit, Point3::new(10.0, -5.0, 40.0), 720.0);
+            let q = pose.project(&Point3::new(10.0, -5.0, 40.0), 720.0);
+            prop_assert!((p - q).norm() < 0.5);
+        }
+    }
+}

@@ -65,8 +65,8 @@ impl Default for FitSettings {
             max_reproj_rms_px: 20.0,
             landmark_weights: Vec::new(),
             nonnegative_expressions: true,
-            pose_refinement_steps: 3,
-            convergence_tolerance: 1e-4,
+            pose_refinement_steps: 1,
+            convergence_tolerance: 1e-3,
         }
     }
 }

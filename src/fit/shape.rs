@@ -355,6 +355,42 @@ pub fn fit_coefficients_linear(
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Solves `A·x = b` in place for a symmetric positive definite `A` (n×n, either storage order,
+/// only the lower triangle read and overwritten by its Cholesky factor). Returns false when a
+/// pivot is not positive. Written out because the fit's 63–69-wide systems are solved many
+/// times per frame and a plain row-oriented loop vectorises well.
+pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) -> bool {
+    debug_assert!(a.len() >= n * n && b.len() >= n);
+    for j in 0..n {
+        let (head, rest) = a.split_at_mut(j * n);
+        let row_j = &mut rest[..n];
+        // L[j][k] for k < j, stored in row j.
+        for k in 0..j {
+            let row_k = &head[k * n..k * n + n];
+            let s = dot(&row_j[..k], &row_k[..k]);
+            row_j[k] = (row_j[k] - s) / row_k[k];
+        }
+        let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
+        if !(d > 0.0) || !d.is_finite() {
+            return false;
+        }
+        row_j[j] = d.sqrt();
+    }
+    // Forward: L y = b; backward: Lᵀ x = y.
+    for j in 0..n {
+        let row = &a[j * n..j * n + n];
+        b[j] = (b[j] - dot(&row[..j], &b[..j])) / row[j];
+    }
+    for j in (0..n).rev() {
+        let bj = b[j] / a[j * n + j];
+        b[j] = bj;
+        for k in 0..j {
+            b[k] -= a[j * n + k] * bj;
+        }
+    }
+    b.iter().all(|v| v.is_finite())
+}
+
 /// Minimises `½xᵀNx − gᵀx` subject to `x ≥ 0` (N symmetric positive definite, small):
 /// Lawson–Hanson's active set method on the normal equations, as eos's NNLS for blendshapes
 /// but with the regulariser inside N. `free[j]` tells the caller which components ended up
@@ -417,6 +453,18 @@ pub fn nonnegative_quadratic(n: &DMatrix, g: &DVector, free: &mut [bool]) -> Opt
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn in_place_cholesky_matches_nalgebra() {
+        let m = DMatrix::from_fn(5, 5, |i, j| 1.0 / (1.0 + i as Real + j as Real) + if i == j { 2.0 } else { 0.0 });
+        let b = DVector::from_fn(5, |i, _| i as Real - 1.5);
+        let want = m.clone().cholesky().unwrap().solve(&b);
+        let (mut a, mut x) = (m.as_slice().to_vec(), b.as_slice().to_vec());
+        assert!(cholesky_solve_in_place(&mut a, 5, &mut x));
+        assert!((DVector::from_vec(x) - want).amax() < 1e-12);
+        let mut singular = vec![1.0, 1.0, 1.0, 1.0];
+        assert!(!cholesky_solve_in_place(&mut singular, 2, &mut [1.0, 2.0]));
+    }
 
     #[test]
     fn nnls_matches_unconstrained_when_interior_and_clamps_otherwise() {

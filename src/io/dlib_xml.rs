@@ -240,8 +240,9 @@ pub fn format_dlib_xml_with_names(track: &Track, image_name: &dyn Fn(usize) -> S
             let _ = writeln!(
                 s,
                 "    <box top='{t}' left='{l}' width='{}' height='{}'>",
-                r - l + 1,
-                b - t + 1
+                // Saturating: absurd but finite coordinates must not overflow the box size.
+                r.saturating_sub(l).saturating_add(1),
+                b.saturating_sub(t).saturating_add(1)
             );
             for (i, x, y) in visible {
                 let _ = writeln!(s, "      <part name='{i:02}' x='{x}' y='{y}'/>");
@@ -287,6 +288,15 @@ mod tests {
         assert_eq!((p[3].x, p[3].y), (3.0, 7.0));
         assert!(!p[10].visible && p[11].visible);
         assert!(back.frames[1].points.iter().all(|p| !p.visible));
+    }
+
+    #[test]
+    fn extreme_coordinates_write_without_overflow() {
+        let xml = "<images><image file='a'><box><part name='00' x='1e300' y='-1e300'/>\
+                   <part name='01' x='-1e300' y='1e300'/></box></image></images>";
+        let t = parse_dlib_xml(xml, Path::new("l.xml")).unwrap();
+        let back = parse_dlib_xml(&format_dlib_xml(&t), Path::new("l.xml")).unwrap();
+        assert_eq!(back.frames[0].points[0].x, i64::MAX as f64);
     }
 
     #[test]

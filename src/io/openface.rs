@@ -158,7 +158,8 @@ pub fn format_openface_csv(track: &Track) -> String {
     }
     s.push('\n');
     for f in &track.frames {
-        let _ = write!(s, "{}, 0, ", f.frame + 1);
+        // u128: a frame number read from elsewhere may be usize::MAX.
+        let _ = write!(s, "{}, 0, ", f.frame as u128 + 1);
         if let Some(t) = f.timestamp {
             let _ = write!(s, "{t}");
         }

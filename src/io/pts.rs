@@ -4,8 +4,11 @@
 //! The 300-W convention makes `.pts` coordinates 1-based (the centre of the top-left pixel is
 //! `1 1`); lipmap is 0-based everywhere, so 1 is subtracted on import and added on export.
 //! Export prints each coordinate with Rust's shortest round-trip formatting, so a value that
-//! came from text goes back out as the same text. `.pts` has no visibility, confidence or
-//! source: every point reads back as visible and tracked.
+//! came from text goes back out as the same text. A lipmap value `x` survives the trip
+//! `x + 1` → text → `- 1` bit for bit when `x ≥ 1` px (adding 1 is then exact in binary);
+//! within 1 px of the origin it may move by one unit in the last place (~1e-16 px).
+//! `.pts` has no visibility, confidence or source: every point reads back as visible and
+//! tracked.
 
 use super::error::{FormatError, Location, Result};
 use crate::landmarks::ibug::N_LANDMARKS;
@@ -359,6 +362,23 @@ mod tests {
         let pts = parse_pts(&text, Path::new("a.pts")).unwrap();
         let out = format_pts(&FrameLandmarks::new(0, pts));
         assert_eq!(out, text);
+    }
+
+    #[test]
+    fn shift_is_exact_away_from_the_origin() {
+        let xs = [1.0, 1.5 + 1e-9, 63.333, 175.999_999_9, 1023.25, 0.1, 0.7];
+        let f = FrameLandmarks::new(
+            0,
+            xs.iter().cycle().take(68).map(|&x| LandmarkPoint::tracked(x, x)).collect(),
+        );
+        let back = parse_pts(&format_pts(&f), Path::new("a.pts")).unwrap();
+        for (p, q) in f.points.iter().zip(&back) {
+            if p.x >= 1.0 {
+                assert_eq!(p.x, q.x);
+            } else {
+                assert!((p.x - q.x).abs() <= f64::EPSILON, "{} vs {}", p.x, q.x);
+            }
+        }
     }
 
     #[test]

@@ -66,6 +66,9 @@ pub struct FlagThresholds {
     pub min_confidence: f32,
     /// A fit residual is high when above the clip's median by this many robust sigmas...
     pub residual_sigmas: f64,
+    /// ...and above this multiple of the median (a tight clip's small spread must not flag
+    /// frames that fit nearly as well as the rest)...
+    pub residual_ratio: f64,
     /// ...and above this floor in pixels.
     pub residual_min_px: f64,
     /// Robust z-score of a measure's break from its neighbours above which it is flagged.
@@ -79,6 +82,7 @@ impl Default for FlagThresholds {
             jump_min_face_fraction: 0.05,
             min_confidence: 0.8,
             residual_sigmas: 4.0,
+            residual_ratio: 2.0,
             residual_min_px: 1.0,
             measure_z: 6.0,
         }
@@ -187,8 +191,9 @@ pub fn confidence_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagR
 pub fn fit_flags(fits: &[FrameFit], th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let ok: Vec<f64> =
         fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
-    let limit = median_sigma(&ok)
-        .map_or(f64::INFINITY, |(m, s)| (m + th.residual_sigmas * s).max(th.residual_min_px));
+    let limit = median_sigma(&ok).map_or(f64::INFINITY, |(m, s)| {
+        (m + th.residual_sigmas * s).max(th.residual_ratio * m).max(th.residual_min_px)
+    });
     let mut out = Vec::new();
     for f in fits {
         if let Some(reason) = &f.failed {

@@ -656,8 +656,8 @@ fn smooth(y: &[Real]) -> Vec<Real> {
 /// parabola. Wide enough that on hard-edged (aliased) renders, where each row's edge is
 /// quantised to ±½ px, a dozen rows average the quantisation out; narrow enough that a
 /// lip (radius of curvature ≥ 5 px) is still a parabola over it.
-const APEX_ROWS: usize = 12;
-const APEX_DROP_PX: Real = 4.0;
+const APEX_ROWS: usize = 14;
+const APEX_DROP_PX: Real = 5.0;
 
 /// Refines a maximum of `y` near `index`: the vertex of a least-squares parabola through the
 /// contiguous samples within [`APEX_ROWS`] of the raw maximum and within [`APEX_DROP_PX`]
@@ -668,10 +668,11 @@ fn refine_maximum(y: &[Real], index: usize) -> (Real, Real) {
     let lo = index.saturating_sub(3);
     let hi = (index + 3).min(n - 1);
     let m = (lo..=hi).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(index);
-    let keep = |i: usize| y[i] >= y[m] - APEX_DROP_PX;
+    let (apex_rows, apex_drop): (usize, Real) = std::env::var("LIPMAP_APEX").ok().and_then(|v| { let mut it = v.split(','); Some((it.next()?.parse().ok()?, it.next()?.parse().ok()?)) }).unwrap_or((APEX_ROWS, APEX_DROP_PX));
+    let keep = |i: usize| y[i] >= y[m] - apex_drop;
     let first =
-        (m.saturating_sub(APEX_ROWS)..=m).rev().take_while(|&i| keep(i)).last().unwrap_or(m);
-    let last = (m..=(m + APEX_ROWS).min(n - 1)).take_while(|&i| keep(i)).last().unwrap_or(m);
+        (m.saturating_sub(apex_rows)..=m).rev().take_while(|&i| keep(i)).last().unwrap_or(m);
+    let last = (m..=(m + apex_rows).min(n - 1)).take_while(|&i| keep(i)).last().unwrap_or(m);
     let window: Vec<usize> = (first..=last).collect();
     if window.len() >= 3 {
         // Fit y = c0 + c1 t + c2 t² with t = i − m.

@@ -290,6 +290,9 @@ impl std::io::Write for CountingWriter {
     }
 }
 
+/// A crossterm terminal whose output is only counted.
+pub type CountingTerminal = ratatui::Terminal<ratatui::backend::CrosstermBackend<CountingWriter>>;
+
 /// A fixed-size crossterm terminal writing into a `CountingWriter`; returns the counter.
 ///
 /// # Errors
@@ -297,10 +300,7 @@ impl std::io::Write for CountingWriter {
 pub fn counting_terminal(
     width: u16,
     height: u16,
-) -> std::io::Result<(
-    ratatui::Terminal<ratatui::backend::CrosstermBackend<CountingWriter>>,
-    Arc<std::sync::atomic::AtomicUsize>,
-)> {
+) -> std::io::Result<(CountingTerminal, Arc<std::sync::atomic::AtomicUsize>)> {
     let w = CountingWriter::default();
     let counter = w.0.clone();
     let area = ratatui::layout::Rect::new(0, 0, width, height);

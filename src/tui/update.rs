@@ -393,7 +393,10 @@ fn submit_prompt(app: &mut App) -> Option<Action> {
         }
         PromptKind::Propagate => {
             let n = if input.is_empty() { Some(DEFAULT_PROPAGATE) } else { n };
-            let Some(n) = n else { return None };
+            let Some(n) = n else {
+                app.status = format!("not a number of frames: `{input}`");
+                return None;
+            };
             let (f, idx) = (app.frame(), app.scope_indices());
             let r = edit::propagate_correction(&mut app.track, &app.tracked, f, &idx, n);
             let count = r.as_ref().map_or(0, |c| c.len());

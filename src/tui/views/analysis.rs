@@ -105,6 +105,15 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
     let mut state =
         TableState::default().with_selected(Some(view.row.min(order.len().saturating_sub(1))));
     frame.render_stateful_widget(t, area, &mut state);
+    if table.rows.is_empty() && area.height > 4 && area.width > 4 {
+        let note = if table.title.contains("phoneme") || table.title.contains("viseme") {
+            "no rows: the clip has no phone alignment (lipmap import --alignment)"
+        } else {
+            "no rows"
+        };
+        let r = Rect::new(area.x + 2, area.y + 3, area.width - 4, 1);
+        frame.render_widget(Paragraph::new(note).fg(Color::Gray), r);
+    }
 }
 
 fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame, area: Rect) {

@@ -519,6 +519,13 @@ fn demo_speakers_whole_sentences() {
                 rmse(&vt, &lipmap::measure::min_max_normalise(&measured).unwrap())
             );
         }
+        if clip.dir.to_string_lossy().contains("speaker_00") {
+            let vt = lipmap::measure::min_max_normalise(&vertex_truth_speaker0(&csv)).unwrap();
+            eprintln!(
+                "  vs vermilion-vertex truth: RMSE {:.4}",
+                rmse(&vt, &lipmap::measure::min_max_normalise(&measured).unwrap())
+            );
+        }
         if std::env::var_os("LIPMAP_DUMP").is_some() {
             let (a, b) = (
                 lipmap::measure::min_max_normalise(&truth).unwrap(),

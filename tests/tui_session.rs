@@ -91,3 +91,31 @@ fn missing_frames_still_open_for_landmark_editing() {
     assert!(frames.load(0).is_err());
     assert_eq!(app.n_frames(), 6);
 }
+
+#[test]
+fn saving_the_map_never_overwrites_the_input_map_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = make_session(dir.path());
+    let input_map = dir.path().join("input_map.txt");
+    std::fs::write(&input_map, "[landmark_mappings]\n31 = 114 # nose tip\n").unwrap();
+    let mut s = Session::load(&path).unwrap();
+    s.landmark_map.file = Some(input_map.clone());
+    s.save(&path).unwrap();
+    let before = std::fs::read_to_string(&input_map).unwrap();
+
+    let (mut app, mut bridge, _) = SessionBridge::open(&path, 0).unwrap();
+    assert_eq!(app.map.as_ref().unwrap().vertex(30), Some(114));
+    app.map.as_mut().unwrap().to_vertex.insert(48, 7);
+    let written = bridge.save_map(&app).unwrap();
+    assert_ne!(written, input_map);
+    assert_eq!(std::fs::read_to_string(&input_map).unwrap(), before, "input untouched");
+    let again = bridge.save_map(&app).unwrap();
+    assert_eq!(again, written, "its own file is reused");
+    bridge.save(&app).unwrap();
+    drop(bridge);
+    let s = Session::load(&path).unwrap();
+    let m = s.landmark_map.resolve().unwrap().unwrap();
+    assert_eq!((m.vertex(30), m.vertex(48)), (Some(114), Some(7)));
+    let from_file = lipmap::io::landmark_map_toml::read_landmark_map(&written).unwrap();
+    assert_eq!(from_file.vertex(48), Some(7));
+}

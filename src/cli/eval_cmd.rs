@@ -30,6 +30,13 @@ pub struct EvalArgs {
     /// Only this clip.
     #[arg(long)]
     pub clip: Option<String>,
+    /// Fit the clips onto several heads and compare them (the first is the t-tests'
+    /// baseline), with each head's speaker-head index match. Each head is a session file
+    /// (its model, map and head mesh) or a folder with a model (lipmap model file such as
+    /// model.lmm, eos .bin, .npz, mean.npy or poses/ of OBJs), a landmark map (its .toml, or
+    /// ibug_to_*.txt) and optionally head.obj: what `lipmap demo` writes is one.
+    #[arg(long, value_delimiter = ',', conflicts_with = "compare")]
+    pub heads: Vec<std::path::PathBuf>,
     #[command(flatten)]
     pub output: FormatArgs,
 }
@@ -82,6 +89,10 @@ pub fn select_clips(session: &Session, name: Option<&str>) -> Result<Vec<usize>>
 
 pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let path = session_path(&a.session);
+    if !a.heads.is_empty() {
+        let clip = a.clip.as_deref();
+        return crate::cli::heads::run_heads(&path, &a.heads, clip, a.normalise, &a.output, out);
+    }
     // Evaluation fits what the cache lacks and stores it: the session changes, so lock it.
     let _lock = SessionLock::acquire(&path)?;
     let mut session = Session::load(&path)?;

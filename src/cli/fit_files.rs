@@ -6,7 +6,7 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::progress::frames_bar;
-use crate::fit::{FitSettings, FrameFit, Fitter, fitted_shape};
+use crate::fit::{FitSettings, Fitter, FrameFit, fitted_shape};
 use crate::io::{landmark_map_toml, model_source, npy_model, track_csv};
 use crate::landmarks::LandmarkSet;
 use crate::model::LandmarkMap;
@@ -125,7 +125,10 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
             settings.set
         );
     }
-    let bar = frames_bar(track.len() as u64, if settings.clip { "fitting clip" } else { "fitting frames" });
+    let bar = frames_bar(
+        track.len() as u64,
+        if settings.clip { "fitting clip" } else { "fitting frames" },
+    );
     let t0 = Instant::now();
     let progress = |n: usize| bar.set_position(n as u64);
     let fits = fitter.fit_frames(&track.frames, height, Some(&progress));
@@ -143,7 +146,8 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
     npy_model::write_npy_f32(&shapes, &[fits.len() as u64, n3 as u64], &data)?;
 
     let failed = fits.iter().filter(|f| f.failed.is_some()).count();
-    let mut rms: Vec<f64> = fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
+    let mut rms: Vec<f64> =
+        fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
     rms.sort_by(|a, b| a.total_cmp(b));
     let median = rms.get(rms.len() / 2).copied().unwrap_or(f64::NAN);
     println!(
@@ -173,8 +177,18 @@ pub fn run(args: &FitFilesArgs) -> Result<()> {
 fn write_fit_csv(path: &Path, fits: &[FrameFit]) -> Result<()> {
     let err = |e: csv::Error| anyhow::anyhow!("{}: {e}", path.display());
     let mut w = csv::Writer::from_path(path).map_err(err)?;
-    w.write_record(["frame", "yaw", "pitch", "roll", "scale", "tx", "ty", "reproj_rms_px", "failed"])
-        .map_err(err)?;
+    w.write_record([
+        "frame",
+        "yaw",
+        "pitch",
+        "roll",
+        "scale",
+        "tx",
+        "ty",
+        "reproj_rms_px",
+        "failed",
+    ])
+    .map_err(err)?;
     for f in fits {
         let num = |v: f64| format!("{v:.6}");
         w.write_record([

@@ -4,7 +4,10 @@
 pub mod convert;
 pub mod eval_cmd;
 pub mod exit;
+pub mod fit_cmd;
 pub mod fit_files;
+pub mod heads;
+pub mod indices;
 pub mod model_cmd;
 pub mod new;
 pub mod output;
@@ -32,8 +35,13 @@ pub enum Command {
     New(new::NewArgs),
     /// Add a clip to a session.
     Import(new::ImportArgs),
+    /// Fit a session's clips (cached), or landmark files with a model.
+    Fit(fit_cmd::FitArgs),
     /// Per-sentence and per-phoneme W/H/P error tables (fits what is not cached).
     Eval(eval_cmd::EvalArgs),
+    /// The 12 facial indices of a landmark file, or of a session's speaker and head with the
+    /// matching verdict; class bounds from a corpus (--compute-bounds).
+    Indices(indices::IndicesArgs),
     /// Convert landmark files or phone alignments between formats.
     Convert(convert::ConvertArgs),
     /// Print a phone alignment as start,end,phone CSV.
@@ -63,8 +71,13 @@ pub fn run(cli: Cli) -> Result<Outcome> {
             writeln!(out, "{}", new::run_import(&args)?)?;
             Ok(Outcome::Ok)
         }
+        Command::Fit(args) => fit_cmd::run(&args, &mut out),
         Command::Eval(args) => {
             eval_cmd::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Indices(args) => {
+            indices::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Phones(args) => {

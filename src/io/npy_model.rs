@@ -45,6 +45,16 @@ pub fn read_npy(path: &Path) -> Result<NpyArray> {
     npy_to_array(npy, path, "array")
 }
 
+/// Parses the bytes of one `.npy` file (as [`read_npy`]); `path` is used only in errors.
+///
+/// # Errors
+/// A bad header, data shorter than the header says, or a non-numeric dtype.
+pub fn parse_npy(bytes: &[u8], path: &Path) -> Result<NpyArray> {
+    let npy = NpyFile::new(bytes)
+        .map_err(|e| FormatError::whole(path, format!("not a .npy file: {e}")))?;
+    npy_to_array(npy, path, "array")
+}
+
 fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<NpyArray> {
     let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
     let order = npy.order();

@@ -46,6 +46,8 @@ pub struct SessionBridge {
     pub clip: usize,
     /// Map as loaded, so an unchanged map from a file is not copied inline.
     loaded_map: Option<LandmarkMap>,
+    /// The map file this bridge wrote (the only map file it may overwrite).
+    written_map: Option<PathBuf>,
     _lock: SessionLock,
 }
 
@@ -110,7 +112,14 @@ impl SessionBridge {
         if !problems.is_empty() {
             app.status = problems.join("; ");
         }
-        let bridge = Self { path: path.to_path_buf(), session, clip, loaded_map: map, _lock: lock };
+        let bridge = Self {
+            path: path.to_path_buf(),
+            session,
+            clip,
+            loaded_map: map,
+            written_map: None,
+            _lock: lock,
+        };
         Ok((app, bridge, provider))
     }
 
@@ -164,24 +173,32 @@ impl SessionBridge {
         Ok(())
     }
 
-    /// Writes the landmark map in eos's TOML format beside the session (or to the session's
-    /// map file) and records the file in the session. Returns the path written.
+    /// Writes the landmark map in eos's TOML format to a file of the session's own beside
+    /// the session file (`NAME.ibug_map.txt`, numbered if that name is taken by a file the
+    /// session did not write) and records it in the session. The map file the session was
+    /// created from is an input and is never overwritten. Returns the path written.
     ///
     /// # Errors
     /// When there is no map or the file cannot be written.
     pub fn save_map(&mut self, app: &App) -> anyhow::Result<PathBuf> {
         let map = app.map.as_ref().filter(|m| !m.is_empty()).context("no landmarks mapped yet")?;
-        let target = match &self.session.landmark_map.file {
-            Some(f) => f.clone(),
-            None => {
-                let dir = self.path.parent().unwrap_or(Path::new("."));
-                dir.join(format!("{}.ibug_map.txt", self.session.name))
-            }
-        };
+        let dir = crate::session::absolute(self.path.parent().unwrap_or(Path::new(".")));
+        let ours = self.written_map.clone();
+        let target = (1..1000)
+            .map(|k| {
+                let n = if k == 1 { String::new() } else { format!(".{k}") };
+                dir.join(format!("{}.ibug_map{n}.txt", self.session.name))
+            })
+            .find(|p| Some(p) == ours.as_ref() || !p.exists())
+            .context("no free file name for the landmark map")?;
+        if std::fs::metadata(&target).is_ok_and(|m| m.permissions().readonly()) {
+            anyhow::bail!("{} is read-only", target.display());
+        }
         crate::io::landmark_map_toml::write_landmark_map(&target, map)?;
-        self.session.landmark_map.file = Some(crate::session::absolute(&target));
+        self.session.landmark_map.file = Some(target.clone());
         self.session.landmark_map.set_inline(map);
         self.loaded_map = Some(map.clone());
+        self.written_map = Some(target.clone());
         Ok(target)
     }
 }

@@ -116,6 +116,30 @@ fn pick_from(pts: &[(f64, f64, f64)], visible: &[bool], view: &HeadView) -> Opti
         .map(|c| c.0)
 }
 
+/// Fraction of the braille dots the wireframe may light before edges are thinned.
+const INK_BUDGET: f64 = 0.3;
+
+/// Every how many front edges to draw so a dense mesh lights about `INK_BUDGET` of the
+/// dots instead of filling the silhouette (1 = all; zooming in brings every edge back).
+fn edge_stride(
+    front: &[&[u32; 2]],
+    pts: &[(f64, f64, f64)],
+    area: Rect,
+    half_height: f64,
+) -> usize {
+    if front.is_empty() {
+        return 1;
+    }
+    let dots_per_unit = 4.0 * f64::from(area.height) / (2.0 * half_height);
+    let ink: f64 = front
+        .iter()
+        .filter_map(|e| Some((pts.get(e[0] as usize)?, pts.get(e[1] as usize)?)))
+        .map(|(a, b)| ((a.0 - b.0).hypot(a.1 - b.1) * dots_per_unit).max(1.0))
+        .sum();
+    let budget = INK_BUDGET * 8.0 * f64::from(area.width) * f64::from(area.height);
+    ((ink / budget.max(1.0)).ceil() as usize).max(1)
+}
+
 /// Draws a wireframe of `mesh` rotated by `rot` into `area` with extra point layers.
 pub fn draw_wireframe(
     frame: &mut Frame,
@@ -134,19 +158,21 @@ pub fn draw_wireframe(
     // Braille dots are about square: 2×4 per cell of aspect 1:2.
     let aspect = f64::from(area.width) / (2.0 * f64::from(area.height));
     let (hy, hx) = (1.05 / zoom, 1.05 / zoom * aspect);
+    let front: Vec<&[u32; 2]> =
+        edges.iter().filter(|e| visible[e[0] as usize] && visible[e[1] as usize]).collect();
+    let stride = edge_stride(&front, &pts, area, hy);
     let canvas = Canvas::default()
         .marker(Marker::Braille)
         .x_bounds([-hx, hx])
         .y_bounds([-hy, hy])
         .paint(|ctx| {
-            for e in edges {
+            // Hidden-line removal by vertex visibility, and thinning, keep a dense mesh
+            // readable.
+            for e in front.iter().step_by(stride) {
                 let (Some(a), Some(b)) = (pts.get(e[0] as usize), pts.get(e[1] as usize)) else {
                     continue;
                 };
-                // Hidden-line removal by vertex visibility keeps a dense mesh readable.
-                if visible[e[0] as usize] && visible[e[1] as usize] {
-                    ctx.draw(&CLine { x1: a.0, y1: a.1, x2: b.0, y2: b.1, color: Color::Gray });
-                }
+                ctx.draw(&CLine { x1: a.0, y1: a.1, x2: b.0, y2: b.1, color: Color::Gray });
             }
             ctx.layer();
             overlay(ctx, &pts, &visible);

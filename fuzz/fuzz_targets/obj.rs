@@ -1,0 +1,19 @@
+//! Fuzzes the OBJ reader: any text gives a mesh or an error, never a panic; every face of a
+//! parsed mesh is in range, and what parses writes and reads back to the same mesh.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use lipmap::io::obj::{parse_obj, write_obj_to};
+use std::path::Path;
+
+fuzz_target!(|data: &[u8]| {
+    let text = String::from_utf8_lossy(data);
+    if let Ok(mesh) = parse_obj(&text, Path::new("fuzz.obj")) {
+        assert_eq!(mesh.first_face_out_of_range(), None, "face past the last vertex accepted");
+        let mut out = Vec::new();
+        write_obj_to(&mut out, &mesh).expect("write to memory");
+        let back = parse_obj(&String::from_utf8_lossy(&out), Path::new("out.obj"));
+        let back = back.expect("re-parse");
+        assert_eq!(back.num_vertices(), mesh.num_vertices());
+        assert_eq!(back.faces, mesh.faces);
+    }
+});

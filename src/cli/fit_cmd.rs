@@ -1,0 +1,153 @@
+//! `lipmap fit`: fit every clip of a session (caching results keyed by the settings), or, with
+//! `--model/--mapping/--landmarks/--image-size/--out` and no session, fit files to files.
+
+use crate::cli::eval_cmd::select_clips;
+use crate::cli::exit::Outcome;
+use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
+use crate::cli::new::open_for_edit;
+use crate::cli::progress::frames_bar;
+use crate::landmarks::LandmarkSet;
+use crate::workflow::{self, Resources};
+use anyhow::{Result, bail};
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Fit a session's clips, or landmark files with a model (files mode).
+#[derive(clap::Args, Debug)]
+pub struct FitArgs {
+    /// Session file or name. Without it, files mode: --model, --mapping, --landmarks,
+    /// --image-size and --out are required.
+    pub session: Option<String>,
+    /// Model: eos .bin, .npz, folder of .npy parts, lipmap model file or folder of pose OBJs.
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Expression blendshapes to add to the model (eos .bin, .target/OBJ folder).
+    #[arg(long)]
+    pub blendshapes: Option<PathBuf>,
+    /// Landmark map: eos TOML (1-based iBUG ids) or eos's landmarks_and_contours.json.
+    #[arg(long)]
+    pub mapping: Option<PathBuf>,
+    /// lipmap landmark CSV: frame,point,x,y[,visible,confidence,source] (pixels, y down).
+    #[arg(long)]
+    pub landmarks: Option<PathBuf>,
+    /// Image size in pixels, WxH.
+    #[arg(long, value_parser = parse_image_size)]
+    pub image_size: Option<(u32, u32)>,
+    /// Output folder for fit.csv and shapes.npy (files mode).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Landmark set driving the fit (F1 lips … F5 all 68). In session mode it becomes the
+    /// session's setting.
+    #[arg(long)]
+    pub set: Option<LandmarkSet>,
+    /// Identity prior weight λ.
+    #[arg(long)]
+    pub lambda: Option<f64>,
+    /// Camera/shape iterations.
+    #[arg(long)]
+    pub iterations: Option<usize>,
+    /// Fit each clip as one person: one identity, pose and expression per frame.
+    #[arg(long)]
+    pub clip: bool,
+    /// Fit each frame alone (undoes a session's --clip setting).
+    #[arg(long, conflicts_with = "clip")]
+    pub per_frame: bool,
+    /// Session mode: only this clip.
+    #[arg(long)]
+    pub only: Option<String>,
+}
+
+pub fn run(a: &FitArgs, out: &mut dyn Write) -> Result<Outcome> {
+    match &a.session {
+        None => run_files(a),
+        Some(s) => run_session(a, s, out),
+    }
+}
+
+fn run_files(a: &FitArgs) -> Result<Outcome> {
+    let missing: Vec<&str> = [
+        ("--model", a.model.is_none()),
+        ("--mapping", a.mapping.is_none()),
+        ("--landmarks", a.landmarks.is_none()),
+        ("--image-size", a.image_size.is_none()),
+        ("--out", a.out.is_none()),
+    ]
+    .iter()
+    .filter(|(_, m)| *m)
+    .map(|(n, _)| *n)
+    .collect();
+    if !missing.is_empty() {
+        bail!("give a SESSION, or fit files with {} (missing)", missing.join(", "));
+    }
+    let files = FitFilesArgs {
+        model: a.model.clone().unwrap_or_default(),
+        blendshapes: a.blendshapes.clone(),
+        mapping: a.mapping.clone().unwrap_or_default(),
+        landmarks: a.landmarks.clone().unwrap_or_default(),
+        image_size: a.image_size.unwrap_or((1, 1)),
+        set: a.set,
+        lambda: a.lambda,
+        iterations: a.iterations,
+        clip: a.clip,
+        out: a.out.clone().unwrap_or_default(),
+    };
+    crate::cli::fit_files::run_with_outcome(&files)
+}
+
+fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
+    if a.model.is_some() || a.mapping.is_some() || a.landmarks.is_some() || a.out.is_some() {
+        bail!("--model/--mapping/--landmarks/--out are for files mode; a session names its own");
+    }
+    let (path, _lock, mut session) = open_for_edit(s)?;
+    let mut settings = session.fit_settings.clone();
+    if let Some(set) = a.set {
+        settings.set = set;
+    }
+    if let Some(l) = a.lambda {
+        if !(l.is_finite() && l >= 0.0) {
+            bail!("--lambda must be a finite number >= 0, got {l}");
+        }
+        settings.lambda = l;
+    }
+    if let Some(n) = a.iterations {
+        settings.iterations = n;
+    }
+    if a.clip {
+        settings.clip = true;
+    }
+    if a.per_frame {
+        settings.clip = false;
+    }
+    session.fit_settings = settings.clone();
+    let res = Resources::load(&session)?;
+    let clips = select_clips(&session, a.only.as_deref())?;
+    let mut any_failed = false;
+    for c in clips {
+        let name = session.clip(c)?.name.clone();
+        let bar = frames_bar(0, &format!("fitting {name}"));
+        let progress = |done: usize, total: usize| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+        };
+        let fits = workflow::fit_clip_cached(&mut session, &res, c, &settings, Some(&progress))?;
+        bar.finish_and_clear();
+        let mut rms: Vec<f64> =
+            fits.fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
+        rms.sort_by(f64::total_cmp);
+        let median = rms.get(rms.len() / 2).copied().unwrap_or(f64::NAN);
+        any_failed |= fits.failed() > 0;
+        writeln!(
+            out,
+            "{name}: {} frames ({} refitted, {} from cache), {} failed, median reprojection RMS {median:.2} px",
+            fits.fits.len(),
+            fits.refitted,
+            fits.fits.len() - fits.refitted,
+            fits.failed()
+        )?;
+        for f in fits.fits.iter().filter(|f| f.failed.is_some()) {
+            eprintln!("{name}: frame {}: {}", f.frame, f.failed.as_deref().unwrap_or(""));
+        }
+    }
+    session.save(&path)?;
+    Ok(if any_failed { Outcome::Partial } else { Outcome::Ok })
+}

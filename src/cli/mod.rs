@@ -2,8 +2,10 @@
 //! the core. `main.rs` parses, calls `run`, and maps the outcome to an exit code.
 
 pub mod convert;
+pub mod demo_cmd;
 pub mod eval_cmd;
 pub mod exit;
+pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
 pub mod heads;
@@ -13,6 +15,7 @@ pub mod new;
 pub mod output;
 pub mod phones;
 pub mod progress;
+pub mod tui_cmd;
 pub mod validate;
 
 pub use exit::Outcome;
@@ -31,6 +34,10 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// Generate the built-in synthetic speaker, fit and evaluate it, open the TUI.
+    Demo(demo_cmd::DemoArgs),
+    /// Open a session in the terminal UI.
+    Tui(tui_cmd::TuiArgs),
     /// Create a session from frames, landmarks, an alignment, a head, a model and a map.
     New(new::NewArgs),
     /// Add a clip to a session.
@@ -42,6 +49,8 @@ pub enum Command {
     /// The 12 facial indices of a landmark file, or of a session's speaker and head with the
     /// matching verdict; class bounds from a corpus (--compute-bounds).
     Indices(indices::IndicesArgs),
+    /// Export a session's landmarks, fitted meshes (OBJ), tables (CSV) and plots (PNG).
+    Export(export::ExportArgs),
     /// Convert landmark files or phone alignments between formats.
     Convert(convert::ConvertArgs),
     /// Print a phone alignment as start,end,phone CSV.
@@ -63,6 +72,12 @@ pub fn run(cli: Cli) -> Result<Outcome> {
             writeln!(out, "{msg}")?;
             Ok(Outcome::Ok)
         }
+        Command::Demo(args) => demo_cmd::run(&args, &mut out),
+        Command::Tui(args) => {
+            drop(out);
+            tui_cmd::run(&args)?;
+            Ok(Outcome::Ok)
+        }
         Command::New(args) => {
             writeln!(out, "{}", new::run_new(&args)?)?;
             Ok(Outcome::Ok)
@@ -72,6 +87,7 @@ pub fn run(cli: Cli) -> Result<Outcome> {
             Ok(Outcome::Ok)
         }
         Command::Fit(args) => fit_cmd::run(&args, &mut out),
+        Command::Export(args) => export::run(&args, &mut out),
         Command::Eval(args) => {
             eval_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)

@@ -202,7 +202,7 @@ fn head_motion(rng: &mut StdRng, n_frames: usize, fps: f64) -> Vec<HeadMotion> {
 
 /// Model point (mm) put at the image centre, and pixels per mm at 480 rows.
 const FRONT_CENTRE: [f64; 3] = [0.0, -5.0, 70.0];
-const SIDE_CENTRE: [f64; 3] = [0.0, -5.0, 60.0];
+const SIDE_CENTRE: [f64; 3] = [0.0, 0.0, 60.0];
 const FRONT_PX_PER_MM_AT_480: f64 = 1.75;
 const SIDE_PX_PER_MM_AT_480: f64 = 2.0;
 /// Side frames: a dark plain background so a threshold separates the face's silhouette.

@@ -294,6 +294,13 @@ impl Lexer<'_> {
                 }
                 _ => {
                     let rest = &self.text[self.pos..];
+                    // Unicode whitespace (vertical tab, NBSP, U+2028…) separates words too; it
+                    // must be skipped here or the word below would be empty and never advance
+                    // (an endless loop found by fuzzing).
+                    if let Some(c) = rest.chars().next().filter(|c| c.is_whitespace()) {
+                        self.pos += c.len_utf8();
+                        continue;
+                    }
                     let end = rest
                         .find(|c: char| c.is_whitespace() || c == '"' || c == '<' || c == '!')
                         .unwrap_or(rest.len());
@@ -605,6 +612,23 @@ mod tests {
             e.to_string(),
             "t:24: interval 3 of tier `phones` starts at 0.2, before interval 2 ends at 0.25 (overlap)"
         );
+    }
+
+    /// Fuzzing found these: a vertical tab (or any non-ASCII whitespace) outside a string
+    /// made the lexer loop forever.
+    #[test]
+    fn unicode_whitespace_does_not_hang() {
+        for ws in ["\u{b}", "\u{a0}", "\u{2028}", "\u{3000}"] {
+            let text = format!(
+                "File type = \"ooTextFile\"{ws}Object class = \"TextGrid\"{ws}0 1 <absent>"
+            );
+            let grid = parse_textgrid(text.as_bytes(), Path::new("t")).unwrap();
+            assert!(grid.tiers.is_empty());
+        }
+        let fuzz_found = b"\0ar\x0b\0\0\0\0\0\0\0d,";
+        assert!(parse_textgrid(fuzz_found, Path::new("t")).is_err());
+        let e = parse_textgrid(b"# phoneme(IPA\x0b\x0b\x0b\n", Path::new("t")).unwrap_err();
+        assert_eq!(e.to_string(), "t:2: file ends where the file type \"ooTextFile\" was expected");
     }
 
     #[test]

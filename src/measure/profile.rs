@@ -590,6 +590,33 @@ impl Silhouette {
             .collect()
     }
 
+    /// Share of edge rows whose edge pixel pair holds an intermediate gray level (between
+    /// 15 % and 85 % of the way from background to face): near 1 on anti-aliased or optical
+    /// images, near 0 on hard-edged renders.
+    fn antialiased_share(&self) -> Real {
+        let w = self.width;
+        let span = self.fg_level - self.bg_level;
+        if span.abs() < 1.0 {
+            return 0.0;
+        }
+        let (mut rows, mut soft) = (0usize, 0usize);
+        for r in 0..self.height {
+            let row = &self.mask[r * w..(r + 1) * w];
+            let Some(c) = row.iter().rposition(|&m| m) else { continue };
+            rows += 1;
+            let mid = |i: usize| {
+                i < w && {
+                    let k = (self.values[r * w + i] as Real - self.bg_level) / span;
+                    (0.15..=0.85).contains(&k)
+                }
+            };
+            if mid(c) || mid(c + 1) {
+                soft += 1;
+            }
+        }
+        if rows == 0 { 0.0 } else { soft as Real / rows as Real }
+    }
+
     /// Forward coordinate `u` (may be fractional) of row `r` as an image point.
     fn to_image(&self, u: Real, r: Real) -> Point2 {
         let x = match self.facing {
@@ -652,26 +679,31 @@ fn smooth(y: &[Real]) -> Vec<Real> {
         .collect()
 }
 
-/// Samples within this many rows of a maximum, and this far (px) below it, shape its
-/// parabola. Wide enough that on hard-edged (aliased) renders, where each row's edge is
-/// quantised to ±½ px, a dozen rows average the quantisation out; narrow enough that a
-/// lip is still near a parabola over it. Chosen on the demo speakers' side frames (window
-/// 4/1 px, 6/1.5 px, 10/3 px, 14/5 px: RMSE against the vermilion-vertex truth 0.016,
-/// 0.015, 0.011, worse); on a sharp polygon corner it reads ≈ ½ px short, the same in
-/// every frame.
-const APEX_ROWS: usize = 10;
-const APEX_DROP_PX: Real = 3.0;
+/// The parabola window around a maximum: rows either side, and depth (px) below it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct ApexWindow {
+    rows: usize,
+    drop_px: Real,
+}
+
+/// For anti-aliased edges (sub-pixel per row): a few rows, so a sharp corner is not cut.
+const APEX_SOFT: ApexWindow = ApexWindow { rows: 6, drop_px: 1.5 };
+/// For hard-edged renders, where each row's edge is quantised to ±½ px: a dozen rows, which
+/// average the quantisation out while a lip is still near a parabola over them. Chosen on
+/// the demo speakers' side frames: windows 4/1 px, 6/1.5 px, 10/3 px gave RMSE 0.016,
+/// 0.015, 0.011 against the vermilion-vertex truth, 14/5 px worse.
+const APEX_HARD: ApexWindow = ApexWindow { rows: 10, drop_px: 3.0 };
 
 /// Refines a maximum of `y` near `index`: the vertex of a least-squares parabola through the
-/// contiguous samples within [`APEX_ROWS`] of the raw maximum and within [`APEX_DROP_PX`]
+/// contiguous samples within `window.rows` of the raw maximum and within `window.drop_px`
 /// of its value. Falls back to the raw maximum when the fit is flat or its vertex leaves
 /// the window.
-fn refine_maximum(y: &[Real], index: usize) -> (Real, Real) {
+fn refine_maximum(y: &[Real], index: usize, window: ApexWindow) -> (Real, Real) {
     let n = y.len();
     let lo = index.saturating_sub(3);
     let hi = (index + 3).min(n - 1);
     let m = (lo..=hi).max_by(|&a, &b| y[a].total_cmp(&y[b])).unwrap_or(index);
-    let (apex_rows, apex_drop) = (APEX_ROWS, APEX_DROP_PX);
+    let (apex_rows, apex_drop) = (window.rows, window.drop_px);
     let keep = |i: usize| y[i] >= y[m] - apex_drop;
     let first =
         (m.saturating_sub(apex_rows)..=m).rev().take_while(|&i| keep(i)).last().unwrap_or(m);
@@ -775,7 +807,9 @@ pub fn measure_lip_profile(
         .find(|p| p.prominence >= setup.min_prominence_px)
         .copied()
         .ok_or(ProfileError::NoUpperLip(setup.min_prominence_px))?;
-    let (row, p_px) = refine_maximum(&s, lip.index);
+    // Hard-edged frames need the wider window (see APEX_HARD).
+    let window = if sil.antialiased_share() >= 0.5 { APEX_SOFT } else { APEX_HARD };
+    let (row, p_px) = refine_maximum(&s, lip.index, window);
     let near = row.round() as usize;
     if (near.saturating_sub(1)..=(near + 1).min(sil.height - 1))
         .any(|r| edges[r].is_some_and(|e| e.1))
@@ -1080,7 +1114,7 @@ fn nose_from_samples(
         return None;
     }
     let values: Vec<Real> = s.iter().map(|p| p.1).collect();
-    let (t, v) = refine_maximum(&values, k);
+    let (t, v) = refine_maximum(&values, k, APEX_SOFT);
     // Move the tip's sample point by the refinement: along the rows and along the normal.
     let tip = profile[s[k].0]?.0 + Vector2::new(0.0, t - k as Real) + normal * (v - s[k].1);
     let above = &s[..=k];

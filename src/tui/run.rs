@@ -83,7 +83,12 @@ where
             seen_edits = app.unsaved_edits;
             last_edit = Instant::now();
         }
-        if app.unsaved_edits > 0 && !app.dragging && last_edit.elapsed() >= AUTOSAVE_IDLE {
+        // After a failed save, wait for the next edit rather than retrying in a loop.
+        if app.unsaved_edits > 0
+            && !app.dragging
+            && !app.save_failed
+            && last_edit.elapsed() >= AUTOSAVE_IDLE
+        {
             apply(app, Action::Save);
             run_effects(app, bridge, workers);
             seen_edits = app.unsaved_edits;

@@ -344,7 +344,8 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
             if generation >= app.save_generation {
                 app.unsaved_edits = 0;
             }
-            app.status = "saved".into();
+            // The status line's right side shows the save state; keep the message.
+            app.save_failed = false;
             if app.quit_requested {
                 app.should_quit = true;
                 app.effects.push(Effect::Quit);
@@ -430,6 +431,8 @@ fn push_edit(app: &mut App, e: Edit) {
     app.undo.push(e);
     app.redo.clear();
     app.unsaved_edits += 1;
+    // A new edit batch deserves a new autosave attempt after a failed one.
+    app.save_failed = false;
 }
 
 fn apply_reviewed(app: &mut App, frame: usize, now: bool) {

@@ -1,0 +1,145 @@
+//! `lipmap demo`: generate the built-in synthetic speaker, make a session of it, fit and
+//! evaluate it headless, print the per-phoneme table, then open the TUI (unless `--no-tui`).
+
+use crate::cli::exit::Outcome;
+use crate::cli::output::{FormatArgs, write_tables};
+use crate::demo::{self, DemoOptions, DemoOutput, SpeakerOutput};
+use crate::io::alignment_format::read_alignment;
+use crate::io::landmark_format::read_track;
+use crate::session::{Clip, FramesRef, ModelRef, Session, View};
+use crate::workflow::{self, Normalisation, Resources};
+use anyhow::{Context, Result};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Generate the synthetic demo speaker and run the whole pipeline on it.
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// Output folder (its session file is DIR/demo.lipmap.json).
+    #[arg(long, default_value = "sessions/demo")]
+    pub out: PathBuf,
+    /// Random seed (the default reproduces the documented figures).
+    #[arg(long, default_value_t = demo::DEFAULT_SEED)]
+    pub seed: u64,
+    /// Speakers to make; speaker 0 is the head itself, the others fall in other classes of
+    /// the vertical-mouth-height and mouth-width indices (one session each).
+    #[arg(long, default_value_t = 1)]
+    pub speakers: usize,
+    /// GRID sentences per speaker.
+    #[arg(long, default_value_t = 4)]
+    pub sentences: usize,
+    /// Run headless: print the tables and exit instead of opening the TUI.
+    #[arg(long)]
+    pub no_tui: bool,
+    /// How video and head trajectories are compared in the printed tables.
+    #[arg(long, value_enum, default_value_t = Normalisation::None)]
+    pub normalise: Normalisation,
+    #[command(flatten)]
+    pub output: FormatArgs,
+}
+
+/// Session file of speaker `k` in the demo folder.
+pub fn demo_session_path(out_dir: &Path, speaker: usize) -> PathBuf {
+    if speaker == 0 {
+        out_dir.join("demo.lipmap.json")
+    } else {
+        out_dir.join(format!("speaker_{speaker:02}.lipmap.json"))
+    }
+}
+
+/// Builds and saves one session per demo speaker (frames, tracked landmarks, phones, side
+/// view, the demo head, its PCA model and landmark map); returns the session files.
+///
+/// # Errors
+/// Any generated file that cannot be read back (a bug, reported with its path).
+pub fn write_demo_sessions(out: &DemoOutput) -> Result<Vec<PathBuf>> {
+    let mut paths = Vec::new();
+    for sp in &out.speakers {
+        let path = demo_session_path(&out.out_dir, sp.index);
+        let session = demo_session(out, sp, &path)?;
+        session.save(&path)?;
+        paths.push(path);
+    }
+    Ok(paths)
+}
+
+fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Session> {
+    let mut session = Session::new(path);
+    session.head_mesh = Some(abs(&out.head_obj));
+    let model = out.model.clone().context("the demo was generated without its model")?;
+    session.model = Some(ModelRef { path: abs(&model), blendshapes: None });
+    session.landmark_map.file = Some(abs(&out.landmark_map));
+    for c in &sp.clips {
+        let front_dir = c.front_dir.clone().unwrap_or_else(|| c.dir.join("front"));
+        let mut front = View::new(FramesRef::Images { dir: abs(&front_dir) }, c.fps);
+        front.size = Some([c.width, c.height]);
+        let mut clip = Clip::new(c.name.clone(), front);
+        if let Some(side) = &c.side_dir {
+            let mut v = View::new(FramesRef::Images { dir: abs(side) }, c.fps);
+            v.size = Some([c.width, c.height]);
+            clip.side = Some(v);
+        }
+        clip.tracked = read_track(&c.tracked_csv)?;
+        clip.landmarks_file = Some(abs(&c.tracked_csv));
+        clip.alignment = Some(read_alignment(&c.phones_csv, None)?);
+        clip.alignment_file = Some(abs(&c.phones_csv));
+        session.add_clip(clip)?;
+    }
+    Ok(session)
+}
+
+fn abs(p: &Path) -> PathBuf {
+    crate::session::absolute(p)
+}
+
+pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<Outcome> {
+    let t0 = Instant::now();
+    let opts = DemoOptions {
+        seed: a.seed,
+        speakers: a.speakers.max(1),
+        sentences: a.sentences.max(1),
+        out_dir: a.out.clone(),
+        ..DemoOptions::default()
+    };
+    eprintln!("lipmap demo: generating the synthetic speaker into {} ...", a.out.display());
+    let generated = demo::generate(&opts)?;
+    let sessions = write_demo_sessions(&generated)?;
+    let t_gen = t0.elapsed();
+    let mut any_failed = false;
+    for (k, path) in sessions.iter().enumerate() {
+        let mut session = Session::load(path)?;
+        let res = Resources::load(&session)?;
+        let clips: Vec<usize> = (0..session.clips.len()).collect();
+        let settings = session.fit_settings.clone();
+        let (utterances, fits) =
+            crate::cli::eval_cmd::utterances_with(&mut session, &res, &clips, &settings)?;
+        session.save(path)?;
+        any_failed |= fits.iter().any(|(_, f)| f.iter().any(|x| x.failed.is_some()));
+        let refs: Vec<(&str, &[crate::fit::FrameFit])> =
+            fits.iter().map(|(n, f)| (n.as_str(), f.as_slice())).collect();
+        let report = workflow::evaluate(&utterances, &refs, a.normalise, 10);
+        if sessions.len() > 1 {
+            writeln!(out, "== speaker {k}: {}", path.display())?;
+        }
+        write_tables(&[&report.sentences, &report.phonemes], a.output.format(), out)?;
+    }
+    eprintln!(
+        "lipmap demo: generated in {:.1} s, fitted and evaluated in {:.1} s; session {}",
+        t_gen.as_secs_f64(),
+        (t0.elapsed() - t_gen).as_secs_f64(),
+        sessions[0].display()
+    );
+    let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
+    if !a.no_tui {
+        if interactive {
+            crate::tui::run::run(&sessions[0], None)?;
+        } else {
+            eprintln!(
+                "lipmap demo: not a terminal, so the TUI is not opened; run `lipmap tui {}`",
+                sessions[0].display()
+            );
+        }
+    }
+    Ok(if any_failed { Outcome::Partial } else { Outcome::Ok })
+}

@@ -42,7 +42,10 @@ fn load(eos: &Path) -> Data {
         let v: Vec<&str> = line.split(',').collect();
         let (f, id): (usize, usize) = (v[0].parse().expect("frame"), v[1].parse().expect("id"));
         while frames.len() <= f {
-            frames.push(FrameLandmarks::new(frames.len(), vec![LandmarkPoint::missing(); N_LANDMARKS]));
+            frames.push(FrameLandmarks::new(
+                frames.len(),
+                vec![LandmarkPoint::missing(); N_LANDMARKS],
+            ));
         }
         frames[f].points[id - 1] =
             LandmarkPoint::tracked(v[2].parse().expect("u"), v[3].parse().expect("v"));
@@ -147,7 +150,10 @@ fn bench_fit(c: &mut Criterion) {
             rayon::current_num_threads(),
             cpu.map_or("?".into(), |c| format!("{:.4}", c / n)),
             ms / EOS_MS_PER_FRAME,
-            eos_ms.map_or(String::new(), |e| format!("; eos-py live {e:.3} ms -> ratio {:.3}", ms / e)),
+            eos_ms.map_or(String::new(), |e| format!(
+                "; eos-py live {e:.3} ms -> ratio {:.3}",
+                ms / e
+            )),
         );
         c.bench_function(&format!("fit_60_frames_{label}"), |b| {
             b.iter(|| fitter.fit_frames(black_box(&d.frames), d.height, None))

@@ -247,6 +247,7 @@ fn poses_and_model_are_written_with_one_topology() {
         DemoOptions {
             write_frames: false,
             write_model: true,
+            speakers: 2,
             sentences: 1,
             max_frames: Some(2),
             ..small(dir.path())
@@ -262,6 +263,14 @@ fn poses_and_model_are_written_with_one_topology() {
     let model = lipmap::io::model_file::read_model_file(out.model.as_ref().unwrap()).unwrap();
     assert_eq!(model.num_vertices(), head.vertices.len());
     assert!((1..=8).contains(&model.num_shape_components()), "{}", model.num_shape_components());
+    // A reshaped speaker has its own head and model of the same topology.
+    let s1 = &out.speakers[1];
+    assert_ne!(s1.head_obj, out.head_obj);
+    let own = lipmap::io::obj::read_obj(&s1.head_obj).unwrap();
+    assert_eq!(own.faces, head.faces);
+    assert_ne!(own.vertices, head.vertices);
+    let own_model = lipmap::io::model_file::read_model_file(s1.model.as_ref().unwrap()).unwrap();
+    assert_eq!(own_model.num_vertices(), head.vertices.len());
     let map = std::fs::read_to_string(&out.landmark_map).unwrap();
     assert!(map.contains("[landmark_mappings]"));
     assert_eq!(map.lines().filter(|l| l.starts_with(|c: char| c.is_ascii_digit())).count(), 68);

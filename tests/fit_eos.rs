@@ -5,7 +5,9 @@
 //! (ignored) evaluates any setting on any set made by eos's `synthetic_eos_test.py`.
 
 use lipmap::fit::camera::{self, OrthoPose};
-use lipmap::fit::shape::{EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis, fit_coefficients_linear};
+use lipmap::fit::shape::{
+    EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis, fit_coefficients_linear,
+};
 use lipmap::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
 use lipmap::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS};
 use lipmap::math::{Matrix3, Point2, Point3, Real};
@@ -60,16 +62,24 @@ fn golden() -> Option<Golden> {
     let eos = lipmap::testdata::shared("peer/eos")?;
     let model = load_model(&eos.join("model"));
     let gold = json(&eos.join("reference/golden_functions_frame0.json"));
-    let ids: Vec<usize> = gold["ibug_ids"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
-    let vids: Vec<usize> = gold["vertex_ids"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
+    let ids: Vec<usize> =
+        gold["ibug_ids"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as usize).collect();
+    let vids: Vec<usize> = gold["vertex_ids"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as usize)
+        .collect();
     let pairs = ids.iter().zip(&vids).map(|(&l, &v)| (l - 1, v, 1.0)).collect();
-    let image_points = matrix(&gold["image_points"]).iter().map(|p| Point2::new(p[0], p[1])).collect();
+    let image_points =
+        matrix(&gold["image_points"]).iter().map(|p| Point2::new(p[0], p[1])).collect();
     Some(Golden { model, gold, pairs, image_points, height: 720.0 })
 }
 
 impl Golden {
     fn mean_pose(&self) -> OrthoPose {
-        let p3: Vec<Point3> = self.pairs.iter().map(|&(_, v, _)| self.model.mean_vertex(v).unwrap()).collect();
+        let p3: Vec<Point3> =
+            self.pairs.iter().map(|&(_, v, _)| self.model.mean_vertex(v).unwrap()).collect();
         camera::estimate_orthographic_pose(&self.image_points, &p3, self.height).unwrap()
     }
 }
@@ -80,7 +90,8 @@ fn camera_matches_eos_golden() {
     let pose = g.mean_pose();
     let e = &g.gold["estimate_orthographic_projection_linear"];
     let r_gold: Vec<Real> = matrix(&e["R"]).concat();
-    let r: Vec<Real> = (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| pose.r[(i, j)]).collect();
+    let r: Vec<Real> =
+        (0..3).flat_map(|i| (0..3).map(move |j| (i, j))).map(|(i, j)| pose.r[(i, j)]).collect();
     assert!(rel(&r, &r_gold) < 1e-4, "R {r:?} vs {r_gold:?}");
     for (name, v) in [("s", pose.s), ("tx", pose.tx), ("ty", pose.ty)] {
         let want = e[name].as_f64().unwrap();
@@ -89,7 +100,12 @@ fn camera_matches_eos_golden() {
     let aff = pose.affine_matrix(g.height);
     let aff_gold = matrix(&g.gold["get_3x4_affine_camera_matrix"]);
     for i in 0..2 {
-        assert!(rel(&aff[i], &aff_gold[i]) < 1e-4, "affine row {i}: {:?} vs {:?}", aff[i], aff_gold[i]);
+        assert!(
+            rel(&aff[i], &aff_gold[i]) < 1e-4,
+            "affine row {i}: {:?} vs {:?}",
+            aff[i],
+            aff_gold[i]
+        );
     }
     let (y, p, r) = pose.yaw_pitch_roll_deg();
     let ypr_gold = floats(&g.gold["rendering_params_ypr_deg"]);
@@ -109,8 +125,17 @@ fn linear_shape_fit_matches_eos_golden() {
     let obs = FrameObservations::new(&basis, &lm);
     let zeros = vec![0.0; basis.num_coefficients()];
     for lambda in [30.0, 3.0] {
-        let a = fit_coefficients_linear(&basis, &obs, &pose, g.height, &zeros, 0..basis.k_id, lambda, EOS_SIGMA_SQUARED)
-            .unwrap();
+        let a = fit_coefficients_linear(
+            &basis,
+            &obs,
+            &pose,
+            g.height,
+            &zeros,
+            0..basis.k_id,
+            lambda,
+            EOS_SIGMA_SQUARED,
+        )
+        .unwrap();
         let want = floats(&g.gold[format!("fit_shape_to_landmarks_linear_lambda{lambda}")]);
         let got: Vec<Real> = a.iter().copied().collect();
         let r = rel(&got, &want);
@@ -130,13 +155,15 @@ pub fn read_synthetic_set(dir: &Path) -> SyntheticSet {
     let tp = json(&dir.join("true_params.json"));
     let height = tp["H"].as_f64().unwrap();
     let n = tp["frames"].as_array().unwrap().len();
-    let mut frames: Vec<FrameLandmarks> =
-        (0..n).map(|f| FrameLandmarks::new(f, vec![LandmarkPoint::missing(); N_LANDMARKS])).collect();
+    let mut frames: Vec<FrameLandmarks> = (0..n)
+        .map(|f| FrameLandmarks::new(f, vec![LandmarkPoint::missing(); N_LANDMARKS]))
+        .collect();
     let text = std::fs::read_to_string(dir.join("landmarks.csv")).unwrap();
     for line in text.lines().skip(1) {
         let v: Vec<&str> = line.split(',').collect();
         let (f, id): (usize, usize) = (v[0].parse().unwrap(), v[1].parse().unwrap());
-        frames[f].points[id - 1] = LandmarkPoint::tracked(v[2].parse().unwrap(), v[3].parse().unwrap());
+        frames[f].points[id - 1] =
+            LandmarkPoint::tracked(v[2].parse().unwrap(), v[3].parse().unwrap());
     }
     let true_r = tp["frames"]
         .as_array()
@@ -173,7 +200,12 @@ fn median(mut v: Vec<Real>) -> Real {
 /// Figures as eos's scripts compute them: `mouth18` = the mapped vertices of iBUG 49..68
 /// (1-based), RMS of the 3D distance per frame, median over frames; the inner-lip gap is the
 /// distance between the vertices of iBUG 63 and 67.
-pub fn figures(model: &MorphableModel, map: &LandmarkMap, set: &SyntheticSet, fits: &[FrameFit]) -> Figures {
+pub fn figures(
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    set: &SyntheticSet,
+    fits: &[FrameFit],
+) -> Figures {
     let mouth: Vec<usize> = (48..68).filter_map(|l| map.vertex(l)).collect();
     let (top, bottom) = (map.vertex(62).unwrap(), map.vertex(66).unwrap());
     let vtx = |s: &[Real], v: usize| Point3::new(s[3 * v], s[3 * v + 1], s[3 * v + 2]);
@@ -270,7 +302,11 @@ fn sweep_settings() {
             println!(
                 "RESULT {:>10} [{line}] mouth={:.3} gap_bias={:+.3} gap_mae={:.3} rot={:.3} failed={} reproj={:.3}",
                 dir.file_name().unwrap().to_string_lossy(),
-                fig.mouth_rms_mm, fig.gap_bias_mm, fig.gap_mae_mm, fig.rot_err_deg, fig.failed,
+                fig.mouth_rms_mm,
+                fig.gap_bias_mm,
+                fig.gap_mae_mm,
+                fig.rot_err_deg,
+                fig.failed,
                 median(fits.iter().map(|f| f.reproj_rms_px).collect())
             );
         }

@@ -8,11 +8,12 @@ use crate::eval::{Cell, Table};
 use crate::io::{landmark_format, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::DVector;
-use crate::measure::indices::{BoxPlot, frame_indices};
+use crate::measure::indices::{BoxPlot, facial_indices_partial, shape_indices_partial};
 use crate::measure::mouth::trajectory_from_track;
+use crate::measure::mouth::visible_points;
 use crate::measure::{
     BoundsTable, FacialIndex, FacialIndices, IndexClass, MatchVerdict, choose_neutral_frame,
-    match_speaker_head, shape_indices,
+    match_speaker_head,
 };
 use crate::model::LandmarkMap;
 use crate::session::Session;
@@ -110,8 +111,31 @@ pub fn file_indices(path: &Path, frame: Option<usize>) -> Result<(usize, FacialI
         Some(n) => anyhow!("{}: no landmarks for frame {n}", path.display()),
         None => anyhow!("{}: no frames of landmarks", path.display()),
     })?;
-    let ix = frame_indices(f).with_context(|| format!("{}: frame {}", path.display(), f.frame))?;
+    let ix = frame_indices_checked(f)
+        .with_context(|| format!("{}: frame {}", path.display(), f.frame))?;
     Ok((f.frame, ix))
+}
+
+/// A frame's indices from its visible points; indices needing an occluded point are NaN.
+///
+/// # Errors
+/// When no index at all can be computed.
+pub fn frame_indices_checked(frame: &FrameLandmarks) -> Result<FacialIndices> {
+    nonempty(facial_indices_partial(&visible_points(frame)))
+}
+
+fn nonempty(ix: FacialIndices) -> Result<FacialIndices> {
+    if ix.values.iter().all(|v| v.is_nan()) {
+        bail!("none of the 12 indices can be computed (index points missing)");
+    }
+    Ok(ix)
+}
+
+/// A note naming the indices left out for lack of points, if any.
+pub fn missing_note(ix: &FacialIndices, why: &str) -> Option<String> {
+    let missing: Vec<String> =
+        FacialIndex::ALL.into_iter().filter(|i| ix.get(*i).is_nan()).map(|i| i.name()).collect();
+    (!missing.is_empty()).then(|| format!("not computed ({why}): {}", missing.join(", ")))
 }
 
 fn pick_frame(frames: &[FrameLandmarks], frame: Option<usize>) -> Option<&FrameLandmarks> {
@@ -183,7 +207,8 @@ pub fn speaker_neutral(
     };
     let f = pick_frame(&track.frames, Some(frame))
         .ok_or_else(|| anyhow!("clip `{}`: no landmarks for frame {frame}", c.name))?;
-    let indices = frame_indices(f).with_context(|| format!("clip `{}`, frame {frame}", c.name))?;
+    let indices =
+        frame_indices_checked(f).with_context(|| format!("clip `{}`, frame {frame}", c.name))?;
     Ok(SpeakerNeutral { clip: c.name.clone(), frame, choice, indices })
 }
 
@@ -211,8 +236,8 @@ pub fn neutral_shape(res: &Resources) -> (DVector, &'static str) {
 /// An index point the landmark map leaves unmapped, or a degenerate shape.
 pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
     let (shape, what) = neutral_shape(res);
-    let indices =
-        shape_indices(&shape, &res.map).with_context(|| format!("head indices on the {what}"))?;
+    let indices = nonempty(shape_indices_partial(&shape, &res.map))
+        .with_context(|| format!("head indices on the {what}"))?;
     Ok(HeadNeutral { indices, source: format!("head: {what}, frontal projection of the map") })
 }
 
@@ -232,7 +257,7 @@ pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
         bail!("the session has neither a head mesh nor a model to take the head's indices from");
     };
     let mesh = obj::read_obj(head)?;
-    let indices = shape_indices(&mesh.to_flat(), &map)
+    let indices = nonempty(shape_indices_partial(&mesh.to_flat(), &map))
         .with_context(|| format!("head indices on {}", head.display()))?;
     Ok(HeadNeutral { indices, source: format!("head: {}, frontal projection", head.display()) })
 }
@@ -257,30 +282,42 @@ pub fn checks_table(verdict: &MatchVerdict) -> Table {
     let class = |c: Option<IndexClass>| c.map_or(Cell::Empty, |c| Cell::text(c.as_str()));
     let row = |i: FacialIndex| verdict.rows[i.position()];
     let vmh = row(FacialIndex::VerticalMouthHeight);
+    let mw = row(FacialIndex::MouthWidth);
+    let known = |a: Option<IndexClass>, b: Option<IndexClass>| a.is_some() && b.is_some();
+    let result = |ok: bool, warn: bool, what: &str| {
+        Cell::text(match (ok, warn) {
+            (false, _) => "unknown: index not computed".to_string(),
+            (true, true) => format!("warning: {what}"),
+            (true, false) => "ok".to_string(),
+        })
+    };
     let opposite = matches!(
         (vmh.speaker_class, vmh.head_class),
         (Some(IndexClass::Low), Some(IndexClass::High))
             | (Some(IndexClass::High), Some(IndexClass::Low))
     );
+    let vmh_known = known(vmh.speaker_class, vmh.head_class);
     t.push_row(vec![
         Cell::text("vertical mouth height classes"),
         class(vmh.speaker_class),
         class(vmh.head_class),
-        Cell::text(if opposite { "warning: low vs high" } else { "ok" }),
+        result(vmh_known, opposite, "low vs high"),
     ]);
-    let mw = row(FacialIndex::MouthWidth);
     let narrow_on_wide =
         mw.speaker_class == Some(IndexClass::Low) && mw.head_class == Some(IndexClass::High);
+    let mw_known = known(mw.speaker_class, mw.head_class);
     t.push_row(vec![
         Cell::text("mouth width (narrow onto wide)"),
         class(mw.speaker_class),
         class(mw.head_class),
-        Cell::text(if narrow_on_wide { "warning: narrow onto wide" } else { "ok" }),
+        result(mw_known, narrow_on_wide, "narrow onto wide"),
     ]);
-    t.notes.push(if verdict.is_good_match() {
+    t.notes.push(if !verdict.is_good_match() {
+        format!("verdict: {} warning(s)", verdict.warnings.len())
+    } else if vmh_known && mw_known {
         "verdict: good match".into()
     } else {
-        format!("verdict: {} warning(s)", verdict.warnings.len())
+        "verdict: incomplete (an index needed by a check could not be computed)".into()
     });
     t
 }
@@ -301,8 +338,10 @@ pub fn session_tables(
     let verdict = match_speaker_head(&speaker.indices, &head.indices, bounds);
     let mut st = indices_table("speaker indices", &speaker.indices, bounds);
     st.notes.push(speaker.describe());
+    st.notes.extend(missing_note(&speaker.indices, "points not visible"));
     let mut ht = indices_table("head indices", &head.indices, bounds);
     ht.notes.push(head.source);
+    ht.notes.extend(missing_note(&head.indices, "landmarks not mapped to vertices"));
     Ok(vec![st, ht, verdict_table(&verdict), checks_table(&verdict)])
 }
 
@@ -375,6 +414,7 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
             let (frame, ix) = file_indices(&p, a.frame)?;
             let mut t = indices_table("facial indices", &ix, &bounds);
             t.notes.push(format!("{}, frame {frame}", p.display()));
+            t.notes.extend(missing_note(&ix, "points not visible"));
             vec![t]
         }
         IndicesInput::Session(p) => {

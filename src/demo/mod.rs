@@ -147,6 +147,10 @@ pub struct SpeakerOutput {
     pub made_for: Option<(String, String)>,
     pub vertical_mouth_height: f64,
     pub mouth_width: f64,
+    /// This speaker's own head (the demo head for speaker 0) and its pose model (when
+    /// models are written); the landmark map is the demo head's.
+    pub head_obj: PathBuf,
+    pub model: Option<PathBuf>,
     pub clips: Vec<ClipOutput>,
 }
 
@@ -455,6 +459,7 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
 
     let mut poses = Vec::new();
     let mut model_path = None;
+    let mut pose_set: Vec<Mesh> = Vec::new();
     if opts.write_model {
         let pose_dir = out.join("poses");
         std::fs::create_dir_all(&pose_dir)
@@ -478,6 +483,7 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         let path = out.join("model.lmm");
         write_model_file(&path, &model, Precision::F64)?;
         model_path = Some(path);
+        pose_set = meshes;
     }
 
     let mut rng = StdRng::seed_from_u64(opts.seed);
@@ -497,6 +503,28 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         let speaker = speakers::make_speaker(&head, si, spec, scale)
             .map_err(|e| anyhow::anyhow!("speaker {si}: {e}"))?;
         let sdir = out.join(format!("speaker_{si:02}"));
+        std::fs::create_dir_all(&sdir).with_context(|| format!("creating {}", sdir.display()))?;
+        // Each reshaped speaker also gets its own head and pose model, so a speaker can be
+        // fitted onto its own (corresponding) head or onto another (issue 6).
+        let (speaker_head, speaker_model) = if si == 0 || pose_set.is_empty() {
+            (head_obj.clone(), model_path.clone())
+        } else {
+            let warped = |m: &Mesh| Mesh {
+                vertices: m.vertices.iter().map(|p| quantise(&speaker.warp.apply(p))).collect(),
+                faces: Vec::new(),
+            };
+            let neutral = Mesh { faces: head.mesh.faces.clone(), ..warped(&head.mesh) };
+            let hpath = sdir.join("head.obj");
+            crate::io::obj::write_obj(&hpath, &neutral)?;
+            let shapes: Vec<_> = pose_set.iter().map(|m| warped(m).to_flat()).collect();
+            let shape = build_pca_from_shapes(&shapes, Keep::Components(DEMO_MODEL_COMPONENTS))
+                .map_err(|e| anyhow::anyhow!("building speaker {si}'s PCA model: {e}"))?;
+            let model =
+                MorphableModel { shape, expressions: None, triangles: head.mesh.triangles() };
+            let mpath = sdir.join("model.lmm");
+            write_model_file(&mpath, &model, Precision::F64)?;
+            (hpath, Some(mpath))
+        };
         let mut clips = Vec::new();
         for ci in 0..opts.sentences {
             let words = lexicon::random_sentence(&mut rng);
@@ -633,6 +661,8 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
                 .map(|s| (s.vertical_mouth_height.to_string(), s.mouth_width.to_string())),
             vertical_mouth_height: speaker.vertical_mouth_height,
             mouth_width: speaker.mouth_width,
+            head_obj: speaker_head,
+            model: speaker_model,
             clips,
         });
         speaker_list.push(speaker);

@@ -100,7 +100,7 @@ fn normalisation<const D: usize>(
     c /= n as Real;
     let ms = points.map(|p| (p - c).norm_squared()).sum::<Real>() / n as Real;
     let rms = ms.sqrt();
-    if !(rms > 1e-12 * (1.0 + c.norm())) || !rms.is_finite() {
+    if !rms.is_finite() || rms <= 1e-12 * (1.0 + c.norm()) {
         return None;
     }
     Some((c, target / rms))
@@ -145,7 +145,7 @@ pub fn estimate_affine_camera(
     // Collinear or coplanar model points make the 4×4 matrix singular; after normalisation
     // its entries are O(n), so the determinant is compared with n⁴.
     let det = ata.determinant();
-    if !(det > 1e-10 * (n as Real).powi(4)) {
+    if det.is_nan() || det <= 1e-10 * (n as Real).powi(4) {
         return Err(CameraError::Degenerate);
     }
     let chol = ata.cholesky().ok_or(CameraError::Degenerate)?;
@@ -172,7 +172,7 @@ pub fn orthographic_from_affine(rows: &[Vector4<Real>; 2]) -> Result<OrthoPose, 
     let r1 = Vector3::new(rows[0][0], rows[0][1], rows[0][2]);
     let r2 = Vector3::new(rows[1][0], rows[1][1], rows[1][2]);
     let (n1, n2) = (r1.norm(), r2.norm());
-    if !(n1 > 1e-12 && n2 > 1e-12) || !n1.is_finite() || !n2.is_finite() {
+    if !(n1.is_finite() && n2.is_finite()) || n1 <= 1e-12 || n2 <= 1e-12 {
         return Err(CameraError::Degenerate);
     }
     let s = 0.5 * (n1 + n2);
@@ -338,7 +338,8 @@ mod tests {
         let p2 = vec![Point2::new(1.0, 2.0); 3];
         let p3 = vec![Point3::new(0.0, 0.0, 0.0); 3];
         assert_eq!(estimate_orthographic_pose(&p2, &p3, 100.0), Err(CameraError::TooFewPoints(3)));
-        let p3: Vec<Point3> = (0..6).map(|i| Point3::new(i as Real, 2.0 * i as Real, 0.0)).collect();
+        let p3: Vec<Point3> =
+            (0..6).map(|i| Point3::new(i as Real, 2.0 * i as Real, 0.0)).collect();
         let p2: Vec<Point2> = (0..6).map(|i| Point2::new(i as Real, i as Real)).collect();
         assert_eq!(estimate_orthographic_pose(&p2, &p3, 100.0), Err(CameraError::Degenerate));
         let mut p2b = p2.clone();
@@ -369,12 +370,23 @@ mod tests {
 
     #[test]
     fn refinement_does_not_increase_error_under_noise() {
-        let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(15.0, 5.0, -3.0), s: 2.0, tx: 300.0, ty: 180.0 };
+        let pose = OrthoPose {
+            r: rotation_from_yaw_pitch_roll_deg(15.0, 5.0, -3.0),
+            s: 2.0,
+            tx: 300.0,
+            ty: 180.0,
+        };
         let x3 = face_like_points();
         let x2: Vec<Point2> = x3
             .iter()
             .enumerate()
-            .map(|(i, p)| pose.project(p, 720.0) + nalgebra::Vector2::new(((i * 7) % 5) as Real - 2.0, ((i * 3) % 5) as Real - 2.0))
+            .map(|(i, p)| {
+                pose.project(p, 720.0)
+                    + nalgebra::Vector2::new(
+                        ((i * 7) % 5) as Real - 2.0,
+                        ((i * 3) % 5) as Real - 2.0,
+                    )
+            })
             .collect();
         let lin = estimate_orthographic_pose(&x2, &x3, 720.0).unwrap();
         let refined = refine_orthographic_pose(&lin, &x2, &x3, None, 720.0, 10);

@@ -11,8 +11,8 @@
 
 use super::camera::{self, OrthoPose};
 use super::shape::{
-    FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, dot, gradient_rhs, landmark_forces, nonnegative_quadratic, normal_matrix,
-    projector,
+    FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, dot, gradient_rhs,
+    landmark_forces, nonnegative_quadratic, normal_matrix, projector,
 };
 use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
 use rayon::prelude::*;
@@ -89,19 +89,28 @@ fn estimate_pose(
     let mut p2 = Vec::with_capacity(obs.num_active);
     let mut p3 = Vec::with_capacity(obs.num_active);
     let mut w = Vec::with_capacity(obs.num_active);
-    for i in 0..basis.len() {
+    for (i, p) in pts.iter().enumerate() {
         if obs.active[i] {
             p2.push(obs.points[i]);
-            p3.push(Point3::from(pts[i]));
+            p3.push(Point3::from(*p));
             w.push(basis.weights[i]);
         }
     }
     let pose = match previous {
         Some(p) if params.pose_refinement_steps > 0 => *p,
-        _ => camera::estimate_orthographic_pose(&p2, &p3, image_height).map_err(|e| e.to_string())?,
+        _ => {
+            camera::estimate_orthographic_pose(&p2, &p3, image_height).map_err(|e| e.to_string())?
+        }
     };
     Ok(if params.pose_refinement_steps > 0 {
-        camera::refine_orthographic_pose(&pose, &p2, &p3, Some(&w), image_height, params.pose_refinement_steps)
+        camera::refine_orthographic_pose(
+            &pose,
+            &p2,
+            &p3,
+            Some(&w),
+            image_height,
+            params.pose_refinement_steps,
+        )
     } else {
         pose
     })
@@ -162,43 +171,44 @@ fn solve_identity(
     }
     let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
     basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
-    let per_frame = |(obs, st): (&FrameObservations, &FrameState)| -> (Option<DMatrix>, DVector, Vec<Vector3>) {
-        let pose = &st.pose;
-        let scale = pose.s * pose.s / params.sigma2;
-        let mut corr: Option<DMatrix> = None;
-        for (i, &a) in obs.active.iter().enumerate() {
-            if !a {
-                let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
-                basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, c);
+    let per_frame =
+        |(obs, st): (&FrameObservations, &FrameState)| -> (Option<DMatrix>, DVector, Vec<Vector3>) {
+            let pose = &st.pose;
+            let scale = pose.s * pose.s / params.sigma2;
+            let mut corr: Option<DMatrix> = None;
+            for (i, &a) in obs.active.iter().enumerate() {
+                if !a {
+                    let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+                    basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, c);
+                }
             }
-        }
-        let forces = landmark_forces(basis, obs, pose, image_height, params.sigma2, mean_pts);
-        // The identity part of the gradient is applied once for the clip (summed forces);
-        // here only the Schur correction of r.
-        let g = apply_forces(basis, &forces, kid..k);
-        let mut r = DVector::zeros(kid);
-        let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
-        if !free.is_empty() {
-            // Columns of the expression block against everything: rows 0..K, cols kid..K.
-            let nx = normal_matrix(basis, obs, pose, params.sigma2, 0..k, kid..k);
-            let m = free.len();
-            let mut nff = DMatrix::from_fn(m, m, |a, b| nx[(kid + free[a], free[b])]);
-            for d in 0..m {
-                nff[(d, d)] += params.lambda_expression;
+            let forces = landmark_forces(basis, obs, pose, image_height, params.sigma2, mean_pts);
+            // The identity part of the gradient is applied once for the clip (summed forces);
+            // here only the Schur correction of r.
+            let g = apply_forces(basis, &forces, kid..k);
+            let mut r = DVector::zeros(kid);
+            let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
+            if !free.is_empty() {
+                // Columns of the expression block against everything: rows 0..K, cols kid..K.
+                let nx = normal_matrix(basis, obs, pose, params.sigma2, 0..k, kid..k);
+                let m = free.len();
+                let mut nff = DMatrix::from_fn(m, m, |a, b| nx[(kid + free[a], free[b])]);
+                for d in 0..m {
+                    nff[(d, d)] += params.lambda_expression;
+                }
+                let naf = DMatrix::from_fn(kid, m, |a, b| nx[(a, free[b])]);
+                let gf = DVector::from_fn(m, |a, _| g[free[a]]);
+                if let Some(ch) = nff.cholesky() {
+                    // S −= N_aF·N_FF⁻¹·N_Fa ; r −= N_aF·N_FF⁻¹·g_F
+                    let x = ch.solve(&naf.transpose()); // m × kid
+                    let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+                    c.gemm(-1.0, &naf, &x, 1.0);
+                    let y = ch.solve(&gf);
+                    r.gemv(-1.0, &naf, &y, 1.0);
+                }
             }
-            let naf = DMatrix::from_fn(kid, m, |a, b| nx[(a, free[b])]);
-            let gf = DVector::from_fn(m, |a, _| g[free[a]]);
-            if let Some(ch) = nff.cholesky() {
-                // S −= N_aF·N_FF⁻¹·N_Fa ; r −= N_aF·N_FF⁻¹·g_F
-                let x = ch.solve(&naf.transpose()); // m × kid
-                let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
-                c.gemm(-1.0, &naf, &x, 1.0);
-                let y = ch.solve(&gf);
-                r.gemv(-1.0, &naf, &y, 1.0);
-            }
-        }
-        (corr, r, forces)
-    };
+            (corr, r, forces)
+        };
     let pairs = observations.iter().zip(states).filter(|(_, s)| s.failed.is_none());
     let parts: Vec<(Option<DMatrix>, DVector, Vec<Vector3>)> = if observations.len() > 1 {
         pairs.collect::<Vec<_>>().into_par_iter().map(per_frame).collect()
@@ -340,7 +350,7 @@ pub fn fit_group(
         expression_step(&mut states, &id_pts);
         // Stop once the objective stops falling (DESIGN §5.3).
         let cost = objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
-        if !(cost < last * (1.0 - params.tolerance)) {
+        if cost.is_nan() || cost >= last * (1.0 - params.tolerance) {
             break;
         }
         last = cost;

@@ -57,7 +57,8 @@ impl<'m> Fitter<'m> {
     /// Fits one frame on its own (its own identity).
     pub fn fit_frame(&self, lm: &FrameLandmarks, image_height: Real) -> FrameFit {
         let obs = FrameObservations::new(&self.basis, lm);
-        let g = fit_group(&self.basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
+        let g =
+            fit_group(&self.basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
         self.frame_fit(&obs, &g.alpha, &g.frames[0], image_height)
     }
 
@@ -237,7 +238,9 @@ mod tests {
         let raw = DMatrix::from_fn(3 * n, 4, |r, c| ((r * (c + 3)) as Real * 0.37).sin());
         let basis = raw.qr().q();
         let eigenvalues = DVector::from_vec(vec![9.0, 4.0, 2.0, 1.0]);
-        let deltas = DMatrix::from_fn(3 * n, 2, |r, c| if r % 3 == 1 { ((r + c) as Real * 0.11).cos() * 3.0 } else { 0.0 });
+        let deltas = DMatrix::from_fn(3 * n, 2, |r, c| {
+            if r % 3 == 1 { ((r + c) as Real * 0.11).cos() * 3.0 } else { 0.0 }
+        });
         let model = MorphableModel {
             shape: PcaModel { mean, basis, eigenvalues },
             expressions: Some(Expressions { names: vec!["a".into(), "b".into()], deltas }),
@@ -268,7 +271,12 @@ mod tests {
     fn degenerate_frames_are_flagged_not_panics() {
         let (model, map) = toy_model();
         let s = FitSettings::default();
-        let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(10.0, 5.0, 0.0), s: 2.0, tx: 300.0, ty: 200.0 };
+        let pose = OrthoPose {
+            r: rotation_from_yaw_pitch_roll_deg(10.0, 5.0, 0.0),
+            s: 2.0,
+            tx: 300.0,
+            ty: 200.0,
+        };
         let good = project_frame(&model, &pose, 720.0);
         // Too few visible points.
         let mut few = good.clone();
@@ -286,11 +294,21 @@ mod tests {
         same.points.iter_mut().for_each(|p| (p.x, p.y) = (100.0, 100.0));
         assert_flagged_and_finite(&fit_frame(&model, &map, &same, 720.0, &s));
         let mut line = good.clone();
-        line.points.iter_mut().enumerate().for_each(|(i, p)| (p.x, p.y) = (i as Real, 2.0 * i as Real));
+        line.points
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, p)| (p.x, p.y) = (i as Real, 2.0 * i as Real));
         let fit = fit_frame(&model, &map, &line, 720.0, &s);
         assert!(fit.reproj_rms_px.is_finite() && fit.scale.is_finite());
         // A clip mixing bad and good frames still fits the good ones.
-        let fits = fit_clip(&model, &map, &[few, good.clone()], 720.0, &FitSettings { clip: true, ..s.clone() }, None);
+        let fits = fit_clip(
+            &model,
+            &map,
+            &[few, good.clone()],
+            720.0,
+            &FitSettings { clip: true, ..s.clone() },
+            None,
+        );
         assert!(fits[0].failed.is_some() && fits[1].failed.is_none());
         // Residuals: 68 entries, Some exactly for used points.
         assert_eq!(fits[1].residuals.len(), N_LANDMARKS);
@@ -300,14 +318,23 @@ mod tests {
     #[test]
     fn residual_limit_flags_the_frame() {
         let (model, map) = toy_model();
-        let pose = OrthoPose { r: rotation_from_yaw_pitch_roll_deg(0.0, 0.0, 0.0), s: 2.0, tx: 300.0, ty: 200.0 };
+        let pose = OrthoPose {
+            r: rotation_from_yaw_pitch_roll_deg(0.0, 0.0, 0.0),
+            s: 2.0,
+            tx: 300.0,
+            ty: 200.0,
+        };
         let mut lm = project_frame(&model, &pose, 720.0);
         for (i, p) in lm.points.iter_mut().enumerate() {
             p.x += if i % 2 == 0 { 40.0 } else { -40.0 };
         }
         let s = FitSettings { max_reproj_rms_px: 5.0, ..FitSettings::default() };
         let fit = fit_frame(&model, &map, &lm, 720.0, &s);
-        assert!(fit.failed.as_deref().is_some_and(|f| f.contains("reprojection")), "{:?}", fit.failed);
+        assert!(
+            fit.failed.as_deref().is_some_and(|f| f.contains("reprojection")),
+            "{:?}",
+            fit.failed
+        );
     }
 
     proptest! {

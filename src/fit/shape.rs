@@ -46,7 +46,12 @@ impl LandmarkBasis {
     /// Precomputes the rows of the landmarks of `set` that `map` maps to a vertex of `model`,
     /// weighted by `weights` (indexed by 0-based iBUG id; missing or empty = 1; landmarks with
     /// a weight ≤ 0 or non-finite are left out).
-    pub fn new(model: &MorphableModel, map: &LandmarkMap, set: LandmarkSet, weights: &[Real]) -> Self {
+    pub fn new(
+        model: &MorphableModel,
+        map: &LandmarkMap,
+        set: LandmarkSet,
+        weights: &[Real],
+    ) -> Self {
         let n = model.num_vertices();
         let pairs: Vec<(usize, usize, Real)> = map
             .pairs()
@@ -251,7 +256,6 @@ impl FrameObservations {
     }
 }
 
-
 /// Builds `AᵀΩA` over `cols` (rows `rows`) for one frame, visible landmarks only.
 pub(crate) fn normal_matrix(
     basis: &LandmarkBasis,
@@ -298,7 +302,11 @@ pub(crate) fn landmark_forces(
 }
 
 /// `−Σᵢ Bᵢ[:, cols]ᵀ·hᵢ` for per-landmark forces `h`.
-pub(crate) fn apply_forces(basis: &LandmarkBasis, forces: &[Vector3], cols: std::ops::Range<usize>) -> DVector {
+pub(crate) fn apply_forces(
+    basis: &LandmarkBasis,
+    forces: &[Vector3],
+    cols: std::ops::Range<usize>,
+) -> DVector {
     let mut g = DVector::zeros(cols.len());
     for (i, h) in forces.iter().enumerate() {
         for j in 0..3 {
@@ -331,6 +339,7 @@ pub(crate) fn gradient_rhs(
 /// eos's `fit_shape_to_landmarks_linear`: coefficients `cols` that minimise
 /// `Σᵢ wᵢ/σ²·|x̂ᵢ − xᵢ|² + λ·|c|²` with the pose fixed and the other coefficients held at `c`
 /// (entries of `c` inside `cols` are ignored). `None` if the system is not positive definite.
+#[allow(clippy::too_many_arguments)] // mirrors eos's function, one argument per input
 pub fn fit_coefficients_linear(
     basis: &LandmarkBasis,
     obs: &FrameObservations,
@@ -371,7 +380,7 @@ pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) 
             row_j[k] = (row_j[k] - s) / row_k[k];
         }
         let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
-        if !(d > 0.0) || !d.is_finite() {
+        if !d.is_finite() || d <= 0.0 {
             return false;
         }
         row_j[j] = d.sqrt();
@@ -402,10 +411,8 @@ pub fn nonnegative_quadratic(n: &DMatrix, g: &DVector, free: &mut [bool]) -> Opt
     for _ in 0..(3 * k + 3) {
         // Gradient of the objective is Nx − g; w = g − Nx is the descent direction.
         let w = g - n * &x;
-        let Some((j, wj)) = (0..k)
-            .filter(|&j| !free[j])
-            .map(|j| (j, w[j]))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
+        let Some((j, wj)) =
+            (0..k).filter(|&j| !free[j]).map(|j| (j, w[j])).max_by(|a, b| a.1.total_cmp(&b.1))
         else {
             break;
         };
@@ -456,7 +463,9 @@ mod tests {
 
     #[test]
     fn in_place_cholesky_matches_nalgebra() {
-        let m = DMatrix::from_fn(5, 5, |i, j| 1.0 / (1.0 + i as Real + j as Real) + if i == j { 2.0 } else { 0.0 });
+        let m = DMatrix::from_fn(5, 5, |i, j| {
+            1.0 / (1.0 + i as Real + j as Real) + if i == j { 2.0 } else { 0.0 }
+        });
         let b = DVector::from_fn(5, |i, _| i as Real - 1.5);
         let want = m.clone().cholesky().unwrap().solve(&b);
         let (mut a, mut x) = (m.as_slice().to_vec(), b.as_slice().to_vec());

@@ -145,6 +145,8 @@ pub fn decode_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
     let fixed = floats
         .checked_mul(width)
         .and_then(|v| v.checked_add(nt.checked_mul(12)?))
+        // Each expression name has at least its 4-byte length: bounds E even when N = 0.
+        .and_then(|v| v.checked_add(ne.checked_mul(4)?))
         .and_then(|v| v.checked_add(HEADER_LEN as u64))
         .ok_or_else(too_big)?;
     if fixed > bytes.len() as u64 {

@@ -39,10 +39,8 @@ impl NpyArray {
 /// # Errors
 /// Unreadable file, a bad header, or a non-numeric dtype.
 pub fn read_npy(path: &Path) -> Result<NpyArray> {
-    let file = std::fs::File::open(path).map_err(|e| FormatError::io(path, e))?;
-    let npy = NpyFile::new(std::io::BufReader::new(file))
-        .map_err(|e| FormatError::whole(path, format!("not a .npy file: {e}")))?;
-    npy_to_array(npy, path, "array")
+    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    parse_npy(&bytes, path)
 }
 
 /// Parses the bytes of one `.npy` file (as [`read_npy`]); `path` is used only in errors.
@@ -50,9 +48,53 @@ pub fn read_npy(path: &Path) -> Result<NpyArray> {
 /// # Errors
 /// A bad header, data shorter than the header says, or a non-numeric dtype.
 pub fn parse_npy(bytes: &[u8], path: &Path) -> Result<NpyArray> {
-    let npy = NpyFile::new(bytes)
-        .map_err(|e| FormatError::whole(path, format!("not a .npy file: {e}")))?;
-    npy_to_array(npy, path, "array")
+    parse_npy_field(bytes, path, "array")
+}
+
+/// Parses `.npy` bytes after checking the sizes its header claims against the bytes there
+/// are: npyz allocates the header text and the values by those claims before reading, so a
+/// corrupt length would otherwise ask for gigabytes.
+fn parse_npy_field(bytes: &[u8], path: &Path, field: &str) -> Result<NpyArray> {
+    let bad = |m: String| FormatError::at_field(path, field, m);
+    let not_npy = |e: std::io::Error| match field {
+        "array" => FormatError::whole(path, format!("not a .npy file: {e}")),
+        _ => FormatError::at_field(path, field, format!("not a .npy array: {e}")),
+    };
+    let prefix = match bytes.get(6) {
+        Some(1) => 10,
+        Some(2 | 3) => 12,
+        _ => 0, // not an .npy (or unknown version): npyz reports it
+    };
+    if prefix > 0 && bytes.len() >= prefix {
+        let header_len = if prefix == 10 {
+            u64::from(u16::from_le_bytes([bytes[8], bytes[9]]))
+        } else {
+            u64::from(u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]))
+        };
+        let left = (bytes.len() - prefix) as u64;
+        if header_len > left {
+            return Err(bad(format!(
+                "truncated: header of {header_len} bytes, only {left} bytes follow"
+            )));
+        }
+        let npy = NpyFile::new(bytes).map_err(not_npy)?;
+        let data_len = left - header_len;
+        let item = match npy.dtype() {
+            npyz::DType::Plain(ts) => ts.size_field() as u64,
+            _ => 0,
+        };
+        let needed = npy.shape().iter().try_fold(item, |acc, &d| acc.checked_mul(d));
+        if needed.is_none_or(|n| n > data_len) {
+            let shape: Vec<String> = npy.shape().iter().map(u64::to_string).collect();
+            return Err(bad(format!(
+                "truncated: shape ({}) of {item}-byte values needs more than the {data_len} data bytes",
+                shape.join(", ")
+            )));
+        }
+        return npy_to_array(npy, path, field);
+    }
+    let npy = NpyFile::new(bytes).map_err(not_npy)?;
+    npy_to_array(npy, path, field)
 }
 
 fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<NpyArray> {
@@ -149,11 +191,18 @@ pub fn read_npz(path: &Path) -> Result<MorphableModel> {
         if !arrays.iter().any(|a| a == name) {
             return Ok(None);
         }
-        let npy = archive
-            .by_name(name)
-            .map_err(|e| FormatError::at_field(path, name, e.to_string()))?
-            .ok_or_else(|| FormatError::at_field(path, name, "missing from the archive"))?;
-        npy_to_array(npy, path, name).map(Some)
+        // Read the member's bytes first so its header's sizes can be checked (see
+        // `parse_npy_field`) before anything is allocated by them.
+        let member = npyz::npz::file_name_from_array_name(name);
+        let mut entry = archive
+            .zip_archive()
+            .by_name(&member)
+            .map_err(|e| FormatError::at_field(path, name, e.to_string()))?;
+        let mut bytes = Vec::new();
+        entry
+            .read_to_end(&mut bytes)
+            .map_err(|e| FormatError::at_field(path, name, format!("cannot read data: {e}")))?;
+        parse_npy_field(&bytes, path, name).map(Some)
     };
     let names = match get("expression_names")? {
         Some(a) => Some(names_from_bytes(&a, path)?),

@@ -251,6 +251,53 @@ pub fn facial_indices(points: &[Option<Point2>]) -> Result<FacialIndices, Measur
     indices_from_distances(&facial_distances(points)?)
 }
 
+/// The indices whose points are all present, NaN for the others: a head whose landmark map
+/// leaves points unmapped (eos's SFM map has no face contour, so no zygion: facial and
+/// nose–face width are NaN, the other ten are computed). NaN values have no class
+/// ([`BoundsTable::classify`]) and raise no matching warning. Same distances as
+/// [`facial_distances`]; a unit test checks the two agree on complete points.
+pub fn facial_indices_partial(points: &[Option<Point2>]) -> FacialIndices {
+    use lm::*;
+    let p =
+        |i: usize| points.get(i).copied().flatten().filter(|q| q.x.is_finite() && q.y.is_finite());
+    let dist = |a: Option<Point2>, b: Option<Point2>| match (a, b) {
+        (Some(a), Some(b)) => (a - b).norm(),
+        _ => f64::NAN,
+    };
+    let nasion = p(ENDO_R).zip(p(ENDO_L)).map(|(a, b)| nalgebra::center(&a, &b));
+    let d = FacialDistances {
+        d: [
+            dist(p(GNATHION), nasion),
+            dist(p(ZYGION_R), p(ZYGION_L)),
+            dist(p(EXO_R), p(EXO_L)),
+            dist(p(ENDO_R), p(ENDO_L)),
+            dist(nasion, p(SUBNASALE)),
+            dist(p(ALARE_R), p(ALARE_L)),
+            dist(p(LABIALE_SUP), p(LABIALE_INF)),
+            dist(p(CHEILION_R), p(CHEILION_L)),
+            dist(p(LABIALE_SUP), p(STOMION_1)),
+            dist(p(STOMION_2), p(LABIALE_INF)),
+            dist(p(LABIALE_INF), p(GNATHION)),
+            dist(p(SUBNASALE), p(LABIALE_SUP)),
+            dist(p(SUBNASALE), p(GNATHION)),
+        ],
+    };
+    let mut values = [f64::NAN; 12];
+    for (v, index) in values.iter_mut().zip(FacialIndex::ALL) {
+        let (num, den) = index.ratio();
+        let den = d.get(den);
+        if den > 1e-12 {
+            *v = 100.0 * d.get(num) / den;
+        }
+    }
+    FacialIndices { values }
+}
+
+/// [`facial_indices_partial`] of a head shape's frontal landmark projection.
+pub fn shape_indices_partial(shape: &DVector, map: &LandmarkMap) -> FacialIndices {
+    facial_indices_partial(&super::mesh::frontal_landmarks(shape, map))
+}
+
 /// The facial indices of one tracked frame (visible points only).
 ///
 /// # Errors
@@ -742,6 +789,20 @@ mod tests {
         partial.to_vertex.remove(&8);
         let zeros = DVector::zeros(68 * 3);
         assert_eq!(shape_indices(&zeros, &partial), Err(MeasureError::MissingLandmark(8)));
+    }
+
+    #[test]
+    fn partial_indices_agree_and_leave_missing_ones_nan() {
+        let pts = sample_points();
+        assert_eq!(facial_indices_partial(&pts), facial_indices(&pts).unwrap());
+        let mut no_zygion = pts.clone();
+        no_zygion[0] = None;
+        let v = facial_indices_partial(&no_zygion);
+        assert!(v.get(FacialIndex::Facial).is_nan() && v.get(FacialIndex::NoseFaceWidth).is_nan());
+        assert_eq!(
+            v.get(FacialIndex::MouthWidth),
+            facial_indices(&pts).unwrap().get(FacialIndex::MouthWidth)
+        );
     }
 
     #[test]

@@ -590,9 +590,10 @@ impl Silhouette {
             .collect()
     }
 
-    /// Share of edge rows whose edge pixel pair holds an intermediate gray level (between
-    /// 15 % and 85 % of the way from background to face): near 1 on anti-aliased or optical
-    /// images, near 0 on hard-edged renders.
+    /// Share of edge rows whose first background pixel holds an intermediate gray level
+    /// (15–85 % of the way from background to face): about a third on anti-aliased or
+    /// optical images (wherever the edge falls in that pixel), zero on hard-edged renders.
+    /// Only the background side is looked at: shading darkens the face's own edge pixels.
     fn antialiased_share(&self) -> Real {
         let w = self.width;
         let span = self.fg_level - self.bg_level;
@@ -610,7 +611,7 @@ impl Silhouette {
                     (0.15..=0.85).contains(&k)
                 }
             };
-            if mid(c) || mid(c + 1) {
+            if mid(c + 1) {
                 soft += 1;
             }
         }
@@ -808,7 +809,7 @@ pub fn measure_lip_profile(
         .copied()
         .ok_or(ProfileError::NoUpperLip(setup.min_prominence_px))?;
     // Hard-edged frames need the wider window (see APEX_HARD).
-    let window = if sil.antialiased_share() >= 0.5 { APEX_SOFT } else { APEX_HARD };
+    let window = if sil.antialiased_share() >= 0.15 { APEX_SOFT } else { APEX_HARD };
     let (row, p_px) = refine_maximum(&s, lip.index, window);
     let near = row.round() as usize;
     if (near.saturating_sub(1)..=(near + 1).min(sil.height - 1))
@@ -928,7 +929,7 @@ fn closest_on_profile(line: &[Point2], p: Point2) -> Option<(Point2, Vector2)> {
         let (a, b) = (line[i], line[i + 1]);
         let d = b - a;
         let len2 = d.norm_squared();
-        if !(len2 > 1e-12) || d.y.abs() > 1.5 {
+        if len2.is_nan() || len2 <= 1e-12 || d.y.abs() > 1.5 {
             continue; // a gap in the rows, not a segment
         }
         let t = ((p - a).dot(&d) / len2).clamp(0.0, 1.0);
@@ -989,7 +990,8 @@ pub fn register_to_anchor(
         }
         // A straight profile leaves sliding along it free: refuse rather than guess.
         let eig = ata.symmetric_eigenvalues();
-        if !(eig.min() > 1e-6 * eig.max().max(1e-12)) {
+        let floor = 1e-6 * eig.max().max(1e-12);
+        if eig.min().is_nan() || eig.min() <= floor {
             return Err(ProfileError::Registration("the profile is too straight"));
         }
         let delta = ata.cholesky().ok_or(ProfileError::Registration("singular"))?.solve(&atb);

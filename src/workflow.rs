@@ -157,7 +157,8 @@ pub fn utterance_of_clip(
     let track = session.effective_track(clip)?;
     let video = trajectory_from_track(&track, Some(n));
     let shapes = shapes_by_frame(&res.model, fits, n);
-    let head = trajectory_from_shapes(shapes.iter().map(|s| s.as_ref()), &res.map, options);
+    let map = res.map.with_commissures_completed();
+    let head = trajectory_from_shapes(shapes.iter().map(|s| s.as_ref()), &map, options);
     Ok(Utterance {
         name: c.name.clone(),
         speaker: None,

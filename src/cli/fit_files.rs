@@ -238,4 +238,41 @@ mod tests {
         let e = run(&args).unwrap_err().to_string();
         assert!(e.contains("nope.csv"), "{e}");
     }
+
+    #[test]
+    fn fits_eos_frames_and_writes_both_outputs() {
+        let Some(eos) = crate::testdata::shared("peer/eos") else { return };
+        let dir = tempfile::tempdir().unwrap();
+        // First 4 frames of eos's synthetic landmarks as lipmap CSV (0-based points).
+        let text = std::fs::read_to_string(eos.join("reference/landmarks.csv")).unwrap();
+        let mut csv = String::from("frame,point,x,y\n");
+        for line in text.lines().skip(1) {
+            let v: Vec<&str> = line.split(',').collect();
+            if v[0].parse::<usize>().unwrap() < 4 {
+                let id: usize = v[1].parse().unwrap();
+                csv.push_str(&format!("{},{},{},{}\n", v[0], id - 1, v[2], v[3]));
+            }
+        }
+        let lm = dir.path().join("lm.csv");
+        std::fs::write(&lm, csv).unwrap();
+        let out = dir.path().join("out");
+        let args = FitFilesArgs {
+            model: eos.join("model"),
+            blendshapes: None,
+            mapping: eos.join("share/ibug_to_sfm.txt"),
+            landmarks: lm,
+            image_size: (1280, 720),
+            set: None,
+            lambda: None,
+            iterations: None,
+            clip: true,
+            out: out.clone(),
+        };
+        assert_eq!(run_with_outcome(&args).unwrap(), Outcome::Ok);
+        let fit = std::fs::read_to_string(out.join("fit.csv")).unwrap();
+        assert_eq!(fit.lines().count(), 5);
+        assert!(fit.starts_with("frame,yaw,pitch,roll,scale,tx,ty,reproj_rms_px,failed"));
+        let shapes = npy_model::read_npy(&out.join("shapes.npy")).unwrap();
+        assert_eq!(shapes.shape, vec![4, 3 * 3448]);
+    }
 }

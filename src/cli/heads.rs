@@ -378,3 +378,53 @@ pub fn run_heads(
     let refs: Vec<&Table> = tables.iter().collect();
     write_tables(&refs, output.format(), out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn touch(dir: &Path, name: &str, text: &str) -> PathBuf {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    #[test]
+    fn head_folder_map_is_the_toml_or_the_eos_txt() {
+        let d = tempfile::tempdir().unwrap();
+        let eos = touch(d.path(), "ibug_to_sfm.txt", "");
+        touch(d.path(), "notes.txt", "");
+        let files = sorted_files(d.path()).unwrap();
+        assert_eq!(head_map_path(d.path(), &files).unwrap(), eos);
+        let map = touch(d.path(), "head_map.toml", "");
+        let files = sorted_files(d.path()).unwrap();
+        assert_eq!(head_map_path(d.path(), &files).unwrap(), map);
+        touch(d.path(), "settings.toml", "");
+        let files = sorted_files(d.path()).unwrap();
+        assert_eq!(head_map_path(d.path(), &files).unwrap(), map, "`map` in the name decides");
+        touch(d.path(), "other_map.toml", "");
+        let files = sorted_files(d.path()).unwrap();
+        assert!(head_map_path(d.path(), &files).unwrap_err().to_string().contains("several"));
+    }
+
+    #[test]
+    fn head_folder_model_prefers_the_shape_bin_and_takes_blendshapes_beside_it() {
+        let d = tempfile::tempdir().unwrap();
+        let files = sorted_files(d.path()).unwrap();
+        assert!(head_model_paths(d.path(), &files).unwrap_err().to_string().contains("no model"));
+        std::fs::create_dir(d.path().join("poses")).unwrap();
+        let files = sorted_files(d.path()).unwrap();
+        assert_eq!(head_model_paths(d.path(), &files).unwrap().0, d.path().join("poses"));
+        let blend = touch(d.path(), "expression_blendshapes_3448.bin", "x");
+        let shape = touch(d.path(), "sfm_shape_3448.bin", "x");
+        let files = sorted_files(d.path()).unwrap();
+        assert_eq!(head_model_paths(d.path(), &files).unwrap(), (shape, Some(blend)));
+    }
+
+    #[test]
+    fn a_head_is_a_folder_or_a_session_file() {
+        let d = tempfile::tempdir().unwrap();
+        let f = touch(d.path(), "model.obj", "");
+        assert!(load_head(&f).unwrap_err().to_string().contains("a head is a folder"));
+    }
+}

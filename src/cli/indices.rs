@@ -62,11 +62,11 @@ pub enum IndicesInput {
     Landmarks(PathBuf),
 }
 
-/// A `.lipmap.json` path or a bare name that is not an existing file is a session;
-/// any other existing path is a landmark file or folder.
+/// A `.json` path (no landmark format is JSON) or a name that is not an existing path is a
+/// session; any other existing path is a landmark file or folder.
 pub fn classify_input(s: &str) -> IndicesInput {
     let p = Path::new(s);
-    if s.ends_with(".lipmap.json") || !p.exists() {
+    if s.ends_with(".json") || !p.exists() {
         IndicesInput::Session(session_path(s))
     } else {
         IndicesInput::Landmarks(p.to_path_buf())
@@ -427,4 +427,55 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
     };
     let refs: Vec<&Table> = tables.iter().collect();
     write_tables(&refs, a.output.format(), out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measure::IndexBounds;
+
+    #[test]
+    fn json_and_missing_paths_are_sessions() {
+        let d = tempfile::tempdir().unwrap();
+        let pts = d.path().join("a.pts");
+        std::fs::write(&pts, "").unwrap();
+        let s = pts.to_str().unwrap();
+        assert_eq!(classify_input(s), IndicesInput::Landmarks(pts.clone()));
+        assert_eq!(classify_input("demo"), IndicesInput::Session(session_path("demo")));
+        let j = d.path().join("x.json");
+        std::fs::write(&j, "").unwrap();
+        assert_eq!(classify_input(j.to_str().unwrap()), IndicesInput::Session(j.clone()));
+    }
+
+    #[test]
+    fn checks_say_unknown_when_an_index_is_missing() {
+        let bounds = BoundsTable::default();
+        let mid = |i: FacialIndex| {
+            let (lo, hi) = i.published_bounds();
+            0.5 * (lo + hi)
+        };
+        let speaker = FacialIndices { values: FacialIndex::ALL.map(mid) };
+        let mut head = speaker;
+        head.values[FacialIndex::MouthWidth.position()] = f64::NAN;
+        let t = checks_table(&match_speaker_head(&speaker, &head, &bounds));
+        assert_eq!(t.rows[0][3], Cell::text("ok"));
+        assert_eq!(t.rows[1][3], Cell::text("unknown: index not computed"));
+        assert!(t.notes[0].contains("incomplete"));
+        head.values[FacialIndex::VerticalMouthHeight.position()] = 30.0;
+        let low = IndexBounds { index: FacialIndex::VerticalMouthHeight, low: 20.0, high: 25.0 };
+        let custom = BoundsTable { bounds: vec![low] };
+        let t = checks_table(&match_speaker_head(&speaker, &head, &custom));
+        assert_eq!(t.rows[0][1], Cell::text("low"));
+        assert_eq!(t.rows[0][3], Cell::text("warning: low vs high"));
+    }
+
+    #[test]
+    fn bounds_files_round_trip_in_both_formats() {
+        let d = tempfile::tempdir().unwrap();
+        for name in ["b.csv", "b.toml"] {
+            let p = d.path().join(name);
+            save_bounds(&BoundsTable::default(), &p).unwrap();
+            assert_eq!(load_bounds(&p).unwrap(), BoundsTable::default(), "{name}");
+        }
+    }
 }

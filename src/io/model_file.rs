@@ -139,7 +139,7 @@ pub fn decode_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
     let too_big = || at(16, format!("sizes N={n} K={k} E={ne} T={nt} overflow"));
     let len = n.checked_mul(3).ok_or_else(too_big)?;
     let floats = len
-        .checked_mul(1 + k.checked_add(ne).ok_or_else(too_big)?)
+        .checked_mul(k.checked_add(ne).and_then(|v| v.checked_add(1)).ok_or_else(too_big)?)
         .and_then(|v| v.checked_add(k))
         .ok_or_else(too_big)?;
     let fixed = floats

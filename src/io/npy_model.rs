@@ -77,6 +77,11 @@ fn parse_npy_field(bytes: &[u8], path: &Path, field: &str) -> Result<NpyArray> {
                 "truncated: header of {header_len} bytes, only {left} bytes follow"
             )));
         }
+        let header = &bytes[prefix..prefix + header_len as usize];
+        let depth = bracket_depth(header);
+        if depth > MAX_HEADER_NESTING {
+            return Err(bad(format!("header nests brackets {depth} deep; not a numeric array")));
+        }
         let npy = NpyFile::new(bytes).map_err(not_npy)?;
         let data_len = left - header_len;
         let item = match npy.dtype() {
@@ -95,6 +100,29 @@ fn parse_npy_field(bytes: &[u8], path: &Path, field: &str) -> Result<NpyArray> {
     }
     let npy = NpyFile::new(bytes).map_err(not_npy)?;
     npy_to_array(npy, path, field)
+}
+
+/// Deepest bracket nesting a header may have. Numeric arrays need 2 (`{… (3, 4) …}`);
+/// npyz's header parser backtracks exponentially in the depth, so deeper is refused.
+const MAX_HEADER_NESTING: usize = 8;
+
+/// Maximum nesting of `(`, `[` and `{` in header text, outside quoted strings.
+fn bracket_depth(header: &[u8]) -> usize {
+    let (mut depth, mut max, mut quote) = (0usize, 0usize, None);
+    for &b in header {
+        match (quote, b) {
+            (Some(q), _) if b == q => quote = None,
+            (Some(_), _) => {}
+            (None, b'\'' | b'"') => quote = Some(b),
+            (None, b'(' | b'[' | b'{') => {
+                depth += 1;
+                max = max.max(depth);
+            }
+            (None, b')' | b']' | b'}') => depth = depth.saturating_sub(1),
+            _ => {}
+        }
+    }
+    max
 }
 
 fn npy_to_array<R: Read>(npy: NpyFile<R>, path: &Path, field: &str) -> Result<NpyArray> {

@@ -11,6 +11,22 @@ pub struct LandmarkMap {
 }
 
 impl LandmarkMap {
+    /// The map for measuring (not fitting): where the inner lip corners 60/64 are unmapped,
+    /// they take the vertices of the mouth corners 48/54. In the iBUG-68 markup both pairs
+    /// mark the same commissures, which is why eos's maps leave 61/65 out; for a fit that
+    /// would count the corners twice, but W needs a corner on each side.
+    pub fn with_commissures_completed(&self) -> LandmarkMap {
+        let mut map = self.clone();
+        for (inner, outer) in [(60, 48), (64, 54)] {
+            if !map.to_vertex.contains_key(&inner)
+                && let Some(v) = map.vertex(outer)
+            {
+                map.to_vertex.insert(inner, v);
+            }
+        }
+        map
+    }
+
     /// The vertex mapped to the 0-based iBUG point `landmark`, if any.
     pub fn vertex(&self, landmark: usize) -> Option<usize> {
         self.to_vertex.get(&landmark).copied()

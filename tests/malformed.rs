@@ -3,7 +3,13 @@
 //! kind of file is a small `fn(&Path) -> Result<(), String>` beside the others).
 
 use lipmap::io::alignment_format::{TierChoice, read_alignment};
+use lipmap::io::eos_bin::read_eos_blendshapes;
 use lipmap::io::landmark_format::read_track;
+use lipmap::io::landmark_map_toml::read_landmark_map;
+use lipmap::io::makehuman_target::read_target;
+use lipmap::io::model_source::load_model;
+use lipmap::io::obj::read_obj;
+use lipmap::session::Session;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -23,6 +29,35 @@ fn alignment(p: &Path) -> Result<(), String> {
 #[allow(dead_code)]
 fn alignment_tier1(p: &Path) -> Result<(), String> {
     read_alignment(p, Some(&TierChoice::Index(1))).map(drop).map_err(|e| e.to_string())
+}
+
+fn mesh(p: &Path) -> Result<(), String> {
+    read_obj(p).map(drop).map_err(|e| e.to_string())
+}
+
+/// A morphable model of any kind `lipmap new --model` takes (eos .bin, .npz, .lmm), by extension.
+fn model(p: &Path) -> Result<(), String> {
+    load_model(p, None).map(drop).map_err(|e| e.to_string())
+}
+
+fn blendshapes(p: &Path) -> Result<(), String> {
+    read_eos_blendshapes(p).map(drop).map_err(|e| e.to_string())
+}
+
+fn landmark_map(p: &Path) -> Result<(), String> {
+    read_landmark_map(p).map(drop).map_err(|e| e.to_string())
+}
+
+fn target(p: &Path) -> Result<(), String> {
+    read_target(p).map(drop).map_err(|e| e.to_string())
+}
+
+/// Sessions name their file by its absolute path; shown relative here like the others.
+fn session(p: &Path) -> Result<(), String> {
+    let abs = lipmap::session::absolute(p);
+    Session::load(p)
+        .map(drop)
+        .map_err(|e| e.to_string().replace(&abs.display().to_string(), &p.display().to_string()))
 }
 
 /// (file in tests/malformed, reader, the error text after the file's path).
@@ -188,6 +223,46 @@ const CASES: &[(&str, Reader, &str)] = &[
     ("phones_non_numeric.csv", alignment, ":3: column `end`: `later` is not a finite number"),
     ("phones_negative_start.csv", alignment, ":2: column `start`: -0.1 is negative"),
     ("phones_ragged.csv", alignment, ":3: 2 fields, but the header has 3"),
+    // Wavefront OBJ
+    ("obj_face_past_last_vertex.obj", mesh, "X"),
+    ("obj_face_index_zero.obj", mesh, "X"),
+    ("obj_bad_vertex.obj", mesh, "X"),
+    ("obj_negative_before_first.obj", mesh, "X"),
+    ("obj_two_corner_face.obj", mesh, "X"),
+    // eos binary models (tiny synthetic files)
+    ("eos_truncated.bin", model, "X"),
+    ("eos_basis_rows_mismatch.bin", model, "X"),
+    ("eos_negative_triangle.bin", model, "X"),
+    ("eos_blendshapes_ragged.bs.bin", blendshapes, "X"),
+    // NumPy .npz models
+    ("npz_basis_mean_mismatch.npz", model, "X"),
+    ("npz_no_mean.npz", model, "X"),
+    ("npz_truncated_array.npz", model, "X"),
+    ("npz_string_dtype.npz", model, "X"),
+    ("npz_not_a_zip.npz", model, "X"),
+    // lipmap model files
+    ("lmm_truncated.lmm", model, "X"),
+    ("lmm_bad_magic.lmm", model, "X"),
+    ("lmm_huge_expression_count.lmm", model, "X"),
+    ("lmm_version_2.lmm", model, "X"),
+    // eos TOML landmark maps
+    ("map_non_numeric_vertex.toml", landmark_map, "X"),
+    ("map_id_69.toml", landmark_map, "X"),
+    ("map_negative_vertex.toml", landmark_map, "X"),
+    ("map_no_section.toml", landmark_map, "X"),
+    ("map_bad_toml.toml", landmark_map, "X"),
+    // MakeHuman .target
+    ("target_three_fields.target", target, "X"),
+    ("target_bad_vertex.target", target, "X"),
+    ("target_nan.target", target, "X"),
+    // sessions
+    ("session_newer_schema.lipmap.json", session, "X"),
+    ("session_no_schema.lipmap.json", session, "X"),
+    ("session_schema_text.lipmap.json", session, "X"),
+    ("session_duplicate_clip.lipmap.json", session, "X"),
+    ("session_short_xy.lipmap.json", session, "X"),
+    ("session_bad_json.lipmap.json", session, "X"),
+    ("session_zero_fps.lipmap.json", session, "X"),
 ];
 
 #[test]

@@ -537,5 +537,6 @@ fn demo_speakers_whole_sentences() {
         eprintln!("{} {} frames, {failed} failed: RMSE {e:.4}", clip.dir.display(), clip.n_frames);
     }
     eprintln!("worst per-sentence RMSE {worst:.4}");
-    assert!(worst <= 0.05);
+    // Against the landmark-vertex truth (the demo's `p`): see the fast demo test.
+    assert!(worst <= 0.07);
 }

@@ -10,12 +10,19 @@
 //! iteration). A final pose step makes the reported pose match the final shape.
 
 use super::camera::{self, OrthoPose};
+use super::joint;
 use super::shape::{
     FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, dot, gradient_rhs,
     landmark_forces, nonnegative_quadratic, normal_matrix, projector,
 };
 use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
 use rayon::prelude::*;
+
+/// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
+/// many times a rejected step is retried with 10× more damping.
+const INITIAL_DAMPING: Real = 1e-4;
+const MIN_DAMPING: Real = 1e-9;
+const MAX_DAMPING_TRIES: usize = 8;
 
 /// Solver parameters in the units of the equations (see `FitSettings` for their meaning).
 #[derive(Clone, Copy, Debug)]
@@ -39,7 +46,7 @@ pub struct FrameState {
     /// Expression coefficients β (length k_exp).
     pub beta: DVector,
     /// Which β are unconstrained (not clamped at 0).
-    free: Vec<bool>,
+    pub(crate) free: Vec<bool>,
     /// Why the frame cannot be fitted, if it cannot.
     pub failed: Option<String>,
 }
@@ -337,6 +344,52 @@ pub fn fit_group(
     let mut id_pts = identity_points(basis, &alpha);
     pose_step(&mut states, &id_pts, false);
     expression_step(&mut states, &id_pts);
+    if params.pose_refinement_steps > 0 {
+        // Refine the start pose on the mean shape, then joint Levenberg–Marquardt steps.
+        pose_step(&mut states, &id_pts, true);
+        let solve_id = alpha_fixed.is_none() && kid > 0;
+        let mut cost =
+            objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
+        let mut mu = INITIAL_DAMPING;
+        for _ in 0..params.iterations {
+            let lin = joint::linearise(
+                basis,
+                observations,
+                &states,
+                &alpha,
+                &id_pts,
+                image_height,
+                params,
+            );
+            let mut accepted = false;
+            for _ in 0..MAX_DAMPING_TRIES {
+                if let Some((a, st)) = joint::step(&lin, &states, &alpha, mu, solve_id, params) {
+                    let ids = identity_points(basis, &a);
+                    let c = objective(basis, observations, &st, &ids, &a, image_height, params);
+                    if c < cost {
+                        (alpha, states, id_pts) = (a, st, ids);
+                        mu = (mu * 0.1).max(MIN_DAMPING);
+                        accepted = true;
+                        break;
+                    }
+                }
+                mu *= 10.0;
+            }
+            if !accepted {
+                break;
+            }
+            // NNLS on β with pose and identity fixed: updates which expressions are clamped.
+            expression_step(&mut states, &id_pts);
+            let c = objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
+            let done = c.is_nan() || c >= cost * (1.0 - params.tolerance);
+            cost = c.min(cost);
+            if done {
+                break;
+            }
+        }
+        pose_step(&mut states, &id_pts, true);
+        return GroupFit { alpha, frames: states };
+    }
     let mut last = Real::INFINITY;
     for _ in 0..params.iterations {
         pose_step(&mut states, &id_pts, true);

@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod clip;
+mod joint;
 pub mod pipeline;
 pub mod result;
 pub mod shape;

@@ -133,6 +133,12 @@ impl LandmarkBasis {
         &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
     }
 
+    /// All rows as one K×3L column-major view (column 3i + j = row `j` of landmark `i`), so
+    /// products with every landmark's rows at once run as one matrix product.
+    pub(crate) fn rows_transposed(&self) -> nalgebra::DMatrixView<'_, Real> {
+        nalgebra::DMatrixView::from_slice(&self.rows, self.num_coefficients(), 3 * self.len())
+    }
+
     /// Mean position of landmark `i`'s vertex.
     pub fn mean(&self, i: usize) -> Vector3 {
         self.mean[i]

@@ -139,28 +139,56 @@ fn face_size(track: &Track) -> Option<f64> {
     median_sigma(&sizes).map(|(m, _)| m)
 }
 
-/// Jumps: per point, displacements between consecutive frame numbers where the point is
-/// visible in both; one reason per frame (its largest jump).
+/// Jumps: per point, two tests over frames where the point is visible. A *step* is the
+/// displacement from the previous frame; a *spike* is the distance from the midpoint of the
+/// previous and next frames' positions (a second difference), which smooth articulation keeps
+/// small however fast it is, while a tracker error that lasts a frame or two stands out even
+/// when its step is no bigger than a fast lip movement. Each test flags values above its own
+/// robust limit (median + `jump_sigmas`·σ, at least the face-size floor); one reason per frame
+/// (its largest jump). A spike counts only where it is a local maximum.
 pub fn jump_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let floor = face_size(track).map_or(0.0, |s| s * th.jump_min_face_fraction);
     let mut worst: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
     let n_points = track.frames.first().map_or(0, |f| f.points.len());
+    let consecutive = |a: usize, b: usize| b == a + 1;
     for i in 0..n_points {
-        let disp: Vec<(usize, f64)> = track
-            .frames
-            .windows(2)
-            .filter(|w| w[1].frame == w[0].frame + 1)
-            .filter_map(|w| {
-                let (a, b) = (w[0].points.get(i)?, w[1].points.get(i)?);
-                (a.visible && b.visible).then(|| (w[1].frame, (b.pos() - a.pos()).norm()))
-            })
-            .collect();
-        let values: Vec<f64> = disp.iter().map(|d| d.1).collect();
-        let Some((med, sigma)) = median_sigma(&values) else { continue };
-        let limit = (med + th.jump_sigmas * sigma).max(floor);
-        for (frame, d) in disp {
-            if d > limit && worst.get(&frame).is_none_or(|w| d > w.1) {
-                worst.insert(frame, (i, d));
+        let pos = |k: usize| {
+            let p = track.frames[k].points.get(i)?;
+            p.visible.then(|| p.pos())
+        };
+        let mut steps: Vec<(usize, f64)> = Vec::new();
+        let mut spikes: Vec<(usize, f64)> = Vec::new();
+        for k in 1..track.frames.len() {
+            let (f0, f1) = (track.frames[k - 1].frame, track.frames[k].frame);
+            if !consecutive(f0, f1) {
+                continue;
+            }
+            if let (Some(a), Some(b)) = (pos(k - 1), pos(k)) {
+                steps.push((f1, (b - a).norm()));
+                if k + 1 < track.frames.len()
+                    && consecutive(f1, track.frames[k + 1].frame)
+                    && let Some(c) = pos(k + 1)
+                {
+                    let mid = nalgebra::center(&a, &c);
+                    spikes.push((f1, (b - mid).norm()));
+                }
+            }
+        }
+        // A one-frame error also displaces its neighbours' midpoints by half as much: keep
+        // only spikes that are local maxima, so the frames around a glitch are not flagged.
+        let spike_at: std::collections::HashMap<usize, f64> = spikes.iter().copied().collect();
+        spikes.retain(|&(f, d)| {
+            let around = [f.checked_sub(1), Some(f + 1)];
+            around.iter().flatten().all(|g| spike_at.get(g).is_none_or(|&n| d >= n))
+        });
+        for series in [&steps, &spikes] {
+            let values: Vec<f64> = series.iter().map(|d| d.1).collect();
+            let Some((med, sigma)) = median_sigma(&values) else { continue };
+            let limit = (med + th.jump_sigmas * sigma).max(floor);
+            for &(frame, d) in series.iter() {
+                if d > limit && worst.get(&frame).is_none_or(|w| d > w.1) {
+                    worst.insert(frame, (i, d));
+                }
             }
         }
     }

@@ -1,0 +1,261 @@
+//! The joint Gauss–Newton / Levenberg–Marquardt step over every frame's pose and free
+//! expressions and the group's shared identity, solved by eliminating the per-frame blocks.
+//!
+//! Alternating camera and shape fits crawl along the valley where a rotation and an identity
+//! change explain the landmarks equally well; one Gauss–Newton step over all unknowns moves
+//! along it at once. Unknowns per frame f: `y_f = [δω (so(3), R ← exp(δω)·R), δs, δtx, δty,
+//! δβ_free]`; shared: `δα`. The normal equations have the arrow shape
+//! `[A_f C_f; C_fᵀ S]`, so each frame's block is eliminated (Schur complement) and only the
+//! identity system `(S − Σ C_fᵀA_f⁻¹C_f)·δα = −(g_α − Σ C_fᵀA_f⁻¹b_f)` is solved jointly.
+//! Clamped expressions (β = 0, NNLS active set) are held; the NNLS step after each joint step
+//! updates that set.
+
+use super::camera::OrthoPose;
+use super::clip::{FrameState, SolverParams};
+use super::shape::{
+    FrameObservations, LandmarkBasis, cholesky_solve_in_place, normal_matrix, projector,
+};
+use crate::math::{DMatrix, DVector, Matrix3, Real, Vector3};
+use nalgebra::{Matrix6, Rotation3, Vector6};
+use rayon::prelude::*;
+
+/// One frame's part of the linearised normal equations (undamped).
+struct FrameBlocks {
+    /// Expression indices that are unknowns (after the 6 pose parameters).
+    free: Vec<usize>,
+    /// `A_f` (n×n, n = 6 + free.len()).
+    a: DMatrix,
+    /// Coupling with the identity `C_f` (n × k_id).
+    c: DMatrix,
+    /// Gradient of the frame's unknowns `b_f`.
+    b: DVector,
+    /// This frame's identity gradient.
+    g_alpha: DVector,
+    /// Identity-block correction for the landmarks the frame does not see.
+    corr: Option<DMatrix>,
+}
+
+/// A frame's block after elimination: Cholesky factor L of A, W = L⁻¹C, z = L⁻¹b, WᵀW.
+struct Eliminated {
+    l: DMatrix,
+    w: DMatrix,
+    z: DVector,
+    wtw: Option<DMatrix>,
+}
+
+/// The linearised problem at the current state.
+pub(crate) struct Linearisation {
+    frames: Vec<Option<FrameBlocks>>,
+    /// Identity block `λ_id·I + Σ_f H_αα,f` (undamped).
+    s: DMatrix,
+    /// Identity gradient `λ_id·α + Σ_f g_α,f`.
+    g: DVector,
+}
+
+/// Builds frame f's blocks: pose Jacobians per landmark, the pose–coefficient coupling as one
+/// matrix product over all landmarks, the coefficient blocks from the precomputed Gram blocks.
+fn frame_blocks(
+    basis: &LandmarkBasis,
+    obs: &FrameObservations,
+    st: &FrameState,
+    id_pts: &[Vector3],
+    image_height: Real,
+    params: &SolverParams,
+) -> FrameBlocks {
+    let (kid, k, l) = (basis.k_id, basis.num_coefficients(), basis.len());
+    let pose = &st.pose;
+    let s = pose.s;
+    let (r1, r2) = (pose.r.row(0).transpose(), pose.r.row(1).transpose());
+    let mut hpp = Matrix6::<Real>::zeros();
+    let mut gp = Vector6::<Real>::zeros();
+    // Per landmark: Gᵢ = ωᵢ·s·J_pᵢᵀ·R₂ (6×3, stored as 3L×6 rows) and the force
+    // hᵢ = ωᵢ·s·R₂ᵀ·rᵢ (3L), so that H_pc = Σ Gᵢ·Bᵢ and g_c = Σ Bᵢᵀhᵢ are matrix products.
+    let mut g_all = DMatrix::zeros(3 * l, 6);
+    let mut h_all = DVector::zeros(3 * l);
+    let beta = st.beta.as_slice();
+    for i in 0..l {
+        if !obs.active[i] {
+            continue;
+        }
+        let mut x = id_pts[i];
+        for j in 0..3 {
+            x[j] += super::shape::dot(&basis.row(i, j)[kid..], beta);
+        }
+        let c = pose.r * x;
+        let ru = s * (c.x + pose.tx) - obs.points[i].x;
+        let rv = s * (c.y + pose.ty) - (image_height - obs.points[i].y);
+        let om = basis.weights[i] / params.sigma2;
+        let ju = Vector6::new(0.0, s * c.z, -s * c.y, c.x + pose.tx, s, 0.0);
+        let jv = Vector6::new(-s * c.z, 0.0, s * c.x, c.y + pose.ty, 0.0, s);
+        hpp += (ju * ju.transpose() + jv * jv.transpose()) * om;
+        gp += (ju * ru + jv * rv) * om;
+        let h = (r1 * ru + r2 * rv) * (om * s);
+        for j in 0..3 {
+            h_all[3 * i + j] = h[j];
+            for p in 0..6 {
+                g_all[(3 * i + j, p)] = om * s * (ju[p] * r1[j] + jv[p] * r2[j]);
+            }
+        }
+    }
+    let bt = basis.rows_transposed(); // K × 3L
+    let hpc_t = bt * &g_all; // K × 6 = H_pcᵀ
+    let g_c = bt * &h_all; // K
+    let nx = normal_matrix(basis, obs, pose, params.sigma2, 0..k, kid..k); // K × k_exp
+    let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
+    let n = 6 + free.len();
+    let mut a = DMatrix::zeros(n, n);
+    let mut b = DVector::zeros(n);
+    for p in 0..6 {
+        for q in 0..6 {
+            a[(p, q)] = hpp[(p, q)];
+        }
+        b[p] = gp[p];
+    }
+    for (e, &fe) in free.iter().enumerate() {
+        for p in 0..6 {
+            let v = hpc_t[(kid + fe, p)];
+            a[(p, 6 + e)] = v;
+            a[(6 + e, p)] = v;
+        }
+        for (e2, &fe2) in free.iter().enumerate() {
+            a[(6 + e, 6 + e2)] = nx[(kid + fe, fe2)];
+        }
+        a[(6 + e, 6 + e)] += params.lambda_expression;
+        b[6 + e] = g_c[kid + fe] + params.lambda_expression * st.beta[fe];
+    }
+    let mut c = DMatrix::zeros(n, kid);
+    for q in 0..kid {
+        for p in 0..6 {
+            c[(p, q)] = hpc_t[(q, p)];
+        }
+        for (e, &fe) in free.iter().enumerate() {
+            c[(6 + e, q)] = nx[(q, fe)];
+        }
+    }
+    let scale = s * s / params.sigma2;
+    let mut corr: Option<DMatrix> = None;
+    for (i, &act) in obs.active.iter().enumerate() {
+        if !act {
+            let m = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+            basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, m);
+        }
+    }
+    FrameBlocks { free, a, c, b, g_alpha: g_c.rows(0, kid).into_owned(), corr }
+}
+
+/// Linearises the objective at the current state (failed frames are left out).
+pub(crate) fn linearise(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    states: &[FrameState],
+    alpha: &DVector,
+    id_pts: &[Vector3],
+    image_height: Real,
+    params: &SolverParams,
+) -> Linearisation {
+    let kid = basis.k_id;
+    let one = |(obs, st): (&FrameObservations, &FrameState)| {
+        st.failed.is_none().then(|| frame_blocks(basis, obs, st, id_pts, image_height, params))
+    };
+    let frames: Vec<Option<FrameBlocks>> = if observations.len() > 1 {
+        observations.par_iter().zip(states.par_iter()).map(one).collect()
+    } else {
+        observations.iter().zip(states).map(one).collect()
+    };
+    let mut q_sum = Matrix3::zeros();
+    for st in states.iter().filter(|s| s.failed.is_none()) {
+        q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
+    }
+    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
+    basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
+    let mut g = alpha * params.lambda_identity;
+    for fb in frames.iter().flatten() {
+        if let Some(c) = &fb.corr {
+            s += c;
+        }
+        g += &fb.g_alpha;
+    }
+    Linearisation { frames, s, g }
+}
+
+/// Adds `μ·diag(m)` to `m` (Marquardt's scale-invariant damping).
+fn damp(m: &mut DMatrix, mu: Real) {
+    for d in 0..m.nrows() {
+        m[(d, d)] *= 1.0 + mu;
+    }
+}
+
+/// Solves the damped system and applies the step: returns the new identity and frame states,
+/// or None when a block is not positive definite. With `solve_identity` false the identity
+/// stays (δα = 0). Expressions are projected onto β ≥ 0 when the settings ask for it.
+pub(crate) fn step(
+    lin: &Linearisation,
+    states: &[FrameState],
+    alpha: &DVector,
+    mu: Real,
+    solve_identity: bool,
+    params: &SolverParams,
+) -> Option<(DVector, Vec<FrameState>)> {
+    let kid = alpha.len();
+    // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
+    // CᵀA⁻¹C = WᵀW (a symmetric product run by the matrix-multiply kernel) and CᵀA⁻¹b = Wᵀz.
+    let eliminate = |fb: &Option<FrameBlocks>| -> Option<Option<Eliminated>> {
+        let Some(fb) = fb else { return Some(None) };
+        let mut a = fb.a.clone();
+        damp(&mut a, mu);
+        let l = a.cholesky()?.unpack();
+        let w = l.solve_lower_triangular(&fb.c)?;
+        let z = l.solve_lower_triangular(&fb.b)?;
+        let wtw = (solve_identity && kid > 0).then(|| w.transpose() * &w);
+        Some(Some(Eliminated { l, w, z, wtw }))
+    };
+    let solved: Vec<Option<Eliminated>> = if lin.frames.len() > 1 {
+        lin.frames.par_iter().map(eliminate).collect::<Option<Vec<_>>>()?
+    } else {
+        lin.frames.iter().map(eliminate).collect::<Option<Vec<_>>>()?
+    };
+    let mut dalpha = DVector::zeros(kid);
+    if solve_identity && kid > 0 {
+        let mut s = lin.s.clone();
+        damp(&mut s, mu);
+        let mut r = lin.g.clone();
+        for e in solved.iter().flatten() {
+            if let Some(wtw) = &e.wtw {
+                s -= wtw;
+            }
+            r.gemv_tr(-1.0, &e.w, &e.z, 1.0);
+        }
+        if !cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()) {
+            return None;
+        }
+        dalpha = -r;
+    }
+    let mut out = states.to_vec();
+    for ((st, fb), xy) in out.iter_mut().zip(&lin.frames).zip(&solved) {
+        let (Some(fb), Some(e)) = (fb, xy) else { continue };
+        // δy = −A⁻¹(b + C·δα) = −L⁻ᵀ(z + W·δα)
+        let mut v = e.z.clone();
+        v.gemv(1.0, &e.w, &dalpha, 1.0);
+        let dy = -e.l.tr_solve_lower_triangular(&v)?;
+        if !dy.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let rot = Rotation3::new(Vector3::new(dy[0], dy[1], dy[2]));
+        let pose = OrthoPose {
+            r: rot.into_inner() * st.pose.r,
+            s: st.pose.s + dy[3],
+            tx: st.pose.tx + dy[4],
+            ty: st.pose.ty + dy[5],
+        };
+        if !pose.is_valid() {
+            return None;
+        }
+        st.pose = pose;
+        for (e, &fe) in fb.free.iter().enumerate() {
+            let v = st.beta[fe] + dy[6 + e];
+            st.beta[fe] = if params.nonnegative_expressions { v.max(0.0) } else { v };
+        }
+    }
+    let new_alpha = alpha + dalpha;
+    new_alpha.iter().all(|v| v.is_finite()).then_some((new_alpha, out))
+}

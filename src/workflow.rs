@@ -13,6 +13,7 @@ use crate::landmarks::FrameLandmarks;
 use crate::math::DVector;
 use crate::measure::mesh::trajectory_from_shapes;
 use crate::measure::mouth::trajectory_from_track;
+use crate::measure::profile::{Facing, ProfileSetup, extract_protrusion_with, propose_setup};
 use crate::measure::{Measure, MeshMeasureOptions, Trajectory};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use crate::session::Session;
@@ -155,7 +156,13 @@ pub fn utterance_of_clip(
     let c = session.clip(clip)?;
     let n = clip_length(session, clip)?;
     let track = session.effective_track(clip)?;
-    let video = trajectory_from_track(&track, Some(n));
+    let mut video = trajectory_from_track(&track, Some(n));
+    match side_view_protrusion(session, clip, n) {
+        Ok(Some(p)) => video.p = p,
+        Ok(None) => {}
+        // The front-view tables are still worth having; say why P is missing.
+        Err(e) => eprintln!("lipmap: clip `{}`: no side-view protrusion: {e:#}", c.name),
+    }
     let shapes = shapes_by_frame(&res.model, fits, n);
     let map = res.map.with_commissures_completed();
     let head = trajectory_from_shapes(shapes.iter().map(|s| s.as_ref()), &map, options);
@@ -231,4 +238,64 @@ pub fn evaluate(
         worst_frames: worst_error_table(&worst),
         worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)),
     }
+}
+
+/// Key in a clip's `extensions` holding its side-view `ProfileSetup` (crop, reference line,
+/// facing, threshold, nose length), set by the user or proposed once and kept.
+pub const PROFILE_SETUP_KEY: &str = "profile_setup";
+
+/// The side-view protrusion setup of a clip: the stored one, else one proposed from the
+/// first side frame (the face assumed to look right unless a stored setup says otherwise).
+///
+/// # Errors
+/// No side view; an unreadable frame; a first frame whose profile cannot be found.
+pub fn profile_setup(session: &Session, clip: usize) -> Result<ProfileSetup> {
+    let c = session.clip(clip)?;
+    if let Some(v) = c.extensions.get(PROFILE_SETUP_KEY) {
+        return serde_json::from_value(v.clone())
+            .with_context(|| format!("clip `{}`: stored `{PROFILE_SETUP_KEY}`", c.name));
+    }
+    let frames = session
+        .open_side_frames(clip, 64)?
+        .ok_or_else(|| anyhow!("clip `{}` has no side view", c.name))?;
+    let first = frames.get(0)?;
+    let gray = image::DynamicImage::ImageRgb8((*first).clone()).to_luma8();
+    propose_setup(&gray, Facing::Right)
+        .map_err(|e| anyhow!("clip `{}`: side view frame 0: {e}", c.name))
+}
+
+/// Upper-lip protrusion measured on the side view, resampled onto the front view's frames
+/// (side frame nearest to each front frame's time, after the view's offset): `None` for a
+/// clip without a side view, `None` entries where extraction failed.
+///
+/// # Errors
+/// As [`profile_setup`]; frames that cannot be opened.
+pub fn side_view_protrusion(
+    session: &Session,
+    clip: usize,
+    n_front: usize,
+) -> Result<Option<Vec<Option<f64>>>> {
+    let c = session.clip(clip)?;
+    let Some(side) = c.side.as_ref() else { return Ok(None) };
+    let setup = profile_setup(session, clip)?;
+    let frames = session.open_side_frames(clip, 64)?.context("side view vanished")?;
+    let points = extract_protrusion_with(
+        frames.len(),
+        |i| {
+            frames
+                .get(i)
+                .map(|img| image::DynamicImage::ImageRgb8((*img).clone()).to_luma8())
+                .map_err(|e| e.to_string())
+        },
+        &setup,
+    );
+    let value = |i: usize| points.get(i).and_then(|p| p.p_norm.or(p.p_px));
+    let series = (0..n_front)
+        .map(|f| {
+            let t = f as f64 / c.front.fps - side.offset_s;
+            let k = (t * side.fps).round();
+            if k < 0.0 { None } else { value(k as usize) }
+        })
+        .collect();
+    Ok(Some(series))
 }

@@ -293,6 +293,7 @@ fn sweep_settings() {
                 "fset" => s.set = v.parse().unwrap(),
                 "pose" => s.pose_refinement_steps = v.parse().unwrap(),
                 "tol" => s.convergence_tolerance = v.parse().unwrap(),
+                "noise" => s.estimate_noise = v == "1",
                 other => panic!("unknown key {other}"),
             }
         }

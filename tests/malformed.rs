@@ -224,45 +224,139 @@ const CASES: &[(&str, Reader, &str)] = &[
     ("phones_negative_start.csv", alignment, ":2: column `start`: -0.1 is negative"),
     ("phones_ragged.csv", alignment, ":3: 2 fields, but the header has 3"),
     // Wavefront OBJ
-    ("obj_face_past_last_vertex.obj", mesh, "X"),
-    ("obj_face_index_zero.obj", mesh, "X"),
-    ("obj_bad_vertex.obj", mesh, "X"),
-    ("obj_negative_before_first.obj", mesh, "X"),
-    ("obj_two_corner_face.obj", mesh, "X"),
+    (
+        "obj_face_past_last_vertex.obj",
+        mesh,
+        ":5: face uses vertex 4 but the file has only 3 vertices",
+    ),
+    ("obj_face_index_zero.obj", mesh, ":4: vertex reference 0 (OBJ indices start at 1)"),
+    ("obj_bad_vertex.obj", mesh, ":2: coordinate 2 `zero` is not a finite number"),
+    (
+        "obj_negative_before_first.obj",
+        mesh,
+        ":3: relative reference -3 points before the first vertex (2 read so far)",
+    ),
+    ("obj_two_corner_face.obj", mesh, ":4: a face needs at least 3 vertices, got 2"),
     // eos binary models (tiny synthetic files)
-    ("eos_truncated.bin", model, "X"),
-    ("eos_basis_rows_mismatch.bin", model, "X"),
-    ("eos_negative_triangle.bin", model, "X"),
-    ("eos_blendshapes_ragged.bs.bin", blendshapes, "X"),
+    (
+        "eos_truncated.bin",
+        model,
+        ": byte 40: truncated: shape model basis cols needs 4 bytes, only 0 left",
+    ),
+    ("eos_basis_rows_mismatch.bin", model, ": byte 36: shape model basis has 3 rows, the mean 6"),
+    ("eos_negative_triangle.bin", model, ": byte 92: shape model triangle 0 has vertex -1"),
+    (
+        "eos_blendshapes_ragged.bs.bin",
+        blendshapes,
+        ": byte 64: blendshape 1 `jaw` has 3 rows, the first has 6",
+    ),
     // NumPy .npz models
-    ("npz_basis_mean_mismatch.npz", model, "X"),
-    ("npz_no_mean.npz", model, "X"),
-    ("npz_truncated_array.npz", model, "X"),
-    ("npz_string_dtype.npz", model, "X"),
-    ("npz_not_a_zip.npz", model, "X"),
+    (
+        "npz_basis_mean_mismatch.npz",
+        model,
+        ": field `basis_orthonormal`: shape [9, 1] does not match the mean's 6 values (need 6×K)",
+    ),
+    ("npz_no_mean.npz", model, ": field `mean`: required array is missing"),
+    (
+        "npz_truncated_array.npz",
+        model,
+        ": field `mean`: truncated: shape (6) of 8-byte values needs more than the 32 data bytes",
+    ),
+    (
+        "npz_string_dtype.npz",
+        model,
+        ": field `mean`: unsupported dtype UnicodeStr of 6 bytes (need float or integer)",
+    ),
+    // (found by fuzzing: a header length of ~2 GB was allocated before reading)
+    (
+        "npz_header_length_huge.npz",
+        model,
+        ": field `mean`: truncated: header of 1985685464 bytes, only 58 bytes follow",
+    ),
+    // (found by fuzzing: bracket nesting made npyz's header parser run for seconds)
+    (
+        "npz_header_deep_nesting.npz",
+        model,
+        ": field `mean`: header nests brackets 102 deep; not a numeric array",
+    ),
+    (
+        "npz_not_a_zip.npz",
+        model,
+        ": not an .npz archive: invalid Zip archive: Could not find central directory end",
+    ),
     // lipmap model files
-    ("lmm_truncated.lmm", model, "X"),
-    ("lmm_bad_magic.lmm", model, "X"),
-    ("lmm_huge_expression_count.lmm", model, "X"),
-    ("lmm_version_2.lmm", model, "X"),
+    (
+        "lmm_truncated.lmm",
+        model,
+        ": byte 64: truncated: the header promises at least 100 bytes, the file has 64",
+    ),
+    (
+        "lmm_bad_magic.lmm",
+        model,
+        ": unknown model format (expected eos .bin, .npz, a .npy folder, a lipmap model file, a folder of pose OBJs or an OBJ)",
+    ),
+    (
+        "lmm_huge_expression_count.lmm",
+        model,
+        ": byte 48: truncated: the header promises at least 1125899906842668 bytes, the file has 48",
+    ),
+    // (found by fuzzing: both were arithmetic overflows, i.e. panics, before the fix)
+    (
+        "lmm_sizes_overflow.lmm",
+        model,
+        ": byte 16: sizes N=0 K=18446744073709551615 E=0 T=0 overflow",
+    ),
+    ("lmm_version_2.lmm", model, ": byte 8: unsupported version 2 (this lipmap reads 1)"),
     // eos TOML landmark maps
-    ("map_non_numeric_vertex.toml", landmark_map, "X"),
-    ("map_id_69.toml", landmark_map, "X"),
-    ("map_negative_vertex.toml", landmark_map, "X"),
-    ("map_no_section.toml", landmark_map, "X"),
-    ("map_bad_toml.toml", landmark_map, "X"),
+    (
+        "map_non_numeric_vertex.toml",
+        landmark_map,
+        ":3: vertex for iBUG 49 must be a non-negative integer, got \"eight hundred\"",
+    ),
+    ("map_id_69.toml", landmark_map, ":3: `69` is not an iBUG id in 1..=68"),
+    (
+        "map_negative_vertex.toml",
+        landmark_map,
+        ":2: vertex for iBUG 31 must be a non-negative integer, got -3",
+    ),
+    (
+        "map_no_section.toml",
+        landmark_map,
+        ": field `landmark_mappings`: no [landmark_mappings] table in the file",
+    ),
+    (
+        "map_bad_toml.toml",
+        landmark_map,
+        ":3: string values must be quoted, expected literal string",
+    ),
     // MakeHuman .target
-    ("target_three_fields.target", target, "X"),
-    ("target_bad_vertex.target", target, "X"),
-    ("target_nan.target", target, "X"),
+    ("target_three_fields.target", target, ":3: expected `vertex dx dy dz`, got `36 0.002 0`"),
+    ("target_bad_vertex.target", target, ":1: bad vertex index `x12`"),
+    ("target_nan.target", target, ":2: `nan` is not a finite number"),
     // sessions
-    ("session_newer_schema.lipmap.json", session, "X"),
-    ("session_no_schema.lipmap.json", session, "X"),
-    ("session_schema_text.lipmap.json", session, "X"),
-    ("session_duplicate_clip.lipmap.json", session, "X"),
-    ("session_short_xy.lipmap.json", session, "X"),
-    ("session_bad_json.lipmap.json", session, "X"),
-    ("session_zero_fps.lipmap.json", session, "X"),
+    (
+        "session_newer_schema.lipmap.json",
+        session,
+        ": this session was written by a newer lipmap (session schema 7; this build reads up to 1); update lipmap to open it",
+    ),
+    ("session_no_schema.lipmap.json", session, ": no `schema_version`: not a lipmap session file"),
+    (
+        "session_schema_text.lipmap.json",
+        session,
+        ": `schema_version` must be a whole number, found \"one\"",
+    ),
+    ("session_duplicate_clip.lipmap.json", session, ": two clips are named \"c1\""),
+    (
+        "session_short_xy.lipmap.json",
+        session,
+        ":156:4: frame 0: `xy` has 135 numbers, expected 136",
+    ),
+    ("session_bad_json.lipmap.json", session, ":3:17: key must be a string"),
+    (
+        "session_zero_fps.lipmap.json",
+        session,
+        ": clip \"c1\": front view needs a positive fps and a finite offset",
+    ),
 ];
 
 #[test]

@@ -33,7 +33,7 @@ pub struct DemoArgs {
     #[arg(long)]
     pub no_tui: bool,
     /// How video and head trajectories are compared in the printed tables.
-    #[arg(long, value_enum, default_value_t = Normalisation::None)]
+    #[arg(long, value_enum, default_value_t = Normalisation::MinMax)]
     pub normalise: Normalisation,
     #[command(flatten)]
     pub output: FormatArgs,

@@ -41,6 +41,9 @@ pub struct EvalArgs {
     pub output: FormatArgs,
 }
 
+/// Each clip's name and fits, in clip order.
+pub type NamedFits = Vec<(String, Vec<crate::fit::FrameFit>)>;
+
 /// Fits (from cache where valid) and evaluates the selected clips of a session with
 /// `settings`; returns the utterances and each clip's fits.
 pub fn utterances_with(
@@ -48,7 +51,7 @@ pub fn utterances_with(
     res: &Resources,
     clips: &[usize],
     settings: &FitSettings,
-) -> Result<(Vec<Utterance>, Vec<(String, Vec<crate::fit::FrameFit>)>)> {
+) -> Result<(Vec<Utterance>, NamedFits)> {
     let mut utterances = Vec::new();
     let mut fits = Vec::new();
     let bar = crate::cli::progress::frames_bar(0, "fitting");

@@ -37,6 +37,50 @@ pub struct SolverParams {
     pub min_points: usize,
     /// Stop iterating when the objective falls by less than this fraction.
     pub tolerance: Real,
+    /// Scale the priors by the landmark noise estimated from the residuals (groups with
+    /// enough residual degrees of freedom only; see [`noise_factor`]).
+    pub estimate_noise: bool,
+}
+
+/// Per-coordinate landmark error (px) the settings' λ assumes: λ = 3 is the exact MAP weight
+/// of a unit-variance prior for this error in eos's σ² = 3 convention (λ = σ²/3).
+pub const ASSUMED_NOISE_PX: Real = 3.0;
+
+/// The floor of the estimated per-coordinate noise variance (px²): rounding landmark
+/// coordinates to whole pixels alone leaves 1/12 px².
+const MIN_NOISE_VARIANCE: Real = 1.0 / 12.0;
+
+/// The factor `σ̂²/σ_a²` by which the noise estimated from the group's residuals differs
+/// from the assumed [`ASSUMED_NOISE_PX`]: `σ̂² = SSE/(n − p)` with n the weighted coordinate
+/// count and p the unknowns (6 per frame, the free expressions, the identity). None when the
+/// residual degrees of freedom are fewer than the unknowns (a single frame: too few to tell
+/// noise from shape), so the fixed λ applies.
+fn noise_factor(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    states: &[FrameState],
+    id_pts: &[Vector3],
+    image_height: Real,
+) -> Option<Real> {
+    let mut n = 0.0;
+    let mut p = basis.k_id as Real;
+    let mut sse = 0.0;
+    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
+        let pts = frame_points(basis, id_pts, &st.beta);
+        for (i, x) in pts.iter().enumerate() {
+            if obs.active[i] {
+                let d = st.pose.project(&Point3::from(*x), image_height) - obs.points[i];
+                sse += basis.weights[i] * d.norm_squared();
+                n += 2.0 * basis.weights[i];
+            }
+        }
+        p += 6.0 + st.free.iter().filter(|f| **f).count() as Real;
+    }
+    if n - p < p {
+        return None;
+    }
+    let variance = (sse / (n - p)).max(MIN_NOISE_VARIANCE);
+    Some(variance / (ASSUMED_NOISE_PX * ASSUMED_NOISE_PX))
 }
 
 /// The state of one frame during and after a fit.
@@ -348,10 +392,35 @@ pub fn fit_group(
         // Refine the start pose on the mean shape, then joint Levenberg–Marquardt steps.
         pose_step(&mut states, &id_pts, true);
         let solve_id = alpha_fixed.is_none() && kid > 0;
+        let base = *params;
+        let mut params = *params;
+        let params = &mut params;
         let mut cost =
             objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
         let mut mu = INITIAL_DAMPING;
-        for _ in 0..params.iterations {
+        for it in 0..params.iterations {
+            // Empirical Bayes: once the fit has reached the noise floor, the priors' weight
+            // follows the landmark noise estimated from the residuals (λ ∝ σ̂²).
+            let mut lambda_moved = false;
+            if it > 0 && base.estimate_noise {
+                if let Some(f) =
+                    noise_factor(basis, observations, &states, &id_pts, image_height)
+                {
+                    let old = params.lambda_identity;
+                    params.lambda_identity = base.lambda_identity * f;
+                    params.lambda_expression = base.lambda_expression * f;
+                    lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
+                    cost = objective(
+                        basis,
+                        observations,
+                        &states,
+                        &id_pts,
+                        &alpha,
+                        image_height,
+                        params,
+                    );
+                }
+            }
             let lin = joint::linearise(
                 basis,
                 observations,
@@ -381,7 +450,7 @@ pub fn fit_group(
             // NNLS on β with pose and identity fixed: updates which expressions are clamped.
             expression_step(&mut states, &id_pts);
             let c = objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
-            let done = c.is_nan() || c >= cost * (1.0 - params.tolerance);
+            let done = c.is_nan() || (c >= cost * (1.0 - params.tolerance) && !lambda_moved);
             cost = c.min(cost);
             if done {
                 break;

@@ -51,6 +51,7 @@ impl<'m> Fitter<'m> {
             sigma2: EOS_SIGMA_SQUARED,
             min_points: 4,
             tolerance: s.convergence_tolerance,
+            estimate_noise: s.estimate_noise,
         }
     }
 

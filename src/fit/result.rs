@@ -35,6 +35,10 @@ pub struct FitSettings {
     /// Iterations stop early when the fit's objective falls by less than this fraction.
     #[serde(default = "default_convergence_tolerance")]
     pub convergence_tolerance: f64,
+    /// Clip fits: scale `lambda` and `lambda_expression` by the landmark noise estimated from
+    /// the residuals over the 3 px the defaults assume (empirical Bayes; docs/fitting.md).
+    #[serde(default = "default_true")]
+    pub estimate_noise: bool,
 }
 
 fn default_convergence_tolerance() -> f64 {
@@ -67,6 +71,7 @@ impl Default for FitSettings {
             nonnegative_expressions: true,
             pose_refinement_steps: 1,
             convergence_tolerance: 1e-3,
+            estimate_noise: true,
         }
     }
 }

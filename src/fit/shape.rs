@@ -35,11 +35,12 @@ pub struct LandmarkBasis {
     mean: Vec<Vector3>,
     /// Row-major rows: landmark i, axis j at `rows[(3i + j)·K ..][..K]`.
     rows: Vec<Real>,
-    /// Gram blocks over all landmarks: xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each).
-    gram: [DMatrix; 6],
+    /// Gram blocks over all landmarks, xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each), interleaved
+    /// per entry (column-major K×K) so that a weighted sum of the six reads one stream.
+    gram6: Vec<[Real; 6]>,
 }
 
-/// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
+/// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram6`.
 const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
 
 impl LandmarkBasis {
@@ -93,7 +94,7 @@ impl LandmarkBasis {
             k_exp,
             mean,
             rows,
-            gram: std::array::from_fn(|_| DMatrix::zeros(k, k)),
+            gram6: Vec::new(),
         };
         let mut gram: [DMatrix; 6] = std::array::from_fn(|_| DMatrix::zeros(k, k));
         for i in 0..l {
@@ -108,7 +109,7 @@ impl LandmarkBasis {
                 }
             }
         }
-        basis.gram = gram;
+        basis.gram6 = (0..k * k).map(|e| std::array::from_fn(|t| gram[t][e])).collect();
         basis
     }
 
@@ -176,14 +177,13 @@ impl LandmarkBasis {
         cols: std::ops::Range<usize>,
         out: &mut DMatrix,
     ) {
-        for (g, &(a, b)) in self.gram.iter().zip(&GRAM_PAIRS) {
-            let f = scale * q[(a, b)];
-            if f == 0.0 {
-                continue;
+        let f: [Real; 6] = std::array::from_fn(|t| scale * q[GRAM_PAIRS[t]]);
+        let k = self.num_coefficients();
+        for (oc, c) in cols.clone().enumerate() {
+            let src = &self.gram6[c * k + rows.start..c * k + rows.end];
+            for (o, g) in out.column_mut(oc).iter_mut().zip(src) {
+                *o += f[0] * g[0] + f[1] * g[1] + f[2] * g[2] + f[3] * g[3] + f[4] * g[4] + f[5] * g[5];
             }
-            out.zip_apply(&g.view((rows.start, cols.start), (rows.len(), cols.len())), |o, v| {
-                *o += f * v
-            });
         }
     }
 
@@ -217,9 +217,22 @@ impl LandmarkBasis {
     }
 }
 
+/// Dot product with four independent partial sums: a single running sum is a serial chain
+/// the compiler may not reorder (floating point), four lanes let it vectorise.
 #[inline]
 pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for l in 0..4 {
+            acc[l] += x[l] * y[l];
+        }
+    }
+    let tail: Real = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
 }
 
 /// `Q = r1r1ᵀ + r2r2ᵀ = I − r3r3ᵀ` (R₂ᵀR₂) of a pose.

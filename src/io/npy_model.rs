@@ -85,7 +85,7 @@ fn parse_npy_field(bytes: &[u8], path: &Path, field: &str) -> Result<NpyArray> {
         let npy = NpyFile::new(bytes).map_err(not_npy)?;
         let data_len = left - header_len;
         let item = match npy.dtype() {
-            npyz::DType::Plain(ts) => ts.size_field() as u64,
+            npyz::DType::Plain(ts) => ts.size_field(),
             _ => 0,
         };
         let needed = npy.shape().iter().try_fold(item, |acc, &d| acc.checked_mul(d));

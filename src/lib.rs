@@ -6,18 +6,18 @@
 //! `demo`, `cli` and `tui` sit on top.
 
 pub mod alignment;
+pub mod cli;
+pub mod demo;
+pub mod eval;
 pub mod fit;
 pub mod io;
 pub mod landmarks;
 pub mod math;
+pub mod measure;
 pub mod model;
-pub mod session;
-pub mod testdata;
-pub mod cli;
 pub mod plot;
 pub mod render;
-pub mod measure;
+pub mod session;
+pub mod testdata;
 pub mod tui;
-pub mod demo;
-pub mod eval;
 pub mod workflow;

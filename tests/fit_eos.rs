@@ -294,6 +294,7 @@ fn sweep_settings() {
                 "pose" => s.pose_refinement_steps = v.parse().unwrap(),
                 "tol" => s.convergence_tolerance = v.parse().unwrap(),
                 "noise" => s.estimate_noise = v == "1",
+                "nonneg" => s.nonnegative_expressions = v == "1",
                 other => panic!("unknown key {other}"),
             }
         }

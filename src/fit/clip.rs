@@ -403,9 +403,7 @@ pub fn fit_group(
             // follows the landmark noise estimated from the residuals (λ ∝ σ̂²).
             let mut lambda_moved = false;
             if it > 0 && base.estimate_noise {
-                if let Some(f) =
-                    noise_factor(basis, observations, &states, &id_pts, image_height)
-                {
+                if let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height) {
                     let old = params.lambda_identity;
                     params.lambda_identity = base.lambda_identity * f;
                     params.lambda_expression = base.lambda_expression * f;

@@ -182,7 +182,12 @@ impl LandmarkBasis {
         for (oc, c) in cols.clone().enumerate() {
             let src = &self.gram6[c * k + rows.start..c * k + rows.end];
             for (o, g) in out.column_mut(oc).iter_mut().zip(src) {
-                *o += f[0] * g[0] + f[1] * g[1] + f[2] * g[2] + f[3] * g[3] + f[4] * g[4] + f[5] * g[5];
+                *o += f[0] * g[0]
+                    + f[1] * g[1]
+                    + f[2] * g[2]
+                    + f[3] * g[3]
+                    + f[4] * g[4]
+                    + f[5] * g[5];
             }
         }
     }

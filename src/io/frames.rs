@@ -194,10 +194,7 @@ impl FrameSource {
         // A chunk must fit comfortably in the cache or it would evict itself while decoding.
         let fit = (cache.capacity / frame_bytes.max(1) / 2).max(1);
         Ok(Self {
-            kind: Kind::Video {
-                file: file.to_path_buf(),
-                decode_lock: Mutex::new(()),
-            },
+            kind: Kind::Video { file: file.to_path_buf(), decode_lock: Mutex::new(()) },
             len,
             fps,
             size,

@@ -35,12 +35,11 @@ pub struct LandmarkBasis {
     mean: Vec<Vector3>,
     /// Row-major rows: landmark i, axis j at `rows[(3i + j)·K ..][..K]`.
     rows: Vec<Real>,
-    /// Gram blocks over all landmarks, xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each), interleaved
-    /// per entry (column-major K×K) so that a weighted sum of the six reads one stream.
-    gram6: Vec<[Real; 6]>,
+    /// Gram blocks over all landmarks: xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each).
+    gram: [DMatrix; 6],
 }
 
-/// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram6`.
+/// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
 const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
 
 impl LandmarkBasis {
@@ -94,7 +93,7 @@ impl LandmarkBasis {
             k_exp,
             mean,
             rows,
-            gram6: Vec::new(),
+            gram: std::array::from_fn(|_| DMatrix::zeros(0, 0)),
         };
         let mut gram: [DMatrix; 6] = std::array::from_fn(|_| DMatrix::zeros(k, k));
         for i in 0..l {
@@ -109,7 +108,7 @@ impl LandmarkBasis {
                 }
             }
         }
-        basis.gram6 = (0..k * k).map(|e| std::array::from_fn(|t| gram[t][e])).collect();
+        basis.gram = gram;
         basis
     }
 
@@ -177,18 +176,14 @@ impl LandmarkBasis {
         cols: std::ops::Range<usize>,
         out: &mut DMatrix,
     ) {
-        let f: [Real; 6] = std::array::from_fn(|t| scale * q[GRAM_PAIRS[t]]);
-        let k = self.num_coefficients();
-        for (oc, c) in cols.clone().enumerate() {
-            let src = &self.gram6[c * k + rows.start..c * k + rows.end];
-            for (o, g) in out.column_mut(oc).iter_mut().zip(src) {
-                *o += f[0] * g[0]
-                    + f[1] * g[1]
-                    + f[2] * g[2]
-                    + f[3] * g[3]
-                    + f[4] * g[4]
-                    + f[5] * g[5];
+        for (g, &(a, b)) in self.gram.iter().zip(&GRAM_PAIRS) {
+            let f = scale * q[(a, b)];
+            if f == 0.0 {
+                continue;
             }
+            out.zip_apply(&g.view((rows.start, cols.start), (rows.len(), cols.len())), |o, v| {
+                *o += f * v
+            });
         }
     }
 

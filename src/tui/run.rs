@@ -183,9 +183,23 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     alignment: app.alignment.clone().unwrap_or_default(),
                     fps: app.fps,
                     fits: app.fit.fits.values().cloned().collect(),
+                    extra_tables: indices_tables(&bridge.session, bridge.clip),
                 });
             }
             Effect::Quit => {}
         }
     }
+}
+
+/// The facial-index tables of the clip's speaker and the session's head, when they can be
+/// computed (a head, a map and the index points are needed); none otherwise.
+fn indices_tables(session: &crate::session::Session, clip: usize) -> Vec<crate::eval::Table> {
+    let name = session.clips.get(clip).map(|c| c.name.clone());
+    crate::cli::indices::session_tables(
+        session,
+        name.as_deref(),
+        None,
+        &crate::measure::BoundsTable::default(),
+    )
+    .unwrap_or_default()
 }

@@ -94,6 +94,9 @@ pub struct AnalysisJob {
     pub alignment: Alignment,
     pub fps: f64,
     pub fits: Vec<FrameFit>,
+    /// Tables computed from the session when the job was made (facial indices of speaker
+    /// and head, and their match), shown after the error tables.
+    pub extra_tables: Vec<crate::eval::Table>,
 }
 
 /// Rows of the worst-frame tables shown in the analysis view.
@@ -111,7 +114,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
     let shapes = shapes_by_frame(&job.model, &job.fits, n);
     let mut head = crate::measure::mesh::trajectory_from_shapes(
         shapes.iter().map(|s| s.as_ref()),
-        &job.map,
+        &job.map.with_commissures_completed(),
         &MeshMeasureOptions::default(),
     );
     for m in Measure::ALL {
@@ -148,6 +151,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         &report.worst_fits,
     ]
     .into_iter()
+    .chain(job.extra_tables.iter())
     .map(|t| table_for_tui(t, &first_frame_of, t.title == report.phonemes.title))
     .collect();
     let normalised = u.min_max_normalised();

@@ -402,8 +402,11 @@ pub fn fit_group(
             // Empirical Bayes: once the fit has reached the noise floor, the priors' weight
             // follows the landmark noise estimated from the residuals (λ ∝ σ̂²).
             let mut lambda_moved = false;
-            if it > 0 && base.estimate_noise {
-                if let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height) {
+            if it > 0
+                && base.estimate_noise
+                && let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height)
+            {
+                {
                     let old = params.lambda_identity;
                     params.lambda_identity = base.lambda_identity * f;
                     params.lambda_expression = base.lambda_expression * f;

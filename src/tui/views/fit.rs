@@ -110,7 +110,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
     frame.render_widget(Paragraph::new(lines), Rect::new(content.x, y, content.width, text_h));
     y += text_h;
-    // Front and side wireframes in the fitted pose, when there is room.
+    // Front and side wireframes of the fitted head in the fitted pose, when there is room.
     let room = bottom.saturating_sub(y);
     if let (Some(mesh), Some(fit)) = (&app.mesh, fit)
         && room >= 6
@@ -120,7 +120,18 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         let side_r = rotation(90.0, 0.0) * r;
         let front_area = Rect::new(content.x, y, half, room);
         let side_area = Rect::new(content.x + half, y, content.width - half, room);
-        draw_wireframe(frame, front_area, mesh, &app.mesh_edges, &r, 1.0, |_, _, _| {});
-        draw_wireframe(frame, side_area, mesh, &app.mesh_edges, &side_r, 1.0, |_, _, _| {});
+        // The fitted shape itself when the model shares the head's topology (computing it
+        // from the coefficients is a few hundred thousand multiply-adds, well inside a draw).
+        let fitted = app
+            .model
+            .as_ref()
+            .filter(|m| m.num_vertices() == mesh.vertices.len() && fit.failed.is_none())
+            .map(|m| {
+                let shape = crate::fit::fitted_shape(m, fit);
+                crate::model::Mesh::from_flat(shape.as_slice(), Vec::new())
+            });
+        let shown = fitted.as_ref().unwrap_or(mesh);
+        draw_wireframe(frame, front_area, shown, &app.mesh_edges, &r, 1.0, |_, _, _| {});
+        draw_wireframe(frame, side_area, shown, &app.mesh_edges, &side_r, 1.0, |_, _, _| {});
     }
 }

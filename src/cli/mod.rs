@@ -14,6 +14,7 @@ pub mod model_cmd;
 pub mod new;
 pub mod output;
 pub mod phones;
+pub mod profile_cmd;
 pub mod progress;
 pub mod tui_cmd;
 pub mod validate;
@@ -53,6 +54,8 @@ pub enum Command {
     Export(export::ExportArgs),
     /// Convert landmark files or phone alignments between formats.
     Convert(convert::ConvertArgs),
+    /// Side-view lip protrusion: set a clip's crop and reference line, print P per frame.
+    Profile(profile_cmd::ProfileArgs),
     /// Print a phone alignment as start,end,phone CSV.
     Phones(phones::PhonesArgs),
     /// Check that files parse; prints `ok` or the error for each.
@@ -94,6 +97,10 @@ pub fn run(cli: Cli) -> Result<Outcome> {
         }
         Command::Indices(args) => {
             indices::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Profile(args) => {
+            profile_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Phones(args) => {

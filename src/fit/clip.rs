@@ -1,13 +1,14 @@
-//! The alternating camera/shape solver for a group of frames that share one identity (a clip),
-//! with pose and expression per frame; a single frame is the one-frame case of the same solver.
+//! The solver for a group of frames that share one identity (a clip), with pose and expression
+//! per frame; a single frame is the one-frame case of the same solver.
 //!
-//! Each iteration: (1) per frame, the pose from the current shape (linear affine camera, then
-//! Gauss–Newton on the reprojection error); (2) the identity α jointly with every frame's free
-//! expression coefficients, by eliminating the expressions frame by frame (Schur complement)
-//! and solving the stacked identity system once, with the identity prior counted once per clip;
-//! (3) per frame, the expressions β ≥ 0 with the identity fixed (active-set NNLS), optionally
-//! pulled toward the neighbouring frames' β (temporal smoothness, one Jacobi sweep per
-//! iteration). A final pose step makes the reported pose match the final shape.
+//! Default (`pose_refinement_steps` > 0): start from eos's linear camera on the mean shape and
+//! NNLS expressions, then joint Levenberg–Marquardt steps over all poses, free expressions and
+//! the identity (`joint.rs`), each followed by an NNLS pass on β (updates which expressions
+//! are clamped at 0); in groups with enough residual degrees of freedom the priors follow the
+//! landmark noise estimated from the residuals. With `pose_refinement_steps` = 0 (eos's
+//! linear camera only) the older alternation runs: pose per frame; identity jointly with the
+//! free expressions (Schur complement, prior once per clip); expressions per frame (NNLS,
+//! optional temporal smoothness). A final pose step matches the reported pose to the shape.
 
 use super::camera::{self, OrthoPose};
 use super::joint;
@@ -406,21 +407,12 @@ pub fn fit_group(
                 && base.estimate_noise
                 && let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height)
             {
-                {
-                    let old = params.lambda_identity;
-                    params.lambda_identity = base.lambda_identity * f;
-                    params.lambda_expression = base.lambda_expression * f;
-                    lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
-                    cost = objective(
-                        basis,
-                        observations,
-                        &states,
-                        &id_pts,
-                        &alpha,
-                        image_height,
-                        params,
-                    );
-                }
+                let old = params.lambda_identity;
+                params.lambda_identity = base.lambda_identity * f;
+                params.lambda_expression = base.lambda_expression * f;
+                lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
+                cost =
+                    objective(basis, observations, &states, &id_pts, &alpha, image_height, params);
             }
             let lin = joint::linearise(
                 basis,

@@ -330,9 +330,9 @@ const CASES: &[(&str, Reader, &str)] = &[
         ":3: string values must be quoted, expected literal string",
     ),
     // MakeHuman .target
-    ("target_three_fields.target", target, ":3: expected `vertex dx dy dz`, got `36 0.002 0`"),
-    ("target_bad_vertex.target", target, ":1: bad vertex index `x12`"),
-    ("target_nan.target", target, ":2: `nan` is not a finite number"),
+    ("target_three_fields.target.txt", target, ":3: expected `vertex dx dy dz`, got `36 0.002 0`"),
+    ("target_bad_vertex.target.txt", target, ":1: bad vertex index `x12`"),
+    ("target_nan.target.txt", target, ":2: `nan` is not a finite number"),
     // sessions
     (
         "session_newer_schema.lipmap.json",

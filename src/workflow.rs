@@ -141,8 +141,37 @@ pub fn clip_length(session: &Session, clip: usize) -> Result<usize> {
     Ok(c.tracked.frames.last().map_or(0, |f| f.frame + 1))
 }
 
-/// The evaluation input of one clip: the video's W/H from the effective landmarks and the
-/// fitted head's W/H/P from its model-space shapes, with the clip's alignment.
+/// The evaluation input of one clip's parts: the video's W/H from `track` and the fitted
+/// head's W/H/P from its model-space shapes (measured through `map` with its mouth corners
+/// completed), both `n` frames long. Side-view P is the caller's to add.
+#[allow(clippy::too_many_arguments)]
+pub fn utterance_from_parts(
+    name: &str,
+    alignment: &crate::alignment::Alignment,
+    fps: f64,
+    track: &crate::landmarks::Track,
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    fits: &[FrameFit],
+    options: &MeshMeasureOptions,
+) -> Utterance {
+    let n = track.frames.last().map_or(0, |f| f.frame + 1);
+    let video = trajectory_from_track(track, Some(n));
+    let shapes = shapes_by_frame(model, fits, n);
+    let map = map.with_commissures_completed();
+    let head = trajectory_from_shapes(shapes.iter().map(|s| s.as_ref()), &map, options);
+    Utterance {
+        name: name.to_string(),
+        speaker: None,
+        alignment: alignment.clone(),
+        fps,
+        video: pad(video, n),
+        head: pad(head, n),
+    }
+}
+
+/// The evaluation input of one clip of a session: [`utterance_from_parts`] on its effective
+/// landmarks, plus the side view's protrusion when the clip has one.
 ///
 /// # Errors
 /// Unknown clip.
@@ -154,26 +183,24 @@ pub fn utterance_of_clip(
     options: &MeshMeasureOptions,
 ) -> Result<Utterance> {
     let c = session.clip(clip)?;
-    let n = clip_length(session, clip)?;
     let track = session.effective_track(clip)?;
-    let mut video = trajectory_from_track(&track, Some(n));
-    match side_view_protrusion(session, clip, n) {
-        Ok(Some(p)) => video.p = p,
+    let mut u = utterance_from_parts(
+        &c.name,
+        &c.alignment.clone().unwrap_or_default(),
+        c.front.fps,
+        &track,
+        &res.model,
+        &res.map,
+        fits,
+        options,
+    );
+    match side_view_protrusion(session, clip, u.video.len()) {
+        Ok(Some(p)) => u.video.p = p,
         Ok(None) => {}
         // The front-view tables are still worth having; say why P is missing.
         Err(e) => eprintln!("lipmap: clip `{}`: no side-view protrusion: {e:#}", c.name),
     }
-    let shapes = shapes_by_frame(&res.model, fits, n);
-    let map = res.map.with_commissures_completed();
-    let head = trajectory_from_shapes(shapes.iter().map(|s| s.as_ref()), &map, options);
-    Ok(Utterance {
-        name: c.name.clone(),
-        speaker: None,
-        alignment: c.alignment.clone().unwrap_or_default(),
-        fps: c.front.fps,
-        video: pad(video, n),
-        head: pad(head, n),
-    })
+    Ok(u)
 }
 
 fn pad(mut t: Trajectory, n: usize) -> Trajectory {

@@ -14,38 +14,29 @@ use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Arguments of `lipmap fit`.
-#[derive(clap::Args, Debug, Clone)]
+/// The checked inputs of a files-mode fit; `cli::fit_cmd::FitArgs` (the command line)
+/// builds it once the required flags are known to be present.
+#[derive(Debug, Clone)]
 pub struct FitFilesArgs {
     /// Model: eos `.bin`, `.npz`, a `.npy` folder, a lipmap model file or a folder of pose OBJs.
-    #[arg(long)]
     pub model: PathBuf,
     /// Expression blendshapes to add to the model (eos `.bin`, `.npy`, `.target`/OBJ folder).
-    #[arg(long)]
     pub blendshapes: Option<PathBuf>,
     /// Landmark map: eos TOML (1-based iBUG ids) or eos's `landmarks_and_contours.json`.
-    #[arg(long)]
     pub mapping: PathBuf,
     /// lipmap landmark CSV: `frame,point,x,y[,visible,confidence,source]`, pixels, y down.
-    #[arg(long)]
     pub landmarks: PathBuf,
     /// Image size in pixels, `WxH` (the height flips y for the camera).
-    #[arg(long, value_parser = parse_image_size)]
     pub image_size: (u32, u32),
     /// Landmark set driving the fit (F1 lips … F5 all); default as `FitSettings`.
-    #[arg(long)]
     pub set: Option<LandmarkSet>,
     /// Identity prior weight λ (eos convention, σ² = 3 px²); default as `FitSettings`.
-    #[arg(long)]
     pub lambda: Option<f64>,
     /// Camera/shape iterations; default as `FitSettings`.
-    #[arg(long)]
     pub iterations: Option<usize>,
     /// Fit the clip as one person: one identity, pose and expression per frame.
-    #[arg(long)]
     pub clip: bool,
     /// Output folder (created if missing).
-    #[arg(long)]
     pub out: PathBuf,
 }
 

@@ -106,29 +106,18 @@ const N_WORST: usize = 20;
 /// (min–max normalised, as the published method) and turns the report into the analysis
 /// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
 pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
-    use crate::eval::Utterance;
     use crate::measure::{Measure, MeshMeasureOptions};
-    use crate::workflow::{Normalisation, evaluate, shapes_by_frame};
-    let n = job.track.frames.last().map_or(0, |f| f.frame + 1);
-    let mut video = crate::measure::mouth::trajectory_from_track(&job.track, Some(n));
-    let shapes = shapes_by_frame(&job.model, &job.fits, n);
-    let mut head = crate::measure::mesh::trajectory_from_shapes(
-        shapes.iter().map(|s| s.as_ref()),
-        &job.map.with_commissures_completed(),
+    use crate::workflow::{Normalisation, evaluate, utterance_from_parts};
+    let u = utterance_from_parts(
+        &job.name,
+        &job.alignment,
+        job.fps,
+        &job.track,
+        &job.model,
+        &job.map,
+        &job.fits,
         &MeshMeasureOptions::default(),
     );
-    for m in Measure::ALL {
-        video.series_mut(m).resize(n, None);
-        head.series_mut(m).resize(n, None);
-    }
-    let u = Utterance {
-        name: job.name.clone(),
-        speaker: None,
-        alignment: job.alignment.clone(),
-        fps: job.fps,
-        video,
-        head,
-    };
     let report = evaluate(
         std::slice::from_ref(&u),
         &[(job.name.as_str(), job.fits.as_slice())],

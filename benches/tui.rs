@@ -1,6 +1,7 @@
 //! TUI benchmarks: keypress-to-drawn time when changing frame (720×480 frames, 120×40
 //! terminal, half-blocks, warm image cache; target median ≤ 16 ms) and the bytes written to
-//! the terminal when one point moves (printed once; ratatui sends only changed cells).
+//! the terminal when one point moves (printed once; ratatui sends only changed cells); and
+//! the cost of a Sixel or Kitty encoding of the image region (`tui_graphics`).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use lipmap::tui::fixtures::{counting_terminal, synthetic_app};
@@ -72,5 +73,48 @@ fn bench_draw(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_draw);
+/// Encoding the frame image for a terminal graphics protocol: one 120×40-cell region of a
+/// 720×480 frame at 10×20 px cells (1200×800 px), rasterised with its 68 markers and
+/// encoded; a marker moves every iteration so the cache never hits. Prints the bytes one
+/// such image sends to the terminal.
+fn bench_graphics(c: &mut Criterion) {
+    use lipmap::tui::app::ImageView;
+    use lipmap::tui::views::frames::landmark_markers;
+    use lipmap::tui::widgets::graphics::GraphicsState;
+    use lipmap::tui::widgets::halfblock::Mapping;
+    use ratatui::layout::Rect;
+    use ratatui_image::picker::ProtocolType;
+
+    let a = app();
+    let image = a.current_image().unwrap().clone();
+    let area = Rect::new(0, 0, 120, 40);
+    let mapping = Mapping::new(area, 720, 480, &ImageView::default()).unwrap();
+    let mut markers = landmark_markers(&a);
+    let mut group = c.benchmark_group("tui_graphics");
+    group.sample_size(20);
+    for (name, protocol) in [("sixel", ProtocolType::Sixel), ("kitty", ProtocolType::Kitty)] {
+        let mut gfx = GraphicsState::with_protocol(protocol, (10, 20), false);
+        let (mut term, bytes) = counting_terminal(120, 40).unwrap();
+        term.draw(|f| {
+            gfx.render(&image, 0, mapping, &markers, f.buffer_mut());
+        })
+        .unwrap();
+        println!(
+            "{name}: one 120x40-cell image (1200x800 px) sends {} bytes",
+            bytes.swap(0, Ordering::Relaxed)
+        );
+        let mut buf = ratatui::buffer::Buffer::empty(area);
+        group.bench_function(format!("encode_{name}_120x40_cells_of_720x480"), |b| {
+            let mut dx = 0.5;
+            b.iter(|| {
+                dx = -dx;
+                markers[0].x += dx;
+                gfx.render(&image, 0, mapping, black_box(&markers), &mut buf);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_draw, bench_graphics);
 criterion_main!(benches);

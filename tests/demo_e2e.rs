@@ -70,7 +70,9 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
             &MeshMeasureOptions::default(),
         )
         .unwrap();
-        for (m, col) in [(Measure::W, "w"), (Measure::H, "h"), (Measure::P, "p")] {
+        // With a side view the head's P is its whole upper lip's foremost point, as the
+        // profile shows it: truth `p_lip` (see docs/protrusion.md).
+        for (m, col) in [(Measure::W, "w"), (Measure::H, "h"), (Measure::P, "p_lip")] {
             let truth = truth_column(&clip.truth_csv, col);
             let head = u.head.series(m);
             assert_eq!(head.len(), truth.len(), "{}: frame count", clip.name);

@@ -223,6 +223,41 @@ fn specks_are_not_taken_for_the_lip() {
     assert!(close(m.upper_lip_px, Point2::new(140.0, 140.0), 1.5), "{:?}", m.upper_lip_px);
 }
 
+/// Lips of their own darker tone on a dark background, hard-edged (as the demo's side
+/// frames): Otsu first
+/// lumps lips with the background and the threshold is moved toward the background. A few
+/// stray pixels darker still must not be taken for the background, which would make the whole
+/// background a face tone (seen on a demo frame: the lip was lost).
+#[test]
+fn stray_dark_pixels_do_not_pass_for_the_background() {
+    // Hard-edged, as a render: anti-aliased edge pixels would spread over the gray levels
+    // and hide the stray pixels from Otsu.
+    let mut img = draw(&front_edge(0.0), 170.0, 26.0);
+    for p in img.pixels_mut() {
+        p.0[0] = if p.0[0] >= 98 { 170 } else { 26 };
+    }
+    for y in 131..=149u32 {
+        for x in 0..W {
+            let v = img.get_pixel(x, y).0[0];
+            let edge = edge_x(&front_edge(0.0), y as f64);
+            if v > 100 && x as f64 > edge - 14.0 {
+                img.put_pixel(x, y, Luma([70]));
+            }
+        }
+    }
+    for denoise in [true, false] {
+        let setup = ProfileSetup { denoise, ..setup_right() };
+        let clean = measure_lip_profile(&img, &setup).unwrap();
+        // Hard edges sit on whole pixels: within 2 px of the drawn 40.
+        assert!((clean.p_px - 40.0).abs() <= 2.0, "P = {}", clean.p_px);
+        let mut stray = img.clone();
+        stray.put_pixel(190, 175, Luma([4]));
+        stray.put_pixel(191, 175, Luma([6]));
+        let m = measure_lip_profile(&stray, &setup).unwrap();
+        assert!((m.p_px - clean.p_px).abs() < 1e-9, "denoise {denoise}: P = {}", m.p_px);
+    }
+}
+
 #[test]
 fn nose_found_on_the_full_frame_profile() {
     let img = draw(&front_edge(0.0), FACE, BACK);
@@ -388,45 +423,17 @@ fn truth_column(csv: &str, name: &str) -> Vec<f64> {
     lines.map(|l| l.split(',').nth(k).unwrap().parse().unwrap()).collect()
 }
 
-/// Speaker 0's P per frame with the foremost point taken over the whole upper-lip
-/// vermilion (`UpperLip::Vertices`), which is what a silhouette shows; the demo's `p` column
-/// takes it over the mapped landmark vertices only (`UpperLip::MappedLandmarks`).
-fn vertex_truth_speaker0(csv: &str) -> Vec<Option<f64>> {
-    use lipmap::demo::visemes::{Articulation, N_PARAMS, PARAM_NAMES};
-    use lipmap::measure::{MeshMeasureOptions, UpperLip, mesh::protrusion};
-    let (head, fields) = lipmap::demo::demo_head();
-    let speaker = lipmap::demo::speakers::make_speaker(&head, 0, None, 1.0).unwrap();
-    let params: Vec<Vec<f64>> = PARAM_NAMES.iter().map(|n| truth_column(csv, n)).collect();
-    let opts = MeshMeasureOptions {
-        upper_lip: UpperLip::Vertices(head.upper_lip.clone()),
-        ..Default::default()
-    };
-    (0..params[0].len())
-        .map(|f| {
-            let mut a = [0.0; N_PARAMS];
-            for (k, v) in a.iter_mut().enumerate() {
-                *v = params[k][f];
-            }
-            let verts = speaker
-                .warp
-                .apply_all(&fields.apply(&head.mesh.vertices, &Articulation::from_array(a)));
-            let flat = lipmap::model::Mesh { vertices: verts, faces: Vec::new() }.to_flat();
-            protrusion(&flat, &head.landmarks, &opts).ok()
-        })
-        .collect()
-}
-
 fn rmse(a: &[Option<f64>], b: &[Option<f64>]) -> f64 {
     let d: Vec<f64> =
         a.iter().zip(b).filter_map(|(x, y)| Some((x.as_ref()? - y.as_ref()?).powi(2))).collect();
     (d.iter().sum::<f64>() / d.len() as f64).sqrt()
 }
 
-/// A short demo sentence of speaker 0: automatic setup on frame 0, automatic extraction,
-/// compared after per-clip min–max on both sides (the judged metric). Against the truth
-/// with the silhouette's definition of "foremost upper-lip point" (all vermilion vertices)
-/// the bound is the judged 0.05; the demo's `p` column takes the foremost of the mapped
-/// landmark vertices only, a different point whose motion differs by a few per cent.
+/// A short demo sentence of speaker 0 through the library calls (not a session): automatic
+/// setup on frame 0, automatic extraction, compared after per-clip min–max on both sides.
+/// The truth of a silhouette is `p_lip` (the whole upper lip's foremost point); the demo's
+/// `p` (foremost mapped landmark vertex) is a different point whose motion differs by a few
+/// per cent. Every speaker and whole sentences: `tests/demo_side_view.rs`.
 #[test]
 fn demo_side_frames_match_the_true_protrusion() {
     let dir = tempfile::tempdir().unwrap();
@@ -452,11 +459,13 @@ fn demo_side_frames_match_the_true_protrusion() {
     assert!(failed <= 2, "{failed} frames failed");
     let csv = std::fs::read_to_string(&clip.truth_csv).unwrap();
     let measured = min_max(&points.iter().map(|p| p.p_norm).collect::<Vec<_>>());
-    let vermilion = rmse(&min_max(&vertex_truth_speaker0(&csv)), &measured);
-    let landmarks: Vec<Option<f64>> = truth_column(&csv, "p").into_iter().map(Some).collect();
-    let landmark = rmse(&min_max(&landmarks), &measured);
-    eprintln!("RMSE after min-max: vermilion truth {vermilion:.4}, landmark truth {landmark:.4}");
-    assert!(vermilion <= 0.05, "RMSE {vermilion}");
+    let column = |name: &str| -> Vec<Option<f64>> {
+        truth_column(&csv, name).into_iter().map(Some).collect()
+    };
+    let whole_lip = rmse(&min_max(&column("p_lip")), &measured);
+    let landmark = rmse(&min_max(&column("p")), &measured);
+    eprintln!("RMSE after min-max: p_lip {whole_lip:.4}, p {landmark:.4}");
+    assert!(whole_lip <= 0.05, "RMSE {whole_lip}");
     assert!(landmark <= 0.07, "RMSE {landmark}");
 }
 
@@ -464,79 +473,66 @@ fn min_max(v: &[Option<f64>]) -> Vec<Option<f64>> {
     lipmap::measure::min_max_normalise(v).unwrap()
 }
 
-/// Per-sentence RMSE (after per-clip min–max on both sides) of automatic side-view P against
-/// the demo truth, over several speakers and whole sentences. Slow: run with
-/// `cargo test --release --test profile -- --ignored --nocapture`.
+/// The head's P measured on side renders (`eval --head-p render`) against the head's P from
+/// the mesh (`UpperLip::Region`), on the true shapes of a demo sentence: with the demo side
+/// camera's true pitch (0°) the two move alike after min–max; a virtual camera nodded 15°
+/// off measures along another direction and differs more, either way; facing left mirrors.
 #[test]
-#[ignore]
-fn demo_speakers_whole_sentences() {
+fn rendered_head_p_tracks_the_mesh_p_at_the_true_pitch() {
+    use lipmap::demo::visemes::{Articulation, N_PARAMS, PARAM_NAMES};
+    use lipmap::measure::{MeshMeasureOptions, UpperLip, mesh::protrusion};
     let dir = tempfile::tempdir().unwrap();
     let opts = lipmap::demo::DemoOptions {
         out_dir: dir.path().to_path_buf(),
-        speakers: 3,
-        sentences: 2,
+        sentences: 1,
         write_model: false,
+        write_frames: false,
         ..Default::default()
     };
     let out = lipmap::demo::generate(&opts).unwrap();
-    let mut worst: f64 = 0.0;
-    for clip in out.speakers.iter().flat_map(|s| &s.clips) {
-        let side = clip.side_dir.as_ref().unwrap();
-        let load = |f: usize| -> Result<GrayImage, String> {
-            image::open(side.join(format!("frame_{f:05}.png")))
-                .map(|i| i.to_luma8())
-                .map_err(|e| e.to_string())
-        };
-        let setup = propose_setup(&load(0).unwrap(), Facing::Right).unwrap();
-        let points = extract_protrusion_with(clip.n_frames, load, &setup);
-        let csv = std::fs::read_to_string(&clip.truth_csv).unwrap();
-        let truth: Vec<Option<f64>> = truth_column(&csv, "p").into_iter().map(Some).collect();
-        let measured: Vec<Option<f64>> = points.iter().map(|p| p.p_norm).collect();
-        let failed = points.iter().filter(|p| p.failed.is_some()).count();
-        for p in points.iter().filter(|p| p.failed.is_some()) {
-            eprintln!("  frame {}: {}", p.frame, p.failed.as_deref().unwrap_or(""));
-        }
-        let e = rmse(
-            &lipmap::measure::min_max_normalise(&truth).unwrap(),
-            &lipmap::measure::min_max_normalise(&measured).unwrap(),
-        );
-        worst = worst.max(e);
-        if clip.dir.to_string_lossy().contains("speaker_00") {
-            let vt = lipmap::measure::min_max_normalise(&vertex_truth_speaker0(&csv)).unwrap();
-            eprintln!(
-                "  vs vermilion-vertex truth: RMSE {:.4}",
-                rmse(&vt, &lipmap::measure::min_max_normalise(&measured).unwrap())
-            );
-        }
-        if clip.dir.to_string_lossy().contains("speaker_00") {
-            let vt = lipmap::measure::min_max_normalise(&vertex_truth_speaker0(&csv)).unwrap();
-            eprintln!(
-                "  vs vermilion-vertex truth: RMSE {:.4}",
-                rmse(&vt, &lipmap::measure::min_max_normalise(&measured).unwrap())
-            );
-        }
-        if std::env::var_os("LIPMAP_DUMP").is_some() {
-            let (a, b) = (
-                lipmap::measure::min_max_normalise(&truth).unwrap(),
-                lipmap::measure::min_max_normalise(&measured).unwrap(),
-            );
-            let line: Vec<String> = a
-                .iter()
-                .zip(&b)
-                .map(|(x, y)| match (x, y) {
-                    (Some(x), Some(y)) => format!("{:+.0}", 100.0 * (y - x)),
-                    _ => "_".into(),
-                })
-                .collect();
-            eprintln!(
-                "  truth×100: {:?}",
-                a.iter().map(|x| (x.unwrap_or(0.0) * 100.0).round() as i32).collect::<Vec<_>>()
-            );
-            eprintln!("  err×100: {}", line.join(" "));
-        }
-        eprintln!("{} {} frames, {failed} failed: RMSE {e:.4}", clip.dir.display(), clip.n_frames);
+    let csv = std::fs::read_to_string(&out.speakers[0].clips[0].truth_csv).unwrap();
+    let (head, fields) = lipmap::demo::demo_head();
+    let params: Vec<Vec<f64>> = PARAM_NAMES.iter().map(|n| truth_column(&csv, n)).collect();
+    let shapes: Vec<Option<lipmap::math::DVector>> = (0..params[0].len())
+        .map(|f| {
+            let a: [f64; N_PARAMS] = std::array::from_fn(|k| params[k][f]);
+            let verts = fields.apply(&head.mesh.vertices, &Articulation::from_array(a));
+            Some(lipmap::model::Mesh { vertices: verts, faces: Vec::new() }.to_flat())
+        })
+        .collect();
+    let region = MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() }
+        .with_region_resolved(&head.mesh.to_flat(), &head.landmarks)
+        .unwrap();
+    let mesh: Vec<Option<f64>> = shapes
+        .iter()
+        .map(|s| protrusion(s.as_ref().unwrap(), &head.landmarks, &region).ok())
+        .collect();
+    let triangles = head.mesh.triangles();
+    let render = |pitch: f64, facing: Facing| {
+        let r = lipmap::workflow::head_p_by_render(
+            &shapes,
+            &triangles,
+            &head.landmarks,
+            facing,
+            pitch,
+            [720, 480],
+        )
+        .unwrap();
+        let missing = r.p.iter().filter(|p| p.is_none()).count();
+        assert_eq!(missing, 0, "pitch {pitch}: {missing} renders not measured");
+        r.p
+    };
+    let by_render = |pitch: f64| rmse(&min_max(&mesh), &min_max(&render(pitch, Facing::Right)));
+    // A clip whose side view faces left gets mirrored renders and the same P.
+    let (right, left) = (render(0.0, Facing::Right), render(0.0, Facing::Left));
+    for (r, l) in right.iter().zip(&left) {
+        assert!((r.unwrap() - l.unwrap()).abs() < 1e-9, "right {r:?} left {l:?}");
     }
-    eprintln!("worst per-sentence RMSE {worst:.4}");
-    // Against the landmark-vertex truth (the demo's `p`): see the fast demo test.
-    assert!(worst <= 0.07);
+    let (level, up, down) = (by_render(0.0), by_render(15.0), by_render(-15.0));
+    eprintln!(
+        "min-max RMSE render vs mesh P over {} frames: pitch 0° {level:.4}, +15° {up:.4}, −15° {down:.4}",
+        shapes.len()
+    );
+    assert!(level <= 0.05, "{level}");
+    assert!(up > 1.5 * level && down > 1.5 * level, "{level} {up} {down}");
 }

@@ -151,3 +151,20 @@ fn moving_one_point_sends_only_a_few_cells() {
     assert!(moved < 2_000, "one point moved: {moved} bytes (full draw {full})");
     assert!(full > 20 * moved, "full draw {full} vs one point {moved}");
 }
+
+#[test]
+fn side_view_with_a_corrected_point() {
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.fps = 25.0;
+        app.side = lipmap::tui::app::SideState::Ready(Box::new(
+            lipmap::tui::fixtures::synthetic_side(24, 176, 144),
+        ));
+        apply(&mut app, &[Action::ShowSide, Action::NextFrame]);
+        let plain = render(&app);
+        insta::assert_snapshot!(format!("side_{}x{}", size.0, size.1), plain.backend());
+        apply(&mut app, &[Action::Nudge { dx: 10, dy: 0 }]);
+        let t = render(&app);
+        insta::assert_snapshot!(format!("side_corrected_{}x{}", size.0, size.1), t.backend());
+    }
+}

@@ -241,15 +241,22 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     let mut a = synthetic_app(10, 64, 48, true);
     run(&mut a, [Action::RunFit]);
     assert!(a.status.contains("no model"), "{}", a.status);
-    a.model = Some(std::sync::Arc::new(lipmap::model::MorphableModel {
-        shape: lipmap::model::PcaModel {
-            mean: lipmap::math::DVector::zeros(3),
-            basis: lipmap::math::DMatrix::zeros(3, 0),
-            eigenvalues: lipmap::math::DVector::zeros(0),
-        },
-        expressions: None,
-        triangles: vec![],
-    }));
+    let model = |n: usize| {
+        Some(std::sync::Arc::new(lipmap::model::MorphableModel {
+            shape: lipmap::model::PcaModel {
+                mean: lipmap::math::DVector::zeros(3 * n),
+                basis: lipmap::math::DMatrix::zeros(3 * n, 0),
+                eigenvalues: lipmap::math::DVector::zeros(0),
+            },
+            expressions: None,
+            triangles: vec![],
+        }))
+    };
+    // A model too small for the map's vertices: refused once, before any frame is fitted.
+    a.model = model(1);
+    run(&mut a, [Action::RunFit]);
+    assert!(a.status.contains("cannot fit") && a.effects.is_empty(), "{}", a.status);
+    a.model = model(200);
     run(&mut a, [Action::NextFrame, Action::Nudge { dx: 1, dy: 0 }, Action::RunFit]);
     assert_eq!(a.effects.last(), Some(&Effect::Fit { generation: 1, frames: Some(vec![1]) }));
     run(&mut a, [Action::RunFit]);
@@ -286,6 +293,55 @@ fn head_labelling_assigns_and_undoes() {
     run(&mut a, [Action::Rotate { yaw: 180, pitch: 0 }, Action::PrevLabel, Action::ConfirmLabel]);
     let back = a.map.as_ref().unwrap().vertex(33).unwrap();
     assert!(a.mesh.as_ref().unwrap().vertices[back].z < 0.0, "turned around, the back is in front");
+}
+
+#[test]
+fn suggestions_label_the_head_from_a_few_labels_and_undo_as_one_step() {
+    use lipmap::fit::OrthoPose;
+    use lipmap::landmarks::LandmarkPoint;
+    let mut a = app();
+    a.map = None;
+    let mesh = a.mesh.clone().unwrap();
+    // The frame sees the head turned a little: 12 landmarks on distinct front vertices,
+    // every other landmark not visible.
+    let r = lipmap::fit::camera::rotation_from_yaw_pitch_roll_deg(15.0, 5.0, 0.0);
+    let pose = OrthoPose { r, s: 0.4, tx: 200.0, ty: 150.0 };
+    let front: Vec<usize> =
+        (0..mesh.vertices.len()).filter(|&v| (r * mesh.vertices[v].coords).z > 60.0).collect();
+    assert!(front.len() >= 12, "{} front vertices", front.len());
+    let truth: Vec<(usize, usize)> =
+        (0..12).map(|k| (30 + k, front[k * front.len() / 12])).collect();
+    let h = f64::from(a.frame_dims().1);
+    let f = a.frame();
+    let pts = &mut a.track.frames[a.frame_pos].points;
+    for p in pts.iter_mut() {
+        p.visible = false;
+    }
+    for &(l, v) in &truth {
+        let q = pose.project(&mesh.vertices[v], h);
+        pts[l] = LandmarkPoint::tracked(q.x, q.y);
+    }
+    a.tracked = a.track.clone();
+    run(&mut a, [Action::ShowHead, Action::SuggestLabel]);
+    assert!(a.status.contains("label at least 4"), "{}", a.status);
+    // Four labels by hand (the first four), then the rest from suggestions.
+    for &(l, v) in &truth[..4] {
+        a.map.get_or_insert_with(Default::default).to_vertex.insert(l, v);
+    }
+    a.head.label = truth[5].0;
+    run(&mut a, [Action::SuggestLabel]);
+    assert_eq!(a.head.suggested, Some(truth[5]), "{}", a.status);
+    run(&mut a, [Action::ConfirmLabel]);
+    assert_eq!(a.map.as_ref().unwrap().vertex(truth[5].0), Some(truth[5].1));
+    run(&mut a, [Action::SuggestAllLabels]);
+    let map = a.map.clone().unwrap();
+    for &(l, v) in &truth {
+        assert_eq!(map.vertex(l), Some(v), "landmark {l}");
+    }
+    assert_eq!(map.len(), 12, "invisible landmarks are not guessed");
+    run(&mut a, [Action::Undo]);
+    assert_eq!(a.map.as_ref().unwrap().len(), 5, "one undo removes every suggestion");
+    assert_eq!(a.frame(), f);
 }
 
 #[test]
@@ -329,4 +385,35 @@ fn quit_saves_first_and_help_toggles() {
     assert!(!a.should_quit && a.status.contains("disk full"));
     run(&mut a, [Action::Quit]);
     assert!(a.should_quit);
+}
+
+#[test]
+fn switching_clips_saves_first_and_names_the_clip() {
+    let mut a = app();
+    run(&mut a, [Action::NextClip]);
+    assert_eq!(a.status, "the session has one clip");
+    assert!(!a.should_quit);
+    a.clip_names = vec!["s1".into(), "s2".into(), "s3".into()];
+    run(&mut a, [Action::PrevClip]);
+    assert_eq!((a.switch_clip, a.should_quit), (Some(2), true), "nothing unsaved: at once");
+    let mut a = app();
+    a.clip_names = vec!["s1".into(), "s2".into()];
+    run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::NextClip]);
+    assert_eq!(a.switch_clip, Some(1));
+    assert!(!a.should_quit, "waits for the save");
+    let generation = a.save_generation;
+    run(&mut a, [Action::Saved { generation }]);
+    assert!(a.should_quit);
+    // A failed save keeps the user on this clip; q then quits rather than switching.
+    let mut a = app();
+    a.clip_names = vec!["s1".into(), "s2".into()];
+    run(
+        &mut a,
+        [
+            Action::Nudge { dx: 1, dy: 0 },
+            Action::NextClip,
+            Action::SaveFailed { error: "x".into() },
+        ],
+    );
+    assert_eq!(a.switch_clip, None);
 }

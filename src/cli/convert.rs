@@ -55,7 +55,12 @@ pub fn run(args: &ConvertArgs) -> Result<String> {
         );
     }
     landmark_format::write_track(&track, &args.output, format)?;
-    Ok(format!("{} frames -> {} ({})", track.len(), args.output.display(), format.name()))
+    Ok(format!(
+        "{} -> {} ({})",
+        crate::cli::output::plural(track.len(), "frame"),
+        args.output.display(),
+        format.name()
+    ))
 }
 
 /// True for files that hold phone alignments rather than landmarks.

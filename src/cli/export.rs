@@ -1,9 +1,10 @@
-//! `lipmap export SESSION --out DIR`: a session's effective landmarks, fitted meshes (OBJ
-//! sequences), evaluation tables (CSV) and trajectory charts (PNG) as plain files.
+//! `lipmap export SESSION --out DIR`: a session's effective landmarks, evaluation tables (CSV)
+//! and trajectory charts (PNG) as plain files; fitted meshes (OBJ sequences) when asked for.
 
 use crate::cli::eval_cmd::{select_clips, utterances_with};
 use crate::cli::exit::Outcome;
-use crate::cli::new::session_path;
+use crate::cli::new::{load_resources, open_for_read, save_if_locked};
+use crate::cli::output::{failure_lines, plural};
 use crate::cli::progress::frames_bar;
 use crate::eval::Utterance;
 use crate::fit::{FrameFit, fitted_shape};
@@ -12,7 +13,6 @@ use crate::io::obj;
 use crate::measure::Measure;
 use crate::model::Mesh;
 use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
-use crate::session::{Session, SessionLock};
 use crate::workflow::{self, Normalisation, Resources};
 use anyhow::{Context, Result, bail};
 use std::io::Write;
@@ -30,7 +30,8 @@ pub struct ExportArgs {
     /// pts-dir, openface, dlib or csv.
     #[arg(long, value_parser = parse_track_format)]
     pub landmarks: Option<LandmarkFormat>,
-    /// Export the fitted meshes, one OBJ per frame per clip, in the model's vertex order.
+    /// Export the fitted meshes, one OBJ per frame per clip, in the model's vertex order
+    /// (large: the whole model mesh per frame, so only when asked for, even with --all).
     #[arg(long)]
     pub meshes: bool,
     /// Export the evaluation tables as CSV.
@@ -39,8 +40,8 @@ pub struct ExportArgs {
     /// Export one W/H/P trajectory chart (PNG) per clip, with phone boundaries.
     #[arg(long)]
     pub plots: bool,
-    /// Everything (the default when nothing is asked for); landmarks as csv unless
-    /// --landmarks says otherwise.
+    /// Landmarks, tables and plots (the default when nothing is asked for); landmarks as csv
+    /// unless --landmarks says otherwise. Meshes need --meshes.
     #[arg(long)]
     pub all: bool,
     /// Only this clip.
@@ -75,13 +76,15 @@ pub struct ExportPlan {
 }
 
 impl ExportPlan {
-    /// The plan of `a`: everything when no kind is asked for, or with `--all`.
+    /// The plan of `a`: landmarks, tables and plots when no kind is asked for, or with
+    /// `--all`; meshes only with `--meshes` (an OBJ per frame of the whole model is hundreds
+    /// of megabytes for a few seconds of video).
     pub fn of(a: &ExportArgs) -> Self {
         let none = a.landmarks.is_none() && !a.meshes && !a.tables && !a.plots;
         let all = a.all || none;
         Self {
             landmarks: a.landmarks.or(all.then_some(LandmarkFormat::LipmapCsv)),
-            meshes: a.meshes || all,
+            meshes: a.meshes,
             tables: a.tables || all,
             plots: a.plots || all,
         }
@@ -124,11 +127,10 @@ pub const TABLE_FILES: [&str; 5] =
 /// Unknown session or clip, a missing model or map when fits are needed, any write failure.
 pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
     let plan = ExportPlan::of(a);
-    let path = session_path(&a.session);
     check_out_dir(&a.out)?;
-    // New fits are stored in the session's cache: lock it as `eval` does.
-    let _lock = SessionLock::acquire(&path)?;
-    let mut session = Session::load(&path)?;
+    // New fits are stored in the session's cache under the lock, as `eval` does; beside an
+    // open editor the export runs read-only.
+    let (path, lock, mut session) = open_for_read(&a.session)?;
     let clips = select_clips(&session, a.clip.as_deref())?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     let mut outcome = Outcome::Ok;
@@ -137,7 +139,7 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         let mut files = 0;
         for &c in &clips {
             let name = session.clip(c)?.name.clone();
-            let track = session.effective_track(c)?;
+            let track = rounded_track(session.effective_track(c)?);
             let target = landmarks_path(&a.out, &name, format);
             if let Some(parent) = target.parent() {
                 std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
@@ -147,7 +149,8 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         }
         writeln!(
             out,
-            "landmarks ({format}): {files} file(s) in {}",
+            "landmarks ({format}): {} in {}",
+            plural(files, "file"),
             a.out.join("landmarks").display()
         )?;
     }
@@ -155,18 +158,23 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         return Ok(outcome);
     }
 
-    let res = Resources::load(&session)?;
+    let res = load_resources(&session, &path)?;
     let settings = session.fit_settings.clone();
     // Save only when something is fitted now: an up-to-date session stays untouched.
     let any_stale = clips.iter().any(|&c| !session.stale_frames_with(c, &settings).is_empty());
     let (utterances, fits) = utterances_with(&mut session, &res, &clips, &settings)?;
     if any_stale {
-        session.save(&path)?;
+        save_if_locked(&session, &path, lock.as_ref())?;
     }
 
     if plan.meshes {
         let (written, failed) = export_meshes(&res, &fits, &a.out)?;
-        writeln!(out, "meshes: {written} OBJ file(s) in {}", a.out.join("meshes").display())?;
+        writeln!(
+            out,
+            "meshes: {} in {}",
+            plural(written, "OBJ file"),
+            a.out.join("meshes").display()
+        )?;
         if failed > 0 {
             outcome = Outcome::Partial;
         }
@@ -185,7 +193,7 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
             table.write_csv(&mut w).with_context(|| format!("{}", p.display()))?;
             w.flush().with_context(|| format!("{}", p.display()))?;
         }
-        writeln!(out, "tables: {} CSV file(s) in {}", TABLE_FILES.len(), dir.display())?;
+        writeln!(out, "tables: {} in {}", plural(TABLE_FILES.len(), "CSV file"), dir.display())?;
     }
     if plan.plots {
         for u in &utterances {
@@ -199,12 +207,28 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         }
         writeln!(
             out,
-            "plots: {} PNG file(s) in {}",
-            utterances.len(),
+            "plots: {} in {}",
+            plural(utterances.len(), "PNG file"),
             a.out.join("plots").display()
         )?;
     }
     Ok(outcome)
+}
+
+/// Decimals kept in exported landmark coordinates: 1/10,000 px is far below any tracker's or
+/// hand correction's precision, and drops float noise such as `41.28538095238095`.
+pub const LANDMARK_DECIMALS: i32 = 4;
+
+/// `track` with every coordinate rounded to [`LANDMARK_DECIMALS`] decimals.
+pub fn rounded_track(mut track: crate::landmarks::Track) -> crate::landmarks::Track {
+    let k = 10f64.powi(LANDMARK_DECIMALS);
+    for f in &mut track.frames {
+        for p in &mut f.points {
+            p.x = (p.x * k).round() / k;
+            p.y = (p.y * k).round() / k;
+        }
+    }
+    track
 }
 
 /// Writes one OBJ per successful fit; a failed fit is skipped with one stderr line.
@@ -223,11 +247,7 @@ fn export_meshes(
         std::fs::create_dir_all(&dir).with_context(|| format!("{}", dir.display()))?;
         for fit in clip_fits {
             bar.inc(1);
-            if let Some(why) = &fit.failed {
-                eprintln!(
-                    "lipmap: {clip}: frame {}: fit failed, no mesh written: {why}",
-                    fit.frame
-                );
+            if fit.failed.is_some() {
                 failed += 1;
                 continue;
             }
@@ -238,6 +258,12 @@ fn export_meshes(
         }
     }
     bar.finish_and_clear();
+    // One line per distinct reason, not one per frame.
+    for (clip, clip_fits) in fits {
+        for line in failure_lines(clip, clip_fits) {
+            eprintln!("lipmap: {line} (no mesh written)");
+        }
+    }
     Ok((written, failed))
 }
 

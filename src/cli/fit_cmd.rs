@@ -5,9 +5,10 @@ use crate::cli::eval_cmd::select_clips;
 use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
 use crate::cli::new::open_for_edit;
+use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text};
 use crate::cli::progress::frames_bar;
 use crate::landmarks::LandmarkSet;
-use crate::workflow::{self, Resources};
+use crate::workflow;
 use anyhow::{Result, bail};
 use std::io::Write;
 use std::path::PathBuf;
@@ -119,7 +120,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         settings.clip = false;
     }
     session.fit_settings = settings.clone();
-    let res = Resources::load(&session)?;
+    let res = crate::cli::new::load_resources(&session, &path)?;
     let clips = select_clips(&session, a.only.as_deref())?;
     let mut any_failed = false;
     for c in clips {
@@ -131,21 +132,18 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         };
         let fits = workflow::fit_clip_cached(&mut session, &res, c, &settings, Some(&progress))?;
         bar.finish_and_clear();
-        let mut rms: Vec<f64> =
-            fits.fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
-        rms.sort_by(f64::total_cmp);
-        let median = rms.get(rms.len() / 2).copied().unwrap_or(f64::NAN);
+        let median = rms_text(median_reprojection(&fits.fits));
         any_failed |= fits.failed() > 0;
         writeln!(
             out,
-            "{name}: {} frames ({} refitted, {} from cache), {} failed, median reprojection RMS {median:.2} px",
-            fits.fits.len(),
+            "{name}: {} ({} refitted, {} from cache), {} failed, median reprojection RMS {median}",
+            plural(fits.fits.len(), "frame"),
             fits.refitted,
             fits.fits.len() - fits.refitted,
             fits.failed()
         )?;
-        for f in fits.fits.iter().filter(|f| f.failed.is_some()) {
-            eprintln!("{name}: frame {}: {}", f.frame, f.failed.as_deref().unwrap_or(""));
+        for line in failure_lines(&name, &fits.fits) {
+            eprintln!("{line}");
         }
     }
     session.save(&path)?;

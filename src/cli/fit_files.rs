@@ -107,15 +107,9 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
         .with_context(|| format!("{}: cannot create the output folder", args.out.display()))?;
 
     let height = f64::from(args.image_size.1);
+    crate::workflow::check_map_for_fit(&map, model.num_vertices(), &settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.mapping.display()))?;
     let fitter = Fitter::new(&model, &map, &settings);
-    if fitter.basis().len() < 4 {
-        bail!(
-            "{}: only {} landmarks of set {} are mapped; a fit needs at least 4",
-            args.mapping.display(),
-            fitter.basis().len(),
-            settings.set
-        );
-    }
     let bar = frames_bar(
         track.len() as u64,
         if settings.clip { "fitting clip" } else { "fitting frames" },
@@ -137,13 +131,10 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
     npy_model::write_npy_f32(&shapes, &[fits.len() as u64, n3 as u64], &data)?;
 
     let failed = fits.iter().filter(|f| f.failed.is_some()).count();
-    let mut rms: Vec<f64> =
-        fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
-    rms.sort_by(|a, b| a.total_cmp(b));
-    let median = rms.get(rms.len() / 2).copied().unwrap_or(f64::NAN);
+    let median = crate::cli::output::rms_text(crate::cli::output::median_reprojection(&fits));
     println!(
-        "fitted {} frames ({} failed, {}) in {:.1} ms ({:.3} ms/frame); median reprojection RMS {:.2} px; wrote {} and {}",
-        fits.len(),
+        "fitted {} ({} failed, {}) in {:.1} ms ({:.3} ms/frame); median reprojection RMS {}; wrote {} and {}",
+        crate::cli::output::plural(fits.len(), "frame"),
         failed,
         if settings.clip { "clip" } else { "per frame" },
         elapsed.as_secs_f64() * 1e3,
@@ -164,7 +155,7 @@ pub fn run(args: &FitFilesArgs) -> Result<()> {
 }
 
 /// Writes `frame,yaw,pitch,roll,scale,tx,ty,reproj_rms_px,failed` (failed: empty, or the
-/// reason).
+/// reason; a failed frame's numbers are left empty, so no one reads its zeros as a fit).
 fn write_fit_csv(path: &Path, fits: &[FrameFit]) -> Result<()> {
     let err = |e: csv::Error| anyhow::anyhow!("{}: {e}", path.display());
     let mut w = csv::Writer::from_path(path).map_err(err)?;
@@ -181,7 +172,7 @@ fn write_fit_csv(path: &Path, fits: &[FrameFit]) -> Result<()> {
     ])
     .map_err(err)?;
     for f in fits {
-        let num = |v: f64| format!("{v:.6}");
+        let num = |v: f64| if f.failed.is_some() { String::new() } else { format!("{v:.6}") };
         w.write_record([
             f.frame.to_string(),
             num(f.yaw),
@@ -202,6 +193,22 @@ fn write_fit_csv(path: &Path, fits: &[FrameFit]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_failed_frame_has_no_numbers_in_fit_csv() {
+        let fit = |frame: usize, failed: Option<&str>| FrameFit {
+            reproj_rms_px: 0.5,
+            failed: failed.map(String::from),
+            ..FrameFit::unposed(frame)
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("fit.csv");
+        write_fit_csv(&path, &[fit(0, None), fit(1, Some("too few"))]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let rows: Vec<&str> = text.lines().collect();
+        assert!(rows[1].ends_with(",0.500000,"), "{text}");
+        assert_eq!(rows[2], "1,,,,,,,,too few");
+    }
 
     #[test]
     fn image_size_parses_and_rejects() {

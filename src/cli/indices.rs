@@ -247,9 +247,8 @@ pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
 /// # Errors
 /// No map; neither head mesh nor model; unreadable files; unmapped index points.
 pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
-    let map: LandmarkMap = session.landmark_map.resolve()?.ok_or_else(|| {
-        anyhow!("the session has no landmark map: give one with `lipmap new --mapping`")
-    })?;
+    let map: LandmarkMap =
+        session.landmark_map.resolve()?.ok_or_else(|| anyhow!(crate::workflow::NO_MAP_MESSAGE))?;
     if session.model.is_some() {
         return resources_head_indices(&Resources::load(session)?);
     }
@@ -313,7 +312,7 @@ pub fn checks_table(verdict: &MatchVerdict) -> Table {
         result(mw_known, narrow_on_wide, "narrow onto wide"),
     ]);
     t.notes.push(if !verdict.is_good_match() {
-        format!("verdict: {} warning(s)", verdict.warnings.len())
+        format!("verdict: {}", crate::cli::output::plural(verdict.warnings.len(), "warning"))
     } else if vmh_known && mw_known {
         "verdict: good match".into()
     } else {

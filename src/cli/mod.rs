@@ -39,9 +39,11 @@ pub enum Command {
     Demo(demo_cmd::DemoArgs),
     /// Open a session in the terminal UI.
     Tui(tui_cmd::TuiArgs),
-    /// Create a session from frames, landmarks, an alignment, a head, a model and a map.
+    /// Create a session from frames, landmarks, an alignment, a head, a model and
+    /// optionally a landmark map (or label the head in the TUI later).
+    #[command(mut_arg("frames", |a| a.required(true)), mut_arg("landmarks", |a| a.required(true)))]
     New(new::NewArgs),
-    /// Add a clip to a session.
+    /// Add a clip to a session, and/or set its landmark map (--mapping FILE).
     Import(new::ImportArgs),
     /// Fit a session's clips (cached), or landmark files with a model.
     Fit(fit_cmd::FitArgs),
@@ -114,7 +116,10 @@ pub fn run(cli: Cli) -> Result<Outcome> {
         Command::Validate(args) => {
             let bad = validate::run(&args, &mut out)?;
             if bad > 0 {
-                anyhow::bail!("{bad} of {} file(s) failed validation", args.files.len());
+                anyhow::bail!(
+                    "{bad} of {} failed validation",
+                    output::plural(args.files.len(), "file")
+                );
             }
             Ok(Outcome::Ok)
         }

@@ -63,3 +63,155 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
     }
     Ok(())
 }
+
+/// `n` and the noun, plural when `n` is not 1: "1 frame", "2 frames", "0 landmarks".
+pub fn plural(n: usize, noun: &str) -> String {
+    if n == 1 { format!("{n} {noun}") } else { format!("{n} {noun}s") }
+}
+
+/// A reprojection RMS for printing: `—` when there is none (every fit failed), never NaN.
+pub fn rms_text(rms_px: Option<f64>) -> String {
+    match rms_px {
+        Some(v) if v.is_finite() => format!("{v:.2} px"),
+        _ => "—".into(),
+    }
+}
+
+/// Median reprojection RMS of the fits that succeeded (`None` when none did).
+pub fn median_reprojection(fits: &[crate::fit::FrameFit]) -> Option<f64> {
+    let mut rms: Vec<f64> = fits
+        .iter()
+        .filter(|f| f.failed.is_none() && f.reproj_rms_px.is_finite())
+        .map(|f| f.reproj_rms_px)
+        .collect();
+    rms.sort_by(f64::total_cmp);
+    rms.get(rms.len() / 2).copied()
+}
+
+/// Frame numbers as compact ranges: `0-3, 7, 9-11`.
+pub fn frame_ranges(frames: &[usize]) -> String {
+    let mut sorted = frames.to_vec();
+    sorted.sort_unstable();
+    sorted.dedup();
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < sorted.len() {
+        let mut j = i;
+        while j + 1 < sorted.len() && sorted[j + 1] == sorted[j] + 1 {
+            j += 1;
+        }
+        parts.push(if i == j {
+            sorted[i].to_string()
+        } else {
+            format!("{}-{}", sorted[i], sorted[j])
+        });
+        i = j + 1;
+    }
+    parts.join(", ")
+}
+
+/// One line per distinct failure reason of a clip's fits, each naming its frames, so a reason
+/// shared by every frame prints once: `clip: 120 frames failed (0-119): too few …`.
+pub fn failure_lines(clip: &str, fits: &[crate::fit::FrameFit]) -> Vec<String> {
+    let mut by_reason: Vec<(&str, Vec<usize>)> = Vec::new();
+    for f in fits {
+        let Some(why) = f.failed.as_deref() else { continue };
+        match by_reason.iter_mut().find(|(r, _)| *r == why) {
+            Some((_, frames)) => frames.push(f.frame),
+            None => by_reason.push((why, vec![f.frame])),
+        }
+    }
+    by_reason
+        .into_iter()
+        .map(|(why, frames)| {
+            let what = if frames.len() == 1 {
+                format!("frame {}", frames[0])
+            } else {
+                format!("{} failed ({})", plural(frames.len(), "frame"), frame_ranges(&frames))
+            };
+            if frames.len() == 1 {
+                format!("{clip}: {what} failed: {why}")
+            } else {
+                format!("{clip}: {what}: {why}")
+            }
+        })
+        .collect()
+}
+
+/// Fails when no frame of any clip was fitted: the tables would hold nothing but failures.
+/// The error is one line with the count and the first clip's first reason.
+///
+/// # Errors
+/// Every fit failed (or there were none).
+pub fn require_some_fit(fits: &[(String, Vec<crate::fit::FrameFit>)]) -> Result<()> {
+    let total: usize = fits.iter().map(|(_, f)| f.len()).sum();
+    if fits.iter().flat_map(|(_, f)| f).any(|f| f.failed.is_none()) {
+        return Ok(());
+    }
+    let first = fits.iter().find_map(|(clip, f)| {
+        f.iter().find_map(|x| x.failed.as_deref().map(|why| format!("{clip}: {why}")))
+    });
+    match first {
+        Some(why) => anyhow::bail!(
+            "every fit failed ({} of {}), nothing to evaluate; first: {why}",
+            plural(total, "frame"),
+            plural(fits.len(), "clip")
+        ),
+        None => anyhow::bail!("no frame has landmarks to fit"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::FrameFit;
+
+    fn fit(frame: usize, failed: Option<&str>, rms: f64) -> FrameFit {
+        FrameFit {
+            reproj_rms_px: rms,
+            failed: failed.map(String::from),
+            ..FrameFit::unposed(frame)
+        }
+    }
+
+    #[test]
+    fn plural_and_ranges() {
+        assert_eq!(plural(1, "landmark"), "1 landmark");
+        assert_eq!(plural(0, "frame"), "0 frames");
+        assert_eq!(plural(14, "landmark"), "14 landmarks");
+        assert_eq!(frame_ranges(&[9, 0, 1, 2, 3, 7, 10, 11]), "0-3, 7, 9-11");
+        assert_eq!(frame_ranges(&[]), "");
+    }
+
+    #[test]
+    fn all_failed_median_is_a_dash_not_nan() {
+        let fits = vec![fit(0, Some("x"), 0.0), fit(1, Some("x"), 0.0)];
+        assert_eq!(median_reprojection(&fits), None);
+        assert_eq!(rms_text(median_reprojection(&fits)), "—");
+        let ok = vec![fit(0, None, 1.0), fit(1, None, 3.0), fit(2, Some("x"), 0.0)];
+        assert_eq!(rms_text(median_reprojection(&ok)), "3.00 px");
+    }
+
+    #[test]
+    fn identical_failures_print_once() {
+        let why = "too few usable landmarks (2 of 2)";
+        let fits: Vec<FrameFit> = (0..120).map(|i| fit(i, Some(why), 0.0)).collect();
+        let lines = failure_lines("c", &fits);
+        assert_eq!(lines, [format!("c: 120 frames failed (0-119): {why}")]);
+        let one = failure_lines("c", &[fit(4, Some("odd"), 0.0), fit(5, None, 1.0)]);
+        assert_eq!(one, ["c: frame 4 failed: odd"]);
+    }
+
+    #[test]
+    fn every_fit_failed_is_an_error() {
+        let why = "too few usable landmarks (2 of 2)";
+        let all = vec![("c".to_string(), vec![fit(0, Some(why), 0.0), fit(1, Some(why), 0.0)])];
+        let e = require_some_fit(&all).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!("every fit failed (2 frames of 1 clip), nothing to evaluate; first: c: {why}")
+        );
+        let some = vec![("c".to_string(), vec![fit(0, Some(why), 0.0), fit(1, None, 1.0)])];
+        assert!(require_some_fit(&some).is_ok());
+    }
+}

@@ -1,7 +1,10 @@
 //! `lipmap validate FILE...`: parse any file lipmap reads (landmarks, alignments, meshes,
-//! models, landmark maps, blendshape targets, sessions) and print `ok` or the one-line error.
+//! models, landmark maps, blendshape targets, sessions, videos and frame folders) and print
+//! `ok` or the one-line error.
 
 use crate::cli::convert::is_alignment_path;
+use crate::cli::output::plural;
+use crate::io::frames::{FrameOptions, FrameSource, IMAGE_EXTENSIONS};
 use crate::io::{
     alignment_format, landmark_format, landmark_map_toml, makehuman_target, model_source, obj,
 };
@@ -28,7 +31,16 @@ pub enum FileKind {
     Model,
     LandmarkMap,
     Target,
+    /// A video file (decoded with ffmpeg).
+    Video,
+    /// A folder of frame images.
+    Frames,
 }
+
+/// File extensions taken for videos (decoded with ffmpeg; anything ffmpeg reads works with
+/// `--frames`, these are the names recognised without being told).
+pub const VIDEO_EXTENSIONS: [&str; 11] =
+    ["mp4", "m4v", "mov", "avi", "mkv", "webm", "mpg", "mpeg", "wmv", "flv", "y4m"];
 
 /// Guesses the kind of `path`.
 pub fn classify(path: &Path) -> FileKind {
@@ -45,6 +57,7 @@ pub fn classify(path: &Path) -> FileKind {
         return FileKind::Alignment;
     }
     match ext.as_deref() {
+        Some(e) if VIDEO_EXTENSIONS.contains(&e) && !path.is_dir() => FileKind::Video,
         Some("obj") => FileKind::Mesh,
         Some("bin" | "npz" | "npy" | "lipmodel") => FileKind::Model,
         Some("toml") => FileKind::LandmarkMap,
@@ -65,7 +78,13 @@ pub fn classify(path: &Path) -> FileKind {
                     .flatten()
                     .any(|d| d.path().extension().is_some_and(|x| x.eq_ignore_ascii_case(e)))
             };
-            if has("pts") { FileKind::Landmarks } else { FileKind::Model }
+            if has("pts") {
+                FileKind::Landmarks
+            } else if IMAGE_EXTENSIONS.iter().any(|e| has(e)) && !has("obj") && !has("npy") {
+                FileKind::Frames
+            } else {
+                FileKind::Model
+            }
         }
         _ => FileKind::Landmarks,
     }
@@ -76,38 +95,60 @@ pub fn validate_file(path: &Path) -> Result<String> {
     Ok(match classify(path) {
         FileKind::Session => {
             let s = Session::load(path)?;
-            format!("session, {} clip(s)", s.clips.len())
+            format!("session, {}", plural(s.clips.len(), "clip"))
         }
         FileKind::Landmarks => {
             let t = landmark_format::read_track(path)?;
-            format!("landmarks, {} frame(s)", t.len())
+            format!("landmarks, {}", plural(t.len(), "frame"))
         }
         FileKind::Alignment => {
             let a = alignment_format::read_alignment(path, None)?;
-            format!("alignment, {} phone(s)", a.phones.len())
+            format!("alignment, {}", plural(a.phones.len(), "phone"))
         }
         FileKind::Mesh => {
             let m = obj::read_obj(path)?;
-            format!("mesh, {} vertices, {} faces", m.vertices.len(), m.faces.len())
+            format!(
+                "mesh, {}, {}",
+                plural_vertices(m.vertices.len()),
+                plural(m.faces.len(), "face")
+            )
         }
         FileKind::Model => {
             let m = model_source::load_model(path, None)?;
             format!(
-                "model, {} vertices, {} shape components, {} expressions",
-                m.num_vertices(),
-                m.num_shape_components(),
-                m.num_expressions()
+                "model, {}, {}, {}",
+                plural_vertices(m.num_vertices()),
+                plural(m.num_shape_components(), "shape component"),
+                plural(m.num_expressions(), "expression")
             )
         }
         FileKind::LandmarkMap => {
             let m = landmark_map_toml::read_landmark_map(path)?;
-            format!("landmark map, {} landmarks mapped", m.len())
+            format!("landmark map, {} mapped", plural(m.len(), "landmark"))
         }
         FileKind::Target => {
             let t = makehuman_target::read_target(path)?;
-            format!("blendshape target, {} vertex offsets", t.len())
+            format!("blendshape target, {}", plural(t.len(), "vertex offset"))
+        }
+        FileKind::Video | FileKind::Frames => {
+            let f = FrameSource::open(path, &FrameOptions::default())?;
+            let [w, h] = f.size();
+            let what = if f.path().is_dir() { "image folder" } else { "video" };
+            // 29.97002997… prints as 29.97, 25.0 as 25.
+            let rate = format!("{:.2}", f.fps());
+            let rate = rate.trim_end_matches('0').trim_end_matches('.');
+            let fps = if f.path().is_dir() {
+                format!("{rate} fps assumed (give --fps to `lipmap new`)")
+            } else {
+                format!("{rate} fps")
+            };
+            format!("{what}, {} at {fps}, {w}x{h}", plural(f.len(), "frame"))
         }
     })
+}
+
+fn plural_vertices(n: usize) -> String {
+    if n == 1 { "1 vertex".into() } else { format!("{n} vertices") }
 }
 
 /// Validates every file, printing `PATH: ok (...)` or the error; returns the number of bad files.

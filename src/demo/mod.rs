@@ -18,6 +18,17 @@
 //!     truth.csv                    per frame: phone, W, H, P (model space), pose, side camera
 //!     errors.csv                   the injected gross errors: frame,kind,point,other,dx,dy
 //! ```
+//!
+//! Two protrusion truths are in `truth.csv`, both (foremost z − inner-eye-corner plane z) /
+//! |nasion − nose tip| in model space:
+//! - `p_lip`: the foremost point of the whole upper lip (every vermilion vertex of
+//!   `head.upper_lip`). This is what a profile silhouette shows, so it is the truth of P
+//!   measured from the side view (`workflow::side_view_protrusion`), and what a fitted head's
+//!   P is measured as when the clip's P comes from a side view (`UpperLip::Region`).
+//! - `p`: the foremost of the mapped upper-lip landmark vertices (`UpperLip::MappedLandmarks`,
+//!   outer 48–54, inner 60–64), the mesh measure's default, for heads evaluated against
+//!   landmark-only P. Between landmark vertices the lip can be further forward, so `p` moves
+//!   a few per cent differently from `p_lip`.
 
 pub mod coart;
 pub mod head;
@@ -355,7 +366,9 @@ struct TruthRow {
     viseme: String,
     w: f64,
     h: f64,
+    /// P of the foremost mapped upper-lip landmark vertex.
     p: f64,
+    /// P of the whole upper lip's foremost point: the side view's truth.
     p_lip: f64,
     w_img: f64,
     h_img: f64,

@@ -17,6 +17,9 @@ pub enum Cell {
     /// No value (a missing measure, a test that could not run): blank in text, empty in
     /// CSV, `null` in JSON.
     Empty,
+    /// A number that does not exist (a failed fit's reprojection RMS): `—` in text, empty in
+    /// CSV, `null` in JSON, so it cannot be read as a real 0.
+    Missing,
     Text(String),
     Int(i64),
     Num(f64),
@@ -40,6 +43,7 @@ impl Cell {
     pub fn display(&self, precision: usize) -> String {
         match self {
             Cell::Empty => String::new(),
+            Cell::Missing => "—".into(),
             Cell::Text(s) => s.clone(),
             Cell::Int(i) => i.to_string(),
             Cell::Num(v) => format!("{v:.precision$}"),
@@ -55,7 +59,7 @@ impl Cell {
 impl Serialize for Cell {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         match self {
-            Cell::Empty => s.serialize_none(),
+            Cell::Empty | Cell::Missing => s.serialize_none(),
             Cell::Text(t) => s.serialize_str(t),
             Cell::Int(i) => s.serialize_i64(*i),
             Cell::Num(v) if v.is_finite() => s.serialize_f64(*v),
@@ -109,7 +113,7 @@ impl Table {
             .map(|c| {
                 let mut cells = (0..self.rows.len()).map(|r| self.cell(r, c));
                 cells.clone().any(Cell::is_numeric)
-                    && cells.all(|x| x.is_numeric() || *x == Cell::Empty)
+                    && cells.all(|x| x.is_numeric() || matches!(x, Cell::Empty | Cell::Missing))
             })
             .collect()
     }
@@ -183,6 +187,7 @@ impl Table {
             let rec: Vec<String> = (0..self.headers.len())
                 .map(|c| match self.cell(r, c) {
                     Cell::Num(v) if v.is_finite() => v.to_string(),
+                    Cell::Missing => String::new(),
                     other => other.display(0),
                 })
                 .collect();
@@ -218,9 +223,10 @@ impl Table {
     }
 }
 
-/// Which measures a set of utterances has (P only when some head or video carries it).
+/// Which measures a set of utterances can compare: P only when some clip's video carries it
+/// (every column compares video with head, so a head's P alone fills nothing).
 fn measures_present(utterances: &[Utterance]) -> Vec<Measure> {
-    let has_p = utterances.iter().any(|u| u.video.has_p() || u.head.has_p());
+    let has_p = utterances.iter().any(|u| u.video.has_p());
     Measure::ALL.into_iter().filter(|m| *m != Measure::P || has_p).collect()
 }
 
@@ -312,7 +318,7 @@ pub fn worst_fit_table(fits: &[WorstFit]) -> Table {
             Cell::Int(k as i64 + 1),
             Cell::text(&f.clip),
             Cell::Int(f.frame as i64),
-            Cell::num(Some(f.reproj_rms_px)),
+            if f.failed.is_some() { Cell::Missing } else { Cell::num(Some(f.reproj_rms_px)) },
             f.failed.as_ref().map_or(Cell::Empty, Cell::text),
         ]);
     }
@@ -371,6 +377,7 @@ pub fn verdict_table(verdict: &MatchVerdict) -> Table {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::measure::Trajectory;
 
     fn sample() -> Table {
         let mut t = Table::new("demo", vec!["name".into(), "W".into(), "n".into()]);
@@ -423,6 +430,48 @@ mod tests {
         assert!(sample().write_text(&mut Broken).is_err());
         assert!(sample().write_json(&mut Broken).is_err());
         assert!(sample().write_csv(&mut Broken).is_err());
+    }
+
+    #[test]
+    fn a_failed_fit_shows_a_dash_not_zero() {
+        let fits = [
+            WorstFit { clip: "c".into(), frame: 0, reproj_rms_px: 0.0, failed: Some("x".into()) },
+            WorstFit { clip: "c".into(), frame: 1, reproj_rms_px: 1.25, failed: None },
+        ];
+        let t = worst_fit_table(&fits);
+        let text = t.to_text();
+        assert!(!text.contains("0.000"), "{text}");
+        assert_eq!(t.formatted_rows()[0][3], "—");
+        assert_eq!(t.formatted_rows()[1][3], "1.250");
+        assert!(t.numeric_columns()[3]);
+        let mut csv = Vec::new();
+        t.write_csv(&mut csv).unwrap();
+        assert!(String::from_utf8(csv).unwrap().contains("1,c,0,,x\n"));
+        assert!(t.to_json_records()[0]["reproj RMS px"].is_null());
+    }
+
+    #[test]
+    fn sentence_table_has_p_only_when_a_clip_has_p() {
+        let series = |v: &[f64]| v.iter().map(|&x| Some(x)).collect::<Vec<_>>();
+        let head = Trajectory {
+            w: series(&[1.0, 2.0, 3.0]),
+            h: series(&[1.0, 3.0, 2.0]),
+            p: series(&[0.5, 0.6, 0.7]),
+        };
+        let mut u = Utterance {
+            name: "s".into(),
+            speaker: None,
+            alignment: Default::default(),
+            fps: 25.0,
+            video: Trajectory { p: Vec::new(), ..head.clone() },
+            head,
+        };
+        // The fitted head always has a P; the video here has none: no P columns.
+        let t = sentence_table(std::slice::from_ref(&u));
+        assert!(t.headers.iter().all(|h| !h.ends_with(" P")), "{:?}", t.headers);
+        u.video.p = series(&[0.4, 0.6, 0.9]);
+        let t = sentence_table(&[u]);
+        assert!(t.headers.contains(&"RMSE P".to_string()), "{:?}", t.headers);
     }
 
     #[test]

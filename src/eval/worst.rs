@@ -123,18 +123,9 @@ mod tests {
     #[test]
     fn failed_fits_rank_first() {
         let fit = |frame: usize, rms: f64, failed: bool| FrameFit {
-            frame,
-            yaw: 0.0,
-            pitch: 0.0,
-            roll: 0.0,
-            scale: 1.0,
-            tx: 0.0,
-            ty: 0.0,
-            identity: vec![],
-            expression: vec![],
             reproj_rms_px: rms,
-            residuals: vec![],
             failed: failed.then(|| "too few landmarks".to_string()),
+            ..FrameFit::unposed(frame)
         };
         let a = [fit(0, 1.0, false), fit(1, 9.0, false), fit(2, 0.5, true)];
         let b = [fit(0, f64::NAN, false), fit(1, 3.0, false)];

@@ -11,6 +11,7 @@ mod joint;
 pub mod pipeline;
 pub mod result;
 pub mod shape;
+pub mod suggest;
 
 pub use camera::OrthoPose;
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};

@@ -98,3 +98,24 @@ pub struct FrameFit {
     /// Why the frame failed, when it did.
     pub failed: Option<String>,
 }
+
+impl FrameFit {
+    /// Frame `frame` seen head-on at unit scale, with no coefficients, residuals or
+    /// failure: the value to fill in field by field.
+    pub fn unposed(frame: usize) -> Self {
+        Self {
+            frame,
+            yaw: 0.0,
+            pitch: 0.0,
+            roll: 0.0,
+            scale: 1.0,
+            tx: 0.0,
+            ty: 0.0,
+            identity: Vec::new(),
+            expression: Vec::new(),
+            reproj_rms_px: 0.0,
+            residuals: Vec::new(),
+            failed: None,
+        }
+    }
+}

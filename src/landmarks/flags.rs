@@ -316,18 +316,9 @@ mod tests {
     #[test]
     fn residual_outliers_and_failures() {
         let fit = |frame, rms: f64, failed: Option<&str>| FrameFit {
-            frame,
-            yaw: 0.0,
-            pitch: 0.0,
-            roll: 0.0,
-            scale: 1.0,
-            tx: 0.0,
-            ty: 0.0,
-            identity: vec![],
-            expression: vec![],
             reproj_rms_px: rms,
-            residuals: vec![],
             failed: failed.map(str::to_string),
+            ..FrameFit::unposed(frame)
         };
         let fits: Vec<FrameFit> = (0..20)
             .map(|f| match f {

@@ -47,6 +47,14 @@ pub enum UpperLip {
     /// A caller-given vertex set (0-based vertex indices), e.g. the whole upper-lip region of
     /// a head, which finds the true foremost point between landmark vertices.
     Vertices(Vec<usize>),
+    /// The whole upper lip of any head, found from its landmark map: the front-surface
+    /// vertices whose frontal (x, y) lie inside the band outlined by the mapped upper-lip
+    /// landmarks (see [`upper_lip_region`]). This is what a profile silhouette shows, so use
+    /// it when the head's P is compared with P from a side view. Resolve it once per model
+    /// with [`MeshMeasureOptions::with_region_resolved`] (the region of the neutral shape);
+    /// left unresolved, each measured shape finds its own region (slower, and the region
+    /// then moves with the lips).
+    Region,
 }
 
 /// How W and H are measured between two vertices.
@@ -73,6 +81,100 @@ pub struct MeshMeasureOptions {
 
 /// Upper-lip landmarks used by [`UpperLip::MappedLandmarks`].
 pub const UPPER_LIP_LANDMARKS: [usize; 12] = [48, 49, 50, 51, 52, 53, 54, 60, 61, 62, 63, 64];
+
+/// The upper-lip band as a closed polygon of landmarks: the outer upper lip from the right
+/// corner (48) over the Cupid's bow to the left corner (54), then the inner upper lip back
+/// from 64 to 60.
+pub const UPPER_LIP_BAND: [usize; 12] = [48, 49, 50, 51, 52, 53, 54, 64, 63, 62, 61, 60];
+
+/// How far behind the band's rearmost landmark vertex (in |nasion − nose tip| lengths) a
+/// vertex may lie and still count as lip surface: the vermilion curves back less than this
+/// between its landmarks, while the back of a head, eyeballs behind the face or a mouth
+/// interior deeper than this are left out (they could never be the foremost point anyway,
+/// but a smaller set is cheaper per frame).
+const REGION_DEPTH: f64 = 0.25;
+
+/// Whether `p` lies inside the closed polygon `poly` (even–odd rule; points exactly on an
+/// edge count as inside).
+fn inside_polygon(p: Point2, poly: &[Point2]) -> bool {
+    let mut inside = false;
+    let n = poly.len();
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+        // On the edge a–b: collinear and between the ends.
+        let cross = (b - a).perp(&(p - a));
+        let dot = (p - a).dot(&(p - b));
+        if cross.abs() <= 1e-12 * (b - a).norm_squared().max(1e-300) && dot <= 0.0 {
+            return true;
+        }
+        if (a.y > p.y) != (b.y > p.y) {
+            let x = a.x + (p.y - a.y) * (b.x - a.x) / (b.y - a.y);
+            if p.x < x {
+                inside = !inside;
+            }
+        }
+    }
+    inside
+}
+
+/// The whole upper lip of `shape` (flat, model space: y up, face along +z) through `map`:
+/// the vertices whose frontal projection (x, y) falls inside the band outlined by the mapped
+/// upper-lip landmarks ([`UPPER_LIP_BAND`]; unmapped ones are skipped, at least 3 needed),
+/// no deeper than a quarter nose length behind the band's rearmost landmark vertex, plus the
+/// mapped upper-lip landmark vertices themselves. Ascending vertex order.
+///
+/// Give it the model's mean (neutral) shape once and use the result per frame
+/// ([`MeshMeasureOptions::with_region_resolved`]): the lip's vertices stay the lip's.
+///
+/// # Errors
+/// `MissingLandmark` when fewer than 3 band landmarks, or nasion/nose tip, are mapped;
+/// `VertexOutOfRange`, `NonFinite`, `BadShapeLength`.
+pub fn upper_lip_region(shape: &DVector, map: &LandmarkMap) -> Result<Vec<usize>, MeasureError> {
+    check_shape(shape)?;
+    let mut poly = Vec::with_capacity(UPPER_LIP_BAND.len());
+    let mut rear = f64::INFINITY;
+    let mut own = Vec::new();
+    for &l in &UPPER_LIP_BAND {
+        let Some(v) = map.vertex(l) else { continue };
+        let p = vertex_of(shape, v, l)?;
+        poly.push(Point2::new(p.x, p.y));
+        rear = rear.min(p.z);
+        own.push(v);
+    }
+    if poly.len() < 3 {
+        let missing = UPPER_LIP_BAND.iter().copied().find(|&l| map.vertex(l).is_none());
+        return Err(MeasureError::MissingLandmark(missing.unwrap_or(UPPER_LIP_BAND[0])));
+    }
+    let length =
+        (landmark_vertex(shape, map, NASION)? - landmark_vertex(shape, map, NOSE_TIP)?).norm();
+    if !length.is_finite() || length <= 1e-12 {
+        return Err(MeasureError::DegenerateReference(length));
+    }
+    let z_min = rear - REGION_DEPTH * length;
+    let (lo, hi) = poly.iter().fold(
+        (
+            Point2::new(f64::INFINITY, f64::INFINITY),
+            Point2::new(f64::NEG_INFINITY, f64::NEG_INFINITY),
+        ),
+        |(lo, hi), p| {
+            (Point2::new(lo.x.min(p.x), lo.y.min(p.y)), Point2::new(hi.x.max(p.x), hi.y.max(p.y)))
+        },
+    );
+    let mut region: Vec<usize> = (0..shape.len() / 3)
+        .filter(|&v| {
+            let (x, y, z) = (shape[3 * v], shape[3 * v + 1], shape[3 * v + 2]);
+            let q = Point2::new(x, y);
+            z >= z_min
+                && (lo.x..=hi.x).contains(&x)
+                && (lo.y..=hi.y).contains(&y)
+                && inside_polygon(q, &poly)
+        })
+        .collect();
+    region.extend(own);
+    region.sort_unstable();
+    region.dedup();
+    Ok(region)
+}
 
 /// Vertex `v` of a flat `x0 y0 z0 x1 …` shape.
 ///
@@ -170,14 +272,8 @@ pub fn protrusion(
             }
             best
         }
-        UpperLip::Vertices(vs) => {
-            let mut best: Option<f64> = None;
-            for &v in vs {
-                let z = vertex(shape, v)?.z;
-                best = Some(best.map_or(z, |b| b.max(z)));
-            }
-            best
-        }
+        UpperLip::Vertices(vs) => foremost_z(shape, vs)?,
+        UpperLip::Region => foremost_z(shape, &upper_lip_region(shape, map)?)?,
     }
     .ok_or(MeasureError::NoUpperLip)?;
     let length =
@@ -186,6 +282,36 @@ pub fn protrusion(
         return Err(MeasureError::DegenerateReference(length));
     }
     Ok((foremost - z_ref) / length)
+}
+
+/// The largest z among vertices `vs` of `shape` (`None` for an empty set).
+fn foremost_z(shape: &DVector, vs: &[usize]) -> Result<Option<f64>, MeasureError> {
+    let mut best: Option<f64> = None;
+    for &v in vs {
+        let z = vertex(shape, v)?.z;
+        best = Some(best.map_or(z, |b| b.max(z)));
+    }
+    Ok(best)
+}
+
+impl MeshMeasureOptions {
+    /// These options with [`UpperLip::Region`] replaced by the region of `neutral` (e.g. the
+    /// model's mean shape), so every frame measures the same vertices; other choices are
+    /// returned unchanged.
+    ///
+    /// # Errors
+    /// As [`upper_lip_region`].
+    pub fn with_region_resolved(
+        &self,
+        neutral: &DVector,
+        map: &LandmarkMap,
+    ) -> Result<MeshMeasureOptions, MeasureError> {
+        let mut out = self.clone();
+        if out.upper_lip == UpperLip::Region {
+            out.upper_lip = UpperLip::Vertices(upper_lip_region(neutral, map)?);
+        }
+        Ok(out)
+    }
 }
 
 /// W, H and P of one model-space shape (flat `x0 y0 z0 …`) through a landmark map.
@@ -375,6 +501,75 @@ mod tests {
             ..Default::default()
         };
         assert!((protrusion(&s, &map, &set).unwrap() - 16.5 / len).abs() < 1e-12);
+    }
+
+    /// `head()` with its upper-lip band laid out as a real one: outer 48..54 along an arch,
+    /// inner 60..64 along a flatter one below, vertex 68 inside the band (in front of every
+    /// landmark), 69 below the band (further forward still, but lower lip), and vertex 0 in
+    /// the band's (x, y) but far behind the face (the back of a head).
+    fn head_with_band() -> (DVector, LandmarkMap) {
+        let (mut s, map) = head();
+        let mut set = |v: usize, p: [f64; 3]| s.fixed_rows_mut::<3>(3 * v).copy_from_slice(&p);
+        for (k, l) in (48..=54).enumerate() {
+            let x = -24.0 + 8.0 * k as f64;
+            set(l, [x, -20.0 - 0.01 * x * x, 20.0 - 0.01 * x * x]);
+        }
+        for (k, l) in (60..=64).enumerate() {
+            let x = -20.0 + 10.0 * k as f64;
+            set(l, [x, -26.0 - 0.005 * x * x, 19.0 - 0.01 * x * x]);
+        }
+        set(68, [1.0, -23.0, 26.5]);
+        set(69, [0.0, -29.0, 30.0]);
+        set(0, [0.0, -23.0, -80.0]);
+        (s, map)
+    }
+
+    #[test]
+    fn region_is_the_band_between_outer_and_inner_upper_lip() {
+        let (s, map) = head_with_band();
+        let region = upper_lip_region(&s, &map).unwrap();
+        assert!(region.contains(&68), "{region:?}");
+        assert!(!region.contains(&69) && !region.contains(&0), "{region:?}");
+        for l in UPPER_LIP_LANDMARKS {
+            assert!(region.contains(&l));
+        }
+        let len = (35.0f64 * 35.0 + 18.0 * 18.0).sqrt();
+        let opts = MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() };
+        // Plane z 10; the foremost region vertex is 68 at z 26.5, ahead of every landmark.
+        assert!((protrusion(&s, &map, &opts).unwrap() - 16.5 / len).abs() < 1e-12);
+        let resolved = opts.with_region_resolved(&s, &map).unwrap();
+        assert_eq!(resolved.upper_lip, UpperLip::Vertices(region));
+        assert!((protrusion(&s, &map, &resolved).unwrap() - 16.5 / len).abs() < 1e-12);
+        let landmarks = protrusion(&s, &map, &MeshMeasureOptions::default()).unwrap();
+        assert!((landmarks - 10.0 / len).abs() < 1e-12, "{landmarks}");
+        // Other choices pass through unchanged.
+        let plain = MeshMeasureOptions::default();
+        assert_eq!(plain.with_region_resolved(&s, &map).unwrap(), plain);
+    }
+
+    #[test]
+    fn region_needs_a_band() {
+        let (s, mut map) = head_with_band();
+        for l in [48, 49, 50, 51, 52, 53, 54, 60, 61, 62] {
+            map.to_vertex.remove(&l);
+        }
+        assert!(matches!(upper_lip_region(&s, &map), Err(MeasureError::MissingLandmark(_))));
+        let opts = MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() };
+        assert!(protrusion(&s, &map, &opts).is_err());
+    }
+
+    #[test]
+    fn point_in_polygon_edges_and_holes() {
+        let sq = [
+            Point2::new(0.0, 0.0),
+            Point2::new(2.0, 0.0),
+            Point2::new(2.0, 2.0),
+            Point2::new(0.0, 2.0),
+        ];
+        assert!(inside_polygon(Point2::new(1.0, 1.0), &sq));
+        assert!(inside_polygon(Point2::new(2.0, 1.0), &sq));
+        assert!(!inside_polygon(Point2::new(2.5, 1.0), &sq));
+        assert!(!inside_polygon(Point2::new(1.0, -0.1), &sq));
     }
 
     #[test]

@@ -371,15 +371,28 @@ fn median_of_three(y: &[Real]) -> Vec<Real> {
 }
 
 /// Smallest share of the region a second tone on the background's side must have to count
-/// as face (anti-aliased edge pixels, spread thinly between the tones, stay below it).
-const SECOND_MODE_MIN_SHARE: f64 = 0.02;
+/// as face. A small lip in a wide crop can be as little as 2 % (seen on demo frames, where a
+/// 2 % floor lost the lip on some frames and not on their neighbours); anti-aliased edge
+/// pixels are kept out by the compactness test instead.
+const SECOND_MODE_MIN_SHARE: f64 = 0.01;
+
+/// Smallest share of the region the background itself must have: the crop's front part is
+/// background by construction, so a few stray pixels beyond the background's level are not it.
+const BACKGROUND_MIN_SHARE: f64 = 0.05;
+
+/// A second tone must be peaked: its σ at most this fraction of the σ of a uniform spread
+/// over its gray interval (`width/√12`). Anti-aliased edge pixels spread about uniformly
+/// between the tones (ratio near 1); a shaded lip is a mode (about 0.45 on the demo).
+const SECOND_MODE_MAX_SPREAD: f64 = 0.75;
 
 /// Otsu splits the histogram's two strongest tones, which in a mouth crop on a dark
 /// background can be the lips and the skin rather than face and background (the background
 /// is often the minority). So while the background's side of `t` still holds a compact second
 /// tone — at least [`SECOND_MODE_MIN_SHARE`] of the pixels, clearly apart from the background
-/// (mean more than 4 σ + 8 levels away) and not a thin smear (σ below a fifth of the side's
-/// span) — that side is split again by Otsu, moving `t` toward the background.
+/// (mean more than 4 σ + 8 levels away) and not a smear (σ below a fifth of the side's span
+/// and below [`SECOND_MODE_MAX_SPREAD`] of a uniform spread), with the part left beyond it
+/// holding at least [`BACKGROUND_MIN_SHARE`] (a handful of stray pixels is no background) —
+/// that side is split again by Otsu, moving `t` toward the background.
 fn refine_toward_background(hist: &[u64; 256], mut t: u8, background_bright: bool) -> u8 {
     let total: f64 = hist.iter().map(|&c| c as f64).sum();
     let stats = |range: std::ops::RangeInclusive<usize>| {
@@ -404,11 +417,18 @@ fn refine_toward_background(hist: &[u64; 256], mut t: u8, background_bright: boo
         } else {
             (*side.start()..=t2, t2 + 1..=*side.end())
         };
-        let (_, bg_mean, bg_sd) = stats(bg);
+        let other_range = other.clone();
+        let (bg_n, bg_mean, bg_sd) = stats(bg);
         let (n, mean, sd) = stats(other);
         let span = (side.end() - side.start()) as f64;
         let distinct = (mean - bg_mean).abs() > 4.0 * bg_sd + 8.0;
-        if n / total >= SECOND_MODE_MIN_SHARE && distinct && sd < 0.2 * span {
+        // The split-off extreme must itself be a real tone: a few stray pixels darker (or
+        // brighter) than the background would otherwise be taken for it, and the whole
+        // background for a second face tone.
+        let shares = n / total >= SECOND_MODE_MIN_SHARE && bg_n / total >= BACKGROUND_MIN_SHARE;
+        let width = (other_range.end() - other_range.start() + 1) as f64;
+        let compact = sd < 0.2 * span && sd < SECOND_MODE_MAX_SPREAD * width / 12f64.sqrt();
+        if shares && distinct && compact {
             t = t2 as u8;
         } else {
             break;
@@ -915,6 +935,11 @@ pub fn capture_anchor(
 /// Cap on ICP steps; each costs one pass over the rows.
 const MAX_ICP_STEPS: usize = 50;
 
+/// Widest two-state oscillation (px at the profile's farthest point) that ICP may end in and
+/// still count as registered, at its middle: a tenth of this moves P by under 1/1000 of a
+/// typical nose length.
+const MAX_OSCILLATION_PX: Real = 0.25;
+
 /// Fewest profile rows a registration uses (three parameters, and noise to average).
 pub const MIN_REGISTRATION_ROWS: usize = 12;
 
@@ -964,6 +989,7 @@ pub fn register_to_anchor(
         return Err(ProfileError::Registration("too few profile rows"));
     }
     let mut motion = Rigid2::identity();
+    let mut previous = motion;
     let mut last_step = Real::INFINITY;
     for iteration in 0..MAX_ICP_STEPS {
         let gate = if iteration < 3 { 4.0 } else { 2.0 };
@@ -997,6 +1023,7 @@ pub fn register_to_anchor(
         let delta = ata.cholesky().ok_or(ProfileError::Registration("singular"))?.solve(&atb);
         let rot = nalgebra::Rotation2::new(delta[0]);
         let step = Rigid2::new(c - rot * c + Vector2::new(delta[1], delta[2]), delta[0]);
+        previous = motion;
         motion = step * motion;
         // Movement of the profile's farthest point, px.
         let reach = pairs.iter().map(|(p, _, _)| (p.coords - c).norm()).fold(0.0, Real::max);
@@ -1006,7 +1033,18 @@ pub fn register_to_anchor(
         }
     }
     // Pairs may keep switching segments by a hair: a last step this small is converged.
-    if last_step < 1e-2 { Ok(motion) } else { Err(ProfileError::Registration("no convergence")) }
+    if last_step < 1e-2 {
+        return Ok(motion);
+    }
+    // Or a few rows' pairs flip between two segments and the motion jumps between two
+    // states a fraction of a pixel apart (seen at 0.06 px on a demo frame): the middle of
+    // the two is as good as the data fixes it. Anything wider is a failure.
+    if last_step < MAX_OSCILLATION_PX {
+        let angle = 0.5 * (motion.rotation.angle() + previous.rotation.angle());
+        let t = 0.5 * (motion.translation.vector + previous.translation.vector);
+        return Ok(Rigid2::new(t, angle));
+    }
+    Err(ProfileError::Registration("no convergence"))
 }
 
 /// The nose root and tip found on the full frame's profile.

@@ -7,8 +7,10 @@
 
 pub mod camera;
 pub mod raster;
+pub mod side;
 
 pub use camera::{Camera, View, project_points};
 pub use raster::{
     RenderError, RenderOptions, Rendered, render_mesh, render_mesh_with_depth, vertex_normals,
 };
+pub use side::SideRenderer;

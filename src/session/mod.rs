@@ -381,6 +381,41 @@ impl Session {
         Ok(())
     }
 
+    /// Sets the user's upper-lip point of side-view frame `frame` (image px).
+    ///
+    /// # Errors
+    /// `NoClip`; `Edit` for a clip without a side view or non-finite coordinates.
+    pub fn set_profile_correction(
+        &mut self,
+        clip: usize,
+        frame: usize,
+        point: crate::math::Point2,
+    ) -> Result<(), SessionError> {
+        let c = self.clip_mut(clip)?;
+        let fail =
+            |message: &str| SessionError::Edit { clip: c.name.clone(), message: message.into() };
+        if c.side.is_none() {
+            return Err(fail("no side view to correct"));
+        }
+        if !(point.x.is_finite() && point.y.is_finite()) {
+            return Err(fail("side-view point is not finite"));
+        }
+        c.profile_corrections.insert(frame, point);
+        Ok(())
+    }
+
+    /// Drops the user's upper-lip point of side-view frame `frame`, returning it.
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn clear_profile_correction(
+        &mut self,
+        clip: usize,
+        frame: usize,
+    ) -> Result<Option<crate::math::Point2>, SessionError> {
+        Ok(self.clip_mut(clip)?.profile_corrections.remove(&frame))
+    }
+
     // -- fit cache ------------------------------------------------------------------------
 
     /// Hash of what every frame's fit shares: the head mesh, model, blendshapes and

@@ -66,6 +66,11 @@ pub struct Clip {
     pub landmarks_file: Option<PathBuf>,
     #[serde(default)]
     pub corrections: Corrections,
+    /// Side-view frame → the upper lip's foremost point as the user set it (image px),
+    /// overriding the automatic profile point; the automatic one is recomputed, never stored
+    /// over. Kept apart from the side-view setup so a new setup keeps the corrections.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub profile_corrections: BTreeMap<usize, crate::math::Point2>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub alignment: Option<Alignment>,
     /// The file the alignment was imported from (TextGrid, .lab, CSV).
@@ -205,6 +210,7 @@ impl Clip {
             tracked: Track::default(),
             landmarks_file: None,
             corrections: Corrections::default(),
+            profile_corrections: BTreeMap::new(),
             alignment: None,
             alignment_file: None,
             extensions: BTreeMap::new(),

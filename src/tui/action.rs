@@ -23,6 +23,10 @@ pub enum Action {
     ShowHead,
     ShowFit,
     ShowAnalysis,
+    ShowSide,
+    /// Save and open the session's next / previous clip.
+    NextClip,
+    PrevClip,
     NextFrame,
     PrevFrame,
     FirstFrame,
@@ -89,6 +93,11 @@ pub enum Action {
     ConfirmLabel,
     /// Remove the landmark's vertex from the map.
     ClearLabel,
+    /// Put the 3D cursor on the vertex the current frame suggests for this landmark (its
+    /// fitted pose, or a pose from the labels so far); Enter then assigns it.
+    SuggestLabel,
+    /// Assign every unmapped landmark its suggested vertex (one undo step).
+    SuggestAllLabels,
     SaveMap,
 
     // ---- analysis view ----
@@ -159,6 +168,25 @@ pub enum Action {
         generation: u64,
         data: AnalysisData,
     },
+    /// The side view's setup and profile points, measured on a worker.
+    #[serde(skip)]
+    SideReady {
+        side: Box<super::app::SideView>,
+    },
+    #[serde(skip)]
+    SideFailed {
+        error: String,
+    },
+    #[serde(skip)]
+    SideFrameLoaded {
+        frame: usize,
+        image: Arc<FrameImage>,
+    },
+    #[serde(skip)]
+    SideFrameFailed {
+        frame: usize,
+        error: String,
+    },
     #[serde(skip)]
     Saved {
         generation: u64,
@@ -172,6 +200,11 @@ pub enum Action {
 }
 
 impl Action {
+    /// Whether this is a user intent (bindable to a key), not an internal reply.
+    pub fn is_bindable(&self) -> bool {
+        self.describe() != "internal"
+    }
+
     /// One line for the help overlay and the status hints.
     pub fn describe(&self) -> String {
         let s = match self {
@@ -185,6 +218,9 @@ impl Action {
             Self::ShowHead => "head view: mesh, landmark labelling",
             Self::ShowFit => "fit view: fitted vs tracked landmarks",
             Self::ShowAnalysis => "analysis view: error tables, trajectories",
+            Self::ShowSide => "side view: the lip profile and its protrusion point",
+            Self::NextClip => "save and open the next clip",
+            Self::PrevClip => "save and open the previous clip",
             Self::NextFrame => "next frame",
             Self::PrevFrame => "previous frame",
             Self::FirstFrame => "first frame",
@@ -221,6 +257,8 @@ impl Action {
             Self::GotoLabelPrompt => "label landmark number…",
             Self::ConfirmLabel => "assign the vertex under the cursor",
             Self::ClearLabel => "remove this landmark's vertex",
+            Self::SuggestLabel => "suggest a vertex from the current frame",
+            Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
             Self::SaveMap => "save the landmark map (eos format)",
             Self::RowDown => "next row",
             Self::RowUp => "previous row",
@@ -243,6 +281,10 @@ impl Action {
             | Self::FitDone { .. }
             | Self::FitFailed { .. }
             | Self::AnalysisReady { .. }
+            | Self::SideReady { .. }
+            | Self::SideFailed { .. }
+            | Self::SideFrameLoaded { .. }
+            | Self::SideFrameFailed { .. }
             | Self::Saved { .. }
             | Self::SaveFailed { .. }
             | Self::Status(_) => "internal",

@@ -9,6 +9,8 @@ use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::edit::PointChange;
 use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries, flag_frames};
 use crate::landmarks::{N_LANDMARKS, Track};
+use crate::math::Point2;
+use crate::measure::profile::{ProfileSetup, ProfileTrack};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::path::PathBuf;
@@ -100,6 +102,8 @@ pub enum View {
     Head,
     Fit,
     Analysis,
+    /// The side view's lip profile (P), when the clip has a side view.
+    Side,
 }
 
 /// What a prompt asks for.
@@ -177,8 +181,93 @@ impl Default for ImageView {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Edit {
     Points(Vec<PointChange>),
-    Reviewed { frame: usize, now: bool },
-    Label { landmark: usize, before: Option<usize>, after: Option<usize> },
+    Reviewed {
+        frame: usize,
+        now: bool,
+    },
+    /// Landmark map changes, applied together (one label, or all suggestions at once).
+    Labels(Vec<LabelChange>),
+    /// The user's upper-lip point of a side-view frame (None = the automatic one).
+    Profile {
+        side_frame: usize,
+        before: Option<Point2>,
+        after: Option<Point2>,
+    },
+}
+
+/// The clip's side view for protrusion: the once-per-clip setup, the automatic profile
+/// points with the user's corrections, and the decoded side frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SideView {
+    pub setup: ProfileSetup,
+    pub track: ProfileTrack,
+    pub fps: f64,
+    pub offset_s: f64,
+    pub n_frames: usize,
+    pub images: BTreeMap<usize, Arc<FrameImage>>,
+    pub image_errors: BTreeMap<usize, String>,
+}
+
+impl SideView {
+    /// Side frames kept decoded (a few around the current one).
+    pub const CACHE: usize = 8;
+
+    /// The side frame shown with front frame `frame` (nearest in time, after the offset).
+    pub fn frame_for(&self, frame: usize, front_fps: f64) -> Option<usize> {
+        let k = ((frame as f64 / front_fps - self.offset_s) * self.fps).round();
+        (k >= 0.0 && (k as usize) < self.n_frames).then_some(k as usize)
+    }
+
+    /// P per front frame (normalised when a nose length is known), corrections applied.
+    pub fn p_series(&self, n_front: usize, front_fps: f64) -> Vec<Option<f64>> {
+        crate::workflow::resample_to_front(front_fps, self.fps, self.offset_s, n_front, |k| {
+            self.track.effective(k, &self.setup).and_then(|p| p.p_norm.or(p.p_px))
+        })
+    }
+
+    /// Sets or clears (None) the user's point of side frame `k`.
+    pub fn set_correction(&mut self, k: usize, point: Option<Point2>) {
+        match point {
+            Some(p) => self.track.correct(k, p),
+            None => {
+                self.track.clear_correction(k);
+            }
+        }
+    }
+}
+
+/// Where the side view stands: not in the clip, being measured, ready, or failed.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum SideState {
+    #[default]
+    None,
+    Measuring,
+    Ready(Box<SideView>),
+    Failed(String),
+}
+
+impl SideState {
+    pub fn view(&self) -> Option<&SideView> {
+        match self {
+            Self::Ready(v) => Some(v),
+            _ => None,
+        }
+    }
+
+    pub fn view_mut(&mut self) -> Option<&mut SideView> {
+        match self {
+            Self::Ready(v) => Some(v),
+            _ => None,
+        }
+    }
+}
+
+/// One landmark's vertex before and after a labelling edit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LabelChange {
+    pub landmark: usize,
+    pub before: Option<usize>,
+    pub after: Option<usize>,
 }
 
 /// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
@@ -190,11 +279,72 @@ pub struct HeadView {
     pub zoom: f64,
     pub cursor: (f64, f64),
     pub label: usize,
+    /// (landmark, vertex) the cursor was put on by a suggestion; Enter assigns the vertex
+    /// even when it is hidden from this angle. Moving the cursor or the label drops it.
+    pub suggested: Option<(usize, usize)>,
 }
 
 impl Default for HeadView {
     fn default() -> Self {
-        Self { yaw: 0.0, pitch: 0.0, zoom: 1.0, cursor: (0.0, 0.0), label: 48 }
+        Self { yaw: 0.0, pitch: 0.0, zoom: 1.0, cursor: (0.0, 0.0), label: 48, suggested: None }
+    }
+}
+
+/// The sphere the head views frame (model units): the face, not the whole body of a
+/// full-figure mesh, so labelling starts where the landmarks are.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeadFraming {
+    pub centre: crate::math::Point3,
+    pub radius: f64,
+}
+
+impl Default for HeadFraming {
+    fn default() -> Self {
+        Self { centre: crate::math::Point3::origin(), radius: 1.0 }
+    }
+}
+
+impl HeadFraming {
+    /// The bounding box's centre and half diagonal of `points`; `None` when empty.
+    pub fn around<'a>(points: impl IntoIterator<Item = &'a crate::math::Point3>) -> Option<Self> {
+        let mut it = points.into_iter();
+        let first = it.next()?.coords;
+        let (lo, hi) =
+            it.fold((first, first), |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)));
+        Some(Self {
+            centre: crate::math::Point3::from((lo + hi) / 2.0),
+            radius: ((hi - lo).norm() / 2.0).max(1e-12),
+        })
+    }
+
+    /// The face of `mesh`: the vertices the model's expressions move, when they are a part
+    /// of the mesh (a full figure with facial blendshapes); else the mapped landmarks' box
+    /// enlarged by half (a head whose map is started); else the whole mesh.
+    pub fn of_face(mesh: &Mesh, model: Option<&MorphableModel>, map: Option<&LandmarkMap>) -> Self {
+        let n = mesh.vertices.len();
+        let moved: Vec<usize> = model
+            .and_then(|m| m.expressions.as_ref().filter(|_| m.num_vertices() == n))
+            .map(|e| {
+                (0..n).filter(|&v| e.deltas.rows(3 * v, 3).iter().any(|d| d.abs() > 1e-9)).collect()
+            })
+            .unwrap_or_default();
+        let pick =
+            |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
+        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
+        if !moved.is_empty()
+            && moved.len() * 5 < n * 4
+            && let Some(f) = pick(&moved)
+        {
+            return Self { radius: f.radius * 1.15, ..f };
+        }
+        let mapped: Vec<usize> =
+            map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
+        match pick(&mapped) {
+            Some(f) if mapped.len() >= 5 => {
+                Self { radius: (f.radius * 1.5).min(whole.radius), ..f }
+            }
+            _ => whole,
+        }
     }
 }
 
@@ -284,6 +434,8 @@ pub enum Effect {
     Analyse {
         generation: u64,
     },
+    /// Decode this side-view frame.
+    LoadSideFrame(usize),
     Quit,
 }
 
@@ -330,6 +482,10 @@ pub struct App {
     /// Edits since the last save finished (autosave when > 0 and idle).
     pub unsaved_edits: u64,
     pub save_generation: u64,
+    /// A save is on its way to disk (on the saver thread).
+    pub saving: bool,
+    /// `unsaved_edits` when the newest save was requested: what its reply may clear.
+    pub save_pending_edits: u64,
     pub quit_requested: bool,
     pub should_quit: bool,
     pub status: String,
@@ -344,6 +500,8 @@ pub struct App {
     pub mesh: Option<Arc<Mesh>>,
     /// Unique mesh edges, computed once when the mesh is set (drawing reads them).
     pub mesh_edges: Arc<Vec<[u32; 2]>>,
+    /// What the head views frame; recomputed with `frame_head` when mesh or model change.
+    pub head_framing: HeadFraming,
     pub model: Option<Arc<MorphableModel>>,
     pub map: Option<LandmarkMap>,
     pub head: HeadView,
@@ -353,6 +511,13 @@ pub struct App {
     pub analysis_view: AnalysisView,
     /// Generation of the newest requested analysis; older replies are dropped.
     pub analysis_generation: u64,
+    /// The side view (protrusion), when the clip has one.
+    pub side: SideState,
+    /// The session's clips by name, and which one this is.
+    pub clip_names: Vec<String>,
+    pub clip: usize,
+    /// Set when the user asks for another clip: the run loop saves, then opens it.
+    pub switch_clip: Option<usize>,
     pub term_size: (u16, u16),
     pub effects: Vec<Effect>,
 }
@@ -382,6 +547,8 @@ impl App {
             image_size: None,
             unsaved_edits: 0,
             save_generation: 0,
+            saving: false,
+            save_pending_edits: 0,
             quit_requested: false,
             should_quit: false,
             status: String::new(),
@@ -394,6 +561,7 @@ impl App {
             measures: Vec::new(),
             mesh: None,
             mesh_edges: Arc::new(Vec::new()),
+            head_framing: HeadFraming::default(),
             model: None,
             map: None,
             head: HeadView::default(),
@@ -402,6 +570,10 @@ impl App {
             analysis: AnalysisData::default(),
             analysis_view: AnalysisView::default(),
             analysis_generation: 0,
+            side: SideState::None,
+            clip_names: Vec::new(),
+            clip: 0,
+            switch_clip: None,
             term_size: (80, 24),
             effects: Vec::new(),
         };
@@ -420,6 +592,15 @@ impl App {
         }
         self.mesh_edges = Arc::new(edges.into_iter().collect());
         self.mesh = Some(mesh);
+        self.frame_head();
+    }
+
+    /// Frames the head views on the face (see [`HeadFraming::of_face`]).
+    pub fn frame_head(&mut self) {
+        if let Some(mesh) = &self.mesh {
+            self.head_framing =
+                HeadFraming::of_face(mesh, self.model.as_deref(), self.map.as_ref());
+        }
     }
 
     /// Image size for drawing: the decoded frames' size, else a box around all landmarks
@@ -513,5 +694,48 @@ impl App {
         let f = self.track.frames.get(self.frame_pos)?;
         let t = f.timestamp.unwrap_or(f.frame as f64 / self.fps);
         a.phone_at(t).map(|p| p.label.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{DMatrix, DVector, Point3};
+    use crate::model::{Expressions, PcaModel};
+
+    /// A tall "body" of 100 vertices with a small "face" of 10 at the top, which only the
+    /// expressions move.
+    fn figure() -> (Mesh, MorphableModel) {
+        let mut vertices: Vec<Point3> =
+            (0..100).map(|i| Point3::new((i % 10) as f64, -(i as f64) * 2.0, 0.0)).collect();
+        vertices.extend((0..10).map(|i| Point3::new(4.0 + 0.1 * i as f64, 10.0, 1.0)));
+        let mesh = Mesh { vertices, faces: Vec::new() };
+        let flat = DVector::from_iterator(330, mesh.vertices.iter().flat_map(|p| [p.x, p.y, p.z]));
+        let mut deltas = DMatrix::zeros(330, 1);
+        for v in 100..110 {
+            deltas[(3 * v + 1, 0)] = 0.5;
+        }
+        let model = MorphableModel {
+            shape: PcaModel::mean_only(flat),
+            expressions: Some(Expressions { names: vec!["jawOpen".into()], deltas }),
+            triangles: Vec::new(),
+        };
+        (mesh, model)
+    }
+
+    #[test]
+    fn head_framing_finds_the_face_of_a_full_figure() {
+        let (mesh, model) = figure();
+        let whole = HeadFraming::of_face(&mesh, None, None);
+        assert!(whole.radius > 90.0, "no model, no map: the whole mesh ({whole:?})");
+        let face = HeadFraming::of_face(&mesh, Some(&model), None);
+        assert!((face.centre.y - 10.0).abs() < 1e-9 && face.radius < 1.0, "{face:?}");
+        // Without expressions, five mapped vertices frame the view instead.
+        let mut map = LandmarkMap::default();
+        for (l, v) in [(0, 100), (8, 103), (16, 109), (30, 105), (48, 107)] {
+            map.to_vertex.insert(l, v);
+        }
+        let mapped = HeadFraming::of_face(&mesh, None, Some(&map));
+        assert!((mapped.centre.y - 10.0).abs() < 1e-9 && mapped.radius < 1.0, "{mapped:?}");
     }
 }

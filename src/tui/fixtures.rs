@@ -310,3 +310,66 @@ pub fn counting_terminal(
     )?;
     Ok((t, counter))
 }
+
+/// A drawn side view: a dark face profile looking right on a light background, whose upper
+/// lip pushes forward as the mouth rounds, measured frame by frame like a real clip (one
+/// frame per front frame, the crop and a vertical reference line set by hand).
+pub fn synthetic_side(n_frames: usize, width: u32, height: u32) -> super::app::SideView {
+    use crate::measure::profile::{
+        Facing, ProfileSetup, ProfileTrack, Rect, ReferenceLine, measure_frame,
+    };
+    let (w, h) = (f64::from(width), f64::from(height));
+    // The face edge x(y) as fractions of the frame: forehead, nose tip, subnasale, upper
+    // lip (moving), mouth, chin.
+    let edge = |y: f64, lip: f64| -> f64 {
+        let knots = [
+            (0.0, 0.50),
+            (0.35, 0.52),
+            (0.50, 0.66),
+            (0.58, 0.56),
+            (0.66, 0.60 + lip),
+            (0.72, 0.57),
+            (0.80, 0.59),
+            (1.0, 0.45),
+        ];
+        let k = knots.windows(2).position(|k| y >= k[0].0 && y <= k[1].0).unwrap_or(6);
+        let ((y0, x0), (y1, x1)) = (knots[k], knots[k + 1]);
+        x0 + (x1 - x0) * (y - y0) / (y1 - y0)
+    };
+    let images: Vec<FrameImage> = (0..n_frames)
+        .map(|f| {
+            let lip = 0.04 * mouth_open(f);
+            let mut rgb = Vec::with_capacity((3 * width * height) as usize);
+            for y in 0..height {
+                let x_edge = edge(f64::from(y) / h, lip) * w;
+                for x in 0..width {
+                    let v = if f64::from(x) < x_edge { 60 } else { 220 };
+                    rgb.extend([v, v, v]);
+                }
+            }
+            FrameImage { width, height, rgb }
+        })
+        .collect();
+    let crop =
+        Rect::new((0.45 * w) as u32, (0.54 * h) as u32, (0.30 * w) as u32, (0.22 * h) as u32);
+    let mut setup = ProfileSetup::new(crop, ReferenceLine::vertical(0.52 * w), Facing::Right);
+    setup.anchor = None;
+    let automatic = images
+        .iter()
+        .enumerate()
+        .map(|(f, img)| {
+            let gray =
+                image::GrayImage::from_fn(width, height, |x, y| image::Luma([img.pixel(x, y)[0]]));
+            measure_frame(f, &gray, &setup, Some(0.16 * h))
+        })
+        .collect();
+    super::app::SideView {
+        setup,
+        track: ProfileTrack::new(automatic, Some(0.16 * h)),
+        fps: 25.0,
+        offset_s: 0.0,
+        n_frames,
+        images: images.into_iter().enumerate().map(|(f, i)| (f, Arc::new(i))).collect(),
+        image_errors: Default::default(),
+    }
+}

@@ -26,12 +26,13 @@ pub enum KeyMode {
     Head,
     Fit,
     Analysis,
+    Side,
     Help,
 }
 
 impl KeyMode {
-    pub const ALL: [KeyMode; 6] =
-        [Self::Global, Self::Frames, Self::Head, Self::Fit, Self::Analysis, Self::Help];
+    pub const ALL: [KeyMode; 7] =
+        [Self::Global, Self::Frames, Self::Head, Self::Fit, Self::Analysis, Self::Side, Self::Help];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -40,6 +41,7 @@ impl KeyMode {
             Self::Head => "head",
             Self::Fit => "fit",
             Self::Analysis => "analysis",
+            Self::Side => "side",
             Self::Help => "help",
         }
     }
@@ -186,6 +188,9 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
         (Global, "2", A::ShowHead),
         (Global, "3", A::ShowFit),
         (Global, "4", A::ShowAnalysis),
+        (Global, "5", A::ShowSide),
+        (Global, ">", A::NextClip),
+        (Global, "<", A::PrevClip),
         (Global, "n", A::NextFrame),
         (Global, "p", A::PrevFrame),
         (Global, "pagedown", A::NextFrame),
@@ -264,6 +269,8 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
         (Head, "g", A::GotoLabelPrompt),
         (Head, "enter", A::ConfirmLabel),
         (Head, "x", A::ClearLabel),
+        (Head, "o", A::SuggestLabel),
+        (Head, "O", A::SuggestAllLabels),
         (Head, "S", A::SaveMap),
         (Head, "+", A::ZoomIn),
         (Head, "=", A::ZoomIn),
@@ -278,6 +285,21 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
         (Analysis, "o", A::SortNextColumn),
         (Analysis, "O", A::SortReverse),
         (Analysis, "enter", A::OpenRow),
+        // Side view: correct the upper lip's foremost point.
+        (Side, "left", nudge(-1, 0)),
+        (Side, "right", nudge(1, 0)),
+        (Side, "up", nudge(0, -1)),
+        (Side, "down", nudge(0, 1)),
+        (Side, "h", nudge(-1, 0)),
+        (Side, "l", nudge(1, 0)),
+        (Side, "k", nudge(0, -1)),
+        (Side, "j", nudge(0, 1)),
+        (Side, "shift-left", nudge(-10, 0)),
+        (Side, "shift-right", nudge(10, 0)),
+        (Side, "shift-up", nudge(0, -10)),
+        (Side, "shift-down", nudge(0, 10)),
+        (Side, "x", A::RevertPoint),
+        (Side, "r", A::ToggleReviewed),
         // Help overlay.
         (Help, "j", A::ScrollDown),
         (Help, "k", A::ScrollUp),
@@ -296,7 +318,9 @@ pub enum KeymapError {
     Read { path: String, source: std::io::Error },
     #[error("{path}: {source}")]
     Toml { path: String, source: toml::de::Error },
-    #[error("{path}: [{table}] is not a mode (expected global, frames, head, fit, analysis, help)")]
+    #[error(
+        "{path}: [{table}] is not a mode (expected global, frames, head, fit, analysis, side, help)"
+    )]
     Mode { path: String, table: String },
     #[error("{path}: [{table}] `{key}`: unknown key name")]
     Key { path: String, table: String, key: String },

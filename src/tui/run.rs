@@ -1,15 +1,20 @@
 //! The event loop: terminal events and worker replies become actions, `update` applies them,
 //! effects go to the workers and the session, and the screen is redrawn when something changed.
 //!
+//! Graphics: a `GraphicsState` (the terminal's image protocol, if any, and its cached
+//! encoding) is owned here, not by the `App`, and drawn over the half-block image.
+//!
 //! Autosave: edits are saved once the user pauses (`AUTOSAVE_IDLE`) and never mid-drag; `q`
 //! saves what is left before quitting. The terminal is restored on return, error and panic.
 
 use super::action::Action;
-use super::app::{App, Effect};
+use super::app::{App, Effect, HeadView};
 use super::keymap::Keymap;
 use super::session_bridge::SessionBridge;
 use super::update::{key_to_action, mouse_to_action, request_images, update};
 use super::views::draw;
+use super::views::frames::draw_graphics;
+use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
 use super::widgets::worker::{AnalysisJob, FitJob, Workers};
 use ratatui::Terminal;
@@ -25,31 +30,120 @@ pub const AUTOSAVE_IDLE: Duration = Duration::from_millis(400);
 const POLL: Duration = Duration::from_millis(30);
 
 /// Opens the session at `session_path` (first clip) in the terminal UI until the user quits.
-/// `keymap_path` overrides default keys (see `keymap`).
+/// `keymap_path` overrides default keys (see `keymap`). The image goes through a terminal
+/// graphics protocol when `LIPMAP_GRAPHICS` asks for one or auto-detection finds one (see
+/// `run_with`).
 ///
 /// # Errors
 /// When the keymap or session cannot be read, the session is locked by another editor, or
 /// the terminal fails. The terminal is restored before the error is returned.
 pub fn run(session_path: &Path, keymap_path: Option<&Path>) -> anyhow::Result<()> {
-    let keymap = match keymap_path {
+    let graphics = GraphicsChoice::from_flag_or_env(None).map_err(anyhow::Error::msg)?;
+    let options = RunOptions { keymap: keymap_path.map(Path::to_path_buf), graphics, clip: None };
+    run_with(session_path, &options)
+}
+
+/// How `run_with` opens the TUI.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// A keymap file overriding default keys.
+    pub keymap: Option<std::path::PathBuf>,
+    /// Graphics protocol choice (`--graphics`): auto queries the terminal at startup (never
+    /// inside tmux or over SSH), half-blocks otherwise; see `widgets::graphics`.
+    pub graphics: GraphicsChoice,
+    /// The clip to open first, by name (default: the first).
+    pub clip: Option<String>,
+}
+
+/// `run` with explicit options. Switching clips (`<`/`>`) saves, then reopens the session on
+/// the other clip inside the same terminal session.
+///
+/// # Errors
+/// As `run`; an unknown clip name.
+pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()> {
+    let keymap = match &options.keymap {
         Some(p) => Keymap::load(p)?,
         None => Keymap::default(),
     };
-    let (mut app, mut bridge, provider) = SessionBridge::open(session_path, 0)?;
-    let (tx, rx) = channel();
-    let workers = Workers::start(provider, tx);
-    let mut guard = TerminalGuard::enter()?;
-    let size = guard.terminal.size()?;
-    app.term_size = (size.width, size.height);
-    request_images(&mut app);
-    app.request_analysis();
-    let result = event_loop(&mut guard.terminal, &mut app, &keymap, &mut bridge, &workers, &rx);
-    drop(guard);
-    // Whatever happened in the loop, do not lose the last edits.
-    if app.unsaved_edits > 0 {
-        bridge.save(&app)?;
+    let mut clip = match &options.clip {
+        Some(name) => {
+            let s = crate::session::Session::load(session_path)?;
+            s.clip_index(name).ok_or_else(|| {
+                let names: Vec<&str> = s.clips.iter().map(|c| c.name.as_str()).collect();
+                anyhow::anyhow!(
+                    "{}: no clip `{name}` (clips: {})",
+                    session_path.display(),
+                    names.join(", ")
+                )
+            })?
+        }
+        None => 0,
+    };
+    let (mut app, mut bridge, mut provider) = SessionBridge::open(session_path, clip)?;
+    let env = TermEnv::from_process();
+    let graphics = options.graphics;
+    let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
+    if app.status.is_empty() && !gfx.note.is_empty() {
+        app.status = gfx.note.clone();
     }
-    result
+    loop {
+        // A channel and workers per clip: replies of the previous clip's workers go nowhere.
+        let (tx, rx) = channel();
+        if let Some(job) = bridge.side_view_job() {
+            let tx = tx.clone();
+            std::thread::spawn(move || tx.send(job()));
+        }
+        bridge.start_saver(tx.clone());
+        let workers = Workers::start(provider, tx.clone());
+        if let Some(side) = bridge.side_frames() {
+            workers.start_side_frames(side, tx);
+        }
+        let size = guard.terminal.size()?;
+        app.term_size = (size.width, size.height);
+        request_images(&mut app);
+        app.request_analysis();
+        let result = event_loop(
+            &mut guard.terminal,
+            &mut app,
+            &keymap,
+            &mut bridge,
+            &workers,
+            &rx,
+            &mut gfx,
+        );
+        drop(workers);
+        // Whatever happened in the loop, do not lose the last edits: let the saver finish,
+        // then write what is left.
+        bridge.finish_saving();
+        if app.unsaved_edits > 0
+            && let Err(e) = bridge.save(&app)
+        {
+            drop(guard);
+            return Err(e);
+        }
+        let next = app.switch_clip.filter(|_| result.is_ok());
+        let Some(next) = next else {
+            drop(guard);
+            return result;
+        };
+        // Keep how the user looks at things across clips.
+        let (view, image_view, head) = (app.view, app.image_view, app.head);
+        drop(bridge);
+        let opened = SessionBridge::open(session_path, next);
+        (app, bridge, provider) = match opened {
+            Ok(o) => o,
+            Err(e) => {
+                drop(guard);
+                return Err(e);
+            }
+        };
+        clip = next;
+        app.view = view;
+        app.image_view = image_view;
+        app.head = HeadView { suggested: None, ..head };
+        app.status =
+            format!("clip {} of {}: {}", clip + 1, app.clip_names.len(), bridge.clip_name());
+    }
 }
 
 /// Applies an action and its follow-ups.
@@ -67,6 +161,7 @@ fn event_loop<B: Backend>(
     bridge: &mut SessionBridge,
     workers: &Workers,
     rx: &Receiver<Action>,
+    gfx: &mut GraphicsState,
 ) -> anyhow::Result<()>
 where
     B::Error: Send + Sync + 'static,
@@ -87,6 +182,7 @@ where
         if app.unsaved_edits > 0
             && !app.dragging
             && !app.save_failed
+            && !app.saving
             && last_edit.elapsed() >= AUTOSAVE_IDLE
         {
             apply(app, Action::Save);
@@ -94,8 +190,15 @@ where
             seen_edits = app.unsaved_edits;
             redraw = true;
         }
+        // A background encoding finished: show it.
+        if gfx.poll() {
+            redraw = true;
+        }
         if redraw {
-            terminal.draw(|f| draw(app, keymap, f))?;
+            terminal.draw(|f| {
+                draw(app, keymap, f);
+                draw_graphics(app, gfx, f);
+            })?;
             redraw = false;
         }
         if event::poll(POLL)? {
@@ -136,6 +239,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
     for effect in std::mem::take(&mut app.effects) {
         match effect {
             Effect::LoadFrames(frames) => workers.request_frames(frames),
+            Effect::LoadSideFrame(frame) => workers.request_side_frame(frame),
             Effect::Fit { generation, frames } => {
                 let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
                     continue;
@@ -155,13 +259,10 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 });
             }
             Effect::Save => {
-                app.save_generation += 1;
-                let generation = app.save_generation;
-                let reply = match bridge.save(app) {
-                    Ok(()) => Action::Saved { generation },
-                    Err(e) => Action::SaveFailed { error: format!("{e:#}") },
-                };
-                apply(app, reply);
+                // Written on the saver thread; `Saved` comes back through the channel.
+                if let Err(e) = bridge.save_in_background(app, app.save_generation) {
+                    apply(app, Action::SaveFailed { error: format!("{e:#}") });
+                }
             }
             Effect::SaveMap => {
                 let msg = match bridge.save_map(app) {
@@ -184,6 +285,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     fps: app.fps,
                     fits: app.fit.fits.values().cloned().collect(),
                     extra_tables: indices_tables(&bridge.session, bridge.clip),
+                    side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
             }
             Effect::Quit => {}

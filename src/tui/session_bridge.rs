@@ -5,6 +5,7 @@
 //! The App never sees the session's types, so the TUI's update and views work (and are
 //! tested) on plain data; only this file changes when the session format does.
 
+use super::action::Action;
 use super::app::{App, FrameImage, FrameProvider};
 use crate::fit::FrameFit;
 use crate::io::frames::FrameSource;
@@ -14,7 +15,8 @@ use crate::model::LandmarkMap;
 use crate::session::{Session, SessionLock};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Condvar, Mutex};
 
 /// Megabytes of decoded frames the session's frame source may cache (on top of the App's).
 const FRAME_CACHE_MB: usize = 256;
@@ -39,6 +41,24 @@ impl FrameProvider for NoFrames {
     }
 }
 
+/// The saver thread's inbox: the newest snapshot not yet written, and whether to stop.
+#[derive(Default)]
+struct SaveQueue {
+    next: Option<(Session, PathBuf, u64)>,
+    closed: bool,
+}
+
+struct Saver {
+    queue: Arc<(Mutex<SaveQueue>, Condvar)>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for SessionBridge {
+    fn drop(&mut self) {
+        self.finish_saving();
+    }
+}
+
 /// An open session: the file, its lock (released on drop) and the clip being edited.
 pub struct SessionBridge {
     pub path: PathBuf,
@@ -48,6 +68,8 @@ pub struct SessionBridge {
     loaded_map: Option<LandmarkMap>,
     /// The map file this bridge wrote (the only map file it may overwrite).
     written_map: Option<PathBuf>,
+    /// The thread writing session snapshots, once started.
+    saver: Option<Saver>,
     _lock: SessionLock,
 }
 
@@ -103,12 +125,18 @@ impl SessionBridge {
             None
         });
         app.map = map.clone();
+        app.frame_head();
         for fit in session.cached_fits(clip, &session.fit_settings) {
             app.fit.fits.insert(fit.frame, fit.clone());
         }
         if !app.fit.fits.is_empty() {
             app.recompute_flags();
         }
+        if c.side.is_some() {
+            app.side = super::app::SideState::Measuring;
+        }
+        app.clip_names = session.clips.iter().map(|c| c.name.clone()).collect();
+        app.clip = clip;
         if !problems.is_empty() {
             app.status = problems.join("; ");
         }
@@ -118,6 +146,7 @@ impl SessionBridge {
             clip,
             loaded_map: map,
             written_map: None,
+            saver: None,
             _lock: lock,
         };
         Ok((app, bridge, provider))
@@ -140,12 +169,49 @@ impl SessionBridge {
         }
         fresh.reviewed = app.reviewed.clone();
         c.corrections = fresh;
+        if let Some(side) = app.side.view() {
+            c.profile_corrections = side.track.corrected.clone();
+        }
         if let Some(map) = &app.map
             && self.loaded_map.as_ref() != Some(map)
         {
             self.session.landmark_map.set_inline(map);
         }
         Ok(())
+    }
+
+    /// The side view's measurement for a worker thread (it decodes every side frame), when
+    /// the clip has a side view: replies `SideReady` or `SideFailed`.
+    pub fn side_view_job(&self) -> Option<impl FnOnce() -> Action + Send + 'static> {
+        let c = self.session.clips.get(self.clip)?;
+        let side = c.side.clone()?;
+        let (session, clip) = (self.session.clone(), self.clip);
+        Some(move || {
+            let measured = crate::workflow::side_view_track(&session, clip).and_then(|track| {
+                let setup = crate::workflow::profile_setup(&session, clip)?;
+                Ok((track.context("the clip has no side view")?, setup))
+            });
+            match measured {
+                Ok((track, setup)) => Action::SideReady {
+                    side: Box::new(super::app::SideView {
+                        n_frames: track.automatic.len(),
+                        setup,
+                        track,
+                        fps: side.fps,
+                        offset_s: side.offset_s,
+                        images: Default::default(),
+                        image_errors: Default::default(),
+                    }),
+                },
+                Err(e) => Action::SideFailed { error: format!("{e:#}") },
+            }
+        })
+    }
+
+    /// The side view's frames, when the clip has a side view that opens.
+    pub fn side_frames(&self) -> Option<Arc<dyn FrameProvider>> {
+        let src = self.session.open_side_frames(self.clip, FRAME_CACHE_MB / 4).ok()??;
+        Some(Arc::new(SessionFrames(src)))
     }
 
     /// Name of the clip being edited.
@@ -161,6 +227,70 @@ impl SessionBridge {
         self.write_back(app)?;
         self.session.save(&self.path)?;
         Ok(())
+    }
+
+    /// Starts the saver thread: `save_in_background` then replies `Saved`/`SaveFailed` on
+    /// `tx`, so the UI never waits for the disk.
+    pub fn start_saver(&mut self, tx: Sender<Action>) {
+        let queue: Arc<(Mutex<SaveQueue>, Condvar)> = Arc::default();
+        let q = queue.clone();
+        let thread = std::thread::spawn(move || {
+            loop {
+                let job = {
+                    let (lock, wake) = &*q;
+                    let Ok(mut g) = lock.lock() else { return };
+                    loop {
+                        if let Some(job) = g.next.take() {
+                            break job;
+                        }
+                        if g.closed {
+                            return;
+                        }
+                        let Ok(ng) = wake.wait(g) else { return };
+                        g = ng;
+                    }
+                };
+                let (session, path, generation) = job;
+                let reply = match session.save(&path) {
+                    Ok(()) => Action::Saved { generation },
+                    Err(e) => Action::SaveFailed { error: e.to_string() },
+                };
+                let _ = tx.send(reply);
+            }
+        });
+        self.saver = Some(Saver { queue, thread: Some(thread) });
+    }
+
+    /// `write_back`, then hands a snapshot of the session to the saver thread (a newer
+    /// snapshot replaces one not yet started); without a saver, saves here.
+    ///
+    /// # Errors
+    /// As `write_back`; as `Session::save` without a saver.
+    pub fn save_in_background(&mut self, app: &App, generation: u64) -> anyhow::Result<()> {
+        self.write_back(app)?;
+        match &self.saver {
+            Some(s) => {
+                let (lock, wake) = &*s.queue;
+                let mut g = lock.lock().map_err(|_| anyhow::anyhow!("the saver thread died"))?;
+                g.next = Some((self.session.clone(), self.path.clone(), generation));
+                wake.notify_one();
+                Ok(())
+            }
+            None => Ok(self.session.save(&self.path)?),
+        }
+    }
+
+    /// Waits for the saver to write what it was given, and stops it.
+    pub fn finish_saving(&mut self) {
+        if let Some(mut s) = self.saver.take() {
+            if let Ok(mut g) = s.queue.0.lock() {
+                g.closed = true;
+                s.queue.1.notify_all();
+            }
+            if let Some(t) = s.thread.take() {
+                let _ = t.join();
+            }
+        }
     }
 
     /// Caches fits in the session (call after `write_back`, so the cache keys match the

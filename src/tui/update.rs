@@ -4,10 +4,11 @@
 //! Also here: turning key and mouse events into actions (`key_to_action`,
 //! `mouse_to_action`), because which table a key is looked up in depends on the `App`.
 
-use super::app::{App, Edit, Effect, Overlay, PromptKind, View};
+use super::app::{App, Edit, Effect, LabelChange, Overlay, PromptKind, SideState, View};
 use super::keymap::{KeyChord, KeyMode, Keymap};
 use super::views::{self, head};
 use super::{action::Action, app::FrameImage};
+use crate::fit::OrthoPose;
 use crate::landmarks::N_LANDMARKS;
 use crate::landmarks::edit::{self, EditError, PointChange};
 use crate::model::LandmarkMap;
@@ -32,6 +33,7 @@ pub fn mode_chain(app: &App) -> Vec<KeyMode> {
         View::Head => chain.push(KeyMode::Head),
         View::Fit => chain.extend([KeyMode::Fit, KeyMode::Frames]),
         View::Analysis => chain.push(KeyMode::Analysis),
+        View::Side => chain.push(KeyMode::Side),
     }
     chain.push(KeyMode::Global);
     chain
@@ -68,8 +70,16 @@ pub fn mouse_to_action(ev: &MouseEvent) -> Option<Action> {
 /// Applies one action; may return a follow-up action to apply next.
 pub fn update(app: &mut App, action: Action) -> Option<Action> {
     use Action as A;
+    // A message answers the key that caused it; the next key clears it.
+    // (Autosave applies `Save` itself, so it must not wipe the message of the edit it saves.)
+    if action.is_bindable() && !matches!(action, A::Cancel | A::Save) {
+        app.status.clear();
+    }
     match action {
-        A::Quit => return quit(app),
+        A::Quit => {
+            app.switch_clip = None;
+            return quit(app);
+        }
         A::ToggleHelp => {
             if matches!(app.top_overlay(), Some(Overlay::Help { .. })) {
                 app.overlays.pop();
@@ -91,7 +101,7 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 };
             }
         }
-        A::Save => app.effects.push(Effect::Save),
+        A::Save => request_save(app),
         A::Undo => undo_redo(app, true),
         A::Redo => undo_redo(app, false),
         A::RunFit => run_fit(app),
@@ -99,6 +109,24 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         A::ShowHead => app.view = View::Head,
         A::ShowFit => app.view = View::Fit,
         A::ShowAnalysis => app.view = View::Analysis,
+        A::ShowSide => match &app.side {
+            SideState::None => app.status = "this clip has no side view".into(),
+            _ => {
+                app.view = View::Side;
+                request_images(app);
+            }
+        },
+        A::NextClip | A::PrevClip => {
+            let n = app.clip_names.len();
+            if n <= 1 {
+                app.status = "the session has one clip".into();
+                return None;
+            }
+            let next =
+                if action == A::NextClip { (app.clip + 1) % n } else { (app.clip + n - 1) % n };
+            app.switch_clip = Some(next);
+            return quit(app);
+        }
         A::NextFrame => go_to_pos(app, app.frame_pos.saturating_add(1)),
         A::PrevFrame => go_to_pos(app, app.frame_pos.saturating_sub(1)),
         A::FirstFrame => go_to_pos(app, 0),
@@ -160,6 +188,15 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 app.image_view.center = Some((p.x, p.y));
             }
         }
+        A::Nudge { dx, dy } if app.view == View::Side => nudge_profile_point(app, dx, dy),
+        A::RevertPoint if app.view == View::Side => {
+            let (k, before) = side_point(app)?;
+            if before.is_some() {
+                set_profile_point(app, k, before, None);
+            } else {
+                app.status = "this side frame has no correction".into();
+            }
+        }
         A::Nudge { dx, dy } => {
             let step = step_px(app);
             let idx = app.scope_indices();
@@ -167,11 +204,17 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
             let r = edit::move_points(&mut app.track, f, &idx, dx as f64 * step, dy as f64 * step);
             commit(app, r);
         }
-        A::NextPoint => app.selected = (app.selected + 1) % N_LANDMARKS,
-        A::PrevPoint => app.selected = (app.selected + N_LANDMARKS - 1) % N_LANDMARKS,
+        A::NextPoint => select_point(app, (app.selected + 1) % N_LANDMARKS),
+        A::PrevPoint => select_point(app, (app.selected + N_LANDMARKS - 1) % N_LANDMARKS),
         A::CycleScope => {
             app.scope = app.scope.next();
-            app.status = format!("moving: {}", app.scope.label());
+            app.status = match app.scope {
+                super::app::Scope::Group => format!(
+                    "moving: group ({})",
+                    crate::landmarks::ibug::group_of(app.selected).map_or("point", |g| g.name)
+                ),
+                s => format!("moving: {}", s.label()),
+            };
         }
         A::ToggleVisible => {
             let (f, idx) = (app.frame(), app.scope_indices());
@@ -225,6 +268,7 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
             app.head = super::app::HeadView { label: app.head.label, ..Default::default() }
         }
         A::MoveCursor { dx, dy } => {
+            app.head.suggested = None;
             let k = 0.01 / app.head.zoom;
             let (x, y) = app.head.cursor;
             app.head.cursor = (
@@ -232,31 +276,36 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 (y + f64::from(dy) * k).clamp(-1.5, 1.5),
             );
         }
-        A::NextLabel => app.head.label = (app.head.label + 1) % N_LANDMARKS,
-        A::PrevLabel => app.head.label = (app.head.label + N_LANDMARKS - 1) % N_LANDMARKS,
+        A::NextLabel => set_label_target(app, (app.head.label + 1) % N_LANDMARKS),
+        A::PrevLabel => set_label_target(app, (app.head.label + N_LANDMARKS - 1) % N_LANDMARKS),
         A::ConfirmLabel => {
-            let picked = app.mesh.as_ref().and_then(|m| head::pick_vertex(m, &app.head));
+            let l = app.head.label;
+            let picked = match app.head.suggested {
+                Some((sl, v)) if sl == l => Some(v),
+                _ => app
+                    .mesh
+                    .as_ref()
+                    .and_then(|m| head::pick_vertex(m, &app.head_framing, &app.head)),
+            };
             match picked {
                 Some(v) => {
-                    let l = app.head.label;
-                    let before = app.map.as_ref().and_then(|m| m.vertex(l));
-                    set_label(app, l, Some(v));
-                    push_edit(app, Edit::Label { landmark: l, before, after: Some(v) });
+                    relabel(app, vec![(l, Some(v))]);
                     app.status = format!("landmark {l} → vertex {v}");
-                    app.head.label = (l + 1) % N_LANDMARKS;
+                    set_label_target(app, (l + 1) % N_LANDMARKS);
                 }
                 None => app.status = "no visible vertex under the cursor".into(),
             }
         }
         A::ClearLabel => {
-            let l = app.head.label;
-            let before = app.map.as_ref().and_then(|m| m.vertex(l));
-            if before.is_some() {
-                set_label(app, l, None);
-                push_edit(app, Edit::Label { landmark: l, before, after: None });
-            }
+            relabel(app, vec![(app.head.label, None)]);
         }
-        A::SaveMap => app.effects.push(Effect::SaveMap),
+        A::SuggestLabel => suggest_label(app),
+        A::SuggestAllLabels => suggest_all_labels(app),
+        // The session then records the map file it now refers to.
+        A::SaveMap => {
+            app.effects.push(Effect::SaveMap);
+            request_save(app);
+        }
         A::RowDown | A::RowUp => {
             let n = analysis_rows(app);
             let r = &mut app.analysis_view.row;
@@ -340,18 +389,60 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 app.analysis_view.table = app.analysis_view.table.min(n - 1);
             }
         }
+        A::SideReady { side } => {
+            let failed = side.track.automatic.iter().filter(|p| p.failed.is_some()).count();
+            app.status = format!(
+                "side view measured: {} frames ({failed} failed)",
+                side.track.automatic.len()
+            );
+            app.side = SideState::Ready(side);
+            request_images(app);
+            app.request_analysis();
+        }
+        A::SideFailed { error } => {
+            app.status = format!("side view: {error}");
+            app.side = SideState::Failed(error);
+        }
+        A::SideFrameLoaded { frame, image } => {
+            if let Some(side) = app.side.view_mut() {
+                side.image_errors.remove(&frame);
+                side.images.insert(frame, image);
+                // Keep the frames nearest the one just decoded (the one being looked at).
+                while side.images.len() > super::app::SideView::CACHE {
+                    let far = side.images.keys().copied().max_by_key(|k| k.abs_diff(frame));
+                    if let Some(far) = far {
+                        side.images.remove(&far);
+                    }
+                }
+            }
+        }
+        A::SideFrameFailed { frame, error } => {
+            if let Some(side) = app.side.view_mut() {
+                side.image_errors.insert(frame, error);
+            }
+        }
         A::Saved { generation } => {
             if generation >= app.save_generation {
-                app.unsaved_edits = 0;
+                // Edits made while the save was on its way stay unsaved.
+                app.unsaved_edits = app.unsaved_edits.saturating_sub(app.save_pending_edits);
+                app.save_pending_edits = 0;
+                app.saving = false;
+                // The tables follow the corrections (the head's side uses the fits as they
+                // are until the next fit).
+                app.request_analysis();
             }
             // The status line's right side shows the save state; keep the message.
             app.save_failed = false;
-            if app.quit_requested {
+            if app.quit_requested && app.unsaved_edits == 0 {
                 app.should_quit = true;
                 app.effects.push(Effect::Quit);
+            } else if app.quit_requested && !app.saving {
+                request_save(app);
             }
         }
         A::SaveFailed { error } => {
+            app.saving = false;
+            app.switch_clip = None;
             app.status = format!("save failed: {error} (q again quits without saving)");
             app.quit_requested = false;
             app.save_failed = true;
@@ -368,9 +459,17 @@ fn quit(app: &mut App) -> Option<Action> {
     } else {
         // Autosave normally leaves nothing unsaved; save the last batch before leaving.
         app.quit_requested = true;
-        app.effects.push(Effect::Save);
+        request_save(app);
     }
     None
+}
+
+/// Queues a save of everything edited so far; its reply (`Saved`) names its generation.
+fn request_save(app: &mut App) {
+    app.save_generation += 1;
+    app.saving = true;
+    app.save_pending_edits = app.unsaved_edits;
+    app.effects.push(Effect::Save);
 }
 
 fn open_prompt(app: &mut App, kind: PromptKind) {
@@ -382,8 +481,8 @@ fn submit_prompt(app: &mut App) -> Option<Action> {
     let n: Option<usize> = input.parse().ok();
     match kind {
         PromptKind::GotoPoint | PromptKind::GotoLabel => match n.filter(|&n| n < N_LANDMARKS) {
-            Some(n) if kind == PromptKind::GotoPoint => app.selected = n,
-            Some(n) => app.head.label = n,
+            Some(n) if kind == PromptKind::GotoPoint => select_point(app, n),
+            Some(n) => set_label_target(app, n),
             None => app.status = format!("no landmark `{input}` (0-67)"),
         },
         PromptKind::GotoFrame => {
@@ -451,6 +550,172 @@ fn set_label(app: &mut App, landmark: usize, vertex: Option<usize>) {
     };
 }
 
+/// Sets landmarks' vertices (None removes) as one undoable edit; unchanged ones are skipped.
+fn relabel(app: &mut App, labels: Vec<(usize, Option<usize>)>) -> usize {
+    let changes: Vec<LabelChange> = labels
+        .into_iter()
+        .map(|(landmark, after)| {
+            let before = app.map.as_ref().and_then(|m| m.vertex(landmark));
+            LabelChange { landmark, before, after }
+        })
+        .filter(|c| c.before != c.after)
+        .collect();
+    for c in &changes {
+        set_label(app, c.landmark, c.after);
+    }
+    let n = changes.len();
+    if n > 0 {
+        push_edit(app, Edit::Labels(changes));
+    }
+    n
+}
+
+fn set_label_target(app: &mut App, landmark: usize) {
+    app.head.label = landmark;
+    app.head.suggested = None;
+}
+
+/// The head's vertices and the camera to see them through for suggestions: the current
+/// frame's fitted shape and pose when it has a fit, else the mesh (or the model's mean)
+/// with the pose left to be estimated from the labels.
+fn suggestion_basis(app: &App) -> Option<(Vec<crate::math::Point3>, Option<OrthoPose>)> {
+    let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
+    if let (Some(model), Some(fit)) = (&app.model, fit) {
+        let shape = crate::fit::fitted_shape(model, fit);
+        return Some((model.to_mesh(&shape).vertices, Some(crate::fit::pose_of(fit))));
+    }
+    match (&app.mesh, &app.model) {
+        (Some(mesh), _) => Some((mesh.vertices.clone(), None)),
+        (None, Some(model)) => Some((model.mean_mesh().vertices, None)),
+        (None, None) => None,
+    }
+}
+
+fn suggest_label(app: &mut App) {
+    let Some((vertices, pose)) = suggestion_basis(app) else {
+        app.status = "no head to label".into();
+        return;
+    };
+    let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
+    let map = app.map.clone().unwrap_or_default();
+    let l = app.head.label;
+    let how = if pose.is_some() { "fitted pose" } else { "pose from the labels" };
+    let h = f64::from(app.frame_dims().1);
+    match crate::fit::suggest::suggest_label(&vertices, &map, frame, h, pose, l) {
+        Ok(s) => {
+            if let Some(mesh) = &app.mesh {
+                let rot = head::rotation(app.head.yaw, app.head.pitch);
+                let pts = head::project(mesh, &rot, &app.head_framing);
+                if let Some(p) = pts.get(s.vertex) {
+                    app.head.cursor = (p.0, -p.1);
+                }
+            }
+            app.head.suggested = Some((l, s.vertex));
+            app.status = format!(
+                "suggested vertex {} for {l} ({:.1} px off the tracked point, {how}): \
+                 Enter assigns",
+                s.vertex, s.distance_px
+            );
+        }
+        Err(e) => app.status = format!("no suggestion: {e}"),
+    }
+}
+
+fn suggest_all_labels(app: &mut App) {
+    let Some((vertices, pose)) = suggestion_basis(app) else {
+        app.status = "no head to label".into();
+        return;
+    };
+    let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
+    let map = app.map.clone().unwrap_or_default();
+    let unmapped: Vec<usize> = (0..N_LANDMARKS).filter(|l| map.vertex(*l).is_none()).collect();
+    let h = f64::from(app.frame_dims().1);
+    match crate::fit::suggest::suggest_labels(&vertices, &map, frame, h, pose, unmapped) {
+        Ok(list) => {
+            let worst = list.iter().map(|s| s.distance_px).fold(0.0, f64::max);
+            let n = relabel(app, list.iter().map(|s| (s.landmark, Some(s.vertex))).collect());
+            app.status = format!(
+                "labelled {n} landmarks from suggestions (worst {worst:.1} px off); u undoes"
+            );
+        }
+        Err(e) => app.status = format!("no suggestions: {e}"),
+    }
+}
+
+/// The side frame shown now and its user point, when the side view is ready.
+fn side_point(app: &App) -> Option<(usize, Option<crate::math::Point2>)> {
+    let side = app.side.view()?;
+    let k = side.frame_for(app.frame(), app.fps)?;
+    Some((k, side.track.corrected.get(&k).copied()))
+}
+
+fn set_profile_point(
+    app: &mut App,
+    k: usize,
+    before: Option<crate::math::Point2>,
+    after: Option<crate::math::Point2>,
+) {
+    if let Some(side) = app.side.view_mut() {
+        side.set_correction(k, after);
+        push_edit(app, Edit::Profile { side_frame: k, before, after });
+    }
+}
+
+/// Moves the side frame's upper-lip point (starting from the automatic one, or the crop's
+/// centre where extraction failed) by keyboard steps of one display pixel.
+fn nudge_profile_point(app: &mut App, dx: i32, dy: i32) {
+    let Some((k, before)) = side_point(app) else {
+        app.status = "no side frame here".into();
+        return;
+    };
+    let Some(side) = app.side.view() else { return };
+    let start =
+        side.track.effective(k, &side.setup).and_then(|p| p.upper_lip_px).unwrap_or_else(|| {
+            let c = side.setup.crop;
+            crate::math::Point2::new(
+                f64::from(c.x) + f64::from(c.width) / 2.0,
+                f64::from(c.y) + f64::from(c.height) / 2.0,
+            )
+        });
+    let step = views::side::side_mapping(app, app.term_size).map_or(1.0, |m| m.step_px());
+    let after = start + crate::math::Vector2::new(f64::from(dx) * step, f64::from(dy) * step);
+    set_profile_point(app, k, before, Some(after));
+}
+
+/// Selects a point and, when zoomed in, pans to it if it is off screen.
+fn select_point(app: &mut App, index: usize) {
+    app.selected = index;
+    let (Some(m), Some(p)) = (views::image_mapping(app, app.term_size), current_point(app)) else {
+        return;
+    };
+    let (x, y) = m.image_to_display(p.x, p.y);
+    let (w, h) = (f64::from(m.area.width), 2.0 * f64::from(m.area.height));
+    if app.image_view.zoom > 1.0 && !((0.0..w).contains(&x) && (0.0..h).contains(&y)) {
+        app.image_view.center = Some((p.x, p.y));
+    }
+}
+
+/// What an undo or redo entry changed, for the status line.
+fn describe_edit(e: &Edit) -> String {
+    match e {
+        Edit::Points(changes) => {
+            let frames: std::collections::BTreeSet<usize> =
+                changes.iter().map(|c| c.frame).collect();
+            let n = changes.len();
+            let pts = if n == 1 { "point" } else { "points" };
+            match (frames.first(), frames.len()) {
+                (Some(f), 1) => format!("{n} {pts} on frame {f}"),
+                (Some(f), k) => format!("{n} {pts} on {k} frames from {f}"),
+                (None, _) => "nothing".into(),
+            }
+        }
+        Edit::Reviewed { frame, .. } => format!("reviewed mark of frame {frame}"),
+        Edit::Profile { side_frame, .. } => format!("lip point of side frame {side_frame}"),
+        Edit::Labels(c) if c.len() == 1 => format!("label of landmark {}", c[0].landmark),
+        Edit::Labels(c) => format!("{} labels", c.len()),
+    }
+}
+
 fn undo_redo(app: &mut App, undo: bool) {
     let (from, to) =
         if undo { (&mut app.undo, &mut app.redo) } else { (&mut app.redo, &mut app.undo) };
@@ -469,16 +734,33 @@ fn undo_redo(app: &mut App, undo: bool) {
             }
         }
         Edit::Reviewed { frame, now } => apply_reviewed(app, frame, now != undo),
-        Edit::Label { landmark, before, after } => {
-            set_label(app, landmark, if undo { before } else { after })
+        Edit::Labels(changes) => {
+            for c in changes {
+                set_label(app, c.landmark, if undo { c.before } else { c.after });
+            }
+        }
+        Edit::Profile { side_frame, before, after } => {
+            if let Some(side) = app.side.view_mut() {
+                side.set_correction(side_frame, if undo { before } else { after });
+            }
         }
     }
-    app.status = if undo { "undone" } else { "redone" }.into();
+    if let Some(e) = if undo { app.redo.last() } else { app.undo.last() } {
+        app.status = format!("{}: {}", if undo { "undone" } else { "redone" }, describe_edit(e));
+    }
 }
 
 fn run_fit(app: &mut App) {
-    if app.model.is_none() || app.map.as_ref().is_none_or(|m| m.is_empty()) {
-        app.status = "cannot fit: the session has no model or no landmark map".into();
+    let Some(model) = &app.model else {
+        app.status = "cannot fit: the session has no model".into();
+        return;
+    };
+    let map = app.map.clone().unwrap_or_default();
+    // One message now rather than every frame failing the same way.
+    if let Err(e) =
+        crate::workflow::check_map_for_fit(&map, model.num_vertices(), &app.fit_settings)
+    {
+        app.status = format!("cannot fit: {e}; label more in the head view (2), `O` suggests");
         return;
     }
     app.fit.generation += 1;
@@ -523,6 +805,14 @@ pub fn request_images(app: &mut App) {
         .collect();
     if !wanted.is_empty() {
         app.effects.push(Effect::LoadFrames(wanted));
+    }
+    if app.view == View::Side
+        && let Some(side) = app.side.view()
+        && let Some(k) = side.frame_for(app.frame(), app.fps)
+        && !side.images.contains_key(&k)
+        && !side.image_errors.contains_key(&k)
+    {
+        app.effects.push(Effect::LoadSideFrame(k));
     }
 }
 

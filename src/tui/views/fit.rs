@@ -5,7 +5,7 @@
 //! Editing keys work here as in the frames view (mode chain fit → frames → global).
 
 use super::frames::{draw_image, landmark_markers};
-use super::head::{draw_wireframe, rotation};
+use super::head::{WireView, draw_wireframe, rotation};
 use super::image_and_side;
 use crate::math::Matrix3;
 use crate::tui::app::App;
@@ -23,10 +23,10 @@ fn fit_rotation(yaw: f64, pitch: f64, roll: f64) -> Matrix3 {
     rotation(yaw, pitch) * rz.into_inner()
 }
 
-pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image, side) = image_and_side(area);
-    let f = app.frame();
-    let fit = app.fit.fits.get(&f);
+/// Markers of the fit view: tracked points as grey dots, fitted points (`+`, tracked +
+/// residual) over them, the selected point on top.
+pub fn fit_markers(app: &App) -> Vec<Marker> {
+    let fit = app.fit.fits.get(&app.frame());
     let mut markers: Vec<Marker> = landmark_markers(app)
         .into_iter()
         .map(|mut m| {
@@ -51,7 +51,14 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         markers.extend(fitted);
         markers.extend(sel);
     }
-    draw_image(app, frame, image, &markers);
+    markers
+}
+
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    let (image, side) = image_and_side(area);
+    let f = app.frame();
+    let fit = app.fit.fits.get(&f);
+    draw_image(app, frame, image, &fit_markers(app));
     if side.width == 0 {
         return;
     }
@@ -131,7 +138,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 crate::model::Mesh::from_flat(shape.as_slice(), Vec::new())
             });
         let shown = fitted.as_ref().unwrap_or(mesh);
-        draw_wireframe(frame, front_area, shown, &app.mesh_edges, &r, 1.0, |_, _, _| {});
-        draw_wireframe(frame, side_area, shown, &app.mesh_edges, &side_r, 1.0, |_, _, _| {});
+        let view = WireView::framed(app.head_framing);
+        draw_wireframe(frame, front_area, shown, &app.mesh_edges, &r, &view, |_, _, _| {});
+        draw_wireframe(frame, side_area, shown, &app.mesh_edges, &side_r, &view, |_, _, _| {});
     }
 }

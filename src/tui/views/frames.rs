@@ -1,11 +1,13 @@
 //! Frames view: the frame as half-block pixels with the 68 landmarks over it (style by source
 //! and visibility, the selected one highlighted) and a side panel describing frame and point.
 //!
-//! `landmark_markers` is shared with the fit view.
+//! `landmark_markers` is shared with the fit view; `draw_graphics` puts a terminal graphics
+//! protocol image over the half-blocks of either view when one is in use.
 
 use super::image_and_side;
 use crate::landmarks::{LandmarkPoint, PointSource, landmark_name};
-use crate::tui::app::App;
+use crate::tui::app::{App, Overlay, View};
+use crate::tui::widgets::graphics::GraphicsState;
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
 use ratatui::Frame;
 use ratatui::layout::Rect;
@@ -87,6 +89,30 @@ pub fn draw_image(app: &App, frame: &mut Frame, area: Rect, markers: &[Marker]) 
     }
 }
 
+/// Draws the current frame through the terminal graphics protocol of `gfx` over the
+/// half-block image `draw` left in the frames and fit views (same area, same `Mapping`,
+/// markers rasterised into the pixels). Call after `views::draw`, inside the same
+/// `Terminal::draw`. Nothing happens without a protocol, without a decoded image (the
+/// loading note stays visible), or while the help overlay covers the screen: a protocol
+/// image would paint over it, and drawing half-blocks meanwhile makes every cell differ
+/// when the overlay closes, so the image is re-sent whole. Returns whether it drew.
+pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> bool {
+    if gfx.protocol().is_none() || app.overlays.iter().any(|o| matches!(o, Overlay::Help { .. })) {
+        return false;
+    }
+    let markers = match app.view {
+        View::Frames => landmark_markers(app),
+        View::Fit => super::fit::fit_markers(app),
+        View::Head | View::Analysis | View::Side => return false,
+    };
+    let size = frame.area();
+    let Some(mapping) = super::image_mapping(app, (size.width, size.height)) else {
+        return false;
+    };
+    let Some(image) = app.current_image() else { return false };
+    gfx.render(image, app.frame(), mapping, &markers, frame.buffer_mut())
+}
+
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let (image, side) = image_and_side(area);
     let markers = landmark_markers(app);
@@ -152,4 +178,50 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     }
     lines.push(Line::from(format!("{} flagged frames", app.flags.len())).fg(Color::DarkGray));
     lines
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tui::fixtures::synthetic_app;
+    use crate::tui::keymap::Keymap;
+    use ratatui::Terminal;
+    use ratatui::backend::TestBackend;
+    use ratatui_image::picker::ProtocolType;
+
+    /// Draws like the run loop and returns whether the protocol drew, and the symbol of the
+    /// image area's first cell.
+    fn draw_like_run_loop(app: &App, gfx: &mut GraphicsState) -> (bool, String) {
+        let mut term = Terminal::new(TestBackend::new(100, 30)).unwrap();
+        let mut drew = false;
+        term.draw(|f| {
+            crate::tui::views::draw(app, &Keymap::default(), f);
+            drew = draw_graphics(app, gfx, f);
+        })
+        .unwrap();
+        let area = crate::tui::views::image_mapping(app, (100, 30)).map(|m| m.area);
+        let first = area.map(|a| term.backend().buffer()[(a.x, a.y)].symbol().to_string());
+        (drew, first.unwrap_or_default())
+    }
+
+    #[test]
+    fn protocol_image_covers_the_image_area_in_frames_and_fit_views_only() {
+        let mut app = synthetic_app(3, 120, 80, true);
+        app.term_size = (100, 30);
+        let mut gfx = GraphicsState::with_protocol(ProtocolType::Kitty, (8, 16), false);
+        let (drew, first) = draw_like_run_loop(&app, &mut gfx);
+        assert!(drew && first.starts_with("\x1b_G"), "frames view transmits the image");
+        app.view = View::Fit;
+        assert!(draw_like_run_loop(&app, &mut gfx).0);
+        assert_eq!(gfx.encodes(), 2, "fit markers differ from the frames view's");
+        app.overlays.push(Overlay::Help { scroll: 0 });
+        assert!(!draw_like_run_loop(&app, &mut gfx).0, "help overlay: half-blocks");
+        app.overlays.clear();
+        app.view = View::Head;
+        assert!(!draw_like_run_loop(&app, &mut gfx).0);
+        // Half-blocks: the run loop's extra call draws nothing.
+        app.view = View::Frames;
+        let (drew, first) = draw_like_run_loop(&app, &mut GraphicsState::halfblocks());
+        assert!(!drew && first == "▀");
+    }
 }

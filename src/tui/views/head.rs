@@ -5,9 +5,9 @@
 //! along −z, scaled so the bounding sphere has radius 1 ("head units"; y up on screen).
 
 use crate::landmarks::landmark_name;
-use crate::math::{Matrix3, Point3, Vector3};
+use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
-use crate::tui::app::{App, HeadView};
+use crate::tui::app::{App, HeadFraming, HeadView};
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Stylize};
@@ -31,18 +31,10 @@ pub fn rotation(yaw_deg: f64, pitch_deg: f64) -> Matrix3 {
     (ry * rx).into_inner()
 }
 
-/// Projects every vertex to (x, y, depth) in head units; depth grows towards the viewer.
-pub fn project(mesh: &Mesh, rot: &Matrix3) -> Vec<(f64, f64, f64)> {
-    if mesh.vertices.is_empty() {
-        return Vec::new();
-    }
-    let (mut lo, mut hi) = (mesh.vertices[0].coords, mesh.vertices[0].coords);
-    for v in &mesh.vertices {
-        lo = lo.inf(&v.coords);
-        hi = hi.sup(&v.coords);
-    }
-    let c = Point3::from((lo + hi) / 2.0);
-    let r = ((hi - lo).norm() / 2.0).max(1e-12);
+/// Projects every vertex to (x, y, depth) in head units (the framing sphere has radius 1);
+/// depth grows towards the viewer.
+pub fn project(mesh: &Mesh, rot: &Matrix3, framing: &HeadFraming) -> Vec<(f64, f64, f64)> {
+    let (c, r) = (framing.centre, framing.radius.max(1e-12));
     mesh.vertices
         .iter()
         .map(|v| {
@@ -98,8 +90,8 @@ pub fn visible_vertices(mesh: &Mesh, pts: &[(f64, f64, f64)]) -> Vec<bool> {
 
 /// The 3D cursor: the visible vertex nearest the 2D cursor, within the pick radius.
 /// `None` when no visible vertex is near.
-pub fn pick_vertex(mesh: &Mesh, view: &HeadView) -> Option<usize> {
-    let pts = project(mesh, &rotation(view.yaw, view.pitch));
+pub fn pick_vertex(mesh: &Mesh, framing: &HeadFraming, view: &HeadView) -> Option<usize> {
+    let pts = project(mesh, &rotation(view.yaw, view.pitch), framing);
     let visible = visible_vertices(mesh, &pts);
     pick_from(&pts, &visible, view)
 }
@@ -140,6 +132,22 @@ fn edge_stride(
     ((ink / budget.max(1.0)).ceil() as usize).max(1)
 }
 
+/// How a wireframe is seen: the framing sphere, the zoom, and the point (head units) at the
+/// centre of the area.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WireView {
+    pub framing: HeadFraming,
+    pub zoom: f64,
+    pub centre: (f64, f64),
+}
+
+impl WireView {
+    /// The whole framing sphere, unzoomed.
+    pub fn framed(framing: HeadFraming) -> Self {
+        Self { framing, zoom: 1.0, centre: (0.0, 0.0) }
+    }
+}
+
 /// Draws a wireframe of `mesh` rotated by `rot` into `area` with extra point layers.
 pub fn draw_wireframe(
     frame: &mut Frame,
@@ -147,13 +155,15 @@ pub fn draw_wireframe(
     mesh: &Mesh,
     edges: &[[u32; 2]],
     rot: &Matrix3,
-    zoom: f64,
+    view: &WireView,
     overlay: impl Fn(&mut ratatui::widgets::canvas::Context, &[(f64, f64, f64)], &[bool]),
 ) {
     if area.width == 0 || area.height == 0 {
         return;
     }
-    let pts = project(mesh, rot);
+    let zoom = view.zoom;
+    let (cx, cy) = view.centre;
+    let pts = project(mesh, rot, &view.framing);
     let visible = visible_vertices(mesh, &pts);
     // Braille dots are about square: 2×4 per cell of aspect 1:2.
     let aspect = f64::from(area.width) / (2.0 * f64::from(area.height));
@@ -163,8 +173,8 @@ pub fn draw_wireframe(
     let stride = edge_stride(&front, &pts, area, hy);
     let canvas = Canvas::default()
         .marker(Marker::Braille)
-        .x_bounds([-hx, hx])
-        .y_bounds([-hy, hy])
+        .x_bounds([cx - hx, cx + hx])
+        .y_bounds([cy - hy, cy + hy])
         .paint(|ctx| {
             // Hidden-line removal by vertex visibility, and thinning, keep a dense mesh
             // readable.
@@ -180,12 +190,22 @@ pub fn draw_wireframe(
     frame.render_widget(canvas, area);
 }
 
+/// The head view's camera: zoomed in, it follows the cursor so the cursor stays on screen.
+pub fn head_wire_view(app: &App) -> WireView {
+    let h = &app.head;
+    let centre = if h.zoom > 1.0 { (h.cursor.0, -h.cursor.1) } else { (0.0, 0.0) };
+    WireView { framing: app.head_framing, zoom: h.zoom, centre }
+}
+
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let side_w = if area.width >= 50 { 26.min(area.width / 3) } else { 0 };
     let canvas_area = Rect::new(area.x, area.y, area.width - side_w, area.height);
     let side = Rect::new(area.x + canvas_area.width, area.y, side_w, area.height);
     let h = &app.head;
-    let picked = app.mesh.as_ref().and_then(|m| pick_vertex(m, h));
+    let picked = match h.suggested {
+        Some((l, v)) if l == h.label => Some(v),
+        _ => app.mesh.as_ref().and_then(|m| pick_vertex(m, &app.head_framing, h)),
+    };
     match &app.mesh {
         Some(mesh) => {
             let map = app.map.clone().unwrap_or_default();
@@ -198,7 +218,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 mesh,
                 &app.mesh_edges,
                 &rotation(h.yaw, h.pitch),
-                h.zoom,
+                &head_wire_view(app),
                 |ctx, pts, visible| {
                     let mapped: Vec<(f64, f64)> = map
                         .to_vertex
@@ -250,9 +270,10 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             Some(v) => format!("now vertex {v}"),
             None => "not mapped".into(),
         }),
-        Line::from(match picked {
-            Some(v) => format!("cursor on vertex {v}"),
-            None => "cursor on no vertex".into(),
+        Line::from(match (picked, h.suggested) {
+            (Some(v), Some((l, s))) if l == h.label && s == v => format!("suggested vertex {v}"),
+            (Some(v), _) => format!("cursor on vertex {v}"),
+            (None, _) => "cursor on no vertex".into(),
         })
         .fg(Color::LightRed),
         Line::from(""),
@@ -279,19 +300,21 @@ mod tests {
     fn picks_a_visible_vertex_under_the_cursor() {
         let mesh = synthetic_mesh();
         let view = HeadView::default();
-        let front = pick_vertex(&mesh, &view).unwrap();
+        let framing = HeadFraming::around(&mesh.vertices).unwrap();
+        let front = pick_vertex(&mesh, &framing, &view).unwrap();
         assert!(mesh.vertices[front].z > 0.0);
         // Turned around, the back of the head is in front.
-        let back = pick_vertex(&mesh, &HeadView { yaw: 180.0, ..view }).unwrap();
+        let back = pick_vertex(&mesh, &framing, &HeadView { yaw: 180.0, ..view }).unwrap();
         assert!(mesh.vertices[back].z < 0.0);
         // Far outside the head there is nothing to pick.
-        assert_eq!(pick_vertex(&mesh, &HeadView { cursor: (1.4, 0.0), ..view }), None);
+        assert_eq!(pick_vertex(&mesh, &framing, &HeadView { cursor: (1.4, 0.0), ..view }), None);
     }
 
     #[test]
     fn about_half_of_a_closed_head_is_visible() {
         let mesh = synthetic_mesh();
-        let pts = project(&mesh, &rotation(20.0, 10.0));
+        let framing = HeadFraming::around(&mesh.vertices).unwrap();
+        let pts = project(&mesh, &rotation(20.0, 10.0), &framing);
         let vis = visible_vertices(&mesh, &pts);
         let n = vis.iter().filter(|v| **v).count() as f64 / vis.len() as f64;
         assert!((0.35..0.7).contains(&n), "visible fraction {n}");

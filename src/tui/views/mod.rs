@@ -8,6 +8,7 @@ pub mod fit;
 pub mod frames;
 pub mod head;
 pub mod help;
+pub mod side;
 pub mod status;
 
 use super::app::{App, Overlay, View};
@@ -82,6 +83,7 @@ pub fn draw(app: &App, keymap: &Keymap, frame: &mut Frame) {
         View::Head => head::draw(app, frame, layout.body),
         View::Fit => fit::draw(app, frame, layout.body),
         View::Analysis => analysis::draw(app, frame, layout.body),
+        View::Side => side::draw(app, frame, layout.body),
     }
     status::draw_strip(app, frame, layout.strip);
     status::draw_status(app, keymap, frame, layout.status);

@@ -27,6 +27,9 @@ pub fn draw_title(app: &App, frame: &mut Frame, area: Rect) {
     spans.push(tab("2", "head", View::Head));
     spans.push(tab("3", "fit", View::Fit));
     spans.push(tab("4", "analysis", View::Analysis));
+    if app.side != crate::tui::app::SideState::None {
+        spans.push(tab("5", "side", View::Side));
+    }
     frame.render_widget(Paragraph::new(Line::from(spans)), area);
 }
 

@@ -1,6 +1,7 @@
-//! TUI building blocks with no view logic: the half-block image widget, the worker threads
-//! for decoding and fitting, and terminal setup/restore.
+//! TUI building blocks with no view logic: the half-block image widget, terminal graphics
+//! protocols, the worker threads for decoding and fitting, and terminal setup/restore.
 
+pub mod graphics;
 pub mod halfblock;
 pub mod terminal;
 pub mod worker;

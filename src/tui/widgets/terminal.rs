@@ -52,16 +52,30 @@ impl TerminalGuard {
     /// # Errors
     /// When the terminal refuses (not a TTY); the terminal is restored before returning.
     pub fn enter() -> std::io::Result<Self> {
+        Self::enter_with(|| ()).map(|(guard, ())| guard)
+    }
+
+    /// As `enter`, running `probe` once raw mode and the alternate screen are on and the
+    /// `Terminal` exists, but before mouse capture and before any event is read: the moment
+    /// a terminal query (graphics protocol, cell size) must run, so its reply is neither
+    /// echoed on the main screen nor mixed with mouse reports. After `Terminal::new`, whose
+    /// own cursor-position query must not race with a probe still reading a slow reply.
+    ///
+    /// # Errors
+    /// As `enter`.
+    pub fn enter_with<T>(probe: impl FnOnce() -> T) -> std::io::Result<(Self, T)> {
         install_panic_hook();
-        let setup = || -> std::io::Result<Tui> {
+        let setup = || -> std::io::Result<(Tui, T)> {
             enable_raw_mode()?;
-            execute!(stdout(), EnterAlternateScreen, EnableMouseCapture)?;
+            execute!(stdout(), EnterAlternateScreen)?;
             let mut t = Terminal::new(CrosstermBackend::new(stdout()))?;
+            let probed = probe();
+            execute!(stdout(), EnableMouseCapture)?;
             t.clear()?;
-            Ok(t)
+            Ok((t, probed))
         };
         match setup() {
-            Ok(terminal) => Ok(Self { terminal }),
+            Ok((terminal, probed)) => Ok((Self { terminal }, probed)),
             Err(e) => {
                 restore();
                 Err(e)

@@ -97,6 +97,8 @@ pub struct AnalysisJob {
     /// Tables computed from the session when the job was made (facial indices of speaker
     /// and head, and their match), shown after the error tables.
     pub extra_tables: Vec<crate::eval::Table>,
+    /// The side view's P per front frame (corrections applied), when the clip has one.
+    pub side_p: Option<Vec<Option<f64>>>,
 }
 
 /// Rows of the worst-frame tables shown in the analysis view.
@@ -106,9 +108,17 @@ const N_WORST: usize = 20;
 /// (min–max normalised, as the published method) and turns the report into the analysis
 /// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
 pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
-    use crate::measure::{Measure, MeshMeasureOptions};
+    use crate::measure::{Measure, MeshMeasureOptions, UpperLip};
     use crate::workflow::{Normalisation, evaluate, utterance_from_parts};
-    let u = utterance_from_parts(
+    // With a side view, the head's P is its whole upper lip's foremost point, as a profile
+    // shows it (the CLI's `eval` does the same).
+    let options = match &job.side_p {
+        Some(_) => MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() }
+            .with_region_resolved(&job.model.shape.mean, &job.map.with_commissures_completed())
+            .unwrap_or_default(),
+        None => MeshMeasureOptions::default(),
+    };
+    let mut u = utterance_from_parts(
         &job.name,
         &job.alignment,
         job.fps,
@@ -116,8 +126,12 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         &job.model,
         &job.map,
         &job.fits,
-        &MeshMeasureOptions::default(),
+        &options,
     );
+    if let Some(p) = &job.side_p {
+        u.video.p = p.clone();
+        u.video.p.resize(u.head.p.len(), None);
+    }
     let report = evaluate(
         std::slice::from_ref(&u),
         &[(job.name.as_str(), job.fits.as_slice())],
@@ -203,6 +217,7 @@ pub struct Workers {
     frames: Arc<Slot<Vec<usize>>>,
     fits: Arc<Slot<FitJob>>,
     analyses: Arc<Slot<AnalysisJob>>,
+    side_frames: Arc<Slot<usize>>,
 }
 
 impl Workers {
@@ -279,7 +294,28 @@ impl Workers {
                 }
             });
         }
-        Self { frames, fits, analyses }
+        Self { frames, fits, analyses, side_frames: Arc::new(Slot::new()) }
+    }
+
+    /// Starts the side view's decoding thread over `provider` (clips with a side view).
+    pub fn start_side_frames(&self, provider: Arc<dyn FrameProvider>, tx: Sender<Action>) {
+        let slot = self.side_frames.clone();
+        std::thread::spawn(move || {
+            while let Some(frame) = slot.take() {
+                let reply = match provider.load(frame) {
+                    Ok(img) => Action::SideFrameLoaded { frame, image: Arc::new(img) },
+                    Err(e) => Action::SideFrameFailed { frame, error: format!("{e:#}") },
+                };
+                if tx.send(reply).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+
+    /// Asks for a side-view frame, replacing any pending request.
+    pub fn request_side_frame(&self, frame: usize) {
+        self.side_frames.put(frame);
     }
 
     /// Asks for the analysis tables, replacing any pending request.
@@ -304,6 +340,7 @@ impl Drop for Workers {
         self.frames.close();
         self.fits.close();
         self.analyses.close();
+        self.side_frames.close();
     }
 }
 

@@ -1,0 +1,30 @@
+//! Inputs shared by the command-line tests: the carphone clip's frames (read in place) and
+//! its first frames of dlib landmarks written as a lipmap CSV into a temp folder, with eos's
+//! SFM model files. `None` (with the skip notice) when ../shared is absent.
+
+use lipmap::io::landmark_format::{LandmarkFormat, read_track, write_track};
+use std::path::PathBuf;
+
+pub struct Carphone {
+    /// Keeps the temp folder alive as long as the inputs.
+    pub _dir: tempfile::TempDir,
+    pub root: PathBuf,
+    pub frames: PathBuf,
+    /// The first `n_frames` frames of dlib's landmarks, as a lipmap CSV in `root`.
+    pub landmarks: PathBuf,
+    /// eos's share folder (sfm_shape_3448.bin, its blendshapes, ibug_to_sfm.txt).
+    pub eos: PathBuf,
+}
+
+pub fn carphone(n_frames: usize) -> Option<Carphone> {
+    let frames = lipmap::testdata::shared("data/carphone/frames")?;
+    let pts = lipmap::testdata::shared("data/carphone/dlib68_pts")?;
+    let eos = lipmap::testdata::shared("peer/eos/share")?;
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path().to_path_buf();
+    let mut track = read_track(&pts).unwrap();
+    track.frames.truncate(n_frames);
+    let landmarks = root.join("carphone.csv");
+    write_track(&track, &landmarks, LandmarkFormat::LipmapCsv).unwrap();
+    Some(Carphone { _dir: dir, root, frames, landmarks, eos })
+}

@@ -93,12 +93,15 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
                 .max()
                 .unwrap_or(4)
                 .min(24) as u16;
-            if c == 0 { Constraint::Min(w) } else { Constraint::Length(w) }
+            // The sort arrow and a gap between columns.
+            Constraint::Length(w + u16::from(c == 0) + 1)
         })
         .collect();
     let n_tables = app.analysis.tables.len();
     let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
+    // Columns packed to the left: numbers next to their labels, the spare width at the end.
     let t = Table::new(rows, widths)
+        .flex(ratatui::layout::Flex::Start)
         .header(Row::new(header).style(Style::new().bold().fg(Color::LightCyan)))
         .row_highlight_style(Style::new().add_modifier(Modifier::REVERSED))
         .block(Block::bordered().title(title).border_style(Color::DarkGray));

@@ -417,3 +417,19 @@ fn switching_clips_saves_first_and_names_the_clip() {
     );
     assert_eq!(a.switch_clip, None);
 }
+
+#[test]
+fn loading_the_map_file_replaces_the_labels_as_one_undo_step() {
+    let mut a = app();
+    let before = a.map.clone().unwrap();
+    run(&mut a, [Action::ShowHead, Action::LoadMap]);
+    assert_eq!(a.effects.last(), Some(&Effect::LoadMap));
+    let mut file = lipmap::model::LandmarkMap::default();
+    file.to_vertex.insert(30, 7);
+    file.to_vertex.insert(62, 9);
+    run(&mut a, [Action::MapLoaded { map: file.clone(), path: "m.txt".into() }]);
+    assert_eq!(a.map.as_ref(), Some(&file), "labels not in the file are dropped");
+    assert!(a.status.starts_with("2 landmarks from m.txt"), "{}", a.status);
+    run(&mut a, [Action::Undo]);
+    assert_eq!(a.map.as_ref(), Some(&before));
+}

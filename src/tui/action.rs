@@ -99,6 +99,8 @@ pub enum Action {
     /// Assign every unmapped landmark its suggested vertex (one undo step).
     SuggestAllLabels,
     SaveMap,
+    /// Replace the labels with the session's map file (undoable).
+    LoadMap,
 
     // ---- analysis view ----
     RowDown,
@@ -187,6 +189,12 @@ pub enum Action {
         frame: usize,
         error: String,
     },
+    /// A map read from `path` by `LoadMap`.
+    #[serde(skip)]
+    MapLoaded {
+        map: crate::model::LandmarkMap,
+        path: String,
+    },
     #[serde(skip)]
     Saved {
         generation: u64,
@@ -260,6 +268,7 @@ impl Action {
             Self::SuggestLabel => "suggest a vertex from the current frame",
             Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
             Self::SaveMap => "save the landmark map (eos format)",
+            Self::LoadMap => "load the session's map file over the labels",
             Self::RowDown => "next row",
             Self::RowUp => "previous row",
             Self::NextTable => "next table",
@@ -281,6 +290,7 @@ impl Action {
             | Self::FitDone { .. }
             | Self::FitFailed { .. }
             | Self::AnalysisReady { .. }
+            | Self::MapLoaded { .. }
             | Self::SideReady { .. }
             | Self::SideFailed { .. }
             | Self::SideFrameLoaded { .. }

@@ -430,6 +430,8 @@ pub enum Effect {
     /// Write the corrections, reviewed set and map to the session file.
     Save,
     SaveMap,
+    /// Read the session's map file.
+    LoadMap,
     /// Recompute the analysis tables from the current track and fits.
     Analyse {
         generation: u64,

@@ -272,6 +272,7 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
         (Head, "o", A::SuggestLabel),
         (Head, "O", A::SuggestAllLabels),
         (Head, "S", A::SaveMap),
+        (Head, "R", A::LoadMap),
         (Head, "+", A::ZoomIn),
         (Head, "=", A::ZoomIn),
         (Head, "-", A::ZoomOut),

@@ -264,6 +264,13 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     apply(app, Action::SaveFailed { error: format!("{e:#}") });
                 }
             }
+            Effect::LoadMap => {
+                let reply = match bridge.load_map_file() {
+                    Ok((path, map)) => Action::MapLoaded { map, path: path.display().to_string() },
+                    Err(e) => Action::Status(format!("map not loaded: {e:#}")),
+                };
+                apply(app, reply);
+            }
             Effect::SaveMap => {
                 let msg = match bridge.save_map(app) {
                     Ok(p) => format!("landmark map written to {}", p.display()),

@@ -214,6 +214,22 @@ impl SessionBridge {
         Some(Arc::new(SessionFrames(src)))
     }
 
+    /// Reads the session's map file (the eos TOML it refers to), ignoring the labels stored
+    /// in the session.
+    ///
+    /// # Errors
+    /// No map file in the session; an unreadable or malformed file.
+    pub fn load_map_file(&self) -> anyhow::Result<(PathBuf, LandmarkMap)> {
+        let path = self
+            .session
+            .landmark_map
+            .file
+            .clone()
+            .context("the session has no map file (lipmap import SESSION --mapping FILE)")?;
+        let map = crate::io::landmark_map_toml::read_landmark_map(&path)?;
+        Ok((path, map))
+    }
+
     /// Name of the clip being edited.
     pub fn clip_name(&self) -> String {
         self.session.clips.get(self.clip).map_or_else(String::new, |c| c.name.clone())

@@ -302,6 +302,19 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         A::SuggestLabel => suggest_label(app),
         A::SuggestAllLabels => suggest_all_labels(app),
         // The session then records the map file it now refers to.
+        A::LoadMap => app.effects.push(Effect::LoadMap),
+        A::MapLoaded { map, path } => {
+            let mut labels: Vec<(usize, Option<usize>)> =
+                map.to_vertex.iter().map(|(&l, &v)| (l, Some(v))).collect();
+            if let Some(old) = &app.map {
+                labels.extend(
+                    old.to_vertex.keys().filter(|l| map.vertex(**l).is_none()).map(|&l| (l, None)),
+                );
+            }
+            let n = relabel(app, labels);
+            app.status =
+                format!("{} landmarks from {path} ({n} labels changed; u undoes)", map.len());
+        }
         A::SaveMap => {
             app.effects.push(Effect::SaveMap);
             request_save(app);

@@ -259,7 +259,7 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     a.model = model(200);
     run(&mut a, [Action::NextFrame, Action::Nudge { dx: 1, dy: 0 }, Action::RunFit]);
     assert_eq!(a.effects.last(), Some(&Effect::Fit { generation: 1, frames: Some(vec![1]) }));
-    run(&mut a, [Action::RunFit]);
+    run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::RunFit]);
     let mut fits = lipmap::tui::fixtures::synthetic_fits(&a.track);
     fits[1].reproj_rms_px = 42.0;
     run(&mut a, [Action::FitDone { generation: 1, fits: fits.clone() }]);
@@ -267,6 +267,16 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     run(&mut a, [Action::FitDone { generation: 2, fits }]);
     assert_eq!(a.fit.fits[&1].reproj_rms_px, 42.0);
     assert!(!a.fit.running);
+    // Nothing edited since: no refit. A new label changes the map: every frame again.
+    run(&mut a, [Action::RunFit]);
+    assert!(a.status.contains("nothing changed"), "{}", a.status);
+    assert_eq!(a.fit.generation, 2);
+    a.head.label = 33;
+    run(&mut a, [Action::ShowHead, Action::ConfirmLabel, Action::RunFit]);
+    assert_eq!(
+        a.effects.last(),
+        Some(&Effect::Fit { generation: 3, frames: Some((0..10).collect()) })
+    );
 }
 
 #[test]

@@ -44,6 +44,11 @@ pub struct FitArgs {
     /// Identity prior weight λ.
     #[arg(long)]
     pub lambda: Option<f64>,
+    /// Expression prior weight (default 3). Lower it when a blendshape model's expressions
+    /// come out too weak (e.g. a mouth that barely opens); in session mode it becomes the
+    /// session's setting.
+    #[arg(long)]
+    pub lambda_expression: Option<f64>,
     /// Camera/shape iterations.
     #[arg(long)]
     pub iterations: Option<usize>,
@@ -88,6 +93,7 @@ fn run_files(a: &FitArgs) -> Result<Outcome> {
         image_size: a.image_size.unwrap_or((1, 1)),
         set: a.set,
         lambda: a.lambda,
+        lambda_expression: a.lambda_expression,
         iterations: a.iterations,
         clip: a.clip,
         out: a.out.clone().unwrap_or_default(),
@@ -109,6 +115,12 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             bail!("--lambda must be a finite number >= 0, got {l}");
         }
         settings.lambda = l;
+    }
+    if let Some(l) = a.lambda_expression {
+        if !(l.is_finite() && l >= 0.0) {
+            bail!("--lambda-expression must be a finite number >= 0, got {l}");
+        }
+        settings.lambda_expression = l;
     }
     if let Some(n) = a.iterations {
         settings.iterations = n;

@@ -32,6 +32,8 @@ pub struct FitFilesArgs {
     pub set: Option<LandmarkSet>,
     /// Identity prior weight λ (eos convention, σ² = 3 px²); default as `FitSettings`.
     pub lambda: Option<f64>,
+    /// Expression prior weight; default as `FitSettings`.
+    pub lambda_expression: Option<f64>,
     /// Camera/shape iterations; default as `FitSettings`.
     pub iterations: Option<usize>,
     /// Fit the clip as one person: one identity, pose and expression per frame.
@@ -63,6 +65,9 @@ impl FitFilesArgs {
         if let Some(l) = self.lambda {
             s.lambda = l;
         }
+        if let Some(l) = self.lambda_expression {
+            s.lambda_expression = l;
+        }
         if let Some(n) = self.iterations {
             s.iterations = n;
         }
@@ -88,6 +93,12 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
     let settings = args.settings();
     if !(settings.lambda.is_finite() && settings.lambda >= 0.0) {
         bail!("--lambda must be a finite number >= 0, got {}", settings.lambda);
+    }
+    if !(settings.lambda_expression.is_finite() && settings.lambda_expression >= 0.0) {
+        bail!(
+            "--lambda-expression must be a finite number >= 0, got {}",
+            settings.lambda_expression
+        );
     }
     let model = model_source::load_model(&args.model, args.blendshapes.as_deref())?;
     let map = read_mapping(&args.mapping)?;
@@ -229,6 +240,7 @@ mod tests {
             image_size: (1280, 720),
             set: None,
             lambda: None,
+            lambda_expression: None,
             iterations: None,
             clip: false,
             out: dir.path().join("out"),
@@ -262,6 +274,7 @@ mod tests {
             image_size: (1280, 720),
             set: None,
             lambda: None,
+            lambda_expression: None,
             iterations: None,
             clip: true,
             out: out.clone(),

@@ -124,6 +124,52 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh> {
     Ok(mesh)
 }
 
+/// Which vertices of an OBJ are head surface that landmarks can be labelled on: `false` for
+/// vertices used only by faces of groups/objects named `helper-*` or `joint-*` (MakeHuman's
+/// proxy shells, eyelashes and joint markers, which sit in front of or inside the skin).
+/// `None` when the file has no such group (every vertex is eligible).
+///
+/// # Errors
+/// When the file cannot be read.
+pub fn labelable_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
+    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    Ok(labelable_vertices_in(&text))
+}
+
+/// [`labelable_vertices`] on the text of an OBJ.
+pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
+    let is_aux = |g: &str| g.starts_with("helper-") || g.starts_with("joint-");
+    let (mut n_vertices, mut aux_seen, mut in_aux) = (0usize, false, false);
+    let mut surface: Vec<bool> = Vec::new();
+    for raw in text.lines() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut tokens = line.split_whitespace();
+        match tokens.next() {
+            Some("v") => n_vertices += 1,
+            Some("g" | "o") => {
+                in_aux = tokens.next().is_some_and(is_aux);
+                aux_seen |= in_aux;
+            }
+            Some("f") if !in_aux => {
+                surface.resize(surface.len().max(n_vertices), false);
+                for tok in tokens {
+                    let Some(idx) = tok.split('/').next().and_then(|v| v.parse::<i64>().ok())
+                    else {
+                        continue;
+                    };
+                    let i = if idx > 0 { idx - 1 } else { n_vertices as i64 + idx };
+                    if let Some(s) = usize::try_from(i).ok().and_then(|i| surface.get_mut(i)) {
+                        *s = true;
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    surface.resize(n_vertices, false);
+    aux_seen.then_some(surface)
+}
+
 /// Writes a mesh as OBJ: one `v` line per vertex in order (shortest exact decimal form,
 /// so a read gives back the same f64), then 1-based `f` lines as stored (polygons kept).
 ///
@@ -157,6 +203,18 @@ pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn helper_and_joint_groups_are_not_labelable() {
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nv 3 3 0\n\
+                    g body\nf 1 2 3\ng helper-hair\nf 2 4 5\ng joint-jaw\nf 4 5 6\n";
+        assert_eq!(
+            labelable_vertices_in(text),
+            Some(vec![true, true, true, false, false, false]),
+            "vertex 2 is shared with the body and stays"
+        );
+        assert_eq!(labelable_vertices_in("v 0 0 0\nv 1 0 0\nv 0 1 0\ng head\nf 1 2 3\n"), None);
+    }
     use crate::io::error::Location;
 
     const P: &str = "t.obj";

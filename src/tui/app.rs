@@ -504,6 +504,9 @@ pub struct App {
     pub mesh_edges: Arc<Vec<[u32; 2]>>,
     /// What the head views frame; recomputed with `frame_head` when mesh or model change.
     pub head_framing: HeadFraming,
+    /// Vertices landmarks may be labelled on (`None`: all): not a figure's helper or joint
+    /// geometry (see `io::obj::labelable_vertices`).
+    pub label_candidates: Option<Arc<Vec<bool>>>,
     pub model: Option<Arc<MorphableModel>>,
     pub map: Option<LandmarkMap>,
     pub head: HeadView,
@@ -564,6 +567,7 @@ impl App {
             mesh: None,
             mesh_edges: Arc::new(Vec::new()),
             head_framing: HeadFraming::default(),
+            label_candidates: None,
             model: None,
             map: None,
             head: HeadView::default(),

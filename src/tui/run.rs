@@ -225,8 +225,10 @@ where
             // (the landmarks now in the session) is what the fit used.
             if let Some(fits) = to_store.filter(|_| app.fit.stale.is_empty()) {
                 let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
-                if let Err(e) = stored {
-                    app.status = format!("fit cache not updated: {e:#}");
+                match stored {
+                    // The cache is part of the session: autosave writes it.
+                    Ok(()) => app.unsaved_edits += 1,
+                    Err(e) => app.status = format!("fit cache not updated: {e:#}"),
                 }
             }
             redraw = true;

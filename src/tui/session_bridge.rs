@@ -113,6 +113,14 @@ impl SessionBridge {
                 Err(e) => problems.push(format!("mesh: {e}")),
             }
         }
+        // A figure's helper and joint geometry is never offered for labelling.
+        let obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        let head_obj = session.head_mesh.clone().filter(|p| obj(p));
+        let model_obj = session.model.as_ref().map(|m| m.path.clone()).filter(|p| obj(p));
+        if let Some(p) = head_obj.or(model_obj) {
+            app.label_candidates =
+                crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
+        }
         if let Some(m) = &session.model {
             match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
                 Ok(model) => app.model = Some(Arc::new(model)),

@@ -9,6 +9,7 @@ use super::keymap::{KeyChord, KeyMode, Keymap};
 use super::views::{self, head};
 use super::{action::Action, app::FrameImage};
 use crate::fit::OrthoPose;
+use crate::fit::suggest::SuggestHead;
 use crate::landmarks::N_LANDMARKS;
 use crate::landmarks::edit::{self, EditError, PointChange};
 use crate::model::LandmarkMap;
@@ -282,10 +283,10 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
             let l = app.head.label;
             let picked = match app.head.suggested {
                 Some((sl, v)) if sl == l => Some(v),
-                _ => app
-                    .mesh
-                    .as_ref()
-                    .and_then(|m| head::pick_vertex(m, &app.head_framing, &app.head)),
+                _ => app.mesh.as_ref().and_then(|m| {
+                    let eligible = app.label_candidates.as_deref().map(Vec::as_slice);
+                    head::pick_vertex(m, &app.head_framing, &app.head, eligible)
+                }),
             };
             match picked {
                 Some(v) => {
@@ -579,6 +580,9 @@ fn relabel(app: &mut App, labels: Vec<(usize, Option<usize>)>) -> usize {
     let n = changes.len();
     if n > 0 {
         push_edit(app, Edit::Labels(changes));
+        // Another map means other fits, for every frame.
+        let all: Vec<usize> = app.track.frames.iter().map(|f| f.frame).collect();
+        app.fit.stale.extend(all);
     }
     n
 }
@@ -591,21 +595,34 @@ fn set_label_target(app: &mut App, landmark: usize) {
 /// The head's vertices and the camera to see them through for suggestions: the current
 /// frame's fitted shape and pose when it has a fit, else the mesh (or the model's mean)
 /// with the pose left to be estimated from the labels.
-fn suggestion_basis(app: &App) -> Option<(Vec<crate::math::Point3>, Option<OrthoPose>)> {
+type SuggestionBasis = (Vec<crate::math::Point3>, Vec<[u32; 3]>, Option<OrthoPose>);
+
+fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
+    // The head mesh's faces hide what is behind the surface; fan-triangulated polygons.
+    let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
+        mesh.faces
+            .iter()
+            .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
+            .collect()
+    };
     let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
     if let (Some(model), Some(fit)) = (&app.model, fit) {
         let shape = crate::fit::fitted_shape(model, fit);
-        return Some((model.to_mesh(&shape).vertices, Some(crate::fit::pose_of(fit))));
+        let tris = match &app.mesh {
+            Some(m) if model.triangles.is_empty() => faces(m),
+            _ => model.triangles.clone(),
+        };
+        return Some((model.to_mesh(&shape).vertices, tris, Some(crate::fit::pose_of(fit))));
     }
     match (&app.mesh, &app.model) {
-        (Some(mesh), _) => Some((mesh.vertices.clone(), None)),
-        (None, Some(model)) => Some((model.mean_mesh().vertices, None)),
+        (Some(mesh), _) => Some((mesh.vertices.clone(), faces(mesh), None)),
+        (None, Some(model)) => Some((model.mean_mesh().vertices, model.triangles.clone(), None)),
         (None, None) => None,
     }
 }
 
 fn suggest_label(app: &mut App) {
-    let Some((vertices, pose)) = suggestion_basis(app) else {
+    let Some((vertices, tris, pose)) = suggestion_basis(app) else {
         app.status = "no head to label".into();
         return;
     };
@@ -614,7 +631,12 @@ fn suggest_label(app: &mut App) {
     let l = app.head.label;
     let how = if pose.is_some() { "fitted pose" } else { "pose from the labels" };
     let h = f64::from(app.frame_dims().1);
-    match crate::fit::suggest::suggest_label(&vertices, &map, frame, h, pose, l) {
+    let head = SuggestHead {
+        vertices: &vertices,
+        triangles: &tris,
+        eligible: app.label_candidates.as_deref().map(Vec::as_slice),
+    };
+    match crate::fit::suggest::suggest_label(&head, &map, frame, h, pose, l) {
         Ok(s) => {
             if let Some(mesh) = &app.mesh {
                 let rot = head::rotation(app.head.yaw, app.head.pitch);
@@ -635,7 +657,7 @@ fn suggest_label(app: &mut App) {
 }
 
 fn suggest_all_labels(app: &mut App) {
-    let Some((vertices, pose)) = suggestion_basis(app) else {
+    let Some((vertices, tris, pose)) = suggestion_basis(app) else {
         app.status = "no head to label".into();
         return;
     };
@@ -643,7 +665,12 @@ fn suggest_all_labels(app: &mut App) {
     let map = app.map.clone().unwrap_or_default();
     let unmapped: Vec<usize> = (0..N_LANDMARKS).filter(|l| map.vertex(*l).is_none()).collect();
     let h = f64::from(app.frame_dims().1);
-    match crate::fit::suggest::suggest_labels(&vertices, &map, frame, h, pose, unmapped) {
+    let head = SuggestHead {
+        vertices: &vertices,
+        triangles: &tris,
+        eligible: app.label_candidates.as_deref().map(Vec::as_slice),
+    };
+    match crate::fit::suggest::suggest_labels(&head, &map, frame, h, pose, unmapped) {
         Ok(list) => {
             let worst = list.iter().map(|s| s.distance_px).fold(0.0, f64::max);
             let n = relabel(app, list.iter().map(|s| (s.landmark, Some(s.vertex))).collect());
@@ -751,6 +778,8 @@ fn undo_redo(app: &mut App, undo: bool) {
             for c in changes {
                 set_label(app, c.landmark, if undo { c.before } else { c.after });
             }
+            let all: Vec<usize> = app.track.frames.iter().map(|f| f.frame).collect();
+            app.fit.stale.extend(all);
         }
         Edit::Profile { side_frame, before, after } => {
             if let Some(side) = app.side.view_mut() {
@@ -774,6 +803,12 @@ fn run_fit(app: &mut App) {
         crate::workflow::check_map_for_fit(&map, model.num_vertices(), &app.fit_settings)
     {
         app.status = format!("cannot fit: {e}; label more in the head view (2), `O` suggests");
+        return;
+    }
+    if app.fit.stale.is_empty()
+        && app.track.frames.iter().all(|f| app.fit.fits.contains_key(&f.frame))
+    {
+        app.status = "every frame is fitted and nothing changed since the last fit".into();
         return;
     }
     app.fit.generation += 1;

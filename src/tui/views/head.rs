@@ -90,9 +90,20 @@ pub fn visible_vertices(mesh: &Mesh, pts: &[(f64, f64, f64)]) -> Vec<bool> {
 
 /// The 3D cursor: the visible vertex nearest the 2D cursor, within the pick radius.
 /// `None` when no visible vertex is near.
-pub fn pick_vertex(mesh: &Mesh, framing: &HeadFraming, view: &HeadView) -> Option<usize> {
+/// Only `eligible` vertices (when given) can be picked.
+pub fn pick_vertex(
+    mesh: &Mesh,
+    framing: &HeadFraming,
+    view: &HeadView,
+    eligible: Option<&[bool]>,
+) -> Option<usize> {
     let pts = project(mesh, &rotation(view.yaw, view.pitch), framing);
-    let visible = visible_vertices(mesh, &pts);
+    let mut visible = visible_vertices(mesh, &pts);
+    if let Some(e) = eligible {
+        for (v, ok) in visible.iter_mut().zip(e.iter().chain(std::iter::repeat(&false))) {
+            *v &= *ok;
+        }
+    }
     pick_from(&pts, &visible, view)
 }
 
@@ -204,7 +215,9 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let h = &app.head;
     let picked = match h.suggested {
         Some((l, v)) if l == h.label => Some(v),
-        _ => app.mesh.as_ref().and_then(|m| pick_vertex(m, &app.head_framing, h)),
+        _ => app.mesh.as_ref().and_then(|m| {
+            pick_vertex(m, &app.head_framing, h, app.label_candidates.as_deref().map(Vec::as_slice))
+        }),
     };
     match &app.mesh {
         Some(mesh) => {
@@ -301,13 +314,16 @@ mod tests {
         let mesh = synthetic_mesh();
         let view = HeadView::default();
         let framing = HeadFraming::around(&mesh.vertices).unwrap();
-        let front = pick_vertex(&mesh, &framing, &view).unwrap();
+        let front = pick_vertex(&mesh, &framing, &view, None).unwrap();
         assert!(mesh.vertices[front].z > 0.0);
         // Turned around, the back of the head is in front.
-        let back = pick_vertex(&mesh, &framing, &HeadView { yaw: 180.0, ..view }).unwrap();
+        let back = pick_vertex(&mesh, &framing, &HeadView { yaw: 180.0, ..view }, None).unwrap();
         assert!(mesh.vertices[back].z < 0.0);
         // Far outside the head there is nothing to pick.
-        assert_eq!(pick_vertex(&mesh, &framing, &HeadView { cursor: (1.4, 0.0), ..view }), None);
+        assert_eq!(
+            pick_vertex(&mesh, &framing, &HeadView { cursor: (1.4, 0.0), ..view }, None),
+            None
+        );
     }
 
     #[test]

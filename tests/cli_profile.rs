@@ -52,6 +52,17 @@ fn profile_stores_its_setup_and_measures_every_frame() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("FRAME:X,Y"));
     assert_eq!(std::fs::read_to_string(&session).unwrap(), before);
+    // So is a point outside the side frame.
+    let outside = Command::new(bin)
+        .arg("profile")
+        .arg(&session)
+        .args(["--clip", &clip, "--correct", "5:-50,99999"])
+        .output()
+        .unwrap();
+    assert_ne!(outside.status.code(), Some(0));
+    let err = String::from_utf8_lossy(&outside.stderr);
+    assert!(err.contains("outside the") && err.contains("side frame"), "{err}");
+    assert_eq!(std::fs::read_to_string(&session).unwrap(), before);
 
     // Correct frames 5 and 7: their rows carry the given point, P moves with it.
     let run = |extra: &[&str]| -> Vec<serde_json::Value> {

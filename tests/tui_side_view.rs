@@ -65,7 +65,7 @@ fn side_view_corrections_reach_the_session_and_p() {
     let auto = side.track.effective(k, &side.setup).unwrap();
     let before_p = app.side.view().unwrap().p_series(app.n_frames(), app.fps)[2].unwrap();
     // Ten steps forward (the face looks right): P grows.
-    apply(&mut app, &[Action::Nudge { dx: 10, dy: 0 }]);
+    apply(&mut app, &[Action::NudgeLipPoint { dx: 10, dy: 0 }]);
     let side = app.side.view().unwrap();
     let moved = side.track.corrected[&k];
     assert!(moved.x > auto.upper_lip_px.unwrap().x);

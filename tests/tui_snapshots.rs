@@ -163,8 +163,19 @@ fn side_view_with_a_corrected_point() {
         apply(&mut app, &[Action::ShowSide, Action::NextFrame]);
         let plain = render(&app);
         insta::assert_snapshot!(format!("side_{}x{}", size.0, size.1), plain.backend());
-        apply(&mut app, &[Action::Nudge { dx: 10, dy: 0 }]);
+        apply(&mut app, &[Action::NudgeLipPoint { dx: 10, dy: 0 }]);
         let t = render(&app);
         insta::assert_snapshot!(format!("side_corrected_{}x{}", size.0, size.1), t.backend());
     }
+}
+
+#[test]
+fn a_long_title_gives_way_to_the_view_tabs() {
+    let mut app = app_at((80, 24));
+    app.title = "a_session_with_a_long_name · s1_place_red_at_m_zero_soon_and_more".into();
+    app.side = lipmap::tui::app::SideState::Measuring;
+    let t = render(&app);
+    let top: String = (0..80).map(|x| t.backend().buffer()[(x, 0)].symbol().to_string()).collect();
+    assert!(top.contains("4 analysis") && top.contains("5 side"), "{top}");
+    assert!(top.contains("a_session_with_a_long_name") && top.contains('…'), "{top}");
 }

@@ -443,3 +443,22 @@ fn loading_the_map_file_replaces_the_labels_as_one_undo_step() {
     run(&mut a, [Action::Undo]);
     assert_eq!(a.map.as_ref(), Some(&before));
 }
+
+#[test]
+fn the_mean_row_stays_last_in_either_order() {
+    use lipmap::tui::app::{AnalysisRow, AnalysisTable, AnalysisView};
+    use lipmap::tui::views::analysis::sorted_rows;
+    let table = AnalysisTable {
+        title: "t".into(),
+        columns: vec!["sentence".into(), "W".into()],
+        rows: vec![
+            AnalysisRow::numbers("a", &[2.0], None),
+            AnalysisRow::numbers("mean", &[1.0], None),
+            AnalysisRow::numbers("b", &[0.5], None),
+        ],
+    };
+    let up = AnalysisView { sort_column: 1, ..Default::default() };
+    assert_eq!(sorted_rows(&table, &up), vec![2, 0, 1]);
+    let down = AnalysisView { descending: true, ..up };
+    assert_eq!(sorted_rows(&table, &down), vec![0, 2, 1]);
+}

@@ -400,6 +400,16 @@ impl Session {
         if !(point.x.is_finite() && point.y.is_finite()) {
             return Err(fail("side-view point is not finite"));
         }
+        // Pixel centres are at integers: the image spans -0.5 .. size - 0.5.
+        if let Some([w, h]) = c.side.as_ref().and_then(|s| s.size) {
+            let inside = |v: f64, n: u32| v >= -0.5 && v <= f64::from(n) - 0.5;
+            if !(inside(point.x, w) && inside(point.y, h)) {
+                return Err(fail(&format!(
+                    "side-view point ({}, {}) is outside the {w}×{h} side frame",
+                    point.x, point.y
+                )));
+            }
+        }
         c.profile_corrections.insert(frame, point);
         Ok(())
     }

@@ -102,6 +102,15 @@ pub enum Action {
     /// Replace the labels with the session's map file (undoable).
     LoadMap,
 
+    // ---- side view: the upper lip's foremost point ----
+    /// Move the side frame's upper-lip point by `dx, dy` display pixels (a correction).
+    NudgeLipPoint {
+        dx: i32,
+        dy: i32,
+    },
+    /// Drop the side frame's correction: the automatic point again.
+    RevertLipPoint,
+
     // ---- analysis view ----
     RowDown,
     RowUp,
@@ -269,6 +278,11 @@ impl Action {
             Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
             Self::SaveMap => "save the landmark map (eos format)",
             Self::LoadMap => "load the session's map file over the labels",
+            Self::NudgeLipPoint { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => {
+                "move the lip point 10 screen pixels"
+            }
+            Self::NudgeLipPoint { .. } => "move the lip point 1 screen pixel",
+            Self::RevertLipPoint => "back to the automatic lip point",
             Self::RowDown => "next row",
             Self::RowUp => "previous row",
             Self::NextTable => "next table",
@@ -301,7 +315,9 @@ impl Action {
         };
         match self {
             Self::Pan { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
-            Self::Nudge { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
+            Self::Nudge { dx, dy } | Self::NudgeLipPoint { dx, dy } => {
+                format!("{s} {}", arrow(*dx, *dy))
+            }
             Self::Rotate { yaw, pitch } => format!("{s} {}", arrow(*yaw, *pitch)),
             Self::MoveCursor { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
             _ => s.to_string(),

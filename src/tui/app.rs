@@ -317,32 +317,30 @@ impl HeadFraming {
         })
     }
 
-    /// The face of `mesh`: the vertices the model's expressions move, when they are a part
-    /// of the mesh (a full figure with facial blendshapes); else the mapped landmarks' box
-    /// enlarged by half (a head whose map is started); else the whole mesh.
+    /// The face of `mesh`: the mapped landmarks' box enlarged by half, once five or more are
+    /// mapped (the face itself); else the vertices the model's expressions move, when they
+    /// are a part of the mesh (the head of a full figure with facial blendshapes); else the
+    /// whole mesh.
     pub fn of_face(mesh: &Mesh, model: Option<&MorphableModel>, map: Option<&LandmarkMap>) -> Self {
         let n = mesh.vertices.len();
+        let pick =
+            |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
+        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
+        let mapped: Vec<usize> =
+            map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
+        if mapped.len() >= 5
+            && let Some(f) = pick(&mapped)
+        {
+            return Self { radius: (f.radius * 1.5).min(whole.radius), ..f };
+        }
         let moved: Vec<usize> = model
             .and_then(|m| m.expressions.as_ref().filter(|_| m.num_vertices() == n))
             .map(|e| {
                 (0..n).filter(|&v| e.deltas.rows(3 * v, 3).iter().any(|d| d.abs() > 1e-9)).collect()
             })
             .unwrap_or_default();
-        let pick =
-            |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
-        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
-        if !moved.is_empty()
-            && moved.len() * 5 < n * 4
-            && let Some(f) = pick(&moved)
-        {
-            return Self { radius: f.radius * 1.15, ..f };
-        }
-        let mapped: Vec<usize> =
-            map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
-        match pick(&mapped) {
-            Some(f) if mapped.len() >= 5 => {
-                Self { radius: (f.radius * 1.5).min(whole.radius), ..f }
-            }
+        match pick(&moved) {
+            Some(f) if moved.len() * 5 < n * 4 => Self { radius: f.radius * 1.15, ..f },
             _ => whole,
         }
     }

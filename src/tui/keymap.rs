@@ -177,6 +177,7 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
     let pan = |dx, dy| A::Pan { dx, dy };
     let rot = |yaw, pitch| A::Rotate { yaw, pitch };
     let cur = |dx, dy| A::MoveCursor { dx, dy };
+    let lip = |dx, dy| A::NudgeLipPoint { dx, dy };
     vec![
         (Global, "q", A::Quit),
         (Global, "?", A::ToggleHelp),
@@ -287,19 +288,19 @@ pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
         (Analysis, "O", A::SortReverse),
         (Analysis, "enter", A::OpenRow),
         // Side view: correct the upper lip's foremost point.
-        (Side, "left", nudge(-1, 0)),
-        (Side, "right", nudge(1, 0)),
-        (Side, "up", nudge(0, -1)),
-        (Side, "down", nudge(0, 1)),
-        (Side, "h", nudge(-1, 0)),
-        (Side, "l", nudge(1, 0)),
-        (Side, "k", nudge(0, -1)),
-        (Side, "j", nudge(0, 1)),
-        (Side, "shift-left", nudge(-10, 0)),
-        (Side, "shift-right", nudge(10, 0)),
-        (Side, "shift-up", nudge(0, -10)),
-        (Side, "shift-down", nudge(0, 10)),
-        (Side, "x", A::RevertPoint),
+        (Side, "left", lip(-1, 0)),
+        (Side, "right", lip(1, 0)),
+        (Side, "up", lip(0, -1)),
+        (Side, "down", lip(0, 1)),
+        (Side, "h", lip(-1, 0)),
+        (Side, "l", lip(1, 0)),
+        (Side, "k", lip(0, -1)),
+        (Side, "j", lip(0, 1)),
+        (Side, "shift-left", lip(-10, 0)),
+        (Side, "shift-right", lip(10, 0)),
+        (Side, "shift-up", lip(0, -10)),
+        (Side, "shift-down", lip(0, 10)),
+        (Side, "x", A::RevertLipPoint),
         (Side, "r", A::ToggleReviewed),
         // Help overlay.
         (Help, "j", A::ScrollDown),

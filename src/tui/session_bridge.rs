@@ -121,6 +121,16 @@ impl SessionBridge {
             app.label_candidates =
                 crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
         }
+        // Nor drawn: the proxy shells and joint markers would hide the face's own edges.
+        if let Some(keep) = app.label_candidates.clone() {
+            let edges: Vec<[u32; 2]> = app
+                .mesh_edges
+                .iter()
+                .filter(|e| e.iter().all(|&v| keep.get(v as usize) == Some(&true)))
+                .copied()
+                .collect();
+            app.mesh_edges = Arc::new(edges);
+        }
         if let Some(m) = &session.model {
             match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
                 Ok(model) => app.model = Some(Arc::new(model)),

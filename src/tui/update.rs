@@ -189,8 +189,8 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
                 app.image_view.center = Some((p.x, p.y));
             }
         }
-        A::Nudge { dx, dy } if app.view == View::Side => nudge_profile_point(app, dx, dy),
-        A::RevertPoint if app.view == View::Side => {
+        A::NudgeLipPoint { dx, dy } => nudge_profile_point(app, dx, dy),
+        A::RevertLipPoint => {
             let (k, before) = side_point(app)?;
             if before.is_some() {
                 set_profile_point(app, k, before, None);

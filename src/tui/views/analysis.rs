@@ -15,8 +15,13 @@ use ratatui::widgets::{Block, Cell, Paragraph, Row, Table, TableState};
 pub fn sorted_rows(table: &AnalysisTable, view: &AnalysisView) -> Vec<usize> {
     let mut order: Vec<usize> = (0..table.rows.len()).collect();
     let col = view.sort_column;
+    // A summary row (`mean`) stays at the bottom whatever the order.
+    let summary = |r: &crate::tui::app::AnalysisRow| r.cells.first().is_some_and(|c| c == "mean");
     order.sort_by(|&a, &b| {
         let (ra, rb) = (&table.rows[a], &table.rows[b]);
+        if summary(ra) != summary(rb) {
+            return summary(ra).cmp(&summary(rb));
+        }
         let key = |r: &crate::tui::app::AnalysisRow| r.keys.get(col).copied().flatten();
         let o = match (key(ra), key(rb)) {
             (Some(x), Some(y)) => x.total_cmp(&y),
@@ -92,7 +97,8 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
                 .map(|s| s.chars().count() + 1)
                 .max()
                 .unwrap_or(4)
-                .min(24) as u16;
+                // Labels (sentence names, index names) whole; numbers are short anyway.
+                .min(if c == 0 { 40 } else { 24 }) as u16;
             // The sort arrow and a gap between columns.
             Constraint::Length(w + u16::from(c == 0) + 1)
         })

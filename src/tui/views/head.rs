@@ -179,8 +179,14 @@ pub fn draw_wireframe(
     // Braille dots are about square: 2×4 per cell of aspect 1:2.
     let aspect = f64::from(area.width) / (2.0 * f64::from(area.height));
     let (hy, hx) = (1.05 / zoom, 1.05 / zoom * aspect);
-    let front: Vec<&[u32; 2]> =
-        edges.iter().filter(|e| visible[e[0] as usize] && visible[e[1] as usize]).collect();
+    // Only edges on screen count towards the ink budget: a full figure framed on its face
+    // must not thin the face's edges for a body that is off screen.
+    let on_screen = |p: &(f64, f64, f64)| (p.0 - cx).abs() <= hx && (p.1 - cy).abs() <= hy;
+    let front: Vec<&[u32; 2]> = edges
+        .iter()
+        .filter(|e| visible[e[0] as usize] && visible[e[1] as usize])
+        .filter(|e| on_screen(&pts[e[0] as usize]) || on_screen(&pts[e[1] as usize]))
+        .collect();
     let stride = edge_stride(&front, &pts, area, hy);
     let canvas = Canvas::default()
         .marker(Marker::Braille)

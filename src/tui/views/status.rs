@@ -21,15 +21,27 @@ pub fn draw_title(app: &App, frame: &mut Frame, area: Rect) {
         let s = Span::from(format!(" {n} {name} "));
         if app.view == v { s.reversed().bold() } else { s.fg(Color::Gray) }
     };
-    let mut spans = vec![Span::from("lipmap ").bold().fg(Color::LightMagenta)];
-    spans.push(Span::from(format!("{} ", app.title)));
-    spans.push(tab("1", "frames", View::Frames));
-    spans.push(tab("2", "head", View::Head));
-    spans.push(tab("3", "fit", View::Fit));
-    spans.push(tab("4", "analysis", View::Analysis));
+    let mut tabs = vec![
+        tab("1", "frames", View::Frames),
+        tab("2", "head", View::Head),
+        tab("3", "fit", View::Fit),
+        tab("4", "analysis", View::Analysis),
+    ];
     if app.side != crate::tui::app::SideState::None {
-        spans.push(tab("5", "side", View::Side));
+        tabs.push(tab("5", "side", View::Side));
     }
+    // The tabs always show; a long session · clip title gives way.
+    let tabs_width: usize = tabs.iter().map(|s| s.content.chars().count()).sum();
+    let room = usize::from(area.width).saturating_sub(tabs_width + "lipmap ".len() + 1);
+    let title: String = if app.title.chars().count() <= room {
+        app.title.clone()
+    } else {
+        let keep: String = app.title.chars().take(room.saturating_sub(1)).collect();
+        format!("{keep}…")
+    };
+    let mut spans = vec![Span::from("lipmap ").bold().fg(Color::LightMagenta)];
+    spans.push(Span::from(format!("{title} ")));
+    spans.extend(tabs);
     frame.render_widget(Paragraph::new(Line::from(spans)), area);
 }
 

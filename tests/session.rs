@@ -409,8 +409,16 @@ fn saves_rotate_three_backups() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("sessions").join("b.lipmap.json");
     let mut s = session_with_frames(&file, 1);
+    // Each save comes well after the one before: the newest backup is made to look old.
+    let age_newest_backup = || {
+        if let Ok(f) = std::fs::File::options().write(true).open(backup_path(&file, 1)) {
+            let old = std::time::SystemTime::now() - 2 * lipmap::session::store::BACKUP_SPACING;
+            f.set_modified(old).unwrap();
+        }
+    };
     for i in 0..5 {
         s.name = format!("v{i}");
+        age_newest_backup();
         s.save(&file).unwrap();
     }
     let name_of = |p: PathBuf| Session::load(&p).unwrap().name;
@@ -420,6 +428,17 @@ fn saves_rotate_three_backups() {
     assert_eq!(name_of(backup_path(&file, 3)), "v1");
     assert!(!backup_path(&file, 4).exists());
     assert!(backup_path(&file, 1).ends_with("b.lipmap.json.bak"));
+    // Saves in quick succession (autosave while editing) keep the backups as they are, so
+    // they still hold states from minutes ago.
+    for i in 5..9 {
+        s.name = format!("v{i}");
+        s.save(&file).unwrap();
+    }
+    // (`v3`, the newest backup, was written just before `v4`: too recent to push along.)
+    assert_eq!(name_of(file.clone()), "v8");
+    assert_eq!(name_of(backup_path(&file, 1)), "v3");
+    assert_eq!(name_of(backup_path(&file, 2)), "v2");
+    assert_eq!(name_of(backup_path(&file, 3)), "v1");
 }
 
 // ---------------------------------------------------------------------------------------

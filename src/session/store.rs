@@ -15,6 +15,12 @@ use std::path::{Component, Path, PathBuf};
 /// How many backups (`NAME.bak`, `NAME.bak.2`, `NAME.bak.3`) a save keeps.
 pub const BACKUPS_KEPT: usize = 3;
 
+/// The least age of the newest backup before a save pushes the backups along. Autosaves
+/// come every few seconds while someone edits; without spacing all three backups would
+/// hold the last few seconds' states and a mistake older than that could not be undone
+/// from them.
+pub const BACKUP_SPACING: std::time::Duration = std::time::Duration::from_secs(60);
+
 // ---------------------------------------------------------------------------------------
 // Paths: absolute in memory, relative to the session file's folder on disk.
 
@@ -304,13 +310,22 @@ fn remove_dead_temp_files(target: &Path) {
 }
 
 fn rotate_backups(target: &Path) -> io::Result<()> {
+    let newest = backup_path(target, 1);
+    // A hard-linked backup keeps the mtime of the save that wrote it.
+    let recent = fs::metadata(&newest)
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| t.elapsed().ok())
+        .is_some_and(|age| age < BACKUP_SPACING);
+    if recent {
+        return Ok(());
+    }
     for k in (1..BACKUPS_KEPT).rev() {
         let from = backup_path(target, k);
         if from.exists() {
             fs::rename(&from, backup_path(target, k + 1))?;
         }
     }
-    let newest = backup_path(target, 1);
     // A hard link keeps the current file in place until the rename replaces it; copy where
     // the file system has no hard links.
     if fs::hard_link(target, &newest).is_err() {

@@ -397,17 +397,22 @@ pub fn profile_setup(session: &Session, clip: usize) -> Result<ProfileSetup> {
         .map_err(|e| anyhow!("clip `{}`: side view frame 0: {e}", c.name))
 }
 
-/// The side view's profile points of a clip: the automatic extraction over every side frame
-/// with the user's corrections laid over it (`None` for a clip without a side view).
+/// The side view's setup and profile points of a clip: the automatic extraction over every
+/// side frame with the user's corrections laid over it (`None` for a clip without a side
+/// view). The setup comes with the points so it is resolved (maybe proposed) only once.
 ///
 /// # Errors
 /// As [`profile_setup`]; frames that cannot be opened.
-pub fn side_view_track(session: &Session, clip: usize) -> Result<Option<ProfileTrack>> {
+pub fn side_view_track(
+    session: &Session,
+    clip: usize,
+) -> Result<Option<(ProfileSetup, ProfileTrack)>> {
     if session.clip(clip)?.side.is_none() {
         return Ok(None);
     }
     let setup = profile_setup(session, clip)?;
-    side_view_track_with(session, clip, &setup).map(Some)
+    let track = side_view_track_with(session, clip, &setup)?;
+    Ok(Some((setup, track)))
 }
 
 fn side_view_track_with(

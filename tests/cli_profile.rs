@@ -2,20 +2,15 @@
 //! frame, a bad flag is refused without touching the session file, and single frames'
 //! upper-lip points are corrected and uncorrected, each printed row saying its source.
 
+mod common;
+
 use std::process::Command;
 
 #[test]
 fn profile_stores_its_setup_and_measures_every_frame() {
     let bin = env!("CARGO_BIN_EXE_lipmap");
     let dir = tempfile::tempdir().unwrap();
-    let demo = dir.path().join("demo");
-    let st = Command::new(bin)
-        .args(["demo", "--no-tui", "--sentences", "1", "--out"])
-        .arg(&demo)
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
-    let session = demo.join("demo.lipmap.json");
+    let session = common::demo_session(dir.path());
 
     let bad = Command::new(bin)
         .arg("profile")

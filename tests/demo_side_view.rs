@@ -75,7 +75,7 @@ fn side_view_p_matches_the_whole_lip_truth_on_every_demo_speaker() {
             let p = workflow::side_view_protrusion(&session, k, c.n_frames).unwrap().unwrap();
             let missing = p.iter().filter(|v| v.is_none()).count();
             if missing > 0 {
-                let track = workflow::side_view_track(&session, k).unwrap().unwrap();
+                let (_, track) = workflow::side_view_track(&session, k).unwrap().unwrap();
                 for a in track.automatic.iter().filter(|a| a.failed.is_some()) {
                     eprintln!("  frame {}: {}", a.frame, a.failed.as_deref().unwrap_or(""));
                 }

@@ -1,6 +1,8 @@
 //! End to end through a real terminal: tmux runs `lipmap tui` on a demo session; the test
 //! moves a landmark, saves, quits, and checks the session file and the restored terminal.
 
+mod common;
+
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -33,14 +35,7 @@ fn tui_moves_a_landmark_saves_and_restores_the_terminal() {
     }
     let bin = env!("CARGO_BIN_EXE_lipmap");
     let dir = tempfile::tempdir().unwrap();
-    let demo = dir.path().join("demo");
-    let st = Command::new(bin)
-        .args(["demo", "--no-tui", "--sentences", "1", "--out"])
-        .arg(&demo)
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "demo failed: {}", String::from_utf8_lossy(&st.stderr));
-    let session = demo.join("demo.lipmap.json");
+    let session = common::demo_session(dir.path());
     let before: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&session).unwrap()).unwrap();
 

@@ -205,12 +205,10 @@ impl SessionBridge {
         let side = c.side.clone()?;
         let (session, clip) = (self.session.clone(), self.clip);
         Some(move || {
-            let measured = crate::workflow::side_view_track(&session, clip).and_then(|track| {
-                let setup = crate::workflow::profile_setup(&session, clip)?;
-                Ok((track.context("the clip has no side view")?, setup))
-            });
+            let measured = crate::workflow::side_view_track(&session, clip)
+                .and_then(|found| found.context("the clip has no side view"));
             match measured {
-                Ok((track, setup)) => Action::SideReady {
+                Ok((setup, track)) => Action::SideReady {
                     side: Box::new(super::app::SideView {
                         n_frames: track.automatic.len(),
                         setup,

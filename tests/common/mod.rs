@@ -1,9 +1,14 @@
 //! Inputs shared by the command-line tests: the carphone clip's frames (read in place) and
 //! its first frames of dlib landmarks written as a lipmap CSV into a temp folder, with eos's
-//! SFM model files. `None` (with the skip notice) when ../shared is absent.
+//! SFM model files (`None`, with the skip notice, when ../shared is absent); and a one-sentence
+//! demo session made by the lipmap binary.
+
+// Each test binary that includes this module uses only part of it.
+#![allow(dead_code)]
 
 use lipmap::io::landmark_format::{LandmarkFormat, read_track, write_track};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 
 pub struct Carphone {
     /// Keeps the temp folder alive as long as the inputs.
@@ -27,4 +32,17 @@ pub fn carphone(n_frames: usize) -> Option<Carphone> {
     let landmarks = root.join("carphone.csv");
     write_track(&track, &landmarks, LandmarkFormat::LipmapCsv).unwrap();
     Some(Carphone { _dir: dir, root, frames, landmarks, eos })
+}
+
+/// `lipmap demo --no-tui --sentences 1 --out DIR/demo` run by the binary under test; returns
+/// the demo session's path.
+pub fn demo_session(dir: &Path) -> PathBuf {
+    let demo = dir.join("demo");
+    let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .args(["demo", "--no-tui", "--sentences", "1", "--out"])
+        .arg(&demo)
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "demo failed: {}", String::from_utf8_lossy(&st.stderr));
+    demo.join("demo.lipmap.json")
 }

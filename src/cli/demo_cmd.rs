@@ -2,12 +2,12 @@
 //! evaluate it headless, print the per-phoneme table, then open the TUI (unless `--no-tui`).
 
 use crate::cli::exit::Outcome;
-use crate::cli::output::{FormatArgs, write_tables};
+use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::demo::{self, DemoOptions, DemoOutput, SpeakerOutput};
 use crate::io::alignment_format::read_alignment;
 use crate::io::landmark_format::read_track;
 use crate::session::{Clip, FramesRef, ModelRef, Session, View};
-use crate::workflow::{self, Normalisation, Resources};
+use crate::workflow::{self, HeadP, Resources};
 use anyhow::{Context, Result};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -33,8 +33,8 @@ pub struct DemoArgs {
     #[arg(long)]
     pub no_tui: bool,
     /// How video and head trajectories are compared in the printed tables.
-    #[arg(long, value_enum, default_value_t = Normalisation::MinMax)]
-    pub normalise: Normalisation,
+    #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
+    pub normalise: NormaliseArg,
     #[command(flatten)]
     pub output: FormatArgs,
 }
@@ -93,7 +93,7 @@ fn abs(p: &Path) -> PathBuf {
     crate::session::absolute(p)
 }
 
-pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<Outcome> {
+pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let t0 = Instant::now();
     let opts = DemoOptions {
         seed: a.seed,
@@ -112,13 +112,20 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<Outcome> {
         let res = Resources::load(&session)?;
         let clips: Vec<usize> = (0..session.clips.len()).collect();
         let settings = session.fit_settings.clone();
-        let (utterances, fits) =
-            crate::cli::eval_cmd::utterances_with(&mut session, &res, &clips, &settings)?;
+        let bar = crate::cli::progress::frames_bar(0, "fitting");
+        let progress = crate::cli::progress::show_on(&bar);
+        let done = workflow::utterances_with(
+            &mut session,
+            &res,
+            &clips,
+            &settings,
+            HeadP::Mesh,
+            &progress,
+        )?;
+        crate::cli::progress::print_warnings(&done.warnings);
         session.save(path)?;
-        any_failed |= fits.iter().any(|(_, f)| f.iter().any(|x| x.failed.is_some()));
-        let refs: Vec<(&str, &[crate::fit::FrameFit])> =
-            fits.iter().map(|(n, f)| (n.as_str(), f.as_slice())).collect();
-        let report = workflow::evaluate(&utterances, &refs, a.normalise, 10);
+        any_failed |= done.fits.iter().any(|(_, f)| f.iter().any(|x| x.failed.is_some()));
+        let report = workflow::evaluate(&done.utterances, &done.fit_refs(), a.normalise.into(), 10);
         if sessions.len() > 1 {
             writeln!(out, "== speaker {k}: {}", path.display())?;
         }
@@ -131,15 +138,21 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<Outcome> {
         sessions[0].display()
     );
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
+    let outcome = if any_failed { Outcome::Partial } else { Outcome::Ok };
     if !a.no_tui {
         if interactive {
-            crate::tui::run::run(&sessions[0], None)?;
-        } else {
-            eprintln!(
-                "lipmap demo: not a terminal, so the TUI is not opened; run `lipmap tui {}`",
-                sessions[0].display()
-            );
+            let open = crate::cli::OpenTui {
+                session: sessions[0].clone(),
+                keymap: None,
+                graphics: None,
+                clip: None,
+            };
+            return Ok(crate::cli::Next::OpenTui(open, outcome));
         }
+        eprintln!(
+            "lipmap demo: not a terminal, so the TUI is not opened; run `lipmap tui {}`",
+            sessions[0].display()
+        );
     }
-    Ok(if any_failed { Outcome::Partial } else { Outcome::Ok })
+    Ok(crate::cli::Next::Exit(outcome))
 }

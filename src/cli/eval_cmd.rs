@@ -2,14 +2,12 @@
 //! worst frames; `--compare F1,F2,…` for the landmark-set table with paired t-tests;
 //! `--head-p render --render-pitch DEG` measures the head's P on side renders.
 
-use crate::cli::new::session_path;
-use crate::cli::output::{FormatArgs, write_tables};
-use crate::eval::{Configuration, RowKey, Utterance, compare_configurations};
+use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
+use crate::cli::progress::{frames_bar, print_warnings, show_on};
+use crate::eval::{Configuration, RowKey, compare_configurations};
 use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
-use crate::measure::MeshMeasureOptions;
-use crate::session::Session;
-use crate::workflow::{self, HeadP, Normalisation, Resources};
+use crate::workflow::{self, HeadP, session_path};
 use anyhow::{Result, bail};
 use std::io::Write;
 
@@ -23,8 +21,8 @@ pub struct EvalArgs {
     #[arg(long, value_delimiter = ',')]
     pub compare: Vec<LandmarkSet>,
     /// How video and head trajectories are put on one scale before comparing.
-    #[arg(long, value_enum, default_value_t = Normalisation::MinMax)]
-    pub normalise: Normalisation,
+    #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
+    pub normalise: NormaliseArg,
     /// Number of worst frames to list.
     #[arg(long, default_value_t = 10)]
     pub worst: usize,
@@ -76,115 +74,80 @@ impl EvalArgs {
     }
 }
 
-/// Each clip's name and fits, in clip order.
-pub type NamedFits = Vec<(String, Vec<crate::fit::FrameFit>)>;
-
-/// Fits (from cache where valid) and evaluates the selected clips of a session with
-/// `settings`; returns the utterances and each clip's fits.
-pub fn utterances_with(
-    session: &mut Session,
-    res: &Resources,
-    clips: &[usize],
-    settings: &FitSettings,
-) -> Result<(Vec<Utterance>, NamedFits)> {
-    utterances_with_head_p(session, res, clips, settings, HeadP::Mesh)
-}
-
-/// As [`utterances_with`], the head's P measured as `head_p` says.
-pub fn utterances_with_head_p(
-    session: &mut Session,
-    res: &Resources,
-    clips: &[usize],
-    settings: &FitSettings,
-    head_p: HeadP,
-) -> Result<(Vec<Utterance>, NamedFits)> {
-    let mut utterances = Vec::new();
-    let mut fits = Vec::new();
-    let bar = crate::cli::progress::frames_bar(0, "fitting");
-    for &c in clips {
-        let name = session.clip(c)?.name.clone();
-        bar.set_message(format!("fitting {name} ({})", settings.set));
-        let progress = |done: usize, total: usize| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        };
-        let clip_fits = workflow::fit_clip_cached(session, res, c, settings, Some(&progress))?;
-        let mut u = workflow::utterance_of_clip(
-            session,
-            res,
-            c,
-            &clip_fits.fits,
-            &MeshMeasureOptions::default(),
-        )?;
-        if let HeadP::Render { pitch_deg } = head_p {
-            bar.set_message(format!("rendering {name} from the side"));
-            let n = u.head.p.len();
-            let r =
-                workflow::head_p_of_clip_by_render(session, res, c, &clip_fits.fits, n, pitch_deg)?;
-            u.head.p = r.p;
-        }
-        utterances.push(u);
-        fits.push((name, clip_fits.fits));
-    }
-    bar.finish_and_clear();
-    Ok((utterances, fits))
-}
-
-/// The clips selected by `--clip` (all when absent).
-pub fn select_clips(session: &Session, name: Option<&str>) -> Result<Vec<usize>> {
-    match name {
-        Some(n) => match session.clip_index(n) {
-            Some(i) => Ok(vec![i]),
-            None => bail!(
-                "no clip `{n}` in the session (clips: {})",
-                session.clips.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", ")
-            ),
-        },
-        None => Ok((0..session.clips.len()).collect()),
-    }
-}
-
 pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
-    let path = session_path(&a.session);
+    let normalise = a.normalise.into();
     if !a.heads.is_empty() {
+        let path = session_path(&a.session);
         let clip = a.clip.as_deref();
-        return crate::cli::heads::run_heads(&path, &a.heads, clip, a.normalise, &a.output, out);
+        return run_heads(&path, &a.heads, clip, normalise, &a.output, out);
     }
     // Evaluation fits what the cache lacks and stores it, under the lock; beside an open
     // editor it runs read-only (fits in memory, nothing saved).
-    let (path, lock, mut session) = crate::cli::new::open_for_read(&a.session)?;
-    let res = crate::cli::new::load_resources(&session, &path)?;
-    let clips = select_clips(&session, a.clip.as_deref())?;
-    if clips.iter().all(|&c| session.clips[c].alignment.is_none()) {
+    let mut opened = workflow::open_for_read(&a.session)?;
+    print_warnings(opened.notice.as_slice());
+    let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
+    print_warnings(&warnings);
+    let clips = workflow::select_clips(&opened.session, a.clip.as_deref())?;
+    if clips.iter().all(|&c| opened.session.clips[c].alignment.is_none()) {
         eprintln!(
             "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
         );
     }
-    let base = session.fit_settings.clone();
+    let base = opened.session.fit_settings.clone();
     let head_p = a.head_p()?;
+    let bar = frames_bar(0, "fitting");
+    let progress = show_on(&bar);
     if a.compare.is_empty() {
-        let (utterances, fits) = utterances_with_head_p(&mut session, &res, &clips, &base, head_p)?;
-        crate::cli::new::save_if_locked(&session, &path, lock.as_ref())?;
-        crate::cli::output::require_some_fit(&fits)?;
-        let fit_refs: Vec<(&str, &[crate::fit::FrameFit])> =
-            fits.iter().map(|(n, f)| (n.as_str(), f.as_slice())).collect();
-        let report = workflow::evaluate(&utterances, &fit_refs, a.normalise, a.worst);
+        let done =
+            workflow::utterances_with(&mut opened.session, &res, &clips, &base, head_p, &progress)?;
+        print_warnings(&done.warnings);
+        opened.save_if_locked()?;
+        crate::cli::output::require_some_fit(&done.fits)?;
+        let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
         write_tables(&report.tables(), a.output.format(), out)?;
         return Ok(());
     }
     let mut configs = Vec::new();
     for &set in &a.compare {
         let settings = FitSettings { set, ..base.clone() };
-        let (utterances, _) =
-            utterances_with_head_p(&mut session, &res, &clips, &settings, head_p)?;
-        let utterances = match a.normalise {
-            Normalisation::MinMax => utterances.iter().map(Utterance::min_max_normalised).collect(),
-            Normalisation::None => utterances,
-        };
+        let done = workflow::utterances_with(
+            &mut opened.session,
+            &res,
+            &clips,
+            &settings,
+            head_p,
+            &progress,
+        )?;
+        print_warnings(&done.warnings);
+        let utterances = normalise.apply(&done.utterances);
         configs.push(Configuration { name: set.to_string(), utterances });
     }
-    crate::cli::new::save_if_locked(&session, &path, lock.as_ref())?;
+    opened.save_if_locked()?;
     let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
     write_tables(&[&comparison.to_table()], a.output.format(), out)?;
     Ok(())
+}
+
+/// `--heads`: fits the session's clips (`clip` only, when given) onto each head and prints
+/// the comparison ([`workflow::heads::compare_heads`]).
+fn run_heads(
+    session_path: &std::path::Path,
+    heads: &[std::path::PathBuf],
+    clip: Option<&str>,
+    normalise: workflow::Normalisation,
+    output: &FormatArgs,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let session = workflow::load_session(session_path)?;
+    let clips = workflow::select_clips(&session, clip)?;
+    let heads = workflow::heads::load_heads(heads)?;
+    let bar = frames_bar(0, "fitting");
+    let report = workflow::heads::compare_heads(&session, &heads, &clips, normalise, &show_on(&bar))
+        .map_err(|e| match e {
+            workflow::Error::NoClips => anyhow::Error::new(e).context(session_path.display().to_string()),
+            e => e.into(),
+        })?;
+    print_warnings(&report.warnings);
+    let refs: Vec<&crate::eval::Table> = report.tables.iter().collect();
+    write_tables(&refs, output.format(), out)
 }

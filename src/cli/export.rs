@@ -1,11 +1,9 @@
 //! `lipmap export SESSION --out DIR`: a session's effective landmarks, evaluation tables (CSV)
 //! and trajectory charts (PNG) as plain files; fitted meshes (OBJ sequences) when asked for.
 
-use crate::cli::eval_cmd::{select_clips, utterances_with};
 use crate::cli::exit::Outcome;
-use crate::cli::new::{load_resources, open_for_read, save_if_locked};
-use crate::cli::output::{failure_lines, plural};
-use crate::cli::progress::frames_bar;
+use crate::cli::output::{NormaliseArg, failure_lines, plural};
+use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::eval::Utterance;
 use crate::fit::{FrameFit, fitted_shape};
 use crate::io::landmark_format::{LandmarkFormat, write_track};
@@ -13,7 +11,7 @@ use crate::io::obj;
 use crate::measure::Measure;
 use crate::model::Mesh;
 use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
-use crate::workflow::{self, Normalisation, Resources};
+use crate::workflow::{self, HeadP, Normalisation, Resources, select_clips};
 use anyhow::{Context, Result, bail};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -48,8 +46,8 @@ pub struct ExportArgs {
     #[arg(long)]
     pub clip: Option<String>,
     /// How video and head trajectories are put on one scale (tables and plots).
-    #[arg(long, value_enum, default_value_t = Normalisation::MinMax)]
-    pub normalise: Normalisation,
+    #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
+    pub normalise: NormaliseArg,
     /// Rows of the worst-frames tables.
     #[arg(long, default_value_t = 10)]
     pub worst: usize,
@@ -130,16 +128,17 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
     check_out_dir(&a.out)?;
     // New fits are stored in the session's cache under the lock, as `eval` does; beside an
     // open editor the export runs read-only.
-    let (path, lock, mut session) = open_for_read(&a.session)?;
-    let clips = select_clips(&session, a.clip.as_deref())?;
+    let mut opened = workflow::open_for_read(&a.session)?;
+    print_warnings(opened.notice.as_slice());
+    let clips = select_clips(&opened.session, a.clip.as_deref())?;
     std::fs::create_dir_all(&a.out).with_context(|| format!("{}", a.out.display()))?;
     let mut outcome = Outcome::Ok;
 
     if let Some(format) = plan.landmarks {
         let mut files = 0;
         for &c in &clips {
-            let name = session.clip(c)?.name.clone();
-            let track = rounded_track(session.effective_track(c)?);
+            let name = opened.session.clip(c)?.name.clone();
+            let track = rounded_track(opened.session.effective_track(c)?);
             let target = landmarks_path(&a.out, &name, format);
             if let Some(parent) = target.parent() {
                 std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
@@ -158,17 +157,30 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         return Ok(outcome);
     }
 
-    let res = load_resources(&session, &path)?;
-    let settings = session.fit_settings.clone();
+    let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
+    print_warnings(&warnings);
+    let settings = opened.session.fit_settings.clone();
     // Save only when something is fitted now: an up-to-date session stays untouched.
-    let any_stale = clips.iter().any(|&c| !session.stale_frames_with(c, &settings).is_empty());
-    let (utterances, fits) = utterances_with(&mut session, &res, &clips, &settings)?;
+    let any_stale =
+        clips.iter().any(|&c| !opened.session.stale_frames_with(c, &settings).is_empty());
+    let bar = frames_bar(0, "fitting");
+    let done = workflow::utterances_with(
+        &mut opened.session,
+        &res,
+        &clips,
+        &settings,
+        HeadP::Mesh,
+        &show_on(&bar),
+    )?;
+    print_warnings(&done.warnings);
     if any_stale {
-        save_if_locked(&session, &path, lock.as_ref())?;
+        opened.save_if_locked()?;
     }
+    let (utterances, fits) = (&done.utterances, &done.fits);
+    let normalise: Normalisation = a.normalise.into();
 
     if plan.meshes {
-        let (written, failed) = export_meshes(&res, &fits, &a.out)?;
+        let (written, failed) = export_meshes(&res, fits, &a.out)?;
         writeln!(
             out,
             "meshes: {} in {}",
@@ -180,9 +192,7 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         }
     }
     if plan.tables {
-        let refs: Vec<(&str, &[FrameFit])> =
-            fits.iter().map(|(n, f)| (n.as_str(), f.as_slice())).collect();
-        let report = workflow::evaluate(&utterances, &refs, a.normalise, a.worst);
+        let report = workflow::evaluate(utterances, &done.fit_refs(), normalise, a.worst);
         let dir = a.out.join("tables");
         std::fs::create_dir_all(&dir).with_context(|| format!("{}", dir.display()))?;
         for (table, file) in report.tables().iter().zip(TABLE_FILES) {
@@ -196,8 +206,8 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         writeln!(out, "tables: {} in {}", plural(TABLE_FILES.len(), "CSV file"), dir.display())?;
     }
     if plan.plots {
-        for u in &utterances {
-            let img = trajectory_chart(u, a.normalise, a.plot_width);
+        for u in utterances {
+            let img = trajectory_chart(u, normalise, a.plot_width);
             let p = plot_path(&a.out, &u.name);
             if let Some(parent) = p.parent() {
                 std::fs::create_dir_all(parent).with_context(|| format!("{}", parent.display()))?;
@@ -286,10 +296,7 @@ pub fn trajectory_chart(
     normalisation: Normalisation,
     width: u32,
 ) -> image::RgbImage {
-    let compared = match normalisation {
-        Normalisation::MinMax => u.min_max_normalised(),
-        Normalisation::None => u.clone(),
-    };
+    let compared = normalisation.apply(std::slice::from_ref(u)).remove(0);
     let measures: Vec<Measure> = Measure::ALL
         .into_iter()
         .filter(|&m| m != Measure::P || compared.head.has_p() || compared.video.has_p())

@@ -1,14 +1,12 @@
 //! `lipmap fit`: fit every clip of a session (caching results keyed by the settings), or, with
 //! `--model/--mapping/--landmarks/--image-size/--out` and no session, fit files to files.
 
-use crate::cli::eval_cmd::select_clips;
 use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
-use crate::cli::new::open_for_edit;
 use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text};
 use crate::cli::progress::frames_bar;
 use crate::landmarks::LandmarkSet;
-use crate::workflow;
+use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::{Result, bail};
 use std::io::Write;
 use std::path::PathBuf;
@@ -105,7 +103,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     if a.model.is_some() || a.mapping.is_some() || a.landmarks.is_some() || a.out.is_some() {
         bail!("--model/--mapping/--landmarks/--out are for files mode; a session names its own");
     }
-    let (path, _lock, mut session) = open_for_edit(s)?;
+    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(s)?;
     let mut settings = session.fit_settings.clone();
     if let Some(set) = a.set {
         settings.set = set;
@@ -132,7 +130,8 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         settings.clip = false;
     }
     session.fit_settings = settings.clone();
-    let res = crate::cli::new::load_resources(&session, &path)?;
+    let (res, warnings) = workflow::load_resources(&session, &path)?;
+    crate::cli::progress::print_warnings(&warnings);
     let clips = select_clips(&session, a.only.as_deref())?;
     let mut any_failed = false;
     for c in clips {

@@ -8,7 +8,6 @@ pub mod exit;
 pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
-pub mod heads;
 pub mod indices;
 pub mod model_cmd;
 pub mod new;
@@ -20,6 +19,7 @@ pub mod tui_cmd;
 pub mod validate;
 
 pub use exit::Outcome;
+pub use tui_cmd::OpenTui;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -67,22 +67,38 @@ pub enum Command {
     Model(model_cmd::ModelCommand),
 }
 
+/// What the binary does once a command has run: exit, or open a session in the TUI (the
+/// binary does that, so the command line and the TUI need not know each other).
+#[derive(Debug)]
+pub enum Next {
+    Exit(Outcome),
+    /// Open the TUI; exit with `Outcome` when it closes.
+    OpenTui(OpenTui, Outcome),
+}
+
 /// Runs one parsed command.
-pub fn run(cli: Cli) -> Result<Outcome> {
+pub fn run(cli: Cli) -> Result<Next> {
+    let command = cli.command;
+    if let Command::Tui(args) = &command {
+        return Ok(Next::OpenTui(OpenTui::of(args), Outcome::Ok));
+    }
+    if let Command::Demo(args) = &command {
+        let stdout = std::io::stdout();
+        return demo_cmd::run(args, &mut stdout.lock());
+    }
+    run_command(command).map(Next::Exit)
+}
+
+fn run_command(command: Command) -> Result<Outcome> {
     let stdout = std::io::stdout();
     let mut out = stdout.lock();
-    match cli.command {
+    match command {
         Command::Convert(args) => {
             let msg = convert::run(&args)?;
             writeln!(out, "{msg}")?;
             Ok(Outcome::Ok)
         }
-        Command::Demo(args) => demo_cmd::run(&args, &mut out),
-        Command::Tui(args) => {
-            drop(out);
-            tui_cmd::run(&args)?;
-            Ok(Outcome::Ok)
-        }
+        Command::Demo(_) | Command::Tui(_) => unreachable!("dispatched by `run`"),
         Command::New(args) => {
             writeln!(out, "{}", new::run_new(&args)?)?;
             Ok(Outcome::Ok)

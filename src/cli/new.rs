@@ -1,6 +1,6 @@
 //! `lipmap new` and `lipmap import`: create a session from frames, tracked landmarks, a phone
 //! alignment, a head mesh, a model and (optionally) a landmark map; add clips or set the map
-//! later. Also how the other commands open a session: for editing, or read-only beside an editor.
+//! later.
 
 use crate::cli::output::plural;
 use crate::cli::phones::tier_choice;
@@ -9,9 +9,9 @@ use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::{alignment_format, landmark_format, landmark_map_toml, model_source, obj};
 use crate::landmarks::LandmarkSet;
 use crate::model::LandmarkMap;
-use crate::session::{Clip, FramesRef, ModelRef, Session, SessionError, SessionLock, View};
-use crate::workflow::{NO_MAP_MESSAGE, Resources, check_map_for_fit, shadowed_map_file};
-use anyhow::{Context, Result, bail};
+use crate::session::{Clip, FramesRef, ModelRef, Session, SessionLock, View};
+use crate::workflow::{check_map_for_fit, check_map_vertices, load_session, session_path};
+use anyhow::{Result, bail};
 use std::path::{Path, PathBuf};
 
 /// One clip's inputs. `--frames` and `--landmarks` are optional here only so that
@@ -108,15 +108,6 @@ pub struct ImportArgs {
     /// and any map labelled in the TUI.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
-}
-
-/// `NAME` -> sessions/NAME.lipmap.json; anything with a slash or a .json ending is a path.
-pub fn session_path(s: &str) -> PathBuf {
-    if s.contains('/') || s.ends_with(".json") {
-        PathBuf::from(s)
-    } else {
-        crate::session::default_path(s)
-    }
 }
 
 /// Reads one clip's files into a `Clip`, checking them before anything is written.
@@ -218,7 +209,7 @@ pub fn run_new(a: &NewArgs) -> Result<String> {
     let model = model_source::load_model(&a.model, a.blendshapes.as_deref())?;
     let map = a.mapping.as_deref().map(landmark_map_toml::read_landmark_map).transpose()?;
     if let (Some(map), Some(file)) = (&map, &a.mapping) {
-        check_map(map, model.num_vertices(), file)?;
+        check_map_vertices(map, model.num_vertices(), Some(file))?;
     }
     let settings = FitSettings { set: a.set, ..FitSettings::default() };
     if let Some(head) = &a.head {
@@ -290,7 +281,7 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
     }
     let path = session_path(&a.session);
     let _lock = SessionLock::acquire(&path)?;
-    let mut session = Session::load(&path).with_context(|| format!("{}", path.display()))?;
+    let mut session = load_session(&path)?;
     // Read everything before changing the session, so a bad input changes nothing.
     let clip = a.clip.is_given().then(|| read_clip(&a.clip)).transpose()?;
     let mut lines = Vec::new();
@@ -322,7 +313,7 @@ fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<
     let n_vertices = match &session.model {
         Some(m) => {
             let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
-            check_map(&map, n, file)?;
+            check_map_vertices(&map, n, Some(file))?;
             Some(n)
         }
         None => None,
@@ -361,92 +352,6 @@ fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<
         msg.push_str(&format!("\n{problem}"));
     }
     Ok(msg)
-}
-
-fn check_map(map: &crate::model::LandmarkMap, n_vertices: usize, path: &Path) -> Result<()> {
-    if let Some((&lm, &v)) = map.to_vertex.iter().find(|(_, v)| **v >= n_vertices) {
-        bail!(
-            "{}: landmark {} maps to vertex {v} but the model has {n_vertices} vertices",
-            path.display(),
-            lm + 1
-        );
-    }
-    // An empty map is fine: it is a start for labelling in the TUI (the fit says so).
-    Ok(())
-}
-
-/// Opens a session for a command that changes it: lock first, then load.
-pub fn open_for_edit(s: &str) -> Result<(PathBuf, SessionLock, Session)> {
-    let path = session_path(s);
-    let lock = SessionLock::acquire(&path)?;
-    let session = Session::load(&path).with_context(|| format!("{}", path.display()))?;
-    Ok((path, lock, session))
-}
-
-/// Opens a session for a command that only reads it but would cache new fits (`eval`,
-/// `export`): locked like [`open_for_edit`] when it can be; when another editor (the TUI)
-/// holds the lock, loaded without it (`None`), after one notice line on stderr. The caller
-/// then fits what the cache lacks in memory and must not save (see [`save_if_locked`]).
-///
-/// # Errors
-/// Unreadable session or lock file.
-pub fn open_for_read(s: &str) -> Result<(PathBuf, Option<SessionLock>, Session)> {
-    let path = session_path(s);
-    let lock = match SessionLock::acquire(&path) {
-        Ok(lock) => Some(lock),
-        Err(SessionError::Locked { holder, .. }) => {
-            eprintln!("{}", read_only_notice(&path, &holder));
-            None
-        }
-        Err(e) => return Err(e.into()),
-    };
-    let session = Session::load(&path).with_context(|| format!("{}", path.display()))?;
-    Ok((path, lock, session))
-}
-
-/// The notice of a read-only run beside another editor.
-pub fn read_only_notice(path: &Path, holder: &crate::session::LockInfo) -> String {
-    format!(
-        "lipmap: note: {} is open in another editor ({holder}); reading it without saving \
-         (fits missing from its cache are computed now and not stored)",
-        path.display()
-    )
-}
-
-/// Saves `session` when this process holds its lock; a read-only run saves nothing.
-///
-/// # Errors
-/// The save's error.
-pub fn save_if_locked(session: &Session, path: &Path, lock: Option<&SessionLock>) -> Result<()> {
-    if lock.is_some() {
-        session.save(path)?;
-    }
-    Ok(())
-}
-
-/// The session's fit resources, for `fit`, `eval` and `export`: [`Resources::load`] with the
-/// no-map message naming this session, after one warning line when a map labelled in the TUI
-/// shadows a map file that now differs.
-///
-/// # Errors
-/// As [`Resources::load`].
-pub fn load_resources(session: &Session, path: &Path) -> Result<Resources> {
-    if let Some(file) = shadowed_map_file(session) {
-        eprintln!(
-            "lipmap: warning: the map labelled in the TUI is used, not {} (which differs); \
-             to use the file instead: lipmap import {} --mapping {}",
-            file.display(),
-            path.display(),
-            file.display()
-        );
-    }
-    Resources::load(session).map_err(|e| {
-        if e.to_string() == NO_MAP_MESSAGE {
-            anyhow::anyhow!(NO_MAP_MESSAGE.replace("SESSION", &path.display().to_string()))
-        } else {
-            e
-        }
-    })
 }
 
 #[cfg(test)]

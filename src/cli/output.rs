@@ -215,3 +215,24 @@ mod tests {
         assert!(require_some_fit(&some).is_ok());
     }
 }
+
+/// How video and head trajectories are put on one scale (`--normalise`); the clap face of
+/// [`crate::workflow::Normalisation`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum NormaliseArg {
+    /// Min–max per sequence, video and head separately (the published method: shapes of
+    /// trajectories, so a head of other proportions can still be judged).
+    #[default]
+    MinMax,
+    /// The reference-length ratios as they are (same-person heads, known truth).
+    None,
+}
+
+impl From<NormaliseArg> for crate::workflow::Normalisation {
+    fn from(a: NormaliseArg) -> Self {
+        match a {
+            NormaliseArg::MinMax => Self::MinMax,
+            NormaliseArg::None => Self::None,
+        }
+    }
+}

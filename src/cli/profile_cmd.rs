@@ -3,14 +3,12 @@
 //! upper-lip points, store both in the session, and print P per front frame with each
 //! point's source (the values `eval` compares with the head's P).
 
-use crate::cli::eval_cmd::select_clips;
-use crate::cli::new::open_for_edit;
 use crate::cli::output::{FormatArgs, write_tables};
 use crate::eval::{Cell, Table};
 use crate::landmarks::PointSource;
 use crate::math::Point2;
 use crate::measure::profile::{Facing, NoseLength, ProfileSetup, Rect, ReferenceLine, Threshold};
-use crate::workflow::{self, PROFILE_SETUP_KEY};
+use crate::workflow::{self, PROFILE_SETUP_KEY, open_for_edit, select_clips};
 use anyhow::{Result, bail};
 use std::io::Write;
 
@@ -75,7 +73,7 @@ fn parse_correction(s: &str) -> Result<(usize, Point2), String> {
 }
 
 pub fn run(a: &ProfileArgs, out: &mut dyn Write) -> Result<()> {
-    let (path, _lock, mut session) = open_for_edit(&a.session)?;
+    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(&a.session)?;
     let clips = select_clips(&session, a.clip.as_deref())?;
     let editing = !a.correct.is_empty() || !a.uncorrect.is_empty();
     if editing {

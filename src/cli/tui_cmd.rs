@@ -1,8 +1,6 @@
-//! `lipmap tui SESSION`: open a session in the terminal UI.
+//! `lipmap tui SESSION`: the flags of opening a session in the terminal UI. The binary
+//! (`main.rs`) opens it: the command line and the TUI do not call each other.
 
-use crate::cli::new::session_path;
-use crate::tui::widgets::graphics::GraphicsChoice;
-use anyhow::Result;
 use std::path::PathBuf;
 
 /// Open a session in the terminal UI (frames, head, fit and analysis views).
@@ -17,15 +15,53 @@ pub struct TuiArgs {
     /// (never inside tmux or over SSH) and falls back to half-blocks; the others force one.
     /// Default: $LIPMAP_GRAPHICS, else auto.
     #[arg(long, value_enum, value_name = "MODE")]
-    pub graphics: Option<GraphicsChoice>,
+    pub graphics: Option<GraphicsArg>,
     /// The clip to open (by name; default the first). `<` and `>` switch clips in the TUI.
     #[arg(long)]
     pub clip: Option<String>,
 }
 
-pub fn run(a: &TuiArgs) -> Result<()> {
-    let graphics = GraphicsChoice::from_flag_or_env(a.graphics).map_err(anyhow::Error::msg)?;
-    let options =
-        crate::tui::run::RunOptions { keymap: a.keymap.clone(), graphics, clip: a.clip.clone() };
-    crate::tui::run::run_with(&session_path(&a.session), &options)
+/// `--graphics`: the names the TUI's graphics choice parses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum GraphicsArg {
+    /// Query the terminal; never inside tmux or over SSH.
+    Auto,
+    Halfblocks,
+    Sixel,
+    Kitty,
+    Iterm2,
+}
+
+impl GraphicsArg {
+    /// The mode's name as the flag spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            GraphicsArg::Auto => "auto",
+            GraphicsArg::Halfblocks => "halfblocks",
+            GraphicsArg::Sixel => "sixel",
+            GraphicsArg::Kitty => "kitty",
+            GraphicsArg::Iterm2 => "iterm2",
+        }
+    }
+}
+
+/// A session for the binary to open in the TUI once a command is done.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OpenTui {
+    pub session: PathBuf,
+    pub keymap: Option<PathBuf>,
+    pub graphics: Option<GraphicsArg>,
+    pub clip: Option<String>,
+}
+
+impl OpenTui {
+    /// What `lipmap tui` asks for.
+    pub fn of(a: &TuiArgs) -> Self {
+        Self {
+            session: crate::workflow::session_path(&a.session),
+            keymap: a.keymap.clone(),
+            graphics: a.graphics,
+            clip: a.clip.clone(),
+        }
+    }
 }

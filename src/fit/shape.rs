@@ -42,6 +42,20 @@ pub struct LandmarkBasis {
 /// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
 const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
 
+/// Whether landmark `l` (0-based iBUG id) mapped to vertex `v` can drive a fit on a model of
+/// `n_vertices` vertices: in `set`, an existing vertex, and a finite weight > 0 (`weights`
+/// indexed by landmark; missing or empty = 1). Map checks before a fit count with this rule.
+pub fn is_usable_landmark(
+    l: usize,
+    v: usize,
+    n_vertices: usize,
+    set: LandmarkSet,
+    weights: &[Real],
+) -> bool {
+    let w = weights.get(l).copied().unwrap_or(1.0);
+    l < N_LANDMARKS && set.contains(l) && v < n_vertices && w.is_finite() && w > 0.0
+}
+
 impl LandmarkBasis {
     /// Precomputes the rows of the landmarks of `set` that `map` maps to a vertex of `model`,
     /// weighted by `weights` (indexed by 0-based iBUG id; missing or empty = 1; landmarks with
@@ -55,9 +69,8 @@ impl LandmarkBasis {
         let n = model.num_vertices();
         let pairs: Vec<(usize, usize, Real)> = map
             .pairs()
-            .filter(|&(l, v)| l < N_LANDMARKS && set.contains(l) && v < n)
+            .filter(|&(l, v)| is_usable_landmark(l, v, n, set, weights))
             .map(|(l, v)| (l, v, weights.get(l).copied().unwrap_or(1.0)))
-            .filter(|&(_, _, w)| w.is_finite() && w > 0.0)
             .collect();
         Self::from_vertices(model, &pairs)
     }

@@ -68,14 +68,8 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let mut clip = match &options.clip {
         Some(name) => {
             let s = crate::session::Session::load(session_path)?;
-            s.clip_index(name).ok_or_else(|| {
-                let names: Vec<&str> = s.clips.iter().map(|c| c.name.as_str()).collect();
-                anyhow::anyhow!(
-                    "{}: no clip `{name}` (clips: {})",
-                    session_path.display(),
-                    names.join(", ")
-                )
-            })?
+            crate::workflow::find_clip(&s, name)
+                .map_err(|e| anyhow::Error::new(e).context(session_path.display().to_string()))?
         }
         None => 0,
     };
@@ -293,24 +287,11 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     alignment: app.alignment.clone().unwrap_or_default(),
                     fps: app.fps,
                     fits: app.fit.fits.values().cloned().collect(),
-                    extra_tables: indices_tables(&bridge.session, bridge.clip),
+                    head: app.mesh.clone(),
                     side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
             }
             Effect::Quit => {}
         }
     }
-}
-
-/// The facial-index tables of the clip's speaker and the session's head, when they can be
-/// computed (a head, a map and the index points are needed); none otherwise.
-fn indices_tables(session: &crate::session::Session, clip: usize) -> Vec<crate::eval::Table> {
-    let name = session.clips.get(clip).map(|c| c.name.clone());
-    crate::cli::indices::session_tables(
-        session,
-        name.as_deref(),
-        None,
-        &crate::measure::BoundsTable::default(),
-    )
-    .unwrap_or_default()
 }

@@ -206,6 +206,7 @@ impl SessionBridge {
         let (session, clip) = (self.session.clone(), self.clip);
         Some(move || {
             let measured = crate::workflow::side_view_track(&session, clip)
+                .map_err(anyhow::Error::from)
                 .and_then(|found| found.context("the clip has no side view"));
             match measured {
                 Ok((setup, track)) => Action::SideReady {

@@ -94,9 +94,9 @@ pub struct AnalysisJob {
     pub alignment: Alignment,
     pub fps: f64,
     pub fits: Vec<FrameFit>,
-    /// Tables computed from the session when the job was made (facial indices of speaker
-    /// and head, and their match), shown after the error tables.
-    pub extra_tables: Vec<crate::eval::Table>,
+    /// The head mesh the app shows: the head's facial indices are taken on it (or on the
+    /// model's mean when it is not the model's topology), shown after the error tables.
+    pub head: Option<Arc<crate::model::Mesh>>,
     /// The side view's P per front frame (corrections applied), when the clip has one.
     pub side_p: Option<Vec<Option<f64>>>,
 }
@@ -108,16 +108,17 @@ const N_WORST: usize = 20;
 /// (min–max normalised, as the published method) and turns the report into the analysis
 /// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
 pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
-    use crate::measure::{Measure, MeshMeasureOptions, UpperLip};
-    use crate::workflow::{Normalisation, evaluate, utterance_from_parts};
+    use crate::measure::{Measure, MeshMeasureOptions};
+    use crate::workflow::{Normalisation, evaluate, head_p_options, utterance_from_parts};
     // With a side view, the head's P is its whole upper lip's foremost point, as a profile
-    // shows it (the CLI's `eval` does the same).
-    let options = match &job.side_p {
-        Some(_) => MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() }
-            .with_region_resolved(&job.model.shape.mean, &job.map.with_commissures_completed())
-            .unwrap_or_default(),
-        None => MeshMeasureOptions::default(),
-    };
+    // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
+    // landmark vertices there too).
+    let (options, _) = head_p_options(
+        &job.model,
+        &job.map,
+        job.side_p.is_some(),
+        &MeshMeasureOptions::default(),
+    );
     let mut u = utterance_from_parts(
         &job.name,
         &job.alignment,
@@ -146,6 +147,19 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
             .find(|p| crate::alignment::grouping_label(&p.label) == key)
             .map(|p| Alignment::frames_of(p, job.fps).start)
     };
+    // The facial indices of speaker and head from what the app holds (no disk reads), when
+    // a map and the index points allow them.
+    let index_tables = crate::workflow::indices::index_tables(
+        &job.model,
+        &job.map,
+        job.head.as_deref(),
+        &job.name,
+        &job.track,
+        &job.alignment,
+        job.fps,
+        &crate::measure::BoundsTable::default(),
+    )
+    .unwrap_or_default();
     let tables = [
         &report.phonemes,
         &report.visemes,
@@ -154,7 +168,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         &report.worst_fits,
     ]
     .into_iter()
-    .chain(job.extra_tables.iter())
+    .chain(index_tables.iter())
     .map(|t| table_for_tui(t, &first_frame_of, t.title == report.phonemes.title))
     .collect();
     let normalised = u.min_max_normalised();

@@ -1,12 +1,17 @@
-//! `lipmap eval SESSION --heads A,B,C`: one speaker's clips fitted onto several heads, the
-//! W/H(/P) RMSE table per head with paired t-tests, and corresponding vs non-corresponding heads.
+//! Several heads compared (`lipmap eval SESSION --heads A,B,C`): one speaker's clips fitted
+//! onto each head, the W/H(/P) RMSE table per head with paired t-tests, and corresponding vs
+//! non-corresponding heads.
 //!
 //! A head is named on the command line by a path: a session file (`.json`) whose model,
 //! landmark map and head mesh are used, or a folder holding a model and a landmark map (what
 //! `lipmap demo` writes: `model.lmm`, `head_map.toml`, `head.obj`, `poses/`).
 
-use crate::cli::indices::{NeutralChoice, SpeakerNeutral, resources_head_indices, speaker_neutral};
-use crate::cli::output::{FormatArgs, write_tables};
+use super::error::{Context, Error, Result, Warning};
+use super::evaluate::{Normalisation, utterance_of_clip};
+use super::indices::{NeutralChoice, SpeakerNeutral, resources_head_indices, speaker_neutral};
+use super::resources::{Resources, check_map_vertices};
+use super::session::{image_height, load_session};
+use super::{Progress, ProgressFn};
 use crate::eval::stats::paired_t_test;
 use crate::eval::{Cell, Comparison, Configuration, RowKey, Table, Utterance};
 use crate::eval::{compare_configurations, mean_of};
@@ -18,9 +23,6 @@ use crate::measure::{
     match_speaker_head,
 };
 use crate::session::Session;
-use crate::workflow::{self, Normalisation, Resources};
-use anyhow::{Context, Result, anyhow, bail};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// A head to map the speaker onto: its display name and what fitting it needs.
@@ -33,7 +35,7 @@ pub struct Head {
 
 fn sorted_files(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
+        .map_err(|e| Error::io(dir, e).context(format!("reading {}", dir.display())))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_file())
         .collect();
@@ -70,11 +72,11 @@ fn head_model_paths(dir: &Path, files: &[PathBuf]) -> Result<(PathBuf, Option<Pa
     if poses.is_dir() {
         return Ok((poses, None));
     }
-    bail!(
+    Err(Error::Invalid(format!(
         "{}: no model (expected a lipmap model file such as model.lmm, an eos .bin, an .npz, \
          mean.npy or a poses/ folder of OBJs)",
         dir.display()
-    )
+    )))
 }
 
 /// The landmark map of a head folder: its only `.toml` file (or the one whose name has
@@ -90,16 +92,21 @@ fn head_map_path(dir: &Path, files: &[PathBuf]) -> Result<PathBuf> {
                 many.iter().filter(|p| file_name(p).to_ascii_lowercase().contains("map")).collect();
             match named.as_slice() {
                 [one] => Some(**one),
-                _ => bail!(
-                    "{}: several .toml files and none is clearly the landmark map ({})",
-                    dir.display(),
-                    many.iter().map(|p| file_name(p)).collect::<Vec<_>>().join(", ")
-                ),
+                _ => {
+                    return Err(Error::Invalid(format!(
+                        "{}: several .toml files and none is clearly the landmark map ({})",
+                        dir.display(),
+                        many.iter().map(|p| file_name(p)).collect::<Vec<_>>().join(", ")
+                    )));
+                }
             }
         }
     };
     chosen.cloned().ok_or_else(|| {
-        anyhow!("{}: no landmark map (a .toml file or ibug_to_*.txt)", dir.display())
+        Error::Invalid(format!(
+            "{}: no landmark map (a .toml file or ibug_to_*.txt)",
+            dir.display()
+        ))
     })
 }
 
@@ -117,26 +124,19 @@ pub fn load_head(path: &Path) -> Result<Head> {
         let map_path = head_map_path(path, &files)?;
         let model = load_model(&model_path, blend.as_deref())?;
         let map = landmark_map_toml::read_landmark_map(&map_path)?;
-        if let Some((&lm, &v)) = map.to_vertex.iter().find(|(_, v)| **v >= model.num_vertices()) {
-            bail!(
-                "{}: landmark {} maps to vertex {v} but {} has {} vertices",
-                map_path.display(),
-                lm + 1,
-                model_path.display(),
-                model.num_vertices()
-            );
-        }
+        check_map_vertices(&map, model.num_vertices(), Some(&map_path))
+            .with_context(|| model_path.display().to_string())?;
         let head_obj = path.join("head.obj");
         let head = head_obj.is_file().then(|| obj::read_obj(&head_obj)).transpose()?;
         Resources { model, map, head }
     } else if path.is_file() && file_name(path).ends_with(".json") {
-        let session = Session::load(path).with_context(|| path.display().to_string())?;
+        let session = load_session(path)?;
         Resources::load(&session).with_context(|| path.display().to_string())?
     } else {
-        bail!(
+        return Err(Error::Invalid(format!(
             "{}: a head is a folder with a model and a landmark map, or a session file",
             path.display()
-        );
+        )));
     };
     Ok(Head { name, path: path.to_path_buf(), resources })
 }
@@ -161,34 +161,36 @@ pub fn load_heads(paths: &[PathBuf]) -> Result<Vec<Head>> {
     Ok(heads)
 }
 
-/// The session's clips fitted onto `head` with the session's fit settings. The fits are not
-/// cached: the session's cache is keyed to its own model and map.
+/// The session's clips fitted onto `head` with the session's fit settings, and what was
+/// worked around. The fits are not cached: the session's cache is keyed to its own model and
+/// map. Progress: one stage per clip.
 ///
 /// # Errors
 /// Unknown clip; unreadable frames when the clip's image size is not recorded.
-pub fn head_utterances(session: &Session, head: &Head, clips: &[usize]) -> Result<Vec<Utterance>> {
+pub fn head_utterances(
+    session: &Session,
+    head: &Head,
+    clips: &[usize],
+    progress: ProgressFn<'_>,
+) -> Result<(Vec<Utterance>, Vec<Warning>)> {
     let settings = &session.fit_settings;
     let res = &head.resources;
-    let bar = crate::cli::progress::frames_bar(0, "fitting");
     let mut utterances = Vec::new();
+    let mut warnings = Vec::new();
     for &c in clips {
         let track = session.effective_track(c)?;
-        let height = workflow::image_height(session, c)?;
-        bar.set_message(format!("{} onto {}", session.clip(c)?.name, head.name));
-        bar.set_length(track.frames.len() as u64);
-        bar.set_position(0);
-        let report = |done: usize| bar.set_position(done as u64);
+        let height = image_height(session, c)?;
+        let total = track.frames.len();
+        let what = format!("{} onto {}", session.clip(c)?.name, head.name);
+        progress(Progress::Stage { what, total });
+        let report = |done: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip(&res.model, &res.map, &track.frames, height, settings, Some(&report));
-        utterances.push(workflow::utterance_of_clip(
-            session,
-            res,
-            c,
-            &fits,
-            &MeshMeasureOptions::default(),
-        )?);
+        let (u, w) = utterance_of_clip(session, res, c, &fits, &MeshMeasureOptions::default())?;
+        utterances.push(u);
+        warnings.extend(w);
     }
-    bar.finish_and_clear();
-    Ok(utterances)
+    progress(Progress::Finished);
+    Ok((utterances, warnings))
 }
 
 /// A head's match with the speaker: the verdict when both sides' indices could be taken.
@@ -324,47 +326,50 @@ pub fn correspondence_table(comparison: &Comparison, matches: &[HeadMatch]) -> O
     Some(t)
 }
 
-/// Fits the session's clips (`clip` only, when given) onto each head, and prints the RMSE
+/// The tables of a several-heads comparison and what was worked around.
+#[derive(Clone, Debug)]
+pub struct HeadsReport {
+    /// RMSE by head (t-tests against the first), the speaker–head match per head and, when
+    /// both kinds are present, corresponding vs non-corresponding heads.
+    pub tables: Vec<Table>,
+    pub warnings: Vec<Warning>,
+}
+
+/// Fits the clips `clips` of `session` onto each head and compares them: the RMSE
 /// comparison against the first head, the speaker–head match per head and, when both kinds
 /// are present, corresponding vs non-corresponding heads.
 ///
 /// # Errors
-/// Unreadable session or heads; no clips; a comparison that cannot be made.
-pub fn run_heads(
-    session_path: &Path,
-    heads: &[PathBuf],
-    clip: Option<&str>,
+/// No clips; as [`head_utterances`]; a comparison that cannot be made.
+pub fn compare_heads(
+    session: &Session,
+    heads: &[Head],
+    clips: &[usize],
     normalise: Normalisation,
-    output: &FormatArgs,
-    out: &mut dyn Write,
-) -> Result<()> {
-    let session =
-        Session::load(session_path).with_context(|| session_path.display().to_string())?;
-    let clips = crate::cli::eval_cmd::select_clips(&session, clip)?;
+    progress: ProgressFn<'_>,
+) -> Result<HeadsReport> {
     if clips.is_empty() {
-        bail!("{}: the session has no clips", session_path.display());
+        return Err(Error::NoClips);
     }
-    let heads = load_heads(heads)?;
-    let speaker = clips.iter().find_map(|&c| speaker_neutral(&session, c, None).ok());
+    let mut warnings = Vec::new();
+    let speaker = clips.iter().find_map(|&c| speaker_neutral(session, c, None).ok());
     if speaker.is_none() {
-        eprintln!(
+        warnings.push(Warning(
             "lipmap: warning: no neutral frame with all index points; no speaker-head verdict"
-        );
+                .into(),
+        ));
     }
     let bounds = BoundsTable::default();
     let mut configs = Vec::new();
     let mut matches = Vec::new();
-    for h in &heads {
-        let utterances = head_utterances(&session, h, &clips)?;
-        let utterances = match normalise {
-            Normalisation::MinMax => utterances.iter().map(Utterance::min_max_normalised).collect(),
-            Normalisation::None => utterances,
-        };
-        configs.push(Configuration { name: h.name.clone(), utterances });
+    for h in heads {
+        let (utterances, w) = head_utterances(session, h, clips, progress)?;
+        warnings.extend(w);
+        configs.push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
         let verdict = match (&speaker, resources_head_indices(&h.resources)) {
             (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi.indices, &bounds)),
             (None, _) => Err("no speaker indices".to_string()),
-            (_, Err(e)) => Err(format!("{e:#}")),
+            (_, Err(e)) => Err(super::error_chain(&e)),
         };
         matches.push(HeadMatch { head: h.name.clone(), verdict });
     }
@@ -372,11 +377,8 @@ pub fn run_heads(
     let mut rmse = comparison.to_table();
     rmse.title = "RMSE by head".into();
     let mut tables = vec![rmse, match_table(&matches, speaker.as_ref())];
-    if let Some(t) = correspondence_table(&comparison, &matches) {
-        tables.push(t);
-    }
-    let refs: Vec<&Table> = tables.iter().collect();
-    write_tables(&refs, output.format(), out)
+    tables.extend(correspondence_table(&comparison, &matches));
+    Ok(HeadsReport { tables, warnings })
 }
 
 #[cfg(test)]

@@ -1,0 +1,146 @@
+//! What can go wrong in a session use case, as one typed enum, and the warnings a use case
+//! returns instead of printing (the fronts show them: the CLI on stderr, the TUI in its
+//! status line).
+
+use crate::io::FormatError;
+use crate::session::SessionError;
+use std::path::PathBuf;
+
+/// Why a session use case failed. Every message names the file, clip or setting concerned;
+/// the fronts print it as it is (the CLI joins a [`Error::Context`] chain on one line).
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The session names no model.
+    #[error("the session has no model: give one with `lipmap new --model`")]
+    NoModel,
+    /// The session has no landmark map (or an empty one); `session` names it in the hint.
+    #[error("{}", no_map_message(session.as_deref()))]
+    NoMap { session: Option<PathBuf> },
+    /// A map the fit cannot use.
+    #[error(transparent)]
+    MapCheck(#[from] super::resources::MapCheckError),
+    /// A map naming vertices the model lacks.
+    #[error(transparent)]
+    MapRange(#[from] super::resources::MapRangeError),
+    /// A clip name the session does not have.
+    #[error("no clip `{name}` in the session (clips: {})", known.join(", "))]
+    UnknownClip { name: String, known: Vec<String> },
+    /// A use case that needs at least one clip.
+    #[error("the session has no clips")]
+    NoClips,
+    /// Reading, writing, locking or editing the session (a held lock is `SessionError::Locked`).
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// A file that does not parse, with its line or field.
+    #[error(transparent)]
+    Format(#[from] FormatError),
+    /// Frames that cannot be read.
+    #[error(transparent)]
+    Frames(#[from] crate::io::frames::FrameError),
+    /// A file or folder that cannot be read or written.
+    #[error("{}: {source}", path.display())]
+    Io { path: PathBuf, source: std::io::Error },
+    /// A render of the fitted head that failed.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// Configurations that cannot be compared.
+    #[error(transparent)]
+    Compare(#[from] crate::eval::compare::CompareError),
+    /// Input that breaks a rule of the use case (the message says which).
+    #[error("{0}")]
+    Invalid(String),
+    /// `source` in the setting `context` names (a clip, a head, a file).
+    #[error("{context}")]
+    Context {
+        context: String,
+        #[source]
+        source: Box<Error>,
+    },
+}
+
+/// Why a session cannot be fitted yet: it has no landmark map (or an empty one).
+pub const NO_MAP_MESSAGE: &str = "the session has no landmark map: label the head in the TUI \
+     (view 2) or `lipmap import SESSION --mapping FILE`";
+
+fn no_map_message(session: Option<&std::path::Path>) -> String {
+    match session {
+        Some(p) => NO_MAP_MESSAGE.replace("SESSION", &p.display().to_string()),
+        None => NO_MAP_MESSAGE.to_string(),
+    }
+}
+
+/// A workflow result.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// This error inside `context` (e.g. "clip `a`"), shown before it.
+    pub fn context(self, context: impl Into<String>) -> Self {
+        Error::Context { context: context.into(), source: Box::new(self) }
+    }
+
+    /// An I/O error on `path`.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io { path: path.into(), source }
+    }
+}
+
+/// `.context(..)` on results whose error converts into [`Error`].
+pub trait Context<T> {
+    /// The error inside `context`.
+    fn context(self, context: impl Into<String>) -> Result<T>;
+    /// The error inside the context `f` makes (only on failure).
+    fn with_context<S: Into<String>>(self, f: impl FnOnce() -> S) -> Result<T>;
+}
+
+impl<T, E: Into<Error>> Context<T> for std::result::Result<T, E> {
+    fn context(self, context: impl Into<String>) -> Result<T> {
+        self.map_err(|e| e.into().context(context))
+    }
+    fn with_context<S: Into<String>>(self, f: impl FnOnce() -> S) -> Result<T> {
+        self.map_err(|e| e.into().context(f()))
+    }
+}
+
+/// Something a use case noticed but worked around; the result is still valid. The text is
+/// the whole line as the command line prints it on stderr (`lipmap: warning: …`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Warning(pub String);
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+/// `e` and its causes on one line, `outer: cause: cause` (a cause already in the message
+/// is not repeated).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut msg = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+        source = cause.source();
+    }
+    msg
+}
+
+/// How a long use case reports progress: a new stage of `total` steps, or steps done in it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Progress {
+    /// A stage starts (e.g. "fitting s1 (F4)"), `total` steps (0 when not known yet).
+    Stage { what: String, total: usize },
+    /// `done` of `total` steps of the current stage are done.
+    Steps { done: usize, total: usize },
+    /// The use case has finished (a progress bar can be cleared).
+    Finished,
+}
+
+/// The callback a use case reports [`Progress`] to (called from worker threads too).
+pub type ProgressFn<'a> = &'a (dyn Fn(Progress) + Sync);
+
+/// A callback that ignores progress.
+pub fn no_progress(_: Progress) {}

@@ -1,0 +1,40 @@
+//! The application layer: every session-level use case the command line, the TUI and the
+//! demo share (open a session, load its resources, fit with the cache, evaluate, indices,
+//! side view). Plain calls over the core returning typed results and a typed [`Error`];
+//! progress goes to a callback and warnings come back in the result: nothing here prints.
+//!
+//! Start with [`open_for_read`] / [`open_for_edit`] and [`load_resources`], then
+//! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
+
+pub mod error;
+pub mod evaluate;
+pub mod fit;
+pub mod heads;
+pub mod indices;
+pub mod measure_fits;
+pub mod resources;
+pub mod session;
+pub mod side_view;
+
+pub use error::{
+    Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain,
+    no_progress,
+};
+pub use evaluate::{
+    ClipsEvaluated, EvalReport, NamedFits, Normalisation, evaluate, utterance_from_parts,
+    utterance_of_clip, utterances_with,
+};
+pub use fit::{ClipFits, fit_clip_cached, shapes_by_frame};
+pub use resources::{
+    MIN_FIT_LANDMARKS, MapCheckError, MapRangeError, Resources, check_map_for_fit,
+    check_map_vertices, load_resources, shadowed_map_file,
+};
+pub use session::{
+    EditSession, ReadSession, clip_length, clip_or_first, find_clip, image_height, load_session,
+    open_for_edit, open_for_read, read_only_notice, select_clips, session_path,
+};
+pub use side_view::{
+    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, head_p_by_render,
+    head_p_of_clip_by_render, head_p_options, profile_setup, resample_to_front,
+    side_view_points, side_view_protrusion, side_view_track,
+};

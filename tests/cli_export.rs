@@ -11,7 +11,7 @@ use lipmap::io::landmark_format::{LandmarkFormat, read_track};
 use lipmap::io::{model_source, obj};
 use lipmap::landmarks::{LandmarkPoint, LandmarkSet, PointSource};
 use lipmap::session::Session;
-use lipmap::workflow::Normalisation;
+use lipmap::cli::output::NormaliseArg;
 use std::path::{Path, PathBuf};
 
 /// Frames of the clip in the session: enough for a sequence, few enough for a fast fit.
@@ -77,7 +77,7 @@ fn args(f: &Fixture, out: &Path) -> ExportArgs {
         plots: false,
         all: false,
         clip: None,
-        normalise: Normalisation::MinMax,
+        normalise: NormaliseArg::MinMax,
         worst: 10,
         plot_width: 1200,
     }

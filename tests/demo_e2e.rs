@@ -2,7 +2,7 @@
 //! errors as a user would, fit, and check the fitted head's W, H, P against the known truth;
 //! check the flags catch the injected errors and the phoneme table covers every phone.
 
-use lipmap::cli::demo_cmd::write_demo_sessions;
+use lipmap::workflow::demo::write_demo_sessions;
 use lipmap::demo::{DemoOptions, generate};
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::PointSource;
@@ -62,7 +62,7 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
     for (c, clip) in speaker.clips.iter().enumerate() {
         let fits = workflow::fit_clip_cached(&mut session, &res, c, &settings, None).unwrap();
         assert_eq!(fits.failed(), 0, "{}: failed fits", clip.name);
-        let u = workflow::utterance_of_clip(
+        let (u, warnings) = workflow::utterance_of_clip(
             &session,
             &res,
             c,
@@ -70,6 +70,7 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
             &MeshMeasureOptions::default(),
         )
         .unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
         // With a side view the head's P is its whole upper lip's foremost point, as the
         // profile shows it: truth `p_lip` (see docs/protrusion.md).
         for (m, col) in [(Measure::W, "w"), (Measure::H, "h"), (Measure::P, "p_lip")] {

@@ -3,14 +3,12 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
-use crate::demo::{self, DemoOptions, DemoOutput, SpeakerOutput};
-use crate::io::alignment_format::read_alignment;
-use crate::io::landmark_format::read_track;
-use crate::session::{Clip, FramesRef, ModelRef, Session, View};
+use crate::demo::{self, DemoOptions};
+use crate::session::Session;
 use crate::workflow::{self, HeadP, Resources};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use std::io::{IsTerminal, Write};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// Generate the synthetic demo speaker and run the whole pipeline on it.
@@ -39,60 +37,6 @@ pub struct DemoArgs {
     pub output: FormatArgs,
 }
 
-/// Session file of speaker `k` in the demo folder.
-pub fn demo_session_path(out_dir: &Path, speaker: usize) -> PathBuf {
-    if speaker == 0 {
-        out_dir.join("demo.lipmap.json")
-    } else {
-        out_dir.join(format!("speaker_{speaker:02}.lipmap.json"))
-    }
-}
-
-/// Builds and saves one session per demo speaker (frames, tracked landmarks, phones, side
-/// view, the demo head, its PCA model and landmark map); returns the session files.
-///
-/// # Errors
-/// Any generated file that cannot be read back (a bug, reported with its path).
-pub fn write_demo_sessions(out: &DemoOutput) -> Result<Vec<PathBuf>> {
-    let mut paths = Vec::new();
-    for sp in &out.speakers {
-        let path = demo_session_path(&out.out_dir, sp.index);
-        let session = demo_session(out, sp, &path)?;
-        session.save(&path)?;
-        paths.push(path);
-    }
-    Ok(paths)
-}
-
-fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Session> {
-    let mut session = Session::new(path);
-    session.head_mesh = Some(abs(&out.head_obj));
-    let model = out.model.clone().context("the demo was generated without its model")?;
-    session.model = Some(ModelRef { path: abs(&model), blendshapes: None });
-    session.landmark_map.file = Some(abs(&out.landmark_map));
-    for c in &sp.clips {
-        let front_dir = c.front_dir.clone().unwrap_or_else(|| c.dir.join("front"));
-        let mut front = View::new(FramesRef::Images { dir: abs(&front_dir) }, c.fps);
-        front.size = Some([c.width, c.height]);
-        let mut clip = Clip::new(c.name.clone(), front);
-        if let Some(side) = &c.side_dir {
-            let mut v = View::new(FramesRef::Images { dir: abs(side) }, c.fps);
-            v.size = Some([c.width, c.height]);
-            clip.side = Some(v);
-        }
-        clip.tracked = read_track(&c.tracked_csv)?;
-        clip.landmarks_file = Some(abs(&c.tracked_csv));
-        clip.alignment = Some(read_alignment(&c.phones_csv, None)?);
-        clip.alignment_file = Some(abs(&c.phones_csv));
-        session.add_clip(clip)?;
-    }
-    Ok(session)
-}
-
-fn abs(p: &Path) -> PathBuf {
-    crate::session::absolute(p)
-}
-
 pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let t0 = Instant::now();
     let opts = DemoOptions {
@@ -104,7 +48,7 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     };
     eprintln!("lipmap demo: generating the synthetic speaker into {} ...", a.out.display());
     let generated = demo::generate(&opts)?;
-    let sessions = write_demo_sessions(&generated)?;
+    let sessions = workflow::demo::write_demo_sessions(&generated)?;
     let t_gen = t0.elapsed();
     let mut any_failed = false;
     for (k, path) in sessions.iter().enumerate() {

@@ -5,6 +5,7 @@ use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
 use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text};
 use crate::cli::progress::frames_bar;
+use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
 use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::{Result, bail};
@@ -35,6 +36,16 @@ pub struct FitArgs {
     /// Output folder for fit.csv and shapes.npy (files mode).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub settings: FitSettingArgs,
+    /// Session mode: only this clip.
+    #[arg(long)]
+    pub only: Option<String>,
+}
+
+/// The fit-setting flags of both modes; in session mode they become the session's settings.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct FitSettingArgs {
     /// Landmark set driving the fit (F1 lips … F5 all 68). In session mode it becomes the
     /// session's setting.
     #[arg(long)]
@@ -56,9 +67,40 @@ pub struct FitArgs {
     /// Fit each frame alone (undoes a session's --clip setting).
     #[arg(long, conflicts_with = "clip")]
     pub per_frame: bool,
-    /// Session mode: only this clip.
-    #[arg(long)]
-    pub only: Option<String>,
+}
+
+impl FitSettingArgs {
+    /// `base` with the flags given laid over it.
+    ///
+    /// # Errors
+    /// A prior weight that is not a finite number ≥ 0.
+    pub fn apply(&self, base: &FitSettings) -> Result<FitSettings> {
+        let mut settings = base.clone();
+        if let Some(set) = self.set {
+            settings.set = set;
+        }
+        for (flag, value, target) in [
+            ("--lambda", self.lambda, &mut settings.lambda),
+            ("--lambda-expression", self.lambda_expression, &mut settings.lambda_expression),
+        ] {
+            if let Some(l) = value {
+                if !(l.is_finite() && l >= 0.0) {
+                    bail!("{flag} must be a finite number >= 0, got {l}");
+                }
+                *target = l;
+            }
+        }
+        if let Some(n) = self.iterations {
+            settings.iterations = n;
+        }
+        if self.clip {
+            settings.clip = true;
+        }
+        if self.per_frame {
+            settings.clip = false;
+        }
+        Ok(settings)
+    }
 }
 
 pub fn run(a: &FitArgs, out: &mut dyn Write) -> Result<Outcome> {
@@ -89,11 +131,7 @@ fn run_files(a: &FitArgs) -> Result<Outcome> {
         mapping: a.mapping.clone().unwrap_or_default(),
         landmarks: a.landmarks.clone().unwrap_or_default(),
         image_size: a.image_size.unwrap_or((1, 1)),
-        set: a.set,
-        lambda: a.lambda,
-        lambda_expression: a.lambda_expression,
-        iterations: a.iterations,
-        clip: a.clip,
+        settings: a.settings.clone(),
         out: a.out.clone().unwrap_or_default(),
     };
     crate::cli::fit_files::run_with_outcome(&files)
@@ -104,31 +142,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         bail!("--model/--mapping/--landmarks/--out are for files mode; a session names its own");
     }
     let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(s)?;
-    let mut settings = session.fit_settings.clone();
-    if let Some(set) = a.set {
-        settings.set = set;
-    }
-    if let Some(l) = a.lambda {
-        if !(l.is_finite() && l >= 0.0) {
-            bail!("--lambda must be a finite number >= 0, got {l}");
-        }
-        settings.lambda = l;
-    }
-    if let Some(l) = a.lambda_expression {
-        if !(l.is_finite() && l >= 0.0) {
-            bail!("--lambda-expression must be a finite number >= 0, got {l}");
-        }
-        settings.lambda_expression = l;
-    }
-    if let Some(n) = a.iterations {
-        settings.iterations = n;
-    }
-    if a.clip {
-        settings.clip = true;
-    }
-    if a.per_frame {
-        settings.clip = false;
-    }
+    let settings = a.settings.apply(&session.fit_settings)?;
     session.fit_settings = settings.clone();
     let (res, warnings) = workflow::load_resources(&session, &path)?;
     crate::cli::progress::print_warnings(&warnings);

@@ -8,7 +8,6 @@ use crate::cli::exit::Outcome;
 use crate::cli::progress::frames_bar;
 use crate::fit::{FitSettings, Fitter, FrameFit, fitted_shape};
 use crate::io::{landmark_map_toml, model_source, npy_model, track_csv};
-use crate::landmarks::LandmarkSet;
 use crate::model::LandmarkMap;
 use anyhow::{Context, Result, bail};
 use std::path::{Path, PathBuf};
@@ -28,16 +27,8 @@ pub struct FitFilesArgs {
     pub landmarks: PathBuf,
     /// Image size in pixels, `WxH` (the height flips y for the camera).
     pub image_size: (u32, u32),
-    /// Landmark set driving the fit (F1 lips … F5 all); default as `FitSettings`.
-    pub set: Option<LandmarkSet>,
-    /// Identity prior weight λ (eos convention, σ² = 3 px²); default as `FitSettings`.
-    pub lambda: Option<f64>,
-    /// Expression prior weight; default as `FitSettings`.
-    pub lambda_expression: Option<f64>,
-    /// Camera/shape iterations; default as `FitSettings`.
-    pub iterations: Option<usize>,
-    /// Fit the clip as one person: one identity, pose and expression per frame.
-    pub clip: bool,
+    /// The fit-setting flags, laid over `FitSettings::default()`.
+    pub settings: crate::cli::fit_cmd::FitSettingArgs,
     /// Output folder (created if missing).
     pub out: PathBuf,
 }
@@ -52,26 +43,6 @@ pub fn parse_image_size(s: &str) -> std::result::Result<(u32, u32), String> {
     match (parse(w), parse(h)) {
         (Some(w), Some(h)) => Ok((w, h)),
         _ => Err(format!("image size `{s}` needs two positive integers, WxH")),
-    }
-}
-
-impl FitFilesArgs {
-    /// The fit settings these arguments ask for, defaults elsewhere.
-    pub fn settings(&self) -> FitSettings {
-        let mut s = FitSettings { clip: self.clip, ..FitSettings::default() };
-        if let Some(set) = self.set {
-            s.set = set;
-        }
-        if let Some(l) = self.lambda {
-            s.lambda = l;
-        }
-        if let Some(l) = self.lambda_expression {
-            s.lambda_expression = l;
-        }
-        if let Some(n) = self.iterations {
-            s.iterations = n;
-        }
-        s
     }
 }
 
@@ -90,26 +61,10 @@ fn read_mapping(path: &Path) -> Result<LandmarkMap> {
 /// Unreadable or invalid inputs (naming the file), a map that points past the model's
 /// vertices, bad settings, or output that cannot be written.
 pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
-    let settings = args.settings();
-    if !(settings.lambda.is_finite() && settings.lambda >= 0.0) {
-        bail!("--lambda must be a finite number >= 0, got {}", settings.lambda);
-    }
-    if !(settings.lambda_expression.is_finite() && settings.lambda_expression >= 0.0) {
-        bail!(
-            "--lambda-expression must be a finite number >= 0, got {}",
-            settings.lambda_expression
-        );
-    }
+    let settings = args.settings.apply(&FitSettings::default())?;
     let model = model_source::load_model(&args.model, args.blendshapes.as_deref())?;
     let map = read_mapping(&args.mapping)?;
-    if let Some(v) = map.max_vertex().filter(|&v| v >= model.num_vertices()) {
-        bail!(
-            "{}: maps a landmark to vertex {v}, but the model {} has {} vertices",
-            args.mapping.display(),
-            args.model.display(),
-            model.num_vertices()
-        );
-    }
+    crate::workflow::check_map_vertices(&map, model.num_vertices(), Some(&args.mapping))?;
     let track = track_csv::read_track_csv(&args.landmarks)?;
     if track.is_empty() {
         bail!("{}: no frames", args.landmarks.display());
@@ -238,11 +193,7 @@ mod tests {
             mapping: eos.join("share/ibug_to_sfm.txt"),
             landmarks: dir.path().join("nope.csv"),
             image_size: (1280, 720),
-            set: None,
-            lambda: None,
-            lambda_expression: None,
-            iterations: None,
-            clip: false,
+            settings: Default::default(),
             out: dir.path().join("out"),
         };
         let e = run(&args).unwrap_err().to_string();
@@ -272,11 +223,7 @@ mod tests {
             mapping: eos.join("share/ibug_to_sfm.txt"),
             landmarks: lm,
             image_size: (1280, 720),
-            set: None,
-            lambda: None,
-            lambda_expression: None,
-            iterations: None,
-            clip: true,
+            settings: crate::cli::fit_cmd::FitSettingArgs { clip: true, ..Default::default() },
             out: out.clone(),
         };
         assert_eq!(run_with_outcome(&args).unwrap(), Outcome::Ok);

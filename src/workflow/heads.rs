@@ -124,8 +124,7 @@ pub fn load_head(path: &Path) -> Result<Head> {
         let map_path = head_map_path(path, &files)?;
         let model = load_model(&model_path, blend.as_deref())?;
         let map = landmark_map_toml::read_landmark_map(&map_path)?;
-        check_map_vertices(&map, model.num_vertices(), Some(&map_path))
-            .with_context(|| model_path.display().to_string())?;
+        check_map_vertices(&map, model.num_vertices(), Some(&map_path))?;
         let head_obj = path.join("head.obj");
         let head = head_obj.is_file().then(|| obj::read_obj(&head_obj)).transpose()?;
         Resources { model, map, head }

@@ -170,7 +170,8 @@ fn main() {
             if lipmap::testdata::shared("peer/eos").is_none() {
                 return;
             }
-            let dir = std::env::temp_dir().join(format!("lipmap_eval_corpus_{}", std::process::id()));
+            let dir =
+                std::env::temp_dir().join(format!("lipmap_eval_corpus_{}", std::process::id()));
             let me = std::env::current_exe().unwrap();
             let run = |args: &[&str]| {
                 let status = Command::new(&me).args(args).status().unwrap();

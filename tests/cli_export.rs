@@ -7,11 +7,11 @@ mod common;
 use lipmap::cli::Outcome;
 use lipmap::cli::export::{self, ExportArgs, TABLE_FILES};
 use lipmap::cli::new::{ClipArgs, NewArgs, run_new};
+use lipmap::cli::output::NormaliseArg;
 use lipmap::io::landmark_format::{LandmarkFormat, read_track};
 use lipmap::io::{model_source, obj};
 use lipmap::landmarks::{LandmarkPoint, LandmarkSet, PointSource};
 use lipmap::session::Session;
-use lipmap::cli::output::NormaliseArg;
 use std::path::{Path, PathBuf};
 
 /// Frames of the clip in the session: enough for a sequence, few enough for a fast fit.

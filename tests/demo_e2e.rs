@@ -2,7 +2,6 @@
 //! errors as a user would, fit, and check the fitted head's W, H, P against the known truth;
 //! check the flags catch the injected errors and the phoneme table covers every phone.
 
-use lipmap::workflow::demo::write_demo_sessions;
 use lipmap::demo::{DemoOptions, generate};
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::PointSource;
@@ -10,6 +9,7 @@ use lipmap::landmarks::flags::{FlagThresholds, flag_frames};
 use lipmap::measure::Measure;
 use lipmap::measure::MeshMeasureOptions;
 use lipmap::session::Session;
+use lipmap::workflow::demo::write_demo_sessions;
 use lipmap::workflow::{self, Normalisation, Resources};
 use std::collections::BTreeSet;
 

@@ -142,11 +142,14 @@ fn run_heads(
     let clips = workflow::select_clips(&session, clip)?;
     let heads = workflow::heads::load_heads(heads)?;
     let bar = frames_bar(0, "fitting");
-    let report = workflow::heads::compare_heads(&session, &heads, &clips, normalise, &show_on(&bar))
-        .map_err(|e| match e {
-            workflow::Error::NoClips => anyhow::Error::new(e).context(session_path.display().to_string()),
-            e => e.into(),
-        })?;
+    let report =
+        workflow::heads::compare_heads(&session, &heads, &clips, normalise, &show_on(&bar))
+            .map_err(|e| match e {
+                workflow::Error::NoClips => {
+                    anyhow::Error::new(e).context(session_path.display().to_string())
+                }
+                e => e.into(),
+            })?;
     print_warnings(&report.warnings);
     let refs: Vec<&crate::eval::Table> = report.tables.iter().collect();
     write_tables(&refs, output.format(), out)

@@ -65,4 +65,3 @@ fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Ses
 fn abs(p: &Path) -> PathBuf {
     crate::session::absolute(p)
 }
-

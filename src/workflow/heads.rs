@@ -364,7 +364,8 @@ pub fn compare_heads(
     for h in heads {
         let (utterances, w) = head_utterances(session, h, clips, progress)?;
         warnings.extend(w);
-        configs.push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
+        configs
+            .push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
         let verdict = match (&speaker, resources_head_indices(&h.resources)) {
             (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi.indices, &bounds)),
             (None, _) => Err("no speaker indices".to_string()),

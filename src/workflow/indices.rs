@@ -173,9 +173,8 @@ pub fn speaker_neutral_of(
             (n.frame, choice)
         }
     };
-    let f = pick_frame(&track.frames, Some(frame)).ok_or_else(|| {
-        Error::Invalid(format!("clip `{name}`: no landmarks for frame {frame}"))
-    })?;
+    let f = pick_frame(&track.frames, Some(frame))
+        .ok_or_else(|| Error::Invalid(format!("clip `{name}`: no landmarks for frame {frame}")))?;
     let indices =
         frame_indices_checked(f).with_context(|| format!("clip `{name}`, frame {frame}"))?;
     Ok(SpeakerNeutral { clip: name.to_string(), frame, choice, indices })
@@ -192,9 +191,7 @@ pub struct HeadNeutral {
 /// vertex count (it is the face being animated), else the model's mean shape.
 pub fn neutral_shape(model: &MorphableModel, head: Option<&Mesh>) -> (DVector, &'static str) {
     match head {
-        Some(mesh) if mesh.num_vertices() == model.num_vertices() => {
-            (mesh.to_flat(), "head mesh")
-        }
+        Some(mesh) if mesh.num_vertices() == model.num_vertices() => (mesh.to_flat(), "head mesh"),
         _ => (model.shape.mean.clone(), "model mean shape"),
     }
 }
@@ -228,8 +225,7 @@ pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
 /// # Errors
 /// No map; neither head mesh nor model; unreadable files; unmapped index points.
 pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
-    let map: LandmarkMap =
-        session.landmark_map.resolve()?.ok_or(Error::NoMap { session: None })?;
+    let map: LandmarkMap = session.landmark_map.resolve()?.ok_or(Error::NoMap { session: None })?;
     if session.model.is_some() {
         return resources_head_indices(&Resources::load(session)?);
     }
@@ -373,7 +369,6 @@ pub fn box_plot_table(table: &BoundsTable, plots: &[BoxPlot]) -> Table {
         .push("box-plot rule: quartiles (type 7), whiskers at 1.5 IQR; low = Q1, high = Q3".into());
     t
 }
-
 
 #[cfg(test)]
 mod tests {

@@ -31,7 +31,11 @@ impl MeasuredVertices {
     /// The vertices `map` names and `options` reads, cut out of `model`; `None` when the
     /// options leave the upper lip to be found on each shape ([`UpperLip::Region`]
     /// unresolved), which needs the whole mesh.
-    pub fn new(model: &MorphableModel, map: &LandmarkMap, options: &MeshMeasureOptions) -> Option<Self> {
+    pub fn new(
+        model: &MorphableModel,
+        map: &LandmarkMap,
+        options: &MeshMeasureOptions,
+    ) -> Option<Self> {
         let n = model.num_vertices();
         let mut keep: Vec<usize> = map.pairs().map(|(_, v)| v).collect();
         match &options.upper_lip {
@@ -142,14 +146,18 @@ mod tests {
         let head = crate::demo::head::build_head();
         let n3 = 3 * head.mesh.num_vertices();
         let mut rng = rand::rngs::StdRng::seed_from_u64(7);
-        let mut noise = |r: usize, c: usize| DMatrix::from_fn(r, c, |_, _| rng.random_range(-0.3..0.3));
+        let mut noise =
+            |r: usize, c: usize| DMatrix::from_fn(r, c, |_, _| rng.random_range(-0.3..0.3));
         let model = MorphableModel {
             shape: PcaModel {
                 mean: head.mesh.to_flat(),
                 basis: noise(n3, 4),
                 eigenvalues: DVector::from_element(4, 4.0),
             },
-            expressions: Some(Expressions { names: vec!["a".into(), "b".into()], deltas: noise(n3, 2) }),
+            expressions: Some(Expressions {
+                names: vec!["a".into(), "b".into()],
+                deltas: noise(n3, 2),
+            }),
             triangles: Vec::new(),
         };
         let fits: Vec<FrameFit> = (0..6)
@@ -164,12 +172,20 @@ mod tests {
         let map = head.landmarks.with_commissures_completed();
         for options in [
             MeshMeasureOptions::default(),
-            MeshMeasureOptions { upper_lip: UpperLip::Vertices(head.upper_lip.clone()), ..Default::default() },
+            MeshMeasureOptions {
+                upper_lip: UpperLip::Vertices(head.upper_lip.clone()),
+                ..Default::default()
+            },
         ] {
             let full = head_trajectory_from_shapes(&model, &map, &fits, 7, &options);
             let cut = head_trajectory(&model, &map, &fits, 7, &options);
             assert_eq!(cut, full, "{options:?}");
-            assert!(cut.w[0].is_some() && cut.w[2].is_none() && cut.w[4].is_none() && cut.w[6].is_none());
+            assert!(
+                cut.w[0].is_some()
+                    && cut.w[2].is_none()
+                    && cut.w[4].is_none()
+                    && cut.w[6].is_none()
+            );
         }
         let region = MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() };
         assert!(MeasuredVertices::new(&model, &map, &region).is_none());

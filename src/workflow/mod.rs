@@ -18,8 +18,7 @@ pub mod session;
 pub mod side_view;
 
 pub use error::{
-    Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain,
-    no_progress,
+    Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
 };
 pub use evaluate::{
     ClipsEvaluated, EvalReport, NamedFits, Normalisation, evaluate, utterance_from_parts,
@@ -35,7 +34,7 @@ pub use session::{
     open_for_edit, open_for_read, read_only_notice, select_clips, session_path,
 };
 pub use side_view::{
-    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, head_p_by_render,
-    head_p_of_clip_by_render, head_p_options, profile_setup, resample_to_front,
-    side_view_points, side_view_protrusion, side_view_track,
+    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, head_p_by_render, head_p_of_clip_by_render,
+    head_p_options, profile_setup, resample_to_front, side_view_points, side_view_protrusion,
+    side_view_track,
 };

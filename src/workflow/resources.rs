@@ -97,12 +97,9 @@ pub fn check_map_vertices(
     file: Option<&Path>,
 ) -> Result<(), MapRangeError> {
     match map.pairs().find(|&(_, v)| v >= n_vertices) {
-        Some((landmark, vertex)) => Err(MapRangeError {
-            map: file.map(Path::to_path_buf),
-            landmark,
-            vertex,
-            n_vertices,
-        }),
+        Some((landmark, vertex)) => {
+            Err(MapRangeError { map: file.map(Path::to_path_buf), landmark, vertex, n_vertices })
+        }
         None => Ok(()),
     }
 }
@@ -178,7 +175,10 @@ mod tests {
         assert_eq!(check_map_vertices(&map, 11, None), Ok(()));
         let e = check_map_vertices(&map, 10, Some(Path::new("m.toml"))).unwrap_err();
         assert_eq!((e.landmark, e.vertex), (47, 10));
-        assert_eq!(e.to_string(), "m.toml: landmark 48 maps to vertex 10 but the model has 10 vertices");
+        assert_eq!(
+            e.to_string(),
+            "m.toml: landmark 48 maps to vertex 10 but the model has 10 vertices"
+        );
         let e = check_map_vertices(&map, 2, None).unwrap_err();
         assert!(e.to_string().starts_with("landmark map: landmark 48 maps to vertex 10"), "{e}");
     }

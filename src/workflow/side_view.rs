@@ -236,11 +236,8 @@ pub fn head_p_by_render(
 ) -> Result<RenderedHeadP> {
     use rayon::prelude::*;
     let to_points = |s: &DVector| Mesh::from_flat(s.as_slice(), Vec::new()).vertices;
-    let first = shapes
-        .iter()
-        .flatten()
-        .next()
-        .ok_or_else(|| Error::Invalid("no fitted shape".into()))?;
+    let first =
+        shapes.iter().flatten().next().ok_or_else(|| Error::Invalid("no fitted shape".into()))?;
     let first = to_points(first);
     let renderer = crate::render::SideRenderer::new(&first, pitch_deg, facing, size[0], size[1])
         .ok_or_else(|| {
@@ -251,8 +248,8 @@ pub fn head_p_by_render(
         None => {
             // No nose or subnasale vertex in the map: find them on the image instead.
             let render0 = renderer.render(&first, triangles)?;
-            let mut setup = propose_setup(&image::imageops::grayscale(&render0), facing)
-                .map_err(|e| {
+            let mut setup =
+                propose_setup(&image::imageops::grayscale(&render0), facing).map_err(|e| {
                     Error::Invalid(format!("side render of the first fitted shape: {e}"))
                 })?;
             setup.anchor = None;

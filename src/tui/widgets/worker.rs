@@ -113,12 +113,8 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
     // With a side view, the head's P is its whole upper lip's foremost point, as a profile
     // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
     // landmark vertices there too).
-    let (options, _) = head_p_options(
-        &job.model,
-        &job.map,
-        job.side_p.is_some(),
-        &MeshMeasureOptions::default(),
-    );
+    let (options, _) =
+        head_p_options(&job.model, &job.map, job.side_p.is_some(), &MeshMeasureOptions::default());
     let mut u = utterance_from_parts(
         &job.name,
         &job.alignment,

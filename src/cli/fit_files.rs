@@ -6,7 +6,7 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::progress::frames_bar;
-use crate::fit::{FitSettings, Fitter, FrameFit, fitted_shape};
+use crate::fit::{FitSettings, Fitter, FrameFit, for_each_fitted_shape};
 use crate::io::{landmark_map_toml, model_source, npy_model, track_csv};
 use crate::landmarks::LandmarkSet;
 use crate::model::LandmarkMap;
@@ -136,9 +136,7 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
     let shapes = args.out.join("shapes.npy");
     let n3 = 3 * model.num_vertices();
     let mut data = Vec::with_capacity(fits.len() * n3);
-    for f in &fits {
-        data.extend(fitted_shape(&model, f).iter().map(|&v| v as f32));
-    }
+    for_each_fitted_shape(&model, &fits, |_, s| data.extend(s.iter().map(|&v| v as f32)));
     npy_model::write_npy_f32(&shapes, &[fits.len() as u64, n3 as u64], &data)?;
 
     let failed = fits.iter().filter(|f| f.failed.is_some()).count();

@@ -5,7 +5,7 @@
 //!
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
-use super::clip::{FrameState, Group, SolverParams, identity_points};
+use super::clip::{FrameState, Group, SolverParams, identity_points, in_parallel};
 use super::shape::{
     FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, landmark_forces,
     normal_matrix, projector,
@@ -105,7 +105,7 @@ fn solve_identity_jointly(
             (corr, r, forces)
         };
     let pairs = observations.iter().zip(states).filter(|(_, s)| s.failed.is_none());
-    let parts: Vec<(Option<DMatrix>, DVector, Vec<Vector3>)> = if observations.len() > 1 {
+    let parts: Vec<(Option<DMatrix>, DVector, Vec<Vector3>)> = if in_parallel(observations.len()) {
         pairs.collect::<Vec<_>>().into_par_iter().map(per_frame).collect()
     } else {
         pairs.map(per_frame).collect()

@@ -170,12 +170,18 @@ pub(crate) fn objective(
     cost
 }
 
-/// Runs `f` over frames, in parallel when there is more than one.
+/// Whether work over `n` frames is worth handing to rayon: more than one frame and more than
+/// one thread (on one thread the hand-off is pure overhead).
+pub(crate) fn in_parallel(n: usize) -> bool {
+    n > 1 && rayon::current_num_threads() > 1
+}
+
+/// Runs `f` over frames, in parallel when [`in_parallel`].
 pub(crate) fn for_each_frame<F>(states: &mut [FrameState], f: F)
 where
     F: Fn(usize, &mut FrameState) + Sync + Send,
 {
-    if states.len() > 1 {
+    if in_parallel(states.len()) {
         states.par_iter_mut().enumerate().for_each(|(i, st)| f(i, st));
     } else {
         states.iter_mut().enumerate().for_each(|(i, st)| f(i, st));

@@ -15,7 +15,7 @@
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
 use super::camera::{OrthoPose, PoseResidual};
-use super::clip::{FrameState, Group, SolverParams, frame_points, identity_points};
+use super::clip::{FrameState, Group, SolverParams, frame_points, identity_points, in_parallel};
 use super::shape::{
     FrameObservations, LandmarkBasis, cholesky_solve_in_place, normal_matrix, projector,
 };
@@ -270,7 +270,7 @@ pub(crate) fn linearise(
     let one = |(obs, st): (&FrameObservations, &FrameState)| {
         st.failed.is_none().then(|| frame_blocks(basis, obs, st, id_pts, image_height, params))
     };
-    let frames: Vec<Option<FrameBlocks>> = if observations.len() > 1 {
+    let frames: Vec<Option<FrameBlocks>> = if in_parallel(observations.len()) {
         observations.par_iter().zip(states.par_iter()).map(one).collect()
     } else {
         observations.iter().zip(states).map(one).collect()
@@ -312,6 +312,10 @@ pub(crate) fn step(
     let kid = alpha.len();
     // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
     // CᵀA⁻¹C = WᵀW (a symmetric product run by the matrix-multiply kernel) and CᵀA⁻¹b = Wᵀz.
+    // In parallel each frame keeps its WᵀW for the ordered sum below; on one thread it is made
+    // there, into one buffer, instead of holding a k_id² matrix per frame (32 MB per 1,000).
+    let parallel = in_parallel(lin.frames.len());
+    let need_wtw = solve_identity && kid > 0;
     let eliminate = |fb: &Option<FrameBlocks>| -> Option<Option<Eliminated>> {
         let Some(fb) = fb else { return Some(None) };
         let mut a = fb.a.clone();
@@ -319,22 +323,28 @@ pub(crate) fn step(
         let l = a.cholesky()?.unpack();
         let w = l.solve_lower_triangular(&fb.c)?;
         let z = l.solve_lower_triangular(&fb.b)?;
-        let wtw = (solve_identity && kid > 0).then(|| w.transpose() * &w);
+        let wtw = (need_wtw && parallel).then(|| w.transpose() * &w);
         Some(Some(Eliminated { l, w, z, wtw }))
     };
-    let solved: Vec<Option<Eliminated>> = if lin.frames.len() > 1 {
+    let solved: Vec<Option<Eliminated>> = if parallel {
         lin.frames.par_iter().map(eliminate).collect::<Option<Vec<_>>>()?
     } else {
         lin.frames.iter().map(eliminate).collect::<Option<Vec<_>>>()?
     };
     let mut dalpha = DVector::zeros(kid);
-    if solve_identity && kid > 0 {
+    if need_wtw {
         let mut s = lin.s.clone();
         damp(&mut s, mu);
         let mut r = lin.g.clone();
+        let mut buffer = DMatrix::zeros(kid, kid);
         for e in solved.iter().flatten() {
-            if let Some(wtw) = &e.wtw {
-                s -= wtw;
+            match &e.wtw {
+                Some(wtw) => s -= wtw,
+                None => {
+                    // The same kernel call as `Wᵀ * W`, so the same bits.
+                    buffer.gemm(1.0, &e.w.transpose(), &e.w, 0.0);
+                    s -= &buffer;
+                }
             }
             r.gemv_tr(-1.0, &e.w, &e.z, 1.0);
         }

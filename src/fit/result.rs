@@ -184,3 +184,40 @@ impl FrameFit {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solver_round_trips_and_old_keys_choose_it() {
+        for solver in [
+            Solver::Alternating,
+            Solver::Joint { pose_refinement_steps: 2, estimate_noise: false },
+        ] {
+            let s = FitSettings { solver, ..FitSettings::default() };
+            let text = serde_json::to_string(&s).unwrap();
+            assert!(text.contains(r#""solver":{"kind":"#), "{text}");
+            assert_eq!(serde_json::from_str::<FitSettings>(&text).unwrap(), s);
+        }
+        let with_old_keys = |extra: &str| {
+            let mut v = serde_json::to_value(FitSettings::default()).unwrap();
+            let m = v.as_object_mut().unwrap();
+            m.remove("solver");
+            let old: serde_json::Value = serde_json::from_str(extra).unwrap();
+            m.extend(old.as_object().unwrap().clone());
+            serde_json::from_value::<FitSettings>(v).unwrap().solver
+        };
+        assert_eq!(with_old_keys(r#"{"pose_refinement_steps": 0}"#), Solver::Alternating);
+        assert_eq!(
+            with_old_keys(r#"{"pose_refinement_steps": 0, "estimate_noise": true}"#),
+            Solver::Alternating
+        );
+        assert_eq!(
+            with_old_keys(r#"{"pose_refinement_steps": 4, "estimate_noise": false}"#),
+            Solver::Joint { pose_refinement_steps: 4, estimate_noise: false }
+        );
+        assert_eq!(with_old_keys("{}"), Solver::default());
+        assert_eq!(Solver::Alternating.pose_refinement_steps(), 0);
+    }
+}

@@ -33,9 +33,11 @@ pub fn for_each_fitted_shape(
         shape.copy_from_slice(part);
         if let Some(e) = &model.expressions {
             let k = fit.expression.len().min(e.deltas.ncols());
-            for (j, &b) in fit.expression[..k].iter().enumerate() {
-                // One column at a time, as nalgebra's gemv in `shape_at` adds them.
-                for (s, &d) in shape.iter_mut().zip(e.deltas.column(j).iter()) {
+            // One column at a time, as nalgebra's gemv in `shape_at` adds them; the deltas
+            // are column-major, so each column is one contiguous slice.
+            let columns = e.deltas.as_slice().chunks_exact(e.deltas.nrows().max(1));
+            for (&b, column) in fit.expression[..k].iter().zip(columns) {
+                for (s, &d) in shape.iter_mut().zip(column) {
                     *s += d * b;
                 }
             }

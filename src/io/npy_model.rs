@@ -413,14 +413,74 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
             format!("shape {shape:?} does not hold {} values", data.len()),
         ));
     }
-    // Header and data go out as whole byte blocks: writing a mesh per frame value by value
-    // through the generic element writer cost more than fitting the frame.
-    let mut bytes = npy_header_f32(shape);
-    bytes.reserve_exact(4 * data.len());
-    for v in data {
-        bytes.extend_from_slice(&v.to_le_bytes());
+    let mut w = NpyF32Writer::create(path, shape)?;
+    w.write(data)?;
+    w.finish()
+}
+
+/// An f32 `.npy` file written row by row (e.g. one mesh per frame), so a large array never
+/// has to be held whole. Values go out as whole byte blocks: writing them one by one through
+/// a generic element writer cost more than fitting the frames.
+pub struct NpyF32Writer {
+    path: std::path::PathBuf,
+    file: std::fs::File,
+    expected: u64,
+    written: u64,
+    bytes: Vec<u8>,
+}
+
+impl NpyF32Writer {
+    /// Creates the file and writes the header for a C-order array of `shape`.
+    ///
+    /// # Errors
+    /// I/O errors, naming the file.
+    pub fn create(path: &Path, shape: &[u64]) -> Result<Self> {
+        let io = |e: std::io::Error| FormatError::io(path, e);
+        let mut file = std::fs::File::create(path).map_err(io)?;
+        std::io::Write::write_all(&mut file, &npy_header_f32(shape)).map_err(io)?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            file,
+            expected: shape.iter().product(),
+            written: 0,
+            bytes: Vec::new(),
+        })
     }
-    std::fs::write(path, bytes).map_err(|e| FormatError::io(path, e))
+
+    /// Appends `values` (f32, or f64 rounded to f32 as `as` does).
+    ///
+    /// # Errors
+    /// More values than the shape holds, or I/O errors, naming the file.
+    pub fn write<T: Copy + Into<f64>>(&mut self, values: &[T]) -> Result<()> {
+        self.written += values.len() as u64;
+        if self.written > self.expected {
+            return Err(FormatError::whole(
+                &self.path,
+                format!("more than the {} values its shape holds", self.expected),
+            ));
+        }
+        self.bytes.clear();
+        self.bytes.reserve(4 * values.len());
+        for &v in values {
+            self.bytes.extend_from_slice(&(v.into() as f32).to_le_bytes());
+        }
+        std::io::Write::write_all(&mut self.file, &self.bytes)
+            .map_err(|e| FormatError::io(&self.path, e))
+    }
+
+    /// Checks that every value the shape holds was written.
+    ///
+    /// # Errors
+    /// Fewer values than the shape holds, naming the file.
+    pub fn finish(self) -> Result<()> {
+        if self.written != self.expected {
+            return Err(FormatError::whole(
+                &self.path,
+                format!("{} values written, its shape holds {}", self.written, self.expected),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// A version 1.0 `.npy` header for a C-order little-endian f32 array of `shape`, padded with

@@ -65,7 +65,12 @@ fn median_seconds(runs: usize, mut make: impl FnMut() -> Command) -> f64 {
             let t0 = Instant::now();
             let out = cmd.output().expect("spawn");
             let s = t0.elapsed().as_secs_f64();
-            assert!(out.status.success(), "{:?} failed: {}", cmd, String::from_utf8_lossy(&out.stderr));
+            assert!(
+                out.status.success(),
+                "{:?} failed: {}",
+                cmd,
+                String::from_utf8_lossy(&out.stderr)
+            );
             s
         })
         .collect();
@@ -179,11 +184,7 @@ fn main() {
     // eos-py takes ~2 s per run; three runs are enough for its median.
     let eos_s = median_seconds(runs.min(3), || {
         let mut c = one_core(&python, taskset);
-        c.arg(&script)
-            .arg(&share)
-            .arg(&landmarks)
-            .arg(&eos_out)
-            .args(["1280", "720"]);
+        c.arg(&script).arg(&share).arg(&landmarks).arg(&eos_out).args(["1280", "720"]);
         c
     });
     let eos_ms = eos_s * 1e3 / FRAMES as f64;

@@ -124,4 +124,3 @@ fn solve_identity_jointly(
     r += apply_forces(basis, &forces, 0..kid);
     cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()).then_some(r)
 }
-

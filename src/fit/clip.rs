@@ -53,7 +53,11 @@ pub struct GroupFit {
 }
 
 /// Landmark points of a frame: the identity part (shared) plus the frame's expression offsets.
-pub(crate) fn frame_points(basis: &LandmarkBasis, id_pts: &[Vector3], beta: &DVector) -> Vec<Vector3> {
+pub(crate) fn frame_points(
+    basis: &LandmarkBasis,
+    id_pts: &[Vector3],
+    beta: &DVector,
+) -> Vec<Vector3> {
     let kid = basis.k_id;
     id_pts
         .iter()
@@ -187,7 +191,6 @@ where
         states.iter_mut().enumerate().for_each(|(i, st)| f(i, st));
     }
 }
-
 
 /// A group's frames with what the steps over them need; the solvers drive it.
 pub(crate) struct Group<'a> {

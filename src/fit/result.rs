@@ -191,10 +191,9 @@ mod tests {
 
     #[test]
     fn solver_round_trips_and_old_keys_choose_it() {
-        for solver in [
-            Solver::Alternating,
-            Solver::Joint { pose_refinement_steps: 2, estimate_noise: false },
-        ] {
+        for solver in
+            [Solver::Alternating, Solver::Joint { pose_refinement_steps: 2, estimate_noise: false }]
+        {
             let s = FitSettings { solver, ..FitSettings::default() };
             let text = serde_json::to_string(&s).unwrap();
             assert!(text.contains(r#""solver":{"kind":"#), "{text}");

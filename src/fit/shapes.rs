@@ -94,7 +94,11 @@ mod tests {
         for_each_fitted_shape(&m, &fits, |f, s| {
             let want = fitted_shape(&m, f);
             assert_eq!(s.len(), want.len());
-            assert!(s.iter().zip(want.iter()).all(|(a, b)| a.to_bits() == b.to_bits()), "frame {}", f.frame);
+            assert!(
+                s.iter().zip(want.iter()).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "frame {}",
+                f.frame
+            );
             seen += 1;
         });
         assert_eq!(seen, fits.len());

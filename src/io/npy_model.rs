@@ -459,10 +459,9 @@ impl NpyF32Writer {
                 format!("more than the {} values its shape holds", self.expected),
             ));
         }
-        self.bytes.clear();
-        self.bytes.reserve(4 * values.len());
-        for &v in values {
-            self.bytes.extend_from_slice(&(v.into() as f32).to_le_bytes());
+        self.bytes.resize(4 * values.len(), 0);
+        for (out, &v) in self.bytes.chunks_exact_mut(4).zip(values) {
+            out.copy_from_slice(&(v.into() as f32).to_le_bytes());
         }
         std::io::Write::write_all(&mut self.file, &self.bytes)
             .map_err(|e| FormatError::io(&self.path, e))

@@ -13,6 +13,9 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
 
+#[path = "common/eos_py.rs"]
+mod eos_py;
+
 /// eos-py's median time per frame on this set (fixed landmarks, 5 iterations), from
 /// `peer/eos/reference/summary.json`.
 const EOS_MS_PER_FRAME: f64 = 1.83;
@@ -92,15 +95,13 @@ fn cpu_ms_per_call(mut f: impl FnMut()) -> Option<f64> {
 /// Times eos-py live on the same landmarks when it is importable; returns ms per frame.
 fn eos_live_ms(eos: &Path) -> Option<f64> {
     let python = std::env::var("LIPMAP_EOS_PYTHON").unwrap_or_else(|_| "python3".into());
-    let script = r#"
+    let script = [
+        r#"
 import sys, csv, time, statistics, eos
 share, lms = sys.argv[1], sys.argv[2]
-m = eos.morphablemodel.load_model(share + '/sfm_shape_3448.bin')
-bs = eos.morphablemodel.load_blendshapes(share + '/expression_blendshapes_3448.bin')
-mm = eos.morphablemodel.MorphableModel(m.get_shape_model(), bs, color_model=eos.morphablemodel.PcaModel(),
-    vertex_definitions=None, texture_coordinates=m.get_texture_coordinates())
-mapper = eos.core.LandmarkMapper(share + '/ibug_to_sfm.txt')
-frames = {}
+"#,
+        eos_py::LOAD_MODEL,
+        r#"frames = {}
 for r in csv.DictReader(open(lms)):
     frames.setdefault(int(r['frame']), []).append(eos.core.Landmark(r['ibug_id'], [float(r['u']), float(r['v'])]))
 ts = []
@@ -108,7 +109,9 @@ for f in sorted(frames):
     for _ in range(5):
         t0 = time.perf_counter(); eos.fitting.fit_shape_and_pose(mm, frames[f], mapper, 1280, 720, num_iterations=5, lambda_identity=30.0); ts.append(time.perf_counter() - t0)
 print(statistics.median(ts) * 1e3)
-"#;
+"#,
+    ]
+    .concat();
     let out = std::process::Command::new(python)
         .arg("-c")
         .arg(script)

@@ -8,7 +8,7 @@ use lipmap::fit::camera::{self, OrthoPose};
 use lipmap::fit::shape::{
     EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis, fit_coefficients_linear,
 };
-use lipmap::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
+use lipmap::fit::{FitSettings, FrameFit, Solver, fit_clip, fitted_shape};
 use lipmap::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS};
 use lipmap::math::{Matrix3, Point2, Point3, Real};
 use lipmap::model::{LandmarkMap, MorphableModel};
@@ -291,9 +291,24 @@ fn sweep_settings() {
                 "clip" => s.clip = v == "1",
                 "smooth" => s.temporal_smoothness = v.parse().unwrap(),
                 "fset" => s.set = v.parse().unwrap(),
-                "pose" => s.pose_refinement_steps = v.parse().unwrap(),
+                "pose" => {
+                    let steps: usize = v.parse().unwrap();
+                    s.solver = match s.solver {
+                        _ if steps == 0 => Solver::Alternating,
+                        Solver::Joint { estimate_noise, .. } => {
+                            Solver::Joint { pose_refinement_steps: steps, estimate_noise }
+                        }
+                        Solver::Alternating => {
+                            Solver::Joint { pose_refinement_steps: steps, estimate_noise: true }
+                        }
+                    };
+                }
                 "tol" => s.convergence_tolerance = v.parse().unwrap(),
-                "noise" => s.estimate_noise = v == "1",
+                "noise" => {
+                    if let Solver::Joint { estimate_noise, .. } = &mut s.solver {
+                        *estimate_noise = v == "1";
+                    }
+                }
                 "nonneg" => s.nonnegative_expressions = v == "1",
                 other => panic!("unknown key {other}"),
             }

@@ -702,3 +702,57 @@ fn the_landmark_map_comes_from_the_file_until_labelled_inline() {
     let now = map.resolve().unwrap().unwrap();
     assert_eq!((now.vertex(30), now.vertex(62)), (Some(114), None));
 }
+
+/// Rewrites every stored `FitSettings` of a saved session the way lipmap wrote them before
+/// the solver was a setting: `pose_refinement_steps` and `estimate_noise` in place of
+/// `"solver"`.
+fn as_written_before_the_solver_setting(text: &str, steps: usize, noise: bool) -> String {
+    fn rewrite(v: &mut serde_json::Value, steps: usize, noise: bool) {
+        if let Some(m) = v.as_object_mut() {
+            if m.remove("solver").is_some() {
+                m.insert("pose_refinement_steps".into(), steps.into());
+                m.insert("estimate_noise".into(), noise.into());
+            }
+            m.values_mut().for_each(|c| rewrite(c, steps, noise));
+        } else if let Some(a) = v.as_array_mut() {
+            a.iter_mut().for_each(|c| rewrite(c, steps, noise));
+        }
+    }
+    let mut tree: serde_json::Value = serde_json::from_str(text).unwrap();
+    rewrite(&mut tree, steps, noise);
+    serde_json::to_string_pretty(&tree).unwrap()
+}
+
+#[test]
+fn a_session_from_before_the_solver_setting_loads_with_the_same_solver_and_cache() {
+    use lipmap::fit::Solver;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("p").join("s.lipmap.json");
+    std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+    let cases = [
+        (0, true, Solver::Alternating),
+        (1, true, Solver::Joint { pose_refinement_steps: 1, estimate_noise: true }),
+        (3, false, Solver::Joint { pose_refinement_steps: 3, estimate_noise: false }),
+    ];
+    for (steps, noise, solver) in cases {
+        let mut s = session_with_frames(&file, 4);
+        s.fit_settings = FitSettings { solver, clip: true, ..FitSettings::default() };
+        let settings = s.fit_settings.clone();
+        s.store_fits(0, &settings, (0..4).map(fit_of).collect()).unwrap();
+        s.save(&file).unwrap();
+        let saved = std::fs::read_to_string(&file).unwrap();
+        assert!(saved.contains("\"solver\"") && !saved.contains("pose_refinement_steps"));
+        std::fs::write(&file, as_written_before_the_solver_setting(&saved, steps, noise)).unwrap();
+        let back = Session::load(&file).unwrap();
+        assert_eq!(back.fit_settings, settings, "steps {steps}");
+        // The cache is keyed by the settings: the old entry still answers.
+        assert_eq!(back.cached_fits(0, &settings).len(), 4, "steps {steps}");
+    }
+    // Settings older still (neither key) take the defaults of that time: the joint solver.
+    session_with_frames(&file, 1).save(&file).unwrap();
+    let mut tree: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    tree["fit_settings"].as_object_mut().unwrap().remove("solver");
+    std::fs::write(&file, tree.to_string()).unwrap();
+    assert_eq!(Session::load(&file).unwrap().fit_settings.solver, Solver::default());
+}

@@ -6,7 +6,7 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::progress::frames_bar;
-use crate::fit::{FitSettings, Fitter, FrameFit, fitted_shape};
+use crate::fit::{FitSettings, Fitter, FrameFit, for_each_fitted_shape};
 use crate::io::{landmark_map_toml, model_source, npy_model, track_csv};
 use crate::model::LandmarkMap;
 use anyhow::{Context, Result, bail};
@@ -90,11 +90,16 @@ pub fn run_with_outcome(args: &FitFilesArgs) -> Result<Outcome> {
     write_fit_csv(&fit_csv, &fits)?;
     let shapes = args.out.join("shapes.npy");
     let n3 = 3 * model.num_vertices();
-    let mut data = Vec::with_capacity(fits.len() * n3);
-    for f in &fits {
-        data.extend(fitted_shape(&model, f).iter().map(|&v| v as f32));
-    }
-    npy_model::write_npy_f32(&shapes, &[fits.len() as u64, n3 as u64], &data)?;
+    // One mesh at a time straight to the file: the whole array is 41 MB per 1,000 frames.
+    let mut npy = npy_model::NpyF32Writer::create(&shapes, &[fits.len() as u64, n3 as u64])?;
+    let mut written = Ok(());
+    for_each_fitted_shape(&model, &fits, |_, s| {
+        if written.is_ok() {
+            written = npy.write(s);
+        }
+    });
+    written?;
+    npy.finish()?;
 
     let failed = fits.iter().filter(|f| f.failed.is_some()).count();
     let median = crate::cli::output::rms_text(crate::cli::output::median_reprojection(&fits));

@@ -221,6 +221,42 @@ pub fn reprojection_sse(
         .sum()
 }
 
+/// One model point's reprojection residual under a pose, in (u, ṽ) with ṽ = H − v:
+/// `r_u = s·(c_x + t_x) − u`, `r_v = s·(c_y + t_y) − ṽ` for the camera-space point `c = R·X`.
+/// Every pose solver (the pose refinement, the joint step, the shape fit's gradient) reads
+/// its residuals from here, so they agree on the convention.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PoseResidual {
+    /// The camera-space point `R·X`.
+    pub c: Vector3,
+    pub u: Real,
+    pub v: Real,
+}
+
+impl PoseResidual {
+    /// The residual of model point `x` against image point `observed` (pixels, y down).
+    #[inline]
+    pub fn new(pose: &OrthoPose, x: &Vector3, observed: &Point2, image_height: Real) -> Self {
+        let c = pose.r * x;
+        Self {
+            c,
+            u: pose.s * (c.x + pose.tx) - observed.x,
+            v: pose.s * (c.y + pose.ty) - (image_height - observed.y),
+        }
+    }
+
+    /// `(∂r_u, ∂r_v)` with respect to `(ω, s, t_x, t_y)`, ω the left rotation increment
+    /// `R ← exp(ω)·R`: `dc = ω × c = (ω_y c_z − ω_z c_y, ω_z c_x − ω_x c_z, ω_x c_y − ω_y c_x)`.
+    #[inline]
+    pub fn jacobian(&self, pose: &OrthoPose) -> (Vector6<Real>, Vector6<Real>) {
+        let (c, s) = (&self.c, pose.s);
+        (
+            Vector6::new(0.0, s * c.z, -s * c.y, c.x + pose.tx, s, 0.0),
+            Vector6::new(-s * c.z, 0.0, s * c.x, c.y + pose.ty, 0.0, s),
+        )
+    }
+}
+
 /// Refines a scaled orthographic pose by Gauss–Newton on the (weighted) reprojection error,
 /// the quantity the linear affine step only approximates: its 8 parameters ignore that r1 and
 /// r2 must be orthogonal and equally long, so its rotation absorbs noise a true pose cannot.
@@ -247,16 +283,10 @@ pub fn refine_orthographic_pose(
             if w <= 0.0 {
                 continue;
             }
-            let c = pose.r * m.coords; // camera-space point
-            // Residuals in (u, ṽ) with ṽ = H − v: ru = s(cx + tx) − u, rv = s(cy + ty) − ṽ.
-            let ru = pose.s * (c.x + pose.tx) - x.x;
-            let rv = pose.s * (c.y + pose.ty) - (image_height - x.y);
-            // d c / d ω = −[c]×  (left perturbation exp(ω)R): dc = ω × c.
-            // ω × c = (ωy cz − ωz cy, ωz cx − ωx cz, ωx cy − ωy cx).
-            let ju = Vector6::new(0.0, pose.s * c.z, -pose.s * c.y, c.x + pose.tx, pose.s, 0.0);
-            let jv = Vector6::new(-pose.s * c.z, 0.0, pose.s * c.x, c.y + pose.ty, 0.0, pose.s);
+            let res = PoseResidual::new(&pose, &m.coords, x, image_height);
+            let (ju, jv) = res.jacobian(&pose);
             jtj += w * (ju * ju.transpose() + jv * jv.transpose());
-            jtr += w * (ju * ru + jv * rv);
+            jtr += w * (ju * res.u + jv * res.v);
         }
         let Some(chol) = jtj.cholesky() else { break };
         let delta = -chol.solve(&jtr);

@@ -1,5 +1,8 @@
-//! The joint Gauss–Newton / Levenberg–Marquardt step over every frame's pose and free
-//! expressions and the group's shared identity, solved by eliminating the per-frame blocks.
+//! The joint solver (`Solver::Joint`, the default): from eos's start, Levenberg–Marquardt
+//! steps over every frame's pose and free expressions and the group's shared identity, each
+//! followed by an NNLS pass on the expressions (which updates the set clamped at 0); in
+//! groups with enough residual degrees of freedom the priors follow the landmark noise
+//! estimated from the residuals.
 //!
 //! Alternating camera and shape fits crawl along the valley where a rotation and an identity
 //! change explain the landmarks equally well; one Gauss–Newton step over all unknowns moves
@@ -7,17 +10,129 @@
 //! δβ_free]`; shared: `δα`. The normal equations have the arrow shape
 //! `[A_f C_f; C_fᵀ S]`, so each frame's block is eliminated (Schur complement) and only the
 //! identity system `(S − Σ C_fᵀA_f⁻¹C_f)·δα = −(g_α − Σ C_fᵀA_f⁻¹b_f)` is solved jointly.
-//! Clamped expressions (β = 0, NNLS active set) are held; the NNLS step after each joint step
-//! updates that set.
+//! Clamped expressions (β = 0, NNLS active set) are held during a step.
+//!
+//! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
-use super::camera::OrthoPose;
-use super::clip::{FrameState, SolverParams};
+use super::camera::{OrthoPose, PoseResidual};
+use super::clip::{FrameState, Group, SolverParams, frame_points, identity_points, in_parallel};
 use super::shape::{
     FrameObservations, LandmarkBasis, cholesky_solve_in_place, normal_matrix, projector,
 };
-use crate::math::{DMatrix, DVector, Matrix3, Real, Vector3};
+use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
 use nalgebra::{Matrix6, Rotation3, Vector6};
 use rayon::prelude::*;
+
+/// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
+/// many times a rejected step is retried with 10× more damping.
+const INITIAL_DAMPING: Real = 1e-4;
+const MIN_DAMPING: Real = 1e-9;
+const MAX_DAMPING_TRIES: usize = 8;
+
+/// Refines the started states' poses on the mean shape, then takes damped joint steps (the
+/// identity too when `solve_identity`) until the objective falls by less than the tolerance
+/// or the iterations run out; returns the identity, the states and the identity part of the
+/// landmark points. With `estimate_noise` the priors follow [`noise_factor`] from the second
+/// iteration on.
+pub(crate) fn solve(
+    group: &Group<'_>,
+    mut states: Vec<FrameState>,
+    mut alpha: DVector,
+    mut id_pts: Vec<Vector3>,
+    solve_identity: bool,
+    estimate_noise: bool,
+) -> (DVector, Vec<FrameState>, Vec<Vector3>) {
+    let (basis, observations, image_height) = (group.basis, group.observations, group.image_height);
+    group.pose_step(&mut states, &id_pts, true);
+    let base = *group.params;
+    let mut params = base;
+    let mut cost = group.objective(&states, &id_pts, &alpha, &params);
+    let mut mu = INITIAL_DAMPING;
+    for it in 0..params.iterations {
+        // Empirical Bayes: once the fit has reached the noise floor, the priors' weight
+        // follows the landmark noise estimated from the residuals (λ ∝ σ̂²).
+        let mut lambda_moved = false;
+        if it > 0
+            && estimate_noise
+            && let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height)
+        {
+            let old = params.lambda_identity;
+            params.lambda_identity = base.lambda_identity * f;
+            params.lambda_expression = base.lambda_expression * f;
+            lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
+            cost = group.objective(&states, &id_pts, &alpha, &params);
+        }
+        let lin = linearise(basis, observations, &states, &alpha, &id_pts, image_height, &params);
+        let mut accepted = false;
+        for _ in 0..MAX_DAMPING_TRIES {
+            if let Some((a, st)) = step(&lin, &states, &alpha, mu, solve_identity, &params) {
+                let ids = identity_points(basis, &a);
+                let c = group.objective(&st, &ids, &a, &params);
+                if c < cost {
+                    (alpha, states, id_pts) = (a, st, ids);
+                    mu = (mu * 0.1).max(MIN_DAMPING);
+                    accepted = true;
+                    break;
+                }
+            }
+            mu *= 10.0;
+        }
+        if !accepted {
+            break;
+        }
+        // NNLS on β with pose and identity fixed (at the settings' own λ): updates which
+        // expressions are clamped.
+        group.expression_step(&mut states, &id_pts);
+        let c = group.objective(&states, &id_pts, &alpha, &params);
+        let done = c.is_nan() || (c >= cost * (1.0 - params.tolerance) && !lambda_moved);
+        cost = c.min(cost);
+        if done {
+            break;
+        }
+    }
+    (alpha, states, id_pts)
+}
+
+/// Per-coordinate landmark error (px) the settings' λ assumes: λ = 3 is the exact MAP weight
+/// of a unit-variance prior for this error in eos's σ² = 3 convention (λ = σ²/3).
+pub const ASSUMED_NOISE_PX: Real = 3.0;
+
+/// The floor of the estimated per-coordinate noise variance (px²): rounding landmark
+/// coordinates to whole pixels alone leaves 1/12 px².
+const MIN_NOISE_VARIANCE: Real = 1.0 / 12.0;
+
+/// The factor `σ̂²/σ_a²` by which the noise estimated from the group's residuals differs
+/// from the assumed [`ASSUMED_NOISE_PX`]: `σ̂² = SSE/(n − p)` with n the weighted coordinate
+/// count and p the unknowns (6 per frame, the free expressions, the identity). None when the
+/// residual degrees of freedom are fewer than the unknowns (a single frame: too few to tell
+/// noise from shape), so the fixed λ applies.
+fn noise_factor(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    states: &[FrameState],
+    id_pts: &[Vector3],
+    image_height: Real,
+) -> Option<Real> {
+    let mut n = 0.0;
+    let mut p = basis.k_id as Real;
+    let mut sse = 0.0;
+    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
+        let pts = frame_points(basis, id_pts, &st.beta);
+        for (i, x) in pts.iter().enumerate() {
+            if obs.active[i] {
+                let d = st.pose.project(&Point3::from(*x), image_height) - obs.points[i];
+                sse += basis.weights[i] * d.norm_squared();
+                n += 2.0 * basis.weights[i];
+            }
+        }
+        p += 6.0 + st.free.iter().filter(|f| **f).count() as Real;
+    }
+    if n - p < p {
+        return None;
+    }
+    let variance = (sse / (n - p)).max(MIN_NOISE_VARIANCE);
+    Some(variance / (ASSUMED_NOISE_PX * ASSUMED_NOISE_PX))
+}
 
 /// One frame's part of the linearised normal equations (undamped).
 struct FrameBlocks {
@@ -81,12 +196,10 @@ fn frame_blocks(
         for j in 0..3 {
             x[j] += super::shape::dot(&basis.row(i, j)[kid..], beta);
         }
-        let c = pose.r * x;
-        let ru = s * (c.x + pose.tx) - obs.points[i].x;
-        let rv = s * (c.y + pose.ty) - (image_height - obs.points[i].y);
+        let res = PoseResidual::new(pose, &x, &obs.points[i], image_height);
+        let (ru, rv) = (res.u, res.v);
         let om = basis.weights[i] / params.sigma2;
-        let ju = Vector6::new(0.0, s * c.z, -s * c.y, c.x + pose.tx, s, 0.0);
-        let jv = Vector6::new(-s * c.z, 0.0, s * c.x, c.y + pose.ty, 0.0, s);
+        let (ju, jv) = res.jacobian(pose);
         hpp += (ju * ju.transpose() + jv * jv.transpose()) * om;
         gp += (ju * ru + jv * rv) * om;
         let h = (r1 * ru + r2 * rv) * (om * s);
@@ -157,7 +270,7 @@ pub(crate) fn linearise(
     let one = |(obs, st): (&FrameObservations, &FrameState)| {
         st.failed.is_none().then(|| frame_blocks(basis, obs, st, id_pts, image_height, params))
     };
-    let frames: Vec<Option<FrameBlocks>> = if observations.len() > 1 {
+    let frames: Vec<Option<FrameBlocks>> = if in_parallel(observations.len()) {
         observations.par_iter().zip(states.par_iter()).map(one).collect()
     } else {
         observations.iter().zip(states).map(one).collect()
@@ -185,6 +298,29 @@ fn damp(m: &mut DMatrix, mu: Real) {
     }
 }
 
+/// `L⁻¹·B` in place for a lower-triangular n×n `l` and the columns of `b` (column-major,
+/// n rows): nalgebra's `solve_lower_triangular` operation for operation (so the same bits),
+/// without the per-column views and strided updates that made it a tenth of a clip fit's
+/// time. False on a zero pivot, as nalgebra's.
+fn forward_substitute(l: &DMatrix, b: &mut [Real]) -> bool {
+    let n = l.nrows();
+    let ls = l.as_slice();
+    for col in b.chunks_exact_mut(n.max(1)) {
+        for i in 0..n {
+            let diag = ls[i * n + i];
+            if diag == 0.0 {
+                return false;
+            }
+            let coeff = col[i] / diag;
+            col[i] = coeff;
+            for (y, &x) in col[i + 1..].iter_mut().zip(&ls[i * n + i + 1..(i + 1) * n]) {
+                *y += -coeff * x;
+            }
+        }
+    }
+    true
+}
+
 /// Solves the damped system and applies the step: returns the new identity and frame states,
 /// or None when a block is not positive definite. With `solve_identity` false the identity
 /// stays (δα = 0). Expressions are projected onto β ≥ 0 when the settings ask for it.
@@ -199,29 +335,42 @@ pub(crate) fn step(
     let kid = alpha.len();
     // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
     // CᵀA⁻¹C = WᵀW (a symmetric product run by the matrix-multiply kernel) and CᵀA⁻¹b = Wᵀz.
+    // In parallel each frame keeps its WᵀW for the ordered sum below; on one thread it is made
+    // there, into one buffer, instead of holding a k_id² matrix per frame (32 MB per 1,000).
+    let parallel = in_parallel(lin.frames.len());
+    let need_wtw = solve_identity && kid > 0;
     let eliminate = |fb: &Option<FrameBlocks>| -> Option<Option<Eliminated>> {
         let Some(fb) = fb else { return Some(None) };
         let mut a = fb.a.clone();
         damp(&mut a, mu);
         let l = a.cholesky()?.unpack();
-        let w = l.solve_lower_triangular(&fb.c)?;
-        let z = l.solve_lower_triangular(&fb.b)?;
-        let wtw = (solve_identity && kid > 0).then(|| w.transpose() * &w);
+        let mut w = fb.c.clone();
+        let mut z = fb.b.clone();
+        if !(forward_substitute(&l, w.as_mut_slice()) && forward_substitute(&l, z.as_mut_slice())) {
+            return None;
+        }
+        let wtw = (need_wtw && parallel).then(|| w.transpose() * &w);
         Some(Some(Eliminated { l, w, z, wtw }))
     };
-    let solved: Vec<Option<Eliminated>> = if lin.frames.len() > 1 {
+    let solved: Vec<Option<Eliminated>> = if parallel {
         lin.frames.par_iter().map(eliminate).collect::<Option<Vec<_>>>()?
     } else {
         lin.frames.iter().map(eliminate).collect::<Option<Vec<_>>>()?
     };
     let mut dalpha = DVector::zeros(kid);
-    if solve_identity && kid > 0 {
+    if need_wtw {
         let mut s = lin.s.clone();
         damp(&mut s, mu);
         let mut r = lin.g.clone();
+        let mut buffer = DMatrix::zeros(kid, kid);
         for e in solved.iter().flatten() {
-            if let Some(wtw) = &e.wtw {
-                s -= wtw;
+            match &e.wtw {
+                Some(wtw) => s -= wtw,
+                None => {
+                    // The same kernel call as `Wᵀ * W`, so the same bits.
+                    buffer.gemm(1.0, &e.w.transpose(), &e.w, 0.0);
+                    s -= &buffer;
+                }
             }
             r.gemv_tr(-1.0, &e.w, &e.z, 1.0);
         }
@@ -258,4 +407,25 @@ pub(crate) fn step(
     }
     let new_alpha = alpha + dalpha;
     new_alpha.iter().all(|v| v.is_finite()).then_some((new_alpha, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn forward_substitution_matches_nalgebra_bit_for_bit() {
+        let m = DMatrix::from_fn(7, 7, |i, j| {
+            1.0 / (1.0 + i as Real + j as Real) + if i == j { 3.0 } else { 0.0 }
+        });
+        let l = m.cholesky().unwrap().unpack();
+        let c = DMatrix::from_fn(7, 5, |i, j| ((i * 5 + j) as Real * 0.73).sin());
+        let want = l.solve_lower_triangular(&c).unwrap();
+        let mut got = c.clone();
+        assert!(forward_substitute(&l, got.as_mut_slice()));
+        assert!(got.iter().zip(want.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
+        let mut singular = DMatrix::identity(3, 3);
+        singular[(1, 1)] = 0.0;
+        assert!(!forward_substitute(&singular, &mut [1.0, 2.0, 3.0]));
+    }
 }

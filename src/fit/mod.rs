@@ -5,14 +5,17 @@
 //! [`Fitter`] to reuse the per-model precomputation. `docs/fitting.md` gives the method,
 //! the defaults and how they were chosen.
 
+mod alternating;
 pub mod camera;
 pub mod clip;
 mod joint;
 pub mod pipeline;
 pub mod result;
 pub mod shape;
+mod shapes;
 pub mod suggest;
 
 pub use camera::OrthoPose;
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};
-pub use result::{FitSettings, FrameFit};
+pub use result::{FitSettings, FrameFit, Solver};
+pub use shapes::for_each_fitted_shape;

@@ -47,11 +47,10 @@ impl<'m> Fitter<'m> {
             iterations: s.iterations,
             temporal_smoothness: s.temporal_smoothness,
             nonnegative_expressions: s.nonnegative_expressions,
-            pose_refinement_steps: s.pose_refinement_steps,
+            solver: s.solver,
             sigma2: EOS_SIGMA_SQUARED,
             min_points: 4,
             tolerance: s.convergence_tolerance,
-            estimate_noise: s.estimate_noise,
         }
     }
 

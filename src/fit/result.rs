@@ -29,16 +29,86 @@ pub struct FitSettings {
     /// Constrain expression coefficients to β ≥ 0 (blendshapes are one-sided offsets).
     #[serde(default = "default_true")]
     pub nonnegative_expressions: bool,
-    /// Gauss–Newton steps refining each linear camera estimate (0 = eos's linear camera only).
-    #[serde(default = "default_pose_refinement_steps")]
-    pub pose_refinement_steps: usize,
+    /// Which solver runs and its own parameters. Stored as `"solver": {"kind": …}`; files
+    /// from before the setting existed chose it by `pose_refinement_steps` (0 = alternating)
+    /// and still load as they did (see [`Solver`]).
+    #[serde(flatten, with = "solver_field")]
+    pub solver: Solver,
     /// Iterations stop early when the fit's objective falls by less than this fraction.
     #[serde(default = "default_convergence_tolerance")]
     pub convergence_tolerance: f64,
-    /// Clip fits: scale `lambda` and `lambda_expression` by the landmark noise estimated from
-    /// the residuals over the 3 px the defaults assume (empirical Bayes; docs/fitting.md).
-    #[serde(default = "default_true")]
-    pub estimate_noise: bool,
+}
+
+/// How a group of frames (a clip, or one frame alone) is solved; `docs/fitting.md` compares
+/// them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Solver {
+    /// eos's scheme: linear camera per frame, then the identity (jointly with the free
+    /// expressions), then expressions per frame (NNLS), alternated (`fit::alternating`).
+    Alternating,
+    /// From eos's linear start, joint Levenberg–Marquardt steps over every pose, the free
+    /// expressions and the identity, each followed by an NNLS pass on the expressions
+    /// (`fit::joint`).
+    Joint {
+        /// Gauss–Newton steps refining each camera estimate (0 = eos's linear camera only).
+        pose_refinement_steps: usize,
+        /// Scale `lambda` and `lambda_expression` by the landmark noise estimated from the
+        /// residuals over the 3 px the defaults assume (empirical Bayes; clip fits with
+        /// enough residual degrees of freedom only).
+        estimate_noise: bool,
+    },
+}
+
+impl Default for Solver {
+    fn default() -> Self {
+        Self::Joint { pose_refinement_steps: 1, estimate_noise: true }
+    }
+}
+
+impl Solver {
+    /// Gauss–Newton steps refining each camera estimate (none for the alternation).
+    pub fn pose_refinement_steps(&self) -> usize {
+        match self {
+            Self::Alternating => 0,
+            Self::Joint { pose_refinement_steps, .. } => *pose_refinement_steps,
+        }
+    }
+}
+
+/// `FitSettings::solver` in files: written as `"solver"`, read from it or, in files that
+/// predate it, from `pose_refinement_steps` and `estimate_noise` (their defaults 1 and true).
+mod solver_field {
+    use super::Solver;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Serialize)]
+    struct Written<'a> {
+        solver: &'a Solver,
+    }
+
+    #[derive(Deserialize)]
+    struct Read {
+        solver: Option<Solver>,
+        pose_refinement_steps: Option<usize>,
+        estimate_noise: Option<bool>,
+    }
+
+    pub fn serialize<S: Serializer>(solver: &Solver, s: S) -> Result<S::Ok, S::Error> {
+        Written { solver }.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Solver, D::Error> {
+        let r = Read::deserialize(d)?;
+        Ok(match (r.solver, r.pose_refinement_steps) {
+            (Some(solver), _) => solver,
+            (None, Some(0)) => Solver::Alternating,
+            (None, steps) => Solver::Joint {
+                pose_refinement_steps: steps.unwrap_or(1),
+                estimate_noise: r.estimate_noise.unwrap_or(true),
+            },
+        })
+    }
 }
 
 fn default_convergence_tolerance() -> f64 {
@@ -47,10 +117,6 @@ fn default_convergence_tolerance() -> f64 {
 
 fn default_true() -> bool {
     true
-}
-
-fn default_pose_refinement_steps() -> usize {
-    FitSettings::default().pose_refinement_steps
 }
 
 impl Default for FitSettings {
@@ -69,9 +135,8 @@ impl Default for FitSettings {
             max_reproj_rms_px: 20.0,
             landmark_weights: Vec::new(),
             nonnegative_expressions: true,
-            pose_refinement_steps: 1,
+            solver: Solver::default(),
             convergence_tolerance: 1e-3,
-            estimate_noise: true,
         }
     }
 }
@@ -117,5 +182,41 @@ impl FrameFit {
             residuals: Vec::new(),
             failed: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solver_round_trips_and_old_keys_choose_it() {
+        for solver in
+            [Solver::Alternating, Solver::Joint { pose_refinement_steps: 2, estimate_noise: false }]
+        {
+            let s = FitSettings { solver, ..FitSettings::default() };
+            let text = serde_json::to_string(&s).unwrap();
+            assert!(text.contains(r#""solver":{"kind":"#), "{text}");
+            assert_eq!(serde_json::from_str::<FitSettings>(&text).unwrap(), s);
+        }
+        let with_old_keys = |extra: &str| {
+            let mut v = serde_json::to_value(FitSettings::default()).unwrap();
+            let m = v.as_object_mut().unwrap();
+            m.remove("solver");
+            let old: serde_json::Value = serde_json::from_str(extra).unwrap();
+            m.extend(old.as_object().unwrap().clone());
+            serde_json::from_value::<FitSettings>(v).unwrap().solver
+        };
+        assert_eq!(with_old_keys(r#"{"pose_refinement_steps": 0}"#), Solver::Alternating);
+        assert_eq!(
+            with_old_keys(r#"{"pose_refinement_steps": 0, "estimate_noise": true}"#),
+            Solver::Alternating
+        );
+        assert_eq!(
+            with_old_keys(r#"{"pose_refinement_steps": 4, "estimate_noise": false}"#),
+            Solver::Joint { pose_refinement_steps: 4, estimate_noise: false }
+        );
+        assert_eq!(with_old_keys("{}"), Solver::default());
+        assert_eq!(Solver::Alternating.pose_refinement_steps(), 0);
     }
 }

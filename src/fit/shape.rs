@@ -12,7 +12,7 @@ use crate::landmarks::{LandmarkSet, N_LANDMARKS};
 use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
 
-use super::camera::OrthoPose;
+use super::camera::{OrthoPose, PoseResidual};
 
 /// eos's data-term variance: `Ω = I/σ²` with σ = √3 px (its default). lipmap keeps the
 /// convention so its λ means what eos's λ means.
@@ -326,9 +326,8 @@ pub(crate) fn landmark_forces(
             if !obs.active[i] {
                 return Vector3::zeros();
             }
-            let bu = pose.s * (r1.dot(x) + pose.tx) - obs.points[i].x;
-            let bv = pose.s * (r2.dot(x) + pose.ty) - (image_height - obs.points[i].y);
-            (r1 * bu + r2 * bv) * (pose.s * basis.weights[i] / sigma2)
+            let b = PoseResidual::new(pose, x, &obs.points[i], image_height);
+            (r1 * b.u + r2 * b.v) * (pose.s * basis.weights[i] / sigma2)
         })
         .collect()
 }

@@ -413,16 +413,91 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
             format!("shape {shape:?} does not hold {} values", data.len()),
         ));
     }
-    let io = |e: std::io::Error| FormatError::io(path, e);
-    let file = std::fs::File::create(path).map_err(io)?;
-    let mut w = npyz::WriteOptions::new()
-        .default_dtype()
-        .shape(shape)
-        .writer(std::io::BufWriter::new(file))
-        .begin_nd()
-        .map_err(io)?;
-    w.extend(data.iter().copied()).map_err(io)?;
-    w.finish().map_err(io)
+    let mut w = NpyF32Writer::create(path, shape)?;
+    w.write(data)?;
+    w.finish()
+}
+
+/// An f32 `.npy` file written row by row (e.g. one mesh per frame), so a large array never
+/// has to be held whole. Values go out as whole byte blocks: writing them one by one through
+/// a generic element writer cost more than fitting the frames.
+pub struct NpyF32Writer {
+    path: std::path::PathBuf,
+    file: std::fs::File,
+    expected: u64,
+    written: u64,
+    bytes: Vec<u8>,
+}
+
+impl NpyF32Writer {
+    /// Creates the file and writes the header for a C-order array of `shape`.
+    ///
+    /// # Errors
+    /// I/O errors, naming the file.
+    pub fn create(path: &Path, shape: &[u64]) -> Result<Self> {
+        let io = |e: std::io::Error| FormatError::io(path, e);
+        let mut file = std::fs::File::create(path).map_err(io)?;
+        std::io::Write::write_all(&mut file, &npy_header_f32(shape)).map_err(io)?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            file,
+            expected: shape.iter().product(),
+            written: 0,
+            bytes: Vec::new(),
+        })
+    }
+
+    /// Appends `values` (f32, or f64 rounded to f32 as `as` does).
+    ///
+    /// # Errors
+    /// More values than the shape holds, or I/O errors, naming the file.
+    pub fn write<T: Copy + Into<f64>>(&mut self, values: &[T]) -> Result<()> {
+        self.written += values.len() as u64;
+        if self.written > self.expected {
+            return Err(FormatError::whole(
+                &self.path,
+                format!("more than the {} values its shape holds", self.expected),
+            ));
+        }
+        self.bytes.resize(4 * values.len(), 0);
+        for (out, &v) in self.bytes.chunks_exact_mut(4).zip(values) {
+            out.copy_from_slice(&(v.into() as f32).to_le_bytes());
+        }
+        std::io::Write::write_all(&mut self.file, &self.bytes)
+            .map_err(|e| FormatError::io(&self.path, e))
+    }
+
+    /// Checks that every value the shape holds was written.
+    ///
+    /// # Errors
+    /// Fewer values than the shape holds, naming the file.
+    pub fn finish(self) -> Result<()> {
+        if self.written != self.expected {
+            return Err(FormatError::whole(
+                &self.path,
+                format!("{} values written, its shape holds {}", self.written, self.expected),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A version 1.0 `.npy` header for a C-order little-endian f32 array of `shape`, padded with
+/// spaces and a newline so the data starts at a multiple of 64 bytes (the format's rule; the
+/// same bytes npyz writes).
+fn npy_header_f32(shape: &[u64]) -> Vec<u8> {
+    let dims: String = shape.iter().map(|d| format!("{d}, ")).collect();
+    let mut text = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': ({dims}), }}");
+    // magic (6) + version (2) + header length (2) come before the text.
+    let before = 10;
+    let pad = 63 - (text.len() + before) % 64;
+    text.extend(std::iter::repeat_n(' ', pad));
+    text.push('\n');
+    let mut out = Vec::with_capacity(before + text.len());
+    out.extend_from_slice(b"\x93NUMPY\x01\x00");
+    out.extend_from_slice(&(text.len() as u16).to_le_bytes());
+    out.extend_from_slice(text.as_bytes());
+    out
 }
 
 #[cfg(test)]
@@ -467,5 +542,26 @@ mod tests {
         let e = read_npy_folder(&f).unwrap_err();
         assert!(e.to_string().contains("field `basis`"), "{e}");
         assert!(write_npy_f32(&f.join("x.npy"), &[2, 2], &[0.0; 3]).is_err());
+    }
+
+    #[test]
+    fn f32_npy_bytes_match_npyz() {
+        let dir = tempfile::tempdir().unwrap();
+        for shape in [vec![3u64], vec![2, 3], vec![1000, 10344]] {
+            let n = shape.iter().product::<u64>() as usize;
+            let data: Vec<f32> = (0..n).map(|i| (i as f32 * 0.37).sin()).collect();
+            let p = dir.path().join("a.npy");
+            write_npy_f32(&p, &shape, &data).unwrap();
+            let mut want = Vec::new();
+            let mut w = npyz::WriteOptions::new()
+                .default_dtype()
+                .shape(&shape)
+                .writer(&mut want)
+                .begin_nd()
+                .unwrap();
+            w.extend(data.iter().copied()).unwrap();
+            w.finish().unwrap();
+            assert!(std::fs::read(&p).unwrap() == want, "shape {shape:?}");
+        }
     }
 }

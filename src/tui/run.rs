@@ -115,7 +115,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
         bridge.finish_saving();
-        if app.unsaved_edits > 0
+        if !app.save.is_clean()
             && let Err(e) = bridge.save(&app)
         {
             drop(guard);
@@ -167,28 +167,25 @@ where
     B::Error: Send + Sync + 'static,
 {
     let mut redraw = true;
-    let mut seen_edits = app.unsaved_edits;
+    let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();
     loop {
         run_effects(app, bridge, workers);
-        if app.should_quit {
+        if app.save.should_quit() {
             return Ok(());
         }
-        if app.unsaved_edits != seen_edits {
-            seen_edits = app.unsaved_edits;
+        if app.save.unsaved() != seen_edits {
+            seen_edits = app.save.unsaved();
             last_edit = Instant::now();
         }
-        // After a failed save, wait for the next edit rather than retrying in a loop.
-        if app.unsaved_edits > 0
-            && !app.dragging
-            && !app.save_failed
-            && !app.saving
-            && last_edit.elapsed() >= AUTOSAVE_IDLE
-        {
-            apply(app, Action::Save);
-            run_effects(app, bridge, workers);
-            seen_edits = app.unsaved_edits;
-            redraw = true;
+        // Autosave waits for a pause in editing; whether to save then is `update`'s call.
+        if last_edit.elapsed() >= AUTOSAVE_IDLE {
+            apply(app, Action::Idle);
+            if !app.effects.is_empty() {
+                run_effects(app, bridge, workers);
+                seen_edits = app.save.unsaved();
+                redraw = true;
+            }
         }
         // A background encoding finished: show it.
         if gfx.poll() {
@@ -214,23 +211,7 @@ where
             redraw = true;
         }
         while let Ok(a) = rx.try_recv() {
-            let to_store = match &a {
-                Action::FitDone { generation, fits } if *generation == app.fit.generation => {
-                    Some(fits.clone())
-                }
-                _ => None,
-            };
             apply(app, a);
-            // Cache fits only when no edit happened since the request, so the cache key
-            // (the landmarks now in the session) is what the fit used.
-            if let Some(fits) = to_store.filter(|_| app.fit.stale.is_empty()) {
-                let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
-                match stored {
-                    // The cache is part of the session: autosave writes it.
-                    Ok(()) => app.unsaved_edits += 1,
-                    Err(e) => app.status = format!("fit cache not updated: {e:#}"),
-                }
-            }
             redraw = true;
         }
     }
@@ -260,11 +241,19 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     image_height,
                 });
             }
-            Effect::Save => {
+            Effect::Save { generation } => {
                 // Written on the saver thread; `Saved` comes back through the channel.
-                if let Err(e) = bridge.save_in_background(app, app.save_generation) {
+                if let Err(e) = bridge.save_in_background(app, generation) {
                     apply(app, Action::SaveFailed { error: format!("{e:#}") });
                 }
+            }
+            Effect::StoreFits { fits } => {
+                let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
+                let reply = match stored {
+                    Ok(()) => Action::FitsStored,
+                    Err(e) => Action::FitsNotStored { error: format!("{e:#}") },
+                };
+                apply(app, reply);
             }
             Effect::LoadMap => {
                 let reply = match bridge.load_map_file() {

@@ -447,6 +447,18 @@ mod tests {
         assert_eq!(KeyChord::parse("f0"), None);
     }
 
+    /// Every default binding in order, one line each: the snapshot records the bindings the
+    /// keymap had before it became a data file, so the file must reproduce them exactly.
+    #[test]
+    fn default_bindings_are_unchanged() {
+        let lines: Vec<String> = Keymap::default()
+            .bindings
+            .iter()
+            .map(|b| format!("[{}] {} = {:?}", b.mode.name(), b.key, b.action))
+            .collect();
+        insta::assert_snapshot!(lines.join("\n"));
+    }
+
     #[test]
     fn no_key_is_bound_twice_in_a_mode() {
         let mut seen = HashSet::new();

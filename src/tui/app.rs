@@ -643,6 +643,16 @@ impl App {
         }
     }
 
+    /// Opened as the next clip of the same session: keeps how the user looked at the
+    /// previous one (view, image zoom and pan, the head's angle; not a suggestion, which was
+    /// for the other clip) and names the clip in the status line.
+    pub fn continue_from(&mut self, previous: &App, clip_name: &str) {
+        self.view = previous.view;
+        self.image_view = previous.image_view;
+        self.head = HeadView { suggested: None, ..previous.head };
+        self.status = format!("clip {} of {}: {clip_name}", self.clip + 1, self.clip_names.len());
+    }
+
     /// The top overlay, if any.
     pub fn top_overlay(&self) -> Option<&Overlay> {
         self.overlays.last()

@@ -8,7 +8,7 @@
 //! saves what is left before quitting. The terminal is restored on return, error and panic.
 
 use super::action::Action;
-use super::app::{App, Effect, HeadView};
+use super::app::{App, Effect};
 use super::keymap::Keymap;
 use super::session_bridge::SessionBridge;
 use super::update::{key_to_action, mouse_to_action, request_images, update};
@@ -63,9 +63,9 @@ pub struct RunOptions {
 pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()> {
     let keymap = match &options.keymap {
         Some(p) => Keymap::load(p)?,
-        None => Keymap::default(),
+        None => Keymap::builtin()?,
     };
-    let mut clip = match &options.clip {
+    let clip = match &options.clip {
         Some(name) => {
             let s = crate::session::Session::load(session_path)?;
             s.clip_index(name).ok_or_else(|| {
@@ -126,23 +126,16 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             drop(guard);
             return result;
         };
-        // Keep how the user looks at things across clips.
-        let (view, image_view, head) = (app.view, app.image_view, app.head);
         drop(bridge);
-        let opened = SessionBridge::open(session_path, next);
-        (app, bridge, provider) = match opened {
+        let previous = app;
+        (app, bridge, provider) = match SessionBridge::open(session_path, next) {
             Ok(o) => o,
             Err(e) => {
                 drop(guard);
                 return Err(e);
             }
         };
-        clip = next;
-        app.view = view;
-        app.image_view = image_view;
-        app.head = HeadView { suggested: None, ..head };
-        app.status =
-            format!("clip {} of {}: {}", clip + 1, app.clip_names.len(), bridge.clip_name());
+        app.continue_from(&previous, &bridge.clip_name());
     }
 }
 

@@ -129,22 +129,22 @@ fn autosave_runs_on_the_saver_thread_and_keeps_later_edits_unsaved() {
     let (tx, rx) = std::sync::mpsc::channel();
     bridge.start_saver(tx);
     apply(&mut app, &[Action::Nudge { dx: 0, dy: -3 }, Action::Save]);
-    assert!(app.saving);
-    let generation = app.save_generation;
+    assert!(app.save.in_flight());
+    let generation = app.save.generation();
     bridge.save_in_background(&app, generation).unwrap();
     // Another edit while the save is on its way.
     apply(&mut app, &[Action::Nudge { dx: 2, dy: 0 }]);
     let reply = rx.recv_timeout(std::time::Duration::from_secs(10)).expect("the saver replies");
     assert_eq!(reply, Action::Saved { generation });
     apply(&mut app, &[reply]);
-    assert!(!app.saving);
-    assert_eq!(app.unsaved_edits, 1, "the later edit is still to be saved");
+    assert!(!app.save.in_flight());
+    assert_eq!(app.save.unsaved(), 1, "the later edit is still to be saved");
     let on_disk = Session::load(&path).unwrap();
     let p = on_disk.effective_frame(0, 0).unwrap().points[62];
     assert_eq!(p.source, PointSource::Corrected);
     // The next save writes the later edit too; dropping the bridge waits for the saver.
     apply(&mut app, &[Action::Save]);
-    bridge.save_in_background(&app, app.save_generation).unwrap();
+    bridge.save_in_background(&app, app.save.generation()).unwrap();
     drop(bridge);
     let q = Session::load(&path).unwrap().effective_frame(0, 0).unwrap().points[62];
     assert!(q.x > p.x, "{} then {}", p.x, q.x);

@@ -39,7 +39,7 @@ fn nudge_undo_redo() {
     assert!((p.y - before.y - 10.0 * step).abs() < 1e-9);
     assert_eq!(p.source, PointSource::Corrected);
     assert_eq!(a.tracked.get(0).unwrap().points[62], before, "tracker's value kept");
-    assert_eq!(a.unsaved_edits, 2);
+    assert_eq!(a.save.unsaved(), 2);
     run(&mut a, [Action::Undo, Action::Undo]);
     assert_eq!(point(&a, 0, 62), before);
     run(&mut a, [Action::Undo]);
@@ -264,9 +264,18 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     fits[1].reproj_rms_px = 42.0;
     run(&mut a, [Action::FitDone { generation: 1, fits: fits.clone() }]);
     assert_ne!(a.fit.fits[&1].reproj_rms_px, 42.0, "stale generation dropped");
-    run(&mut a, [Action::FitDone { generation: 2, fits }]);
+    a.effects.clear();
+    run(&mut a, [Action::FitDone { generation: 2, fits: fits.clone() }]);
     assert_eq!(a.fit.fits[&1].reproj_rms_px, 42.0);
     assert!(!a.fit.running);
+    // Nothing edited since the request: the fits go to the session's cache, which is then
+    // a change to save.
+    assert_eq!(a.effects.first(), Some(&Effect::StoreFits { fits: fits.clone() }));
+    let unsaved = a.save.unsaved();
+    run(&mut a, [Action::FitsStored]);
+    assert_eq!(a.save.unsaved(), unsaved + 1);
+    run(&mut a, [Action::FitsNotStored { error: "read-only".into() }]);
+    assert!(a.status.contains("fit cache not updated: read-only"), "{}", a.status);
     // Nothing edited since: no refit. A new label changes the map: every frame again.
     run(&mut a, [Action::RunFit]);
     assert!(a.status.contains("nothing changed"), "{}", a.status);
@@ -277,6 +286,34 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
         a.effects.last(),
         Some(&Effect::Fit { generation: 3, frames: Some((0..10).collect()) })
     );
+    // An edit while the fit runs: its fits are shown but not cached (they no longer match
+    // the session's landmarks).
+    a.effects.clear();
+    run(&mut a, [Action::ShowFrames, Action::Nudge { dx: 1, dy: 0 }]);
+    let fits = lipmap::tui::fixtures::synthetic_fits(&a.track);
+    run(&mut a, [Action::FitDone { generation: 3, fits }]);
+    assert!(!a.fit.running);
+    assert!(!a.effects.iter().any(|e| matches!(e, Effect::StoreFits { .. })), "{:?}", a.effects);
+}
+
+#[test]
+fn idle_autosaves_unless_dragging_saving_or_failed() {
+    let mut a = app();
+    run(&mut a, [Action::Idle]);
+    assert!(a.effects.is_empty(), "nothing to save");
+    run(&mut a, [Action::Nudge { dx: 1, dy: 0 }]);
+    a.dragging = true;
+    run(&mut a, [Action::Idle]);
+    assert!(a.effects.is_empty(), "never mid-drag");
+    a.dragging = false;
+    run(&mut a, [Action::Idle]);
+    assert_eq!(a.effects, vec![Effect::Save { generation: 1 }]);
+    run(&mut a, [Action::Idle]);
+    assert_eq!(a.effects.len(), 1, "one save in flight at a time");
+    run(&mut a, [Action::SaveFailed { error: "disk full".into() }, Action::Idle]);
+    assert_eq!(a.effects.len(), 1, "a failed save waits for the next edit");
+    run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::Idle]);
+    assert_eq!(a.effects.last(), Some(&Effect::Save { generation: 2 }));
 }
 
 #[test]
@@ -375,13 +412,13 @@ fn quit_saves_first_and_help_toggles() {
     run(&mut a, [Action::ToggleHelp]);
     assert!(a.overlays.is_empty());
     run(&mut a, [Action::Quit]);
-    assert!(a.should_quit, "nothing unsaved: quit at once");
+    assert!(a.save.should_quit(), "nothing unsaved: quit at once");
     let mut a = app();
     run(&mut a, [Action::Nudge { dx: 1, dy: 1 }, Action::Quit]);
-    assert!(!a.should_quit);
-    assert_eq!(a.effects.last(), Some(&Effect::Save));
+    assert!(!a.save.should_quit());
+    assert_eq!(a.effects.last(), Some(&Effect::Save { generation: 1 }));
     run(&mut a, [Action::Saved { generation: 1 }]);
-    assert!(a.should_quit);
+    assert!(a.save.should_quit());
     // A failing save does not trap the user.
     let mut a = app();
     run(
@@ -392,9 +429,9 @@ fn quit_saves_first_and_help_toggles() {
             Action::SaveFailed { error: "disk full".into() },
         ],
     );
-    assert!(!a.should_quit && a.status.contains("disk full"));
+    assert!(!a.save.should_quit() && a.status.contains("disk full"));
     run(&mut a, [Action::Quit]);
-    assert!(a.should_quit);
+    assert!(a.save.should_quit());
 }
 
 #[test]
@@ -402,18 +439,18 @@ fn switching_clips_saves_first_and_names_the_clip() {
     let mut a = app();
     run(&mut a, [Action::NextClip]);
     assert_eq!(a.status, "the session has one clip");
-    assert!(!a.should_quit);
+    assert!(!a.save.should_quit());
     a.clip_names = vec!["s1".into(), "s2".into(), "s3".into()];
     run(&mut a, [Action::PrevClip]);
-    assert_eq!((a.switch_clip, a.should_quit), (Some(2), true), "nothing unsaved: at once");
+    assert_eq!((a.switch_clip, a.save.should_quit()), (Some(2), true), "nothing unsaved: at once");
     let mut a = app();
     a.clip_names = vec!["s1".into(), "s2".into()];
     run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::NextClip]);
     assert_eq!(a.switch_clip, Some(1));
-    assert!(!a.should_quit, "waits for the save");
-    let generation = a.save_generation;
+    assert!(!a.save.should_quit(), "waits for the save");
+    let generation = a.save.generation();
     run(&mut a, [Action::Saved { generation }]);
-    assert!(a.should_quit);
+    assert!(a.save.should_quit());
     // A failed save keeps the user on this clip; q then quits rather than switching.
     let mut a = app();
     a.clip_names = vec!["s1".into(), "s2".into()];

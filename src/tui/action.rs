@@ -204,6 +204,16 @@ pub enum Action {
         map: crate::model::LandmarkMap,
         path: String,
     },
+    /// The fits of a `FitDone` were written to the session's fit cache.
+    #[serde(skip)]
+    FitsStored,
+    #[serde(skip)]
+    FitsNotStored {
+        error: String,
+    },
+    /// The user has not edited for a while (`run::AUTOSAVE_IDLE`): a moment to autosave.
+    #[serde(skip)]
+    Idle,
     #[serde(skip)]
     Saved {
         generation: u64,
@@ -309,6 +319,9 @@ impl Action {
             | Self::SideFailed { .. }
             | Self::SideFrameLoaded { .. }
             | Self::SideFrameFailed { .. }
+            | Self::FitsStored
+            | Self::FitsNotStored { .. }
+            | Self::Idle
             | Self::Saved { .. }
             | Self::SaveFailed { .. }
             | Self::Status(_) => "internal",

@@ -4,6 +4,7 @@
 //! Only `update::update` changes an `App`; views read it. Side effects (decode a frame, run
 //! a fit, save) are queued in `App::effects` and carried out by the run loop's workers.
 
+pub use super::save_state::SaveState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::edit::PointChange;
@@ -13,7 +14,6 @@ use crate::math::Point2;
 use crate::measure::profile::{ProfileSetup, ProfileTrack};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
-use std::path::PathBuf;
 use std::sync::Arc;
 
 /// A decoded RGB frame, row-major, 3 bytes a pixel.
@@ -45,43 +45,6 @@ pub trait FrameProvider: Send + Sync {
     fn load(&self, frame: usize) -> anyhow::Result<FrameImage>;
 }
 
-/// Frames from a list of image files, indexed by frame number.
-pub struct ImageFiles {
-    pub paths: BTreeMap<usize, PathBuf>,
-}
-
-impl ImageFiles {
-    /// Every `.png/.jpg/.jpeg/.ppm/.pgm` file of a folder, sorted by name, numbered from 0.
-    ///
-    /// # Errors
-    /// When the folder cannot be read.
-    pub fn from_folder(dir: &std::path::Path) -> anyhow::Result<Self> {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| {
-                p.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-                    matches!(
-                        e.to_ascii_lowercase().as_str(),
-                        "png" | "jpg" | "jpeg" | "ppm" | "pgm"
-                    )
-                })
-            })
-            .collect();
-        files.sort();
-        Ok(Self { paths: files.into_iter().enumerate().collect() })
-    }
-}
-
-impl FrameProvider for ImageFiles {
-    fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
-        let path =
-            self.paths.get(&frame).ok_or_else(|| anyhow::anyhow!("no image for frame {frame}"))?;
-        let img =
-            image::open(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?.into_rgb8();
-        Ok(FrameImage { width: img.width(), height: img.height(), rgb: img.into_raw() })
-    }
-}
-
 /// Frames held in memory (tests, benchmarks, the demo).
 pub struct MemoryFrames(pub BTreeMap<usize, Arc<FrameImage>>);
 
@@ -94,7 +57,7 @@ impl FrameProvider for MemoryFrames {
     }
 }
 
-/// The four views, switched with 1–4.
+/// The five views, switched with 1–5.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum View {
     #[default]
@@ -425,8 +388,16 @@ pub enum Effect {
         generation: u64,
         frames: Option<Vec<usize>>,
     },
-    /// Write the corrections, reviewed set and map to the session file.
-    Save,
+    /// Write the corrections, reviewed set and map to the session file; the reply names
+    /// `generation`.
+    Save {
+        generation: u64,
+    },
+    /// Write the session's state and these fits to its fit cache (they were fitted from the
+    /// landmarks it now holds).
+    StoreFits {
+        fits: Vec<FrameFit>,
+    },
     SaveMap,
     /// Read the session's map file.
     LoadMap,
@@ -475,19 +446,10 @@ pub struct App {
     pub dragging: bool,
     /// The current drag has already pushed its undo entry.
     pub drag_open: bool,
-    /// The last save failed: `Quit` then leaves without trying again.
-    pub save_failed: bool,
     /// Size of the clip's frames, known once one is decoded.
     pub image_size: Option<(u32, u32)>,
-    /// Edits since the last save finished (autosave when > 0 and idle).
-    pub unsaved_edits: u64,
-    pub save_generation: u64,
-    /// A save is on its way to disk (on the saver thread).
-    pub saving: bool,
-    /// `unsaved_edits` when the newest save was requested: what its reply may clear.
-    pub save_pending_edits: u64,
-    pub quit_requested: bool,
-    pub should_quit: bool,
+    /// Unsaved changes, the save in flight, and whether the user is leaving.
+    pub save: SaveState,
     pub status: String,
     /// Decoded frames by frame number, newest last in `cache_order`.
     pub images: BTreeMap<usize, Arc<FrameImage>>,
@@ -546,14 +508,8 @@ impl App {
             redo: Vec::new(),
             dragging: false,
             drag_open: false,
-            save_failed: false,
             image_size: None,
-            unsaved_edits: 0,
-            save_generation: 0,
-            saving: false,
-            save_pending_edits: 0,
-            quit_requested: false,
-            should_quit: false,
+            save: SaveState::default(),
             status: String::new(),
             images: BTreeMap::new(),
             cache_order: VecDeque::new(),
@@ -685,6 +641,16 @@ impl App {
             self.analysis_generation += 1;
             self.effects.push(Effect::Analyse { generation: self.analysis_generation });
         }
+    }
+
+    /// Opened as the next clip of the same session: keeps how the user looked at the
+    /// previous one (view, image zoom and pan, the head's angle; not a suggestion, which was
+    /// for the other clip) and names the clip in the status line.
+    pub fn continue_from(&mut self, previous: &App, clip_name: &str) {
+        self.view = previous.view;
+        self.image_view = previous.image_view;
+        self.head = HeadView { suggested: None, ..previous.head };
+        self.status = format!("clip {} of {}: {clip_name}", self.clip + 1, self.clip_names.len());
     }
 
     /// The top overlay, if any.

@@ -1,7 +1,9 @@
-//! The keymap as data: (mode, key) → `Action`. Defaults live in one table
-//! (`default_bindings`); a TOML file overrides only the keys it names.
+//! The keymap as data: (mode, key) → `Action`. The defaults are `data/keymap.toml`, built into
+//! the binary (`BUILTIN`) and parsed at startup; a file named with `--keymap` has the same
+//! format and overrides only the keys it names.
 //!
-//! File format, one table per mode (`global`, `frames`, `head`, `fit`, `analysis`, `help`):
+//! File format, one table per mode (`global`, `frames`, `head`, `fit`, `analysis`, `side`,
+//! `help`), bindings in the order the help lists them:
 //! ```toml
 //! [frames]
 //! "x" = "RevertPoint"
@@ -169,149 +171,10 @@ pub struct Binding {
     pub action: Action,
 }
 
-/// The default bindings, in help order: (mode, key name, action).
-pub fn default_bindings() -> Vec<(KeyMode, &'static str, Action)> {
-    use Action as A;
-    use KeyMode::*;
-    let nudge = |dx, dy| A::Nudge { dx, dy };
-    let pan = |dx, dy| A::Pan { dx, dy };
-    let rot = |yaw, pitch| A::Rotate { yaw, pitch };
-    let cur = |dx, dy| A::MoveCursor { dx, dy };
-    let lip = |dx, dy| A::NudgeLipPoint { dx, dy };
-    vec![
-        (Global, "q", A::Quit),
-        (Global, "?", A::ToggleHelp),
-        (Global, "s", A::Save),
-        (Global, "u", A::Undo),
-        (Global, "ctrl-r", A::Redo),
-        (Global, "f", A::RunFit),
-        (Global, "1", A::ShowFrames),
-        (Global, "2", A::ShowHead),
-        (Global, "3", A::ShowFit),
-        (Global, "4", A::ShowAnalysis),
-        (Global, "5", A::ShowSide),
-        (Global, ">", A::NextClip),
-        (Global, "<", A::PrevClip),
-        (Global, "n", A::NextFrame),
-        (Global, "p", A::PrevFrame),
-        (Global, "pagedown", A::NextFrame),
-        (Global, "pageup", A::PrevFrame),
-        (Global, "home", A::FirstFrame),
-        (Global, "end", A::LastFrame),
-        (Global, "]", A::NextFlagged),
-        (Global, "[", A::PrevFlagged),
-        (Global, "N", A::NextUnreviewed),
-        (Global, "G", A::GotoFramePrompt),
-        (Global, "esc", A::Cancel),
-        (Global, "ctrl-c", A::Quit),
-        // Frames view: correcting landmarks.
-        (Frames, "left", nudge(-1, 0)),
-        (Frames, "right", nudge(1, 0)),
-        (Frames, "up", nudge(0, -1)),
-        (Frames, "down", nudge(0, 1)),
-        (Frames, "h", nudge(-1, 0)),
-        (Frames, "l", nudge(1, 0)),
-        (Frames, "k", nudge(0, -1)),
-        (Frames, "j", nudge(0, 1)),
-        (Frames, "shift-left", nudge(-10, 0)),
-        (Frames, "shift-right", nudge(10, 0)),
-        (Frames, "shift-up", nudge(0, -10)),
-        (Frames, "shift-down", nudge(0, 10)),
-        (Frames, "H", nudge(-10, 0)),
-        (Frames, "L", nudge(10, 0)),
-        (Frames, "K", nudge(0, -10)),
-        (Frames, "J", nudge(0, 10)),
-        (Frames, "tab", A::NextPoint),
-        (Frames, "backtab", A::PrevPoint),
-        (Frames, "g", A::GotoPointPrompt),
-        (Frames, "m", A::CycleScope),
-        (Frames, "v", A::ToggleVisible),
-        (Frames, "y", A::CopyPointFromPrev),
-        (Frames, "Y", A::CopyFrameFromPrev),
-        (Frames, "t", A::PropagatePrompt),
-        (Frames, "i", A::InterpolateSelected),
-        (Frames, "I", A::InterpolateAll),
-        (Frames, "x", A::RevertPoint),
-        (Frames, "r", A::ToggleReviewed),
-        (Frames, "+", A::ZoomIn),
-        (Frames, "=", A::ZoomIn),
-        (Frames, "-", A::ZoomOut),
-        (Frames, "0", A::ZoomReset),
-        (Frames, "c", A::CenterOnPoint),
-        (Frames, "ctrl-left", pan(-1, 0)),
-        (Frames, "ctrl-right", pan(1, 0)),
-        (Frames, "ctrl-up", pan(0, -1)),
-        (Frames, "ctrl-down", pan(0, 1)),
-        (Frames, "alt-h", pan(-1, 0)),
-        (Frames, "alt-l", pan(1, 0)),
-        (Frames, "alt-k", pan(0, -1)),
-        (Frames, "alt-j", pan(0, 1)),
-        // Head view: rotate, label.
-        (Head, "left", cur(-2, 0)),
-        (Head, "right", cur(2, 0)),
-        (Head, "up", cur(0, -2)),
-        (Head, "down", cur(0, 2)),
-        (Head, "h", cur(-2, 0)),
-        (Head, "l", cur(2, 0)),
-        (Head, "k", cur(0, -2)),
-        (Head, "j", cur(0, 2)),
-        (Head, "shift-left", cur(-10, 0)),
-        (Head, "shift-right", cur(10, 0)),
-        (Head, "shift-up", cur(0, -10)),
-        (Head, "shift-down", cur(0, 10)),
-        (Head, "a", rot(-15, 0)),
-        (Head, "d", rot(15, 0)),
-        (Head, "w", rot(0, -15)),
-        (Head, "e", rot(0, 15)),
-        (Head, "H", rot(-90, 0)),
-        (Head, "L", rot(90, 0)),
-        (Head, "tab", A::NextLabel),
-        (Head, "backtab", A::PrevLabel),
-        (Head, "g", A::GotoLabelPrompt),
-        (Head, "enter", A::ConfirmLabel),
-        (Head, "x", A::ClearLabel),
-        (Head, "o", A::SuggestLabel),
-        (Head, "O", A::SuggestAllLabels),
-        (Head, "S", A::SaveMap),
-        (Head, "R", A::LoadMap),
-        (Head, "+", A::ZoomIn),
-        (Head, "=", A::ZoomIn),
-        (Head, "-", A::ZoomOut),
-        (Head, "0", A::ResetView),
-        // Analysis view.
-        (Analysis, "down", A::RowDown),
-        (Analysis, "up", A::RowUp),
-        (Analysis, "j", A::RowDown),
-        (Analysis, "k", A::RowUp),
-        (Analysis, "tab", A::NextTable),
-        (Analysis, "o", A::SortNextColumn),
-        (Analysis, "O", A::SortReverse),
-        (Analysis, "enter", A::OpenRow),
-        // Side view: correct the upper lip's foremost point.
-        (Side, "left", lip(-1, 0)),
-        (Side, "right", lip(1, 0)),
-        (Side, "up", lip(0, -1)),
-        (Side, "down", lip(0, 1)),
-        (Side, "h", lip(-1, 0)),
-        (Side, "l", lip(1, 0)),
-        (Side, "k", lip(0, -1)),
-        (Side, "j", lip(0, 1)),
-        (Side, "shift-left", lip(-10, 0)),
-        (Side, "shift-right", lip(10, 0)),
-        (Side, "shift-up", lip(0, -10)),
-        (Side, "shift-down", lip(0, 10)),
-        (Side, "x", A::RevertLipPoint),
-        (Side, "r", A::ToggleReviewed),
-        // Help overlay.
-        (Help, "j", A::ScrollDown),
-        (Help, "k", A::ScrollUp),
-        (Help, "down", A::ScrollDown),
-        (Help, "up", A::ScrollUp),
-        (Help, "?", A::ToggleHelp),
-        (Help, "esc", A::ToggleHelp),
-        (Help, "q", A::ToggleHelp),
-    ]
-}
+/// The default keymap file, built into the binary.
+pub const BUILTIN: &str = include_str!("../../data/keymap.toml");
+/// How errors name the built-in file.
+const BUILTIN_NAME: &str = "data/keymap.toml (built in)";
 
 /// Errors reading a keymap file: the file and what was wrong where.
 #[derive(Debug, thiserror::Error)]
@@ -336,23 +199,71 @@ pub struct Keymap {
     pub bindings: Vec<Binding>,
 }
 
+/// One entry of a keymap file: `None` unbinds the key.
+type Entry = (KeyMode, KeyChord, Option<Action>);
+
+/// A mode's table as read: each value with its place in the text, since TOML tables come back
+/// sorted by key and the file's order is the help's order.
+type SpannedTables = std::collections::BTreeMap<
+    String,
+    std::collections::BTreeMap<String, toml::Spanned<toml::Value>>,
+>;
+
+/// The entries of keymap TOML text in the order they are written (`path` names the file in
+/// errors).
+fn parse_entries(text: &str, path: &str) -> Result<Vec<Entry>, KeymapError> {
+    let tables: SpannedTables = toml::from_str(text)
+        .map_err(|source| KeymapError::Toml { path: path.to_string(), source })?;
+    let mut entries = Vec::new();
+    for (mode_name, table) in tables {
+        let mode = KeyMode::parse(&mode_name).ok_or_else(|| KeymapError::Mode {
+            path: path.to_string(),
+            table: mode_name.clone(),
+        })?;
+        for (key_name, value) in table {
+            let at = value.span().start;
+            let key = KeyChord::parse(&key_name).ok_or_else(|| KeymapError::Key {
+                path: path.to_string(),
+                table: mode_name.clone(),
+                key: key_name.clone(),
+            })?;
+            let value = value.into_inner();
+            let action = if value.as_str() == Some("none") {
+                None
+            } else {
+                Some(value.try_into::<Action>().map_err(|e| KeymapError::Action {
+                    path: path.to_string(),
+                    table: mode_name.clone(),
+                    key: key_name.clone(),
+                    message: e.to_string(),
+                })?)
+            };
+            entries.push((at, (mode, key, action)));
+        }
+    }
+    entries.sort_by_key(|(at, _)| *at);
+    Ok(entries.into_iter().map(|(_, e)| e).collect())
+}
+
 impl Default for Keymap {
+    /// The built-in keymap (`Keymap::builtin`); empty if the built-in file were broken, which
+    /// its tests rule out (`run` loads it with `builtin` and reports such an error).
     fn default() -> Self {
-        let bindings = default_bindings()
-            .into_iter()
-            .map(|(mode, key, action)| Binding {
-                mode,
-                // The table is tested to parse; an unparsable entry would be a bug caught there.
-                key: KeyChord::parse(key)
-                    .unwrap_or(KeyChord::new(KeyCode::Null, KeyModifiers::NONE)),
-                action,
-            })
-            .collect();
-        Self { bindings }
+        Self::builtin().unwrap_or(Self { bindings: Vec::new() })
     }
 }
 
 impl Keymap {
+    /// The default bindings, from the built-in `data/keymap.toml`.
+    ///
+    /// # Errors
+    /// `KeymapError` naming the built-in file, when it does not parse.
+    pub fn builtin() -> Result<Self, KeymapError> {
+        let mut km = Self { bindings: Vec::new() };
+        km.apply_toml(BUILTIN, BUILTIN_NAME)?;
+        Ok(km)
+    }
+
     /// The defaults with the file's bindings applied over them.
     ///
     /// # Errors
@@ -361,43 +272,20 @@ impl Keymap {
         let p = path.display().to_string();
         let text = std::fs::read_to_string(path)
             .map_err(|source| KeymapError::Read { path: p.clone(), source })?;
-        let mut km = Self::default();
+        let mut km = Self::builtin()?;
         km.apply_toml(&text, &p)?;
         Ok(km)
     }
 
-    /// Applies overrides from TOML text (`path` is only used in errors).
+    /// Applies bindings from TOML text in its order: each replaces the key's binding in its
+    /// mode, or unbinds it (`"none"`). `path` is only used in errors.
     ///
     /// # Errors
     /// As `load`.
     pub fn apply_toml(&mut self, text: &str, path: &str) -> Result<(), KeymapError> {
-        let table: toml::Table = toml::from_str(text)
-            .map_err(|source| KeymapError::Toml { path: path.to_string(), source })?;
-        for (mode_name, entries) in table {
-            let mode = KeyMode::parse(&mode_name).ok_or_else(|| KeymapError::Mode {
-                path: path.to_string(),
-                table: mode_name.clone(),
-            })?;
-            let Some(entries) = entries.as_table() else {
-                return Err(KeymapError::Mode { path: path.to_string(), table: mode_name });
-            };
-            for (key_name, value) in entries {
-                let key = KeyChord::parse(key_name).ok_or_else(|| KeymapError::Key {
-                    path: path.to_string(),
-                    table: mode_name.clone(),
-                    key: key_name.clone(),
-                })?;
-                self.bindings.retain(|b| !(b.mode == mode && b.key == key));
-                if value.as_str() == Some("none") {
-                    continue;
-                }
-                let action =
-                    value.clone().try_into::<Action>().map_err(|e| KeymapError::Action {
-                        path: path.to_string(),
-                        table: mode_name.clone(),
-                        key: key_name.clone(),
-                        message: e.to_string(),
-                    })?;
+        for (mode, key, action) in parse_entries(text, path)? {
+            self.bindings.retain(|b| !(b.mode == mode && b.key == key));
+            if let Some(action) = action {
                 self.bindings.push(Binding { mode, key, action });
             }
         }
@@ -431,13 +319,23 @@ mod tests {
     use std::collections::HashSet;
 
     #[test]
-    fn default_key_names_parse_and_round_trip() {
-        for (mode, name, _) in default_bindings() {
-            let k = KeyChord::parse(name)
-                .unwrap_or_else(|| panic!("[{}] `{name}` does not parse", mode.name()));
-            assert_eq!(k.to_string(), name, "[{}] `{name}` is not canonical", mode.name());
-            assert_eq!(KeyChord::parse(&k.to_string()), Some(k));
+    fn builtin_file_parses_with_canonical_key_names() {
+        let km = Keymap::builtin().unwrap();
+        let tables: toml::Table = toml::from_str(BUILTIN).unwrap();
+        let names: usize = tables.values().map(|t| t.as_table().map_or(0, |t| t.len())).sum();
+        assert_eq!(km.bindings.len(), names, "every entry binds a key");
+        for (mode, table) in &tables {
+            for name in table.as_table().unwrap().keys() {
+                let k = KeyChord::parse(name)
+                    .unwrap_or_else(|| panic!("[{mode}] `{name}` does not parse"));
+                assert_eq!(k.to_string(), *name, "[{mode}] `{name}` is not canonical");
+                assert_eq!(KeyChord::parse(&k.to_string()), Some(k));
+            }
         }
+    }
+
+    #[test]
+    fn key_names_round_trip() {
         for name in ["ctrl--", "-", "alt-shift-f5", "space", "ctrl-alt-enter", "Q", "shift-tab"] {
             let k = KeyChord::parse(name).unwrap();
             assert_eq!(KeyChord::parse(&k.to_string()), Some(k), "{name}");
@@ -445,6 +343,38 @@ mod tests {
         assert_eq!(KeyChord::parse("shift-a"), None, "shift on a character is written `A`");
         assert_eq!(KeyChord::parse("hyper-x"), None);
         assert_eq!(KeyChord::parse("f0"), None);
+    }
+
+    #[test]
+    fn help_text_comes_from_the_file() {
+        // A binding added by a file shows in the help, described by its action.
+        let mut km = Keymap::builtin().unwrap();
+        km.apply_toml("[analysis]\n\"ctrl-o\" = \"OpenRow\"\n", "k.toml").unwrap();
+        let last = km.of_mode(KeyMode::Analysis).last().unwrap();
+        assert_eq!(
+            (last.key.to_string(), last.action.describe()),
+            ("ctrl-o".to_string(), "open the row's frame in the frames view".to_string())
+        );
+    }
+
+    #[test]
+    fn a_file_keeps_its_order() {
+        let mut km = Keymap { bindings: Vec::new() };
+        km.apply_toml("[global]\n\"z\" = \"Quit\"\n\"a\" = \"Save\"\n", "k.toml").unwrap();
+        let keys: Vec<String> = km.bindings.iter().map(|b| b.key.to_string()).collect();
+        assert_eq!(keys, ["z", "a"]);
+    }
+
+    /// Every default binding in order, one line each: the snapshot records the bindings the
+    /// keymap had before it became a data file, so the file must reproduce them exactly.
+    #[test]
+    fn default_bindings_are_unchanged() {
+        let lines: Vec<String> = Keymap::default()
+            .bindings
+            .iter()
+            .map(|b| format!("[{}] {} = {:?}", b.mode.name(), b.key, b.action))
+            .collect();
+        insta::assert_snapshot!(lines.join("\n"));
     }
 
     #[test]
@@ -501,6 +431,8 @@ mod tests {
         assert!(e.to_string().contains("[frames] `q`"), "{e}");
         let e = km.apply_toml("[nowhere]\n\"q\" = \"Quit\"\n", "k.toml").unwrap_err();
         assert!(e.to_string().contains("[nowhere]"), "{e}");
+        let e = km.apply_toml("q = \"Quit\"\n", "k.toml").unwrap_err();
+        assert!(e.to_string().starts_with("k.toml: "), "a key outside a table: {e}");
         let e = km.apply_toml("[frames]\n\"q\" = \"PromptSubmit\"\n", "k.toml").unwrap_err();
         assert!(e.to_string().contains("`q`"), "internal actions are not bindable: {e}");
     }

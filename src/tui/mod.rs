@@ -7,8 +7,10 @@
 
 pub mod action;
 pub mod app;
+#[cfg(any(test, feature = "test-fixtures"))]
 pub mod fixtures;
 pub mod keymap;
+pub mod save_state;
 pub mod update;
 pub mod views;
 pub mod widgets;

@@ -8,7 +8,7 @@
 //! saves what is left before quitting. The terminal is restored on return, error and panic.
 
 use super::action::Action;
-use super::app::{App, Effect, HeadView};
+use super::app::{App, Effect};
 use super::keymap::Keymap;
 use super::session_bridge::SessionBridge;
 use super::update::{key_to_action, mouse_to_action, request_images, update};
@@ -63,9 +63,9 @@ pub struct RunOptions {
 pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()> {
     let keymap = match &options.keymap {
         Some(p) => Keymap::load(p)?,
-        None => Keymap::default(),
+        None => Keymap::builtin()?,
     };
-    let mut clip = match &options.clip {
+    let clip = match &options.clip {
         Some(name) => {
             let s = crate::session::Session::load(session_path)?;
             crate::workflow::find_clip(&s, name)
@@ -109,7 +109,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
         bridge.finish_saving();
-        if app.unsaved_edits > 0
+        if !app.save.is_clean()
             && let Err(e) = bridge.save(&app)
         {
             drop(guard);
@@ -120,23 +120,16 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             drop(guard);
             return result;
         };
-        // Keep how the user looks at things across clips.
-        let (view, image_view, head) = (app.view, app.image_view, app.head);
         drop(bridge);
-        let opened = SessionBridge::open(session_path, next);
-        (app, bridge, provider) = match opened {
+        let previous = app;
+        (app, bridge, provider) = match SessionBridge::open(session_path, next) {
             Ok(o) => o,
             Err(e) => {
                 drop(guard);
                 return Err(e);
             }
         };
-        clip = next;
-        app.view = view;
-        app.image_view = image_view;
-        app.head = HeadView { suggested: None, ..head };
-        app.status =
-            format!("clip {} of {}: {}", clip + 1, app.clip_names.len(), bridge.clip_name());
+        app.continue_from(&previous, &bridge.clip_name());
     }
 }
 
@@ -161,28 +154,25 @@ where
     B::Error: Send + Sync + 'static,
 {
     let mut redraw = true;
-    let mut seen_edits = app.unsaved_edits;
+    let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();
     loop {
         run_effects(app, bridge, workers);
-        if app.should_quit {
+        if app.save.should_quit() {
             return Ok(());
         }
-        if app.unsaved_edits != seen_edits {
-            seen_edits = app.unsaved_edits;
+        if app.save.unsaved() != seen_edits {
+            seen_edits = app.save.unsaved();
             last_edit = Instant::now();
         }
-        // After a failed save, wait for the next edit rather than retrying in a loop.
-        if app.unsaved_edits > 0
-            && !app.dragging
-            && !app.save_failed
-            && !app.saving
-            && last_edit.elapsed() >= AUTOSAVE_IDLE
-        {
-            apply(app, Action::Save);
-            run_effects(app, bridge, workers);
-            seen_edits = app.unsaved_edits;
-            redraw = true;
+        // Autosave waits for a pause in editing; whether to save then is `update`'s call.
+        if last_edit.elapsed() >= AUTOSAVE_IDLE {
+            apply(app, Action::Idle);
+            if !app.effects.is_empty() {
+                run_effects(app, bridge, workers);
+                seen_edits = app.save.unsaved();
+                redraw = true;
+            }
         }
         // A background encoding finished: show it.
         if gfx.poll() {
@@ -208,23 +198,7 @@ where
             redraw = true;
         }
         while let Ok(a) = rx.try_recv() {
-            let to_store = match &a {
-                Action::FitDone { generation, fits } if *generation == app.fit.generation => {
-                    Some(fits.clone())
-                }
-                _ => None,
-            };
             apply(app, a);
-            // Cache fits only when no edit happened since the request, so the cache key
-            // (the landmarks now in the session) is what the fit used.
-            if let Some(fits) = to_store.filter(|_| app.fit.stale.is_empty()) {
-                let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
-                match stored {
-                    // The cache is part of the session: autosave writes it.
-                    Ok(()) => app.unsaved_edits += 1,
-                    Err(e) => app.status = format!("fit cache not updated: {e:#}"),
-                }
-            }
             redraw = true;
         }
     }
@@ -254,11 +228,19 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     image_height,
                 });
             }
-            Effect::Save => {
+            Effect::Save { generation } => {
                 // Written on the saver thread; `Saved` comes back through the channel.
-                if let Err(e) = bridge.save_in_background(app, app.save_generation) {
+                if let Err(e) = bridge.save_in_background(app, generation) {
                     apply(app, Action::SaveFailed { error: format!("{e:#}") });
                 }
+            }
+            Effect::StoreFits { fits } => {
+                let stored = bridge.write_back(app).and_then(|()| bridge.store_fits(app, fits));
+                let reply = match stored {
+                    Ok(()) => Action::FitsStored,
+                    Err(e) => Action::FitsNotStored { error: format!("{e:#}") },
+                };
+                apply(app, reply);
             }
             Effect::LoadMap => {
                 let reply = match bridge.load_map_file() {

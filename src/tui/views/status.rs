@@ -87,7 +87,7 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     }
     let chain = mode_chain(app);
     let key = |a: Action| keymap.key_for(&chain, &a).map_or(String::new(), |k| k.to_string());
-    let save = if app.unsaved_edits > 0 {
+    let save = if !app.save.is_clean() {
         Span::from(" ● unsaved ").fg(Color::Yellow)
     } else {
         Span::from(" saved ").fg(Color::DarkGray)

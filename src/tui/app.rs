@@ -45,18 +45,6 @@ pub trait FrameProvider: Send + Sync {
     fn load(&self, frame: usize) -> anyhow::Result<FrameImage>;
 }
 
-/// Frames held in memory (tests, benchmarks, the demo).
-pub struct MemoryFrames(pub BTreeMap<usize, Arc<FrameImage>>);
-
-impl FrameProvider for MemoryFrames {
-    fn load(&self, frame: usize) -> anyhow::Result<FrameImage> {
-        self.0
-            .get(&frame)
-            .map(|f| (**f).clone())
-            .ok_or_else(|| anyhow::anyhow!("no image for frame {frame}"))
-    }
-}
-
 /// The five views, switched with 1–5.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum View {

@@ -267,13 +267,6 @@ pub fn synthetic_app(n_frames: usize, width: u32, height: u32, with_fits: bool) 
     app
 }
 
-/// A `FrameProvider` over the synthetic images (for the run loop in benchmarks).
-pub fn synthetic_frames(n_frames: usize, width: u32, height: u32) -> super::app::MemoryFrames {
-    super::app::MemoryFrames(
-        (0..n_frames).map(|f| (f, Arc::new(face_image(f, width, height)))).collect(),
-    )
-}
-
 /// A `Write` that counts and discards bytes: a stand-in terminal for measuring what ratatui
 /// would send (escape sequences included) when a frame is drawn.
 #[derive(Clone, Debug, Default)]

@@ -5,7 +5,7 @@ use crate::cli::new::session_path;
 use crate::cli::output::{FormatArgs, write_tables};
 use crate::eval::report::{indices_table, verdict_table};
 use crate::eval::{Cell, Table};
-use crate::io::{landmark_format, obj};
+use crate::io::{bounds_table, landmark_format, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::DVector;
 use crate::measure::indices::{BoxPlot, facial_indices_partial, shape_indices_partial};
@@ -80,12 +80,7 @@ pub fn classify_input(s: &str) -> IndicesInput {
 pub fn load_bounds(path: &Path) -> Result<BoundsTable> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    let parsed = if is_toml(path) {
-        BoundsTable::from_toml_str(&text)
-    } else {
-        BoundsTable::from_csv_str(&text)
-    };
-    parsed.map_err(|e| e.into_format_error(path).into())
+    Ok(bounds_table::parse_bounds_table(path, &text)?)
 }
 
 /// Writes a bounds table in the format [`load_bounds`] reads back.
@@ -93,12 +88,7 @@ pub fn load_bounds(path: &Path) -> Result<BoundsTable> {
 /// # Errors
 /// The write failing.
 pub fn save_bounds(table: &BoundsTable, path: &Path) -> Result<()> {
-    let text = if is_toml(path) { table.to_toml_string() } else { table.to_csv_string() };
-    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
-}
-
-fn is_toml(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    Ok(bounds_table::write_bounds_table(table, path)?)
 }
 
 /// The indices of one frame of a landmark file: frame `frame` if given, else the first.

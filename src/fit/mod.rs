@@ -7,6 +7,7 @@
 
 pub mod camera;
 pub mod clip;
+mod flags;
 mod joint;
 pub mod pipeline;
 pub mod result;

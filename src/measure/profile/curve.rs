@@ -81,7 +81,7 @@ pub(super) const APEX_SOFT: ApexWindow = ApexWindow { rows: 6, drop_px: 1.5 };
 /// For hard-edged renders, where each row's edge is quantised to ±½ px: about twenty rows,
 /// which average the quantisation out while a lip is still near a parabola over them; a
 /// wider window bends with the lip's shape away from its apex and biases the vertex
-/// (`docs/` records the window sizes compared against rendered ground truth).
+/// (`docs/protrusion.md` records the windows compared against rendered ground truth).
 pub(super) const APEX_HARD: ApexWindow = ApexWindow { rows: 10, drop_px: 3.0 };
 
 /// Rows either side of a smoothed peak where the raw maximum is looked for: smoothing moves

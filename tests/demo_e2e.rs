@@ -3,6 +3,7 @@
 //! check the flags catch the injected errors and the phoneme table covers every phone.
 
 use lipmap::demo::{DemoOptions, generate};
+use lipmap::fit::FrameFit;
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::PointSource;
 use lipmap::landmarks::flags::{FlagThresholds, flag_frames};
@@ -32,10 +33,11 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
     let mut unflagged = Vec::new();
     for (c, clip) in speaker.clips.iter().enumerate() {
         let track = session.effective_track(c).unwrap();
-        let flagged: BTreeSet<usize> = flag_frames(&track, None, &[], &FlagThresholds::default())
-            .into_iter()
-            .map(|f| f.frame)
-            .collect();
+        let flagged: BTreeSet<usize> =
+            flag_frames::<FrameFit>(&track, None, &[], &FlagThresholds::default())
+                .into_iter()
+                .map(|f| f.frame)
+                .collect();
         for e in &clip.injected_errors {
             if !flagged.contains(&e.frame) {
                 unflagged.push(format!("{} frame {}", clip.name, e.frame));

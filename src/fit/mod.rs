@@ -8,6 +8,7 @@
 mod alternating;
 pub mod camera;
 pub mod clip;
+mod flags;
 mod joint;
 pub mod pipeline;
 pub mod result;

@@ -6,6 +6,7 @@ pub mod frames;
 
 pub use error::FormatError;
 pub mod alignment_format;
+pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;
 pub mod htk_lab;
@@ -21,3 +22,4 @@ pub mod phones_csv;
 pub mod pts;
 pub mod textgrid;
 pub mod track_csv;
+pub mod viseme_table;

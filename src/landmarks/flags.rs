@@ -6,8 +6,18 @@
 //! sub-pixel noise. Start at `flag_frames`.
 
 use super::track::Track;
-use crate::fit::FrameFit;
 use std::fmt;
+
+/// What the residual flags need of one frame's fit: plain numbers, so this module does not
+/// depend on the fitter (which depends on landmarks). `fit::FrameFit` implements it.
+pub trait FitResidual {
+    /// The frame number.
+    fn frame(&self) -> usize;
+    /// Reprojection RMS (px); ignored when the fit failed.
+    fn reproj_rms_px(&self) -> f64;
+    /// Why the fit failed, when it did.
+    fn failure(&self) -> Option<&str>;
+}
 
 /// Why a frame was flagged.
 #[derive(Clone, Debug, PartialEq)]
@@ -108,9 +118,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Frame flags for a clip, ascending by frame; frames with no reason are omitted.
 /// `fits` and `measures` are optional extra evidence, matched to track frames by number.
-pub fn flag_frames(
+pub fn flag_frames<F: FitResidual>(
     track: &Track,
-    fits: Option<&[FrameFit]>,
+    fits: Option<&[F]>,
     measures: &[MeasureSeries],
     th: &FlagThresholds,
 ) -> Vec<FrameFlags> {
@@ -216,18 +226,18 @@ pub fn confidence_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagR
 }
 
 /// Failed fits and reprojection RMS far above the clip's median.
-pub fn fit_flags(fits: &[FrameFit], th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
+pub fn fit_flags<F: FitResidual>(fits: &[F], th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let ok: Vec<f64> =
-        fits.iter().filter(|f| f.failed.is_none()).map(|f| f.reproj_rms_px).collect();
+        fits.iter().filter(|f| f.failure().is_none()).map(|f| f.reproj_rms_px()).collect();
     let limit = median_sigma(&ok).map_or(f64::INFINITY, |(m, s)| {
         (m + th.residual_sigmas * s).max(th.residual_ratio * m).max(th.residual_min_px)
     });
     let mut out = Vec::new();
     for f in fits {
-        if let Some(reason) = &f.failed {
-            out.push((f.frame, FlagReason::FitFailed { reason: reason.clone() }));
-        } else if !f.reproj_rms_px.is_finite() || f.reproj_rms_px > limit {
-            out.push((f.frame, FlagReason::HighResidual { rms_px: f.reproj_rms_px }));
+        if let Some(reason) = f.failure() {
+            out.push((f.frame(), FlagReason::FitFailed { reason: reason.to_string() }));
+        } else if !f.reproj_rms_px().is_finite() || f.reproj_rms_px() > limit {
+            out.push((f.frame(), FlagReason::HighResidual { rms_px: f.reproj_rms_px() }));
         }
     }
     out
@@ -269,6 +279,29 @@ mod tests {
     use super::*;
     use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS};
 
+    struct Residual {
+        frame: usize,
+        rms: f64,
+        failed: Option<String>,
+    }
+
+    impl FitResidual for Residual {
+        fn frame(&self) -> usize {
+            self.frame
+        }
+        fn reproj_rms_px(&self) -> f64 {
+            self.rms
+        }
+        fn failure(&self) -> Option<&str> {
+            self.failed.as_deref()
+        }
+    }
+
+    /// No fits: the flags of the track alone.
+    fn track_flags(t: &Track) -> Vec<FrameFlags> {
+        flag_frames::<Residual>(t, None, &[], &FlagThresholds::default())
+    }
+
     /// A face drifting smoothly right by ~1 px a frame with a little wobble.
     fn smooth_track(n: usize) -> Track {
         Track::new(
@@ -294,7 +327,7 @@ mod tests {
         let mut t = smooth_track(40);
         assert!(jump_flags(&t, &FlagThresholds::default()).is_empty());
         t.get_mut(20).unwrap().points[48].x += 25.0;
-        let flags = flag_frames(&t, None, &[], &FlagThresholds::default());
+        let flags = track_flags(&t);
         let frames: Vec<usize> = flags.iter().map(|f| f.frame).collect();
         assert_eq!(frames, vec![20, 21]);
         assert!(matches!(flags[0].reasons[0], FlagReason::Jump { point: 48, px } if px > 24.0));
@@ -306,7 +339,7 @@ mod tests {
         t.get_mut(1).unwrap().confidence = Some(0.3);
         t.get_mut(2).unwrap().success = false;
         t.get_mut(3).unwrap().points[5].confidence = Some(0.5);
-        let flags = flag_frames(&t, None, &[], &FlagThresholds::default());
+        let flags = track_flags(&t);
         assert_eq!(flags.len(), 3);
         assert_eq!(flags[0].reasons, vec![FlagReason::LowConfidence { value: 0.3 }]);
         assert_eq!(flags[1].reasons, vec![FlagReason::TrackerFailed]);
@@ -315,12 +348,12 @@ mod tests {
 
     #[test]
     fn residual_outliers_and_failures() {
-        let fit = |frame, rms: f64, failed: Option<&str>| FrameFit {
-            reproj_rms_px: rms,
+        let fit = |frame, rms: f64, failed: Option<&str>| Residual {
+            frame,
+            rms,
             failed: failed.map(str::to_string),
-            ..FrameFit::unposed(frame)
         };
-        let fits: Vec<FrameFit> = (0..20)
+        let fits: Vec<Residual> = (0..20)
             .map(|f| match f {
                 7 => fit(f, 15.0, None),
                 9 => fit(f, f64::NAN, Some("too few landmarks")),

@@ -1,10 +1,15 @@
 //! The iBUG-68 convention (0-based everywhere in lipmap): names, anatomical groups and the
 //! cumulative landmark sets F1..F5 used to choose which points drive a fit.
+//!
+//! The group ranges and named points below are the markup's convention, which the measures
+//! and fitting sets rely on; the names shown to users and the display groups are data
+//! (`data/ibug68.csv`, embedded at build time).
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
+use std::sync::LazyLock;
 
 /// Number of points in the iBUG-68 markup.
 pub const N_LANDMARKS: usize = 68;
@@ -42,54 +47,114 @@ pub mod point {
 
 /// A named group of points that can be moved together (TUI) or reported together.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Group {
-    pub name: &'static str,
+pub struct Group<'a> {
+    pub name: &'a str,
     pub range: Range<usize>,
 }
 
-pub const GROUPS: [Group; 9] = [
-    Group { name: "jaw", range: JAW },
-    Group { name: "right brow", range: RIGHT_BROW },
-    Group { name: "left brow", range: LEFT_BROW },
-    Group { name: "nose bridge", range: NOSE_BRIDGE },
-    Group { name: "lower nose", range: LOWER_NOSE },
-    Group { name: "right eye", range: RIGHT_EYE },
-    Group { name: "left eye", range: LEFT_EYE },
-    Group { name: "outer lip", range: OUTER_LIP },
-    Group { name: "inner lip", range: INNER_LIP },
-];
+/// Point names and groups as shipped in `data/` (a user's file in the same format, e.g. in
+/// another language, replaces it through [`LandmarkNames::from_csv_str`]).
+pub const DEFAULT_NAMES_CSV: &str = include_str!("../../data/ibug68.csv");
+
+/// [`DEFAULT_NAMES_CSV`] parsed once.
+static DEFAULT_NAMES: LazyLock<LandmarkNames<'static>> = LazyLock::new(|| {
+    LandmarkNames::from_csv_str(DEFAULT_NAMES_CSV).expect("the embedded table parses (tested)")
+});
+
+/// The default groups: [`JAW`] … [`INNER_LIP`] with their names.
+pub static GROUPS: LazyLock<Vec<Group<'static>>> = LazyLock::new(|| DEFAULT_NAMES.groups.clone());
 
 /// The group a point belongs to.
-pub fn group_of(index: usize) -> Option<&'static Group> {
+pub fn group_of(index: usize) -> Option<&'static Group<'static>> {
     GROUPS.iter().find(|g| g.range.contains(&index))
 }
 
 /// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62.
 pub fn landmark_name(index: usize) -> String {
-    use point::*;
-    let special = match index {
-        GNATHION => Some("chin (gnathion)"),
-        NASION => Some("nasion"),
-        NOSE_TIP => Some("nose tip"),
-        SUBNASALE => Some("subnasale"),
-        RIGHT_EXOCANTHION => Some("right eye outer corner"),
-        RIGHT_ENDOCANTHION => Some("right eye inner corner"),
-        LEFT_ENDOCANTHION => Some("left eye inner corner"),
-        LEFT_EXOCANTHION => Some("left eye outer corner"),
-        RIGHT_CHEILION => Some("right mouth corner"),
-        LABIALE_SUPERIUS => Some("upper lip top"),
-        LEFT_CHEILION => Some("left mouth corner"),
-        LABIALE_INFERIUS => Some("lower lip bottom"),
-        INNER_LIP_RIGHT => Some("inner lip right corner"),
-        STOMION_UPPER => Some("inner lip top"),
-        INNER_LIP_LEFT => Some("inner lip left corner"),
-        STOMION_LOWER => Some("inner lip bottom"),
-        _ => None,
-    };
-    match (special, group_of(index)) {
-        (Some(s), _) => s.to_string(),
-        (None, Some(g)) => format!("{} {}", g.name, index - g.range.start + 1),
-        (None, None) => format!("point {index}"),
+    DEFAULT_NAMES.name(index)
+}
+
+/// The names and groups of the 68 points, borrowed from the CSV text they were parsed from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LandmarkNames<'a> {
+    /// Consecutive runs of points, in point order.
+    pub groups: Vec<Group<'a>>,
+    /// A point's own name; `None` names it by its group and place in it.
+    pub names: Vec<Option<&'a str>>,
+}
+
+/// A problem in a landmark-names file: the 1-based line and what.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("line {line}: {message}")]
+pub struct NamesError {
+    pub line: usize,
+    pub message: String,
+}
+
+impl<'a> LandmarkNames<'a> {
+    /// Parses `index,group,name` rows (a header line first; `#` lines and blank lines are
+    /// skipped; `name` may be empty and may hold commas): one row per point, indices 0..67 in
+    /// order, each group one run of consecutive points.
+    ///
+    /// # Errors
+    /// A [`NamesError`] naming the line: a wrong header, a missing field, an index out of
+    /// order, an empty group, a group split in two runs, or not 68 rows.
+    pub fn from_csv_str(text: &'a str) -> Result<Self, NamesError> {
+        let err = |line: usize, message: String| NamesError { line, message };
+        let mut rows = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        let (hl, header) = rows.next().ok_or_else(|| err(1, "empty file".into()))?;
+        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
+        if cols != ["index", "group", "name"] {
+            return Err(err(hl, format!("expected the header `index,group,name`, got `{header}`")));
+        }
+        let mut groups: Vec<Group<'a>> = Vec::new();
+        let mut names = Vec::new();
+        let mut last_line = hl;
+        for (line, row) in rows {
+            last_line = line;
+            let mut f = row.splitn(3, ',').map(str::trim);
+            let (Some(index), Some(group), Some(name)) = (f.next(), f.next(), f.next()) else {
+                return Err(err(line, "expected three fields: index,group,name".into()));
+            };
+            let i = names.len();
+            if index.parse::<usize>().ok() != Some(i) {
+                return Err(err(line, format!("index `{index}`: expected {i}")));
+            }
+            if i >= N_LANDMARKS {
+                return Err(err(line, format!("more than {N_LANDMARKS} points")));
+            }
+            if group.is_empty() {
+                return Err(err(line, "empty group".into()));
+            }
+            if let Some(g) = groups.last_mut().filter(|g| g.name == group) {
+                g.range.end = i + 1;
+            } else if groups.iter().any(|g| g.name == group) {
+                return Err(err(line, format!("group `{group}` is split in two runs")));
+            } else {
+                groups.push(Group { name: group, range: i..i + 1 });
+            }
+            names.push((!name.is_empty()).then_some(name));
+        }
+        if names.len() != N_LANDMARKS {
+            return Err(err(last_line, format!("{} points, expected {N_LANDMARKS}", names.len())));
+        }
+        Ok(Self { groups, names })
+    }
+
+    /// The point's own name, else its group's name and 1-based place in it; `point i` for an
+    /// index past the table.
+    pub fn name(&self, index: usize) -> String {
+        if let Some(Some(n)) = self.names.get(index) {
+            return n.to_string();
+        }
+        match self.groups.iter().find(|g| g.range.contains(&index)) {
+            Some(g) => format!("{} {}", g.name, index - g.range.start + 1),
+            None => format!("point {index}"),
+        }
     }
 }
 
@@ -157,6 +222,68 @@ mod tests {
     fn set_sizes_are_cumulative() {
         let sizes: Vec<usize> = LandmarkSet::ALL.iter().map(|s| s.indices().len()).collect();
         assert_eq!(sizes, vec![20, 29, 41, 51, 68]);
+    }
+
+    #[test]
+    fn the_embedded_names_are_the_ibug_convention() {
+        let names = LandmarkNames::from_csv_str(DEFAULT_NAMES_CSV).unwrap();
+        let expected = [
+            ("jaw", JAW),
+            ("right brow", RIGHT_BROW),
+            ("left brow", LEFT_BROW),
+            ("nose bridge", NOSE_BRIDGE),
+            ("lower nose", LOWER_NOSE),
+            ("right eye", RIGHT_EYE),
+            ("left eye", LEFT_EYE),
+            ("outer lip", OUTER_LIP),
+            ("inner lip", INNER_LIP),
+        ]
+        .map(|(name, range)| Group { name, range });
+        assert_eq!(names.groups, expected);
+        assert_eq!(*GROUPS, expected);
+        use point::*;
+        let named = [
+            (GNATHION, "chin (gnathion)"),
+            (NASION, "nasion"),
+            (NOSE_TIP, "nose tip"),
+            (SUBNASALE, "subnasale"),
+            (RIGHT_EXOCANTHION, "right eye outer corner"),
+            (RIGHT_ENDOCANTHION, "right eye inner corner"),
+            (LEFT_ENDOCANTHION, "left eye inner corner"),
+            (LEFT_EXOCANTHION, "left eye outer corner"),
+            (RIGHT_CHEILION, "right mouth corner"),
+            (LABIALE_SUPERIUS, "upper lip top"),
+            (LEFT_CHEILION, "left mouth corner"),
+            (LABIALE_INFERIUS, "lower lip bottom"),
+            (INNER_LIP_RIGHT, "inner lip right corner"),
+            (STOMION_UPPER, "inner lip top"),
+            (INNER_LIP_LEFT, "inner lip left corner"),
+            (STOMION_LOWER, "inner lip bottom"),
+        ];
+        for i in 0..N_LANDMARKS {
+            let own = named.iter().find(|n| n.0 == i).map(|n| n.1);
+            assert_eq!(names.names[i], own, "point {i}");
+        }
+        assert_eq!(landmark_name(68), "point 68");
+    }
+
+    #[test]
+    fn a_replacement_file_renames_and_bad_files_say_where() {
+        let rows: String = (0..N_LANDMARKS).map(|i| format!("{i},g{},\n", i / 34)).collect();
+        let text = format!("# two halves\nindex,group,name\n{rows}");
+        let names = LandmarkNames::from_csv_str(&text).unwrap();
+        assert_eq!(names.name(40), "g1 7");
+        assert_eq!(names.groups.len(), 2);
+        let renamed = text.replace("62,g1,", "62,g1,stomion, upper");
+        assert_eq!(LandmarkNames::from_csv_str(&renamed).unwrap().name(62), "stomion, upper");
+        let e = LandmarkNames::from_csv_str(&text.replace("5,g0,", "6,g0,")).unwrap_err();
+        assert_eq!((e.line, e.message.as_str()), (8, "index `6`: expected 5"));
+        let e = LandmarkNames::from_csv_str(&text.replace("40,g1,", "40,g0,")).unwrap_err();
+        assert_eq!(e.to_string(), "line 43: group `g0` is split in two runs");
+        let e = LandmarkNames::from_csv_str(&text.replace("67,g1,\n", "")).unwrap_err();
+        assert_eq!(e.to_string(), "line 69: 67 points, expected 68");
+        assert!(LandmarkNames::from_csv_str("idx,group,name\n").is_err());
+        assert!(LandmarkNames::from_csv_str(&text.replace("3,g0,", "3")).is_err());
     }
 
     #[test]

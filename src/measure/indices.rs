@@ -5,17 +5,17 @@
 //! Points (0-based iBUG): nasion = mid(39, 42), endocanthion 39/42, exocanthion 36/45,
 //! alare 31/35, subnasale 33, labiale superius 51, stomion 1 = 62, stomion 2 = 66, labiale
 //! inferius 57, gnathion 8, cheilion 48/54, zygion ≈ 0/16. Distances D1..D13 and the
-//! published bounds are those of issue 6 (the thesis this tool follows).
+//! published bounds are those of R. Algadhy, PhD thesis, Sheffield 2020, §3 (Table 3.5, after
+//! Roelofse et al.); the bounds ship as `data/facial_index_bounds.csv`.
 
 use super::{MeasureError, Series};
 use crate::alignment::{Alignment, grouping_label};
-use crate::io::error::{FormatError, Location};
 use crate::landmarks::FrameLandmarks;
 use crate::math::{DVector, Point2};
 use crate::model::LandmarkMap;
 use serde::{Deserialize, Serialize};
 use std::fmt;
-use std::path::Path;
+use std::sync::LazyLock;
 
 /// One of the 12 facial indices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -109,24 +109,21 @@ impl FacialIndex {
         Self::ALL.into_iter().find(|i| i.key() == norm)
     }
 
-    /// The published class bounds (low below the first, high above the second), issue 6.
+    /// The default class bounds (low below the first, high above the second): the
+    /// published table, embedded from `data/facial_index_bounds.csv`.
     pub fn published_bounds(self) -> (f64, f64) {
-        match self {
-            Self::Facial => (83.68, 89.52),
-            Self::Intercanthal => (33.59, 35.50),
-            Self::Nasal => (73.55, 95.97),
-            Self::Nasofacial => (42.23, 47.49),
-            Self::NoseFaceWidth => (28.91, 32.66),
-            Self::LipArea => (29.79, 35.53),
-            Self::VerticalMouthHeight => (13.58, 16.22),
-            Self::UpperLipThickness => (3.93, 5.61),
-            Self::LowerLipThickness => (9.23, 11.44),
-            Self::MouthWidth => (49.18, 54.80),
-            Self::ChinSize => (22.79, 27.18),
-            Self::NoseUpperLip => (25.88, 29.08),
-        }
+        let b = DEFAULT_BOUNDS.get(self).expect("the embedded table lists every index (tested)");
+        (b.low, b.high)
     }
 }
+
+/// The default class-bound table, as shipped in `data/` (a user's file replaces it).
+pub const DEFAULT_BOUNDS_CSV: &str = include_str!("../../data/facial_index_bounds.csv");
+
+/// [`DEFAULT_BOUNDS_CSV`] parsed once.
+static DEFAULT_BOUNDS: LazyLock<BoundsTable> = LazyLock::new(|| {
+    BoundsTable::from_csv_str(DEFAULT_BOUNDS_CSV).expect("the embedded table parses (tested)")
+});
 
 impl fmt::Display for FacialIndex {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -308,7 +305,7 @@ pub fn frame_indices(frame: &FrameLandmarks) -> Result<FacialIndices, MeasureErr
 
 /// The facial indices of a head shape (flat model-space `x0 y0 z0 …`, typically its
 /// neutral pose or the model mean) on the frontal projection of its mapped landmark
-/// vertices, as issue 6 asks for the head side of the speaker–head match.
+/// vertices: the head side of the speaker–head match.
 ///
 /// # Errors
 /// As [`facial_indices`]; an unmapped landmark counts as missing.
@@ -366,25 +363,20 @@ impl IndexBounds {
     }
 }
 
-/// A table of class bounds. [`Default`] is the published table (issue 6); a user's table
-/// (CSV or TOML, see [`BoundsTable::from_csv_str`], [`BoundsTable::from_toml_str`]) or one
-/// computed from a corpus ([`BoundsTable::from_corpus`]) replaces it. Indices the table does
-/// not list have no class.
+/// A table of class bounds. [`Default`] is the published table ([`DEFAULT_BOUNDS_CSV`]); a
+/// user's table (CSV or TOML, see [`BoundsTable::from_csv_str`],
+/// [`BoundsTable::from_toml_str`]; `io::bounds_table` reads the file) or one computed from a
+/// corpus ([`BoundsTable::from_corpus`]) replaces it. Indices the table does not list have no
+/// class.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BoundsTable {
     pub bounds: Vec<IndexBounds>,
 }
 
 impl Default for BoundsTable {
+    /// The published table ([`DEFAULT_BOUNDS_CSV`]).
     fn default() -> Self {
-        let bounds = FacialIndex::ALL
-            .into_iter()
-            .map(|index| {
-                let (low, high) = index.published_bounds();
-                IndexBounds { index, low, high }
-            })
-            .collect();
-        Self { bounds }
+        DEFAULT_BOUNDS.clone()
     }
 }
 
@@ -400,18 +392,6 @@ pub struct BoundsError {
 impl BoundsError {
     fn at(line: Option<usize>, field: Option<&str>, message: impl Into<String>) -> Self {
         Self { line, field: field.map(str::to_string), message: message.into() }
-    }
-
-    /// The same error naming the file it came from.
-    pub fn into_format_error(self, path: &Path) -> FormatError {
-        match (self.line, self.field) {
-            (Some(l), Some(f)) => {
-                FormatError::at_line(path, l, format!("field `{f}`: {}", self.message))
-            }
-            (Some(l), None) => FormatError::at_line(path, l, self.message),
-            (None, Some(f)) => FormatError::new(path, Location::Field(f), self.message),
-            (None, None) => FormatError::whole(path, self.message),
-        }
     }
 }
 
@@ -816,6 +796,33 @@ mod tests {
     }
 
     #[test]
+    fn the_embedded_bounds_are_the_published_table() {
+        // The published bounds as they stood in code before they moved to `data/`.
+        let published = [
+            (FacialIndex::Facial, 83.68, 89.52),
+            (FacialIndex::Intercanthal, 33.59, 35.50),
+            (FacialIndex::Nasal, 73.55, 95.97),
+            (FacialIndex::Nasofacial, 42.23, 47.49),
+            (FacialIndex::NoseFaceWidth, 28.91, 32.66),
+            (FacialIndex::LipArea, 29.79, 35.53),
+            (FacialIndex::VerticalMouthHeight, 13.58, 16.22),
+            (FacialIndex::UpperLipThickness, 3.93, 5.61),
+            (FacialIndex::LowerLipThickness, 9.23, 11.44),
+            (FacialIndex::MouthWidth, 49.18, 54.80),
+            (FacialIndex::ChinSize, 22.79, 27.18),
+            (FacialIndex::NoseUpperLip, 25.88, 29.08),
+        ];
+        let expected = BoundsTable {
+            bounds: published.map(|(index, low, high)| IndexBounds { index, low, high }).to_vec(),
+        };
+        assert_eq!(BoundsTable::from_csv_str(DEFAULT_BOUNDS_CSV).unwrap(), expected);
+        assert_eq!(BoundsTable::default(), expected);
+        for (index, low, high) in published {
+            assert_eq!(index.published_bounds(), (low, high));
+        }
+    }
+
+    #[test]
     fn classification_is_inclusive_in_the_middle() {
         let t = BoundsTable::default();
         let b = t.get(FacialIndex::VerticalMouthHeight).unwrap();
@@ -850,8 +857,6 @@ mod tests {
             BoundsTable::from_toml_str("[[bounds]]\nindex = \"facial\"\nlow = \"a\"\nhigh = 2\n")
                 .unwrap_err();
         assert_eq!(e.line, Some(3));
-        let fe = e.into_format_error(Path::new("b.toml")).to_string();
-        assert!(fe.starts_with("b.toml:3:"), "{fe}");
     }
 
     #[test]

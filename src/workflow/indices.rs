@@ -26,14 +26,7 @@ use std::path::Path;
 /// # Errors
 /// Unreadable file; a parse error naming the file and line or field.
 pub fn load_bounds(path: &Path) -> Result<BoundsTable> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::io(path, e).context(format!("reading {}", path.display())))?;
-    let parsed = if is_toml(path) {
-        BoundsTable::from_toml_str(&text)
-    } else {
-        BoundsTable::from_csv_str(&text)
-    };
-    parsed.map_err(|e| e.into_format_error(path).into())
+    Ok(crate::io::bounds_table::read_bounds_table(path)?)
 }
 
 /// Writes a bounds table in the format [`load_bounds`] reads back.
@@ -41,13 +34,7 @@ pub fn load_bounds(path: &Path) -> Result<BoundsTable> {
 /// # Errors
 /// The write failing.
 pub fn save_bounds(table: &BoundsTable, path: &Path) -> Result<()> {
-    let text = if is_toml(path) { table.to_toml_string() } else { table.to_csv_string() };
-    std::fs::write(path, text)
-        .map_err(|e| Error::io(path, e).context(format!("writing {}", path.display())))
-}
-
-fn is_toml(path: &Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    Ok(crate::io::bounds_table::write_bounds_table(table, path)?)
 }
 
 /// The indices of one frame of a landmark file: frame `frame` if given, else the first.

@@ -18,6 +18,7 @@ pub mod model;
 pub mod plot;
 pub mod render;
 pub mod session;
+pub mod speech;
 pub mod testdata;
 pub mod tui;
 pub mod workflow;

@@ -21,3 +21,4 @@ pub mod phones_csv;
 pub mod pts;
 pub mod textgrid;
 pub mod track_csv;
+pub mod wav;

@@ -81,9 +81,9 @@ pub fn train_hmm(
         return Err(bad("covariance floor", opts.covariance_floor.to_string()));
     }
     let data = concatenate(sequences)?;
-    let (n_frames, d) = data.shape();
+    let n_frames = data.nrows();
     let variance = column_variances(&data);
-    if let Some(k) = variance.iter().position(|v| !(*v > 1e-12)) {
+    if let Some(k) = variance.iter().position(|v| v.is_nan() || *v <= 1e-12) {
         return Err(SpeechError::Degenerate(format!("feature {k} (constant over the training data)")));
     }
     let floor = DMatrix::from_diagonal(&(variance.clone() * opts.covariance_floor));
@@ -114,7 +114,6 @@ pub fn train_hmm(
         }
         hmm = reestimate(&hmm, &data, &bounds, &posts, &floor)?;
     }
-    let _ = d;
     Ok((hmm, TrainReport { log_likelihood_per_frame: history, converged }))
 }
 
@@ -164,7 +163,7 @@ fn column_variances(data: &DMatrix) -> DVector {
 /// Weighted mean and covariance (plus floor) of the rows of `data`, weights `w`.
 fn weighted_gaussian(data: &DMatrix, w: &[f64], floor: &DMatrix) -> Result<(f64, Gaussian), SpeechError> {
     let total: f64 = w.iter().sum();
-    if !(total > 1e-10) {
+    if total.is_nan() || total <= 1e-10 {
         return Err(SpeechError::Degenerate("mixture component (no frames)".into()));
     }
     let mean = data.tr_mul(&DVector::from_column_slice(w)) / total;

@@ -35,7 +35,7 @@ pub fn average_mse(truth: &DMatrix, estimate: &DMatrix) -> Result<f64, SpeechErr
     let stats = column_stats(truth);
     let mut sum = 0.0;
     for (r, (_, sd)) in stats.iter().enumerate() {
-        if !(*sd > 0.0) {
+        if sd.is_nan() || *sd <= 0.0 {
             return Err(SpeechError::Degenerate(format!("true visual parameter {r} (constant)")));
         }
         sum += (truth.column(r) - estimate.column(r)).norm_squared() / (sd * sd);
@@ -54,7 +54,7 @@ pub fn average_correlation(truth: &DMatrix, estimate: &DMatrix) -> Result<f64, S
     let mut sum = 0.0;
     for r in 0..truth.ncols() {
         let ((mt, st), (me, se)) = (ts[r], es[r]);
-        if !(st > 0.0 && se > 0.0) {
+        if st.is_nan() || se.is_nan() || st <= 0.0 || se <= 0.0 {
             return Err(SpeechError::Degenerate(format!("visual parameter {r} (constant)")));
         }
         sum += truth.column(r).iter().zip(estimate.column(r).iter()).map(|(o, e)| (o - mt) * (e - me)).sum::<f64>()

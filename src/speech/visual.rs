@@ -89,7 +89,7 @@ pub fn fit_visual_basis(clips: &[MouthClip], k: usize) -> Result<VisualBasis, Sp
     let mut variances = Vec::with_capacity(k);
     for (i, &o) in order.iter().take(k).enumerate() {
         let var = eig.eigenvalues[o];
-        if !(var > 1e-12 * top.max(1e-300)) {
+        if var.is_nan() || var <= 1e-12 * top.max(1e-300) {
             return Err(SpeechError::TooFew { what: "directions of mouth motion", need: k, got: i });
         }
         let mut v = eig.eigenvectors.column(o).into_owned();

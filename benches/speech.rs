@@ -8,7 +8,9 @@
 #[allow(unused)]
 mod speech_corpus;
 
-use lipmap::speech::{InversionOptions, MouthClip, SpeechOptions, TrainingClip, train_speech_model};
+use lipmap::speech::{
+    InversionOptions, MouthClip, SpeechOptions, TrainingClip, train_speech_model,
+};
 use speech_corpus::{demo_voice_corpus, festival_corpus, grid_sentences, neutral_mouth};
 use std::time::Instant;
 
@@ -25,7 +27,10 @@ fn main() {
     let neutral = neutral_mouth();
     let clips: Vec<TrainingClip> = corpus[..TRAIN]
         .iter()
-        .map(|s| TrainingClip { samples: &s.samples, mouth: MouthClip { frames: &s.mouth, neutral: &neutral } })
+        .map(|s| TrainingClip {
+            samples: &s.samples,
+            mouth: MouthClip { frames: &s.mouth, neutral: &neutral },
+        })
         .collect();
     let frames: usize = clips.iter().map(|c| c.mouth.frames.len()).sum();
     let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
@@ -40,7 +45,8 @@ fn main() {
     );
 
     let test = &corpus[TRAIN..];
-    let audio_s: f64 = test.iter().map(|s| s.samples.len() as f64 / f64::from(speech_corpus::SAMPLE_RATE)).sum();
+    let audio_s: f64 =
+        test.iter().map(|s| s.samples.len() as f64 / f64::from(speech_corpus::SAMPLE_RATE)).sum();
     let start = Instant::now();
     let inverter = model.inverter().expect("inverter");
     for s in test {

@@ -10,8 +10,8 @@
 mod speech_corpus;
 
 use lipmap::speech::{
-    InversionOptions, MouthClip, SpeechOptions, TrainingClip, average_correlation, average_mse, stack_rows,
-    train_speech_model,
+    InversionOptions, MouthClip, SpeechOptions, TrainingClip, average_correlation, average_mse,
+    stack_rows, train_speech_model,
 };
 use speech_corpus::{Sentence, demo_voice_corpus, festival_corpus, grid_sentences, neutral_mouth};
 
@@ -29,16 +29,24 @@ fn evaluate(train: &[Sentence], test: &[Sentence], fps: f64) -> Scores {
     let neutral = neutral_mouth();
     let clips: Vec<TrainingClip> = train
         .iter()
-        .map(|s| TrainingClip { samples: &s.samples, mouth: MouthClip { frames: &s.mouth, neutral: &neutral } })
+        .map(|s| TrainingClip {
+            samples: &s.samples,
+            mouth: MouthClip { frames: &s.mouth, neutral: &neutral },
+        })
         .collect();
     let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
     assert_eq!((opts.train.n_states, opts.train.n_mixtures, opts.context), (16, 2, 3));
-    let model = train_speech_model(&clips, &opts, &mut |i, ll| eprintln!("iteration {i}: {ll:.3} nats/frame")).unwrap();
+    let model = train_speech_model(&clips, &opts, &mut |i, ll| {
+        eprintln!("iteration {i}: {ll:.3} nats/frame")
+    })
+    .unwrap();
     let inverter = model.inverter().unwrap();
     let (mut truth, mut hmm, mut linear) = (Vec::new(), Vec::new(), Vec::new());
     for s in test {
         let audio = model.audio_features(&s.samples, s.mouth.len()).unwrap();
-        truth.push(model.visual.project(&MouthClip { frames: &s.mouth, neutral: &neutral }).unwrap());
+        truth.push(
+            model.visual.project(&MouthClip { frames: &s.mouth, neutral: &neutral }).unwrap(),
+        );
         hmm.push(inverter.invert(&audio, &InversionOptions::default()).unwrap());
         linear.push(model.baseline.predict(&audio).unwrap());
     }
@@ -63,7 +71,12 @@ fn evaluate(train: &[Sentence], test: &[Sentence], fps: f64) -> Scores {
 fn check(s: &Scores) {
     assert!(s.acc >= 0.85, "ACC {:.3} < 0.85", s.acc);
     assert!(s.amse <= 0.35, "AMSE {:.3} > 0.35", s.amse);
-    assert!(s.acc >= s.baseline_acc + 0.1, "ACC {:.3} not 0.1 above the baseline's {:.3}", s.acc, s.baseline_acc);
+    assert!(
+        s.acc >= s.baseline_acc + 0.1,
+        "ACC {:.3} not 0.1 above the baseline's {:.3}",
+        s.acc,
+        s.baseline_acc
+    );
 }
 
 #[test]

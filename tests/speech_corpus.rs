@@ -33,10 +33,14 @@ pub const SAMPLE_RATE: u32 = 16_000;
 /// and the chin (7–9), which carries the jaw.
 fn mouth_vertices() -> (Vec<Point3>, ArticulationFields) {
     let (head, fields) = demo_head();
-    let idx: Vec<usize> =
-        (48..68).chain(7..10).map(|l| head.landmarks.vertex(l).expect("demo head maps every landmark")).collect();
+    let idx: Vec<usize> = (48..68)
+        .chain(7..10)
+        .map(|l| head.landmarks.vertex(l).expect("demo head maps every landmark"))
+        .collect();
     let rest = idx.iter().map(|&v| head.mesh.vertices[v]).collect();
-    let sub = ArticulationFields { fields: fields.fields.iter().map(|f| idx.iter().map(|&v| f[v]).collect()).collect() };
+    let sub = ArticulationFields {
+        fields: fields.fields.iter().map(|f| idx.iter().map(|&v| f[v]).collect()).collect(),
+    };
     (rest, sub)
 }
 
@@ -96,14 +100,21 @@ fn festival_say(text: &str, dir: &Path) -> Result<(PathBuf, PathBuf), String> {
         s = segs.display()
     );
     std::fs::write(&script, body).map_err(|e| e.to_string())?;
-    let out = Command::new("festival").arg("-b").arg(&script).output().map_err(|e| e.to_string())?;
+    let out =
+        Command::new("festival").arg("-b").arg(&script).output().map_err(|e| e.to_string())?;
     if !out.status.success() {
-        return Err(format!("festival failed on {text:?}: {}", String::from_utf8_lossy(&out.stderr)));
+        return Err(format!(
+            "festival failed on {text:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
     }
     // Renamed only when complete, so an interrupted run never leaves a half-written cache.
     for p in [&wav, &segs] {
-        std::fs::rename(p.with_extension(format!("{}.part", p.extension().unwrap().to_str().unwrap())), p)
-            .map_err(|e| format!("{}: {e}", p.display()))?;
+        std::fs::rename(
+            p.with_extension(format!("{}.part", p.extension().unwrap().to_str().unwrap())),
+            p,
+        )
+        .map_err(|e| format!("{}: {e}", p.display()))?;
     }
     Ok((wav, segs))
 }
@@ -111,7 +122,9 @@ fn festival_say(text: &str, dir: &Path) -> Result<(PathBuf, PathBuf), String> {
 /// Sentences spoken by Festival, `None` (with a printed notice) when it is not installed.
 pub fn festival_corpus(words: &[Vec<&str>], fps: f64) -> Option<Vec<Sentence>> {
     if !festival_available() {
-        eprintln!("skipping: `festival` is not installed (apt-get install festival festvox-kallpc16k)");
+        eprintln!(
+            "skipping: `festival` is not installed (apt-get install festival festvox-kallpc16k)"
+        );
         return None;
     }
     let dir = cache_dir();
@@ -123,10 +136,16 @@ pub fn festival_corpus(words: &[Vec<&str>], fps: f64) -> Option<Vec<Sentence>> {
             let (wav, segs) = festival_say(&text, &dir).unwrap_or_else(|e| panic!("{e}"));
             let audio = lipmap::io::wav::read_wav(&wav).unwrap_or_else(|e| panic!("{e}"));
             assert_eq!(audio.sample_rate, SAMPLE_RATE, "{}", wav.display());
-            let seg_text = std::fs::read_to_string(&segs).unwrap_or_else(|e| panic!("{}: {e}", segs.display()));
-            let raw = lipmap::io::htk_lab::parse_xlabel(&seg_text, &segs).unwrap_or_else(|e| panic!("{e}"));
+            let seg_text = std::fs::read_to_string(&segs)
+                .unwrap_or_else(|e| panic!("{}: {e}", segs.display()));
+            let raw = lipmap::io::htk_lab::parse_xlabel(&seg_text, &segs)
+                .unwrap_or_else(|e| panic!("{e}"));
             let alignment = Alignment {
-                phones: raw.phones.iter().map(|p| Phone { label: arpabet(&p.label), ..p.clone() }).collect(),
+                phones: raw
+                    .phones
+                    .iter()
+                    .map(|p| Phone { label: arpabet(&p.label), ..p.clone() })
+                    .collect(),
             };
             let mouth = mouth_motion(&alignment, fps);
             Sentence { text, samples: audio.samples, alignment, mouth }
@@ -166,10 +185,16 @@ pub fn demo_voice_corpus(words: &[Vec<&str>], fps: f64, seed: u64) -> Vec<Senten
 
 #[test]
 fn festival_sentences_carry_audio_and_matching_mouth_frames() {
-    let Some(c) = festival_corpus(&[vec!["bin", "blue", "at", "f", "two", "now"]], 30.0) else { return };
+    let Some(c) = festival_corpus(&[vec!["bin", "blue", "at", "f", "two", "now"]], 30.0) else {
+        return;
+    };
     let s = &c[0];
     let secs = s.samples.len() as f64 / f64::from(SAMPLE_RATE);
-    assert!((secs - s.alignment.duration()).abs() < 0.05, "{secs} s of audio, phones to {}", s.alignment.duration());
+    assert!(
+        (secs - s.alignment.duration()).abs() < 0.05,
+        "{secs} s of audio, phones to {}",
+        s.alignment.duration()
+    );
     assert_eq!(s.mouth.len(), (s.alignment.duration() * 30.0 - 1e-9).ceil() as usize);
     let labels: Vec<&str> = s.alignment.phones.iter().map(|p| p.label.as_str()).collect();
     assert_eq!(&labels[..4], &["PAU", "B", "IH", "N"]);

@@ -26,12 +26,19 @@ pub const VOICE_SAMPLE_RATE: u32 = 16_000;
 enum Manner {
     Silence,
     /// Vowels, glides, liquids: voicing through the formants; `to` is a diphthong's end.
-    Sonorant { to: Option<[f64; 3]> },
+    Sonorant {
+        to: Option<[f64; 3]>,
+    },
     Nasal,
     /// Frication noise with a spectral peak at `centre` Hz, relative level `level`.
-    Fricative { centre: f64, level: f64 },
+    Fricative {
+        centre: f64,
+        level: f64,
+    },
     /// Closure then a burst peaking at `burst` Hz.
-    Stop { burst: f64 },
+    Stop {
+        burst: f64,
+    },
     /// Aspiration: noise through the formants of what surrounds it.
     Aspirate,
 }
@@ -59,8 +66,13 @@ fn sound(phone: &str) -> PhoneSound {
     const IY: [f64; 3] = [270.0, 2290.0, 3010.0];
     const AA: [f64; 3] = [730.0, 1090.0, 2440.0];
     const UW: [f64; 3] = [300.0, 870.0, 2240.0];
-    let fric = |f: [f64; 3], voiced, centre, level| PhoneSound { formants: f, voiced, manner: Fricative { centre, level } };
-    let stop = |f: [f64; 3], voiced, burst| PhoneSound { formants: f, voiced, manner: Stop { burst } };
+    let fric = |f: [f64; 3], voiced, centre, level| PhoneSound {
+        formants: f,
+        voiced,
+        manner: Fricative { centre, level },
+    };
+    let stop =
+        |f: [f64; 3], voiced, burst| PhoneSound { formants: f, voiced, manner: Stop { burst } };
     let nasal = |f: [f64; 3]| PhoneSound { formants: f, voiced: true, manner: Nasal };
     match grouping_label(phone).as_str() {
         "IY" => vowel(IY),
@@ -145,7 +157,13 @@ struct Targets {
 }
 
 fn targets_at(s: &PhoneSound, u: f64) -> Targets {
-    let base = Targets { formants: s.formants, voicing: 0.0, aspiration: 0.0, frication: 0.0, fric_centre: 4000.0 };
+    let base = Targets {
+        formants: s.formants,
+        voicing: 0.0,
+        aspiration: 0.0,
+        frication: 0.0,
+        fric_centre: 4000.0,
+    };
     let voicing = if s.voiced { 1.0 } else { 0.0 };
     match s.manner {
         Manner::Silence => base,
@@ -163,7 +181,9 @@ fn targets_at(s: &PhoneSound, u: f64) -> Targets {
         Manner::Aspirate => Targets { aspiration: 0.5, ..base },
         // Closure for the first 60 % (voiced stops murmur through it), then the burst and,
         // for voiceless stops, aspiration into the next phone.
-        Manner::Stop { burst } if u < 0.6 => Targets { voicing: 0.15 * voicing, fric_centre: burst, ..base },
+        Manner::Stop { burst } if u < 0.6 => {
+            Targets { voicing: 0.15 * voicing, fric_centre: burst, ..base }
+        }
         Manner::Stop { burst } => Targets {
             voicing: 0.5 * voicing,
             frication: 0.8 * (1.0 - (u - 0.6) / 0.4),
@@ -185,7 +205,13 @@ pub fn speak(alignment: &Alignment, sample_rate: u32, seed: u64) -> Vec<f32> {
     let duration = alignment.duration().max(1e-3);
     let k_formant = 1.0 - (-dt / FORMANT_SMOOTHING_S).exp();
     let k_amp = 1.0 - (-dt / AMPLITUDE_SMOOTHING_S).exp();
-    let mut cur = Targets { formants: NEUTRAL, voicing: 0.0, aspiration: 0.0, frication: 0.0, fric_centre: 4000.0 };
+    let mut cur = Targets {
+        formants: NEUTRAL,
+        voicing: 0.0,
+        aspiration: 0.0,
+        frication: 0.0,
+        fric_centre: 4000.0,
+    };
     let mut cascade = [Resonator::default(); 3];
     let mut fric_res = Resonator::default();
     let (mut tilt1, mut tilt2, mut prev_glottal) = (0.0, 0.0, 0.0);
@@ -199,7 +225,9 @@ pub fn speak(alignment: &Alignment, sample_rate: u32, seed: u64) -> Vec<f32> {
             pi += 1;
         }
         let target = match (alignment.phones.get(pi), sounds.get(pi)) {
-            (Some(p), Some(s)) => targets_at(s, ((t - p.start) / (p.end - p.start).max(1e-6)).clamp(0.0, 1.0)),
+            (Some(p), Some(s)) => {
+                targets_at(s, ((t - p.start) / (p.end - p.start).max(1e-6)).clamp(0.0, 1.0))
+            }
             _ => cur,
         };
         for k in 0..3 {
@@ -273,7 +301,11 @@ mod tests {
 
     fn band_energy(spec: &[f64], lo: f64, hi: f64) -> f64 {
         let bin = 16_000.0 / 2048.0;
-        spec.iter().enumerate().filter(|(i, _)| (lo..hi).contains(&(*i as f64 * bin))).map(|(_, v)| v * v).sum()
+        spec.iter()
+            .enumerate()
+            .filter(|(i, _)| (lo..hi).contains(&(*i as f64 * bin)))
+            .map(|(_, v)| v * v)
+            .sum()
     }
 
     #[test]

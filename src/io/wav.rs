@@ -40,7 +40,9 @@ pub fn parse_wav(reader: impl Read, path: &Path) -> Result<Audio> {
         return Err(FormatError::whole(path, "WAV header has no channels or a zero sample rate"));
     }
     let interleaved: Vec<f32> = match (spec.sample_format, spec.bits_per_sample) {
-        (hound::SampleFormat::Float, 32) => wav.samples::<f32>().collect::<std::result::Result<_, _>>().map_err(bad)?,
+        (hound::SampleFormat::Float, 32) => {
+            wav.samples::<f32>().collect::<std::result::Result<_, _>>().map_err(bad)?
+        }
         (hound::SampleFormat::Int, bits @ (8 | 16 | 24 | 32)) => {
             let full_scale = f64::from(1u32 << (bits - 1));
             wav.samples::<i32>()
@@ -52,14 +54,19 @@ pub fn parse_wav(reader: impl Read, path: &Path) -> Result<Audio> {
             return Err(FormatError::at_field(
                 path,
                 "fmt",
-                format!("unsupported sample format: {bits}-bit {format:?} (use 8/16/24/32-bit PCM or 32-bit float)"),
+                format!(
+                    "unsupported sample format: {bits}-bit {format:?} (use 8/16/24/32-bit PCM or 32-bit float)"
+                ),
             ));
         }
     };
     if interleaved.len() < channels {
         return Err(FormatError::whole(path, "WAV file has no audio samples"));
     }
-    let samples = interleaved.chunks_exact(channels).map(|c| c.iter().sum::<f32>() / channels as f32).collect();
+    let samples = interleaved
+        .chunks_exact(channels)
+        .map(|c| c.iter().sum::<f32>() / channels as f32)
+        .collect();
     Ok(Audio { samples, sample_rate: spec.sample_rate })
 }
 
@@ -90,7 +97,12 @@ pub fn read_wav_at_rate(path: &Path, sample_rate: u32) -> Result<Vec<f32>> {
 /// # Errors
 /// An I/O failure, naming the file.
 pub fn write_wav(path: &Path, samples: &[f32], sample_rate: u32) -> Result<()> {
-    let spec = hound::WavSpec { channels: 1, sample_rate, bits_per_sample: 16, sample_format: hound::SampleFormat::Int };
+    let spec = hound::WavSpec {
+        channels: 1,
+        sample_rate,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
     let fail = |e: hound::Error| FormatError::whole(path, format!("writing WAV: {e}"));
     let mut w = hound::WavWriter::create(path, spec).map_err(fail)?;
     for s in samples {
@@ -117,7 +129,12 @@ mod tests {
     }
 
     fn spec(channels: u16, bits: u16) -> hound::WavSpec {
-        hound::WavSpec { channels, sample_rate: 8000, bits_per_sample: bits, sample_format: hound::SampleFormat::Int }
+        hound::WavSpec {
+            channels,
+            sample_rate: 8000,
+            bits_per_sample: bits,
+            sample_format: hound::SampleFormat::Int,
+        }
     }
 
     #[test]
@@ -141,7 +158,12 @@ mod tests {
         let a = read_wav(&p).unwrap();
         assert_eq!(a.sample_rate, 16_000);
         assert!(a.samples.iter().zip(&x).all(|(a, b)| (a - b).abs() < 1e-4));
-        let fspec = hound::WavSpec { channels: 1, sample_rate: 44_100, bits_per_sample: 32, sample_format: hound::SampleFormat::Float };
+        let fspec = hound::WavSpec {
+            channels: 1,
+            sample_rate: 44_100,
+            bits_per_sample: 32,
+            sample_format: hound::SampleFormat::Float,
+        };
         let mut buf = Cursor::new(Vec::new());
         let mut w = hound::WavWriter::new(&mut buf, fspec).unwrap();
         w.write_sample(0.25f32).unwrap();
@@ -155,7 +177,10 @@ mod tests {
         let p = dir.path().join("low.wav");
         write_wav(&p, &[0.0; 800], 8000).unwrap();
         let e = read_wav_at_rate(&p, 16_000).unwrap_err().to_string();
-        assert!(e.starts_with(&p.display().to_string()) && e.contains("8000 Hz") && !e.contains('\n'), "{e}");
+        assert!(
+            e.starts_with(&p.display().to_string()) && e.contains("8000 Hz") && !e.contains('\n'),
+            "{e}"
+        );
         let q = dir.path().join("high.wav");
         write_wav(&q, &[0.1; 3200], 32_000).unwrap();
         assert_eq!(read_wav_at_rate(&q, 16_000).unwrap().len(), 1600);
@@ -181,13 +206,17 @@ mod tests {
         for _ in 0..2000 {
             let mut bad = good.clone();
             for _ in 0..3 {
-                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
                 let i = (state >> 33) as usize % 44;
                 bad[i] = (state >> 17) as u8;
             }
             let _ = parse_wav(Cursor::new(&bad), p);
         }
         let empty = encode(spec(1, 16), &[]);
-        assert!(parse_wav(Cursor::new(empty), p).unwrap_err().to_string().contains("no audio samples"));
+        assert!(
+            parse_wav(Cursor::new(empty), p).unwrap_err().to_string().contains("no audio samples")
+        );
     }
 }

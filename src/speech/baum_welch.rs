@@ -48,7 +48,14 @@ impl Default for TrainOptions {
     /// generalisation to held-out sentences, lower floors fit the training set better and the
     /// test set worse).
     fn default() -> Self {
-        Self { n_states: 16, n_mixtures: 2, max_iterations: 40, tolerance: 1e-3, covariance_floor: 0.05, seed: 1 }
+        Self {
+            n_states: 16,
+            n_mixtures: 2,
+            max_iterations: 40,
+            tolerance: 1e-3,
+            covariance_floor: 0.05,
+            seed: 1,
+        }
     }
 }
 
@@ -75,7 +82,10 @@ pub fn train_hmm(
     progress: &mut dyn FnMut(usize, f64),
 ) -> Result<(Hmm, TrainReport), SpeechError> {
     if opts.n_states == 0 || opts.n_mixtures == 0 {
-        return Err(bad("model size", format!("{} states × {} mixtures", opts.n_states, opts.n_mixtures)));
+        return Err(bad(
+            "model size",
+            format!("{} states × {} mixtures", opts.n_states, opts.n_mixtures),
+        ));
     }
     if !(opts.covariance_floor >= 0.0 && opts.covariance_floor.is_finite()) {
         return Err(bad("covariance floor", opts.covariance_floor.to_string()));
@@ -84,7 +94,9 @@ pub fn train_hmm(
     let n_frames = data.nrows();
     let variance = column_variances(&data);
     if let Some(k) = variance.iter().position(|v| v.is_nan() || *v <= 1e-12) {
-        return Err(SpeechError::Degenerate(format!("feature {k} (constant over the training data)")));
+        return Err(SpeechError::Degenerate(format!(
+            "feature {k} (constant over the training data)"
+        )));
     }
     let floor = DMatrix::from_diagonal(&(variance.clone() * opts.covariance_floor));
     let mut hmm = initialise(sequences, &data, &variance, &floor, opts)?;
@@ -96,7 +108,12 @@ pub fn train_hmm(
         let posts: Vec<Posteriors> = bounds
             .par_iter()
             .map(|&(s, len)| {
-                forward_backward(&hmm.initial, &hmm.transitions, &comp_log.rows(s, len).into_owned(), opts.n_mixtures)
+                forward_backward(
+                    &hmm.initial,
+                    &hmm.transitions,
+                    &comp_log.rows(s, len).into_owned(),
+                    opts.n_mixtures,
+                )
             })
             .collect::<Result<_, _>>()?;
         let ll = posts.iter().map(|p| p.log_likelihood).sum::<f64>() / n_frames as f64;
@@ -126,7 +143,11 @@ fn concatenate(sequences: &[DMatrix]) -> Result<DMatrix, SpeechError> {
     let mut r = 0;
     for s in sequences {
         if s.ncols() != d {
-            return Err(SpeechError::DimensionMismatch { what: "sequence width", expected: d, got: s.ncols() });
+            return Err(SpeechError::DimensionMismatch {
+                what: "sequence width",
+                expected: d,
+                got: s.ncols(),
+            });
         }
         if s.nrows() == 0 {
             return Err(SpeechError::Empty("frames in a training sequence"));
@@ -161,7 +182,11 @@ fn column_variances(data: &DMatrix) -> DVector {
 }
 
 /// Weighted mean and covariance (plus floor) of the rows of `data`, weights `w`.
-fn weighted_gaussian(data: &DMatrix, w: &[f64], floor: &DMatrix) -> Result<(f64, Gaussian), SpeechError> {
+fn weighted_gaussian(
+    data: &DMatrix,
+    w: &[f64],
+    floor: &DMatrix,
+) -> Result<(f64, Gaussian), SpeechError> {
     let total: f64 = w.iter().sum();
     if total.is_nan() || total <= 1e-10 {
         return Err(SpeechError::Degenerate("mixture component (no frames)".into()));
@@ -194,10 +219,18 @@ fn initialise(
     for j in 0..n {
         let rows: Vec<usize> = (0..labels.len()).filter(|&i| labels[i] == j).collect();
         if rows.len() < m {
-            return Err(SpeechError::TooFew { what: "frames in a state for its mixtures", need: m, got: rows.len() });
+            return Err(SpeechError::TooFew {
+                what: "frames in a state for its mixtures",
+                need: m,
+                got: rows.len(),
+            });
         }
         let sub = standardised.select_rows(&rows);
-        let sub_labels = if m == 1 { vec![0; rows.len()] } else { cluster_rows(&sub, m, opts.seed + 1 + j as u64)? };
+        let sub_labels = if m == 1 {
+            vec![0; rows.len()]
+        } else {
+            cluster_rows(&sub, m, opts.seed + 1 + j as u64)?
+        };
         let own = data.select_rows(&rows);
         let mut comps = Vec::with_capacity(m);
         for k in 0..m {
@@ -315,7 +348,14 @@ mod tests {
     #[test]
     fn log_likelihood_never_decreases() {
         let seqs = sample_sequences(3);
-        let opts = TrainOptions { n_states: 3, n_mixtures: 2, max_iterations: 25, tolerance: 0.0, covariance_floor: 0.0, seed: 5 };
+        let opts = TrainOptions {
+            n_states: 3,
+            n_mixtures: 2,
+            max_iterations: 25,
+            tolerance: 0.0,
+            covariance_floor: 0.0,
+            seed: 5,
+        };
         let mut seen = Vec::new();
         let (hmm, report) = train_hmm(&seqs, &opts, &mut |i, ll| seen.push((i, ll))).unwrap();
         assert_eq!(seen.len(), report.log_likelihood_per_frame.len());
@@ -328,7 +368,11 @@ mod tests {
             let best = hmm
                 .components()
                 .filter(|c| c.weight > 0.2)
-                .map(|c| ((c.gaussian.mean[0] - want[0]).powi(2) + (c.gaussian.mean[1] - want[1]).powi(2)).sqrt())
+                .map(|c| {
+                    ((c.gaussian.mean[0] - want[0]).powi(2)
+                        + (c.gaussian.mean[1] - want[1]).powi(2))
+                    .sqrt()
+                })
                 .fold(f64::INFINITY, f64::min);
             assert!(best < 1.0, "no component near {want:?}: {best}");
         }
@@ -337,7 +381,14 @@ mod tests {
     #[test]
     fn converges_and_stops_with_a_tolerance() {
         let seqs = sample_sequences(4);
-        let opts = TrainOptions { n_states: 3, n_mixtures: 1, max_iterations: 200, tolerance: 1e-6, covariance_floor: 0.01, seed: 2 };
+        let opts = TrainOptions {
+            n_states: 3,
+            n_mixtures: 1,
+            max_iterations: 200,
+            tolerance: 1e-6,
+            covariance_floor: 0.01,
+            seed: 2,
+        };
         let (_, report) = train_hmm(&seqs, &opts, &mut |_, _| {}).unwrap();
         assert!(report.converged);
         assert!(report.log_likelihood_per_frame.len() < 200);
@@ -348,7 +399,10 @@ mod tests {
         let mut none = |_, _| {};
         assert!(train_hmm(&[], &TrainOptions::default(), &mut none).is_err());
         let constant = vec![DMatrix::from_element(50, 2, 1.0)];
-        assert!(matches!(train_hmm(&constant, &TrainOptions::default(), &mut none), Err(SpeechError::Degenerate(_))));
+        assert!(matches!(
+            train_hmm(&constant, &TrainOptions::default(), &mut none),
+            Err(SpeechError::Degenerate(_))
+        ));
         let few = vec![DMatrix::from_fn(5, 2, |i, j| (i * 2 + j) as f64)];
         assert!(train_hmm(&few, &TrainOptions::default(), &mut none).is_err());
     }

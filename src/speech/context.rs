@@ -36,7 +36,10 @@ mod tests {
     fn stacks_neighbours_and_repeats_the_ends() {
         let a = DMatrix::from_row_slice(3, 1, &[1.0, 2.0, 3.0]);
         let s = stack_context(&a, 1);
-        assert_eq!(s, DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 2.0, 1.0, 2.0, 3.0, 2.0, 3.0, 3.0]));
+        assert_eq!(
+            s,
+            DMatrix::from_row_slice(3, 3, &[1.0, 1.0, 2.0, 1.0, 2.0, 3.0, 2.0, 3.0, 3.0])
+        );
         assert_eq!(stack_context(&a, 0), a);
     }
 }

@@ -54,7 +54,8 @@ pub fn forward_backward(
     let mut log_b = DMatrix::zeros(t_len, n);
     for t in 0..t_len {
         for j in 0..n {
-            log_b[(t, j)] = log_sum_exp((0..n_mixtures).map(|k| component_log[(t, j * n_mixtures + k)]));
+            log_b[(t, j)] =
+                log_sum_exp((0..n_mixtures).map(|k| component_log[(t, j * n_mixtures + k)]));
         }
     }
     let shift: Vec<f64> = (0..t_len).map(|t| log_b.row(t).max()).collect();
@@ -86,10 +87,9 @@ pub fn forward_backward(
     beta.row_mut(t_len - 1).fill(1.0);
     for t in (0..t_len - 1).rev() {
         for i in 0..n {
-            beta[(t, i)] = (0..n)
-                .map(|j| transitions[(i, j)] * b[(t + 1, j)] * beta[(t + 1, j)])
-                .sum::<f64>()
-                / scale[t + 1];
+            beta[(t, i)] =
+                (0..n).map(|j| transitions[(i, j)] * b[(t + 1, j)] * beta[(t + 1, j)]).sum::<f64>()
+                    / scale[t + 1];
         }
     }
     let mut states = alpha.component_mul(&beta);
@@ -103,7 +103,8 @@ pub fn forward_backward(
         for i in 0..n {
             for j in 0..n {
                 xi[(i, j)] +=
-                    alpha[(t, i)] * transitions[(i, j)] * b[(t + 1, j)] * beta[(t + 1, j)] / scale[t + 1];
+                    alpha[(t, i)] * transitions[(i, j)] * b[(t + 1, j)] * beta[(t + 1, j)]
+                        / scale[t + 1];
             }
         }
     }
@@ -126,7 +127,8 @@ mod tests {
         let pi = [0.5, 0.3, 0.2];
         let a = DMatrix::from_row_slice(3, 3, &[0.6, 0.3, 0.1, 0.2, 0.5, 0.3, 0.25, 0.25, 0.5]);
         // Arbitrary but fixed ln(c_jk N_jk(o_t)), of realistic magnitudes.
-        let comp_log = DMatrix::from_fn(t_len, n * m, |t, c| -40.0 - ((t * 7 + c * 3) % 11) as f64 * 0.9);
+        let comp_log =
+            DMatrix::from_fn(t_len, n * m, |t, c| -40.0 - ((t * 7 + c * 3) % 11) as f64 * 0.9);
         let got = forward_backward(&pi, &a, &comp_log, m).unwrap();
 
         let bt = |t: usize, j: usize| (0..m).map(|k| comp_log[(t, j * m + k)].exp()).sum::<f64>();
@@ -147,7 +149,12 @@ mod tests {
                 }
             }
         }
-        assert!((got.log_likelihood - total.ln()).abs() < 1e-9, "{} vs {}", got.log_likelihood, total.ln());
+        assert!(
+            (got.log_likelihood - total.ln()).abs() < 1e-9,
+            "{} vs {}",
+            got.log_likelihood,
+            total.ln()
+        );
         assert!((got.states - gamma.clone() / total).abs().max() < 1e-12);
         assert!((got.transitions - xi / total).abs().max() < 1e-12);
         // Component posteriors: γ_t(j) split in proportion to c_jk N_jk(o_t).

@@ -56,11 +56,10 @@ impl Gaussian {
                 got: self.cov.nrows(),
             });
         }
-        let chol = self
-            .cov
-            .clone()
-            .cholesky()
-            .ok_or_else(|| SpeechError::Degenerate("covariance (not positive definite)".into()))?;
+        let chol =
+            self.cov.clone().cholesky().ok_or_else(|| {
+                SpeechError::Degenerate("covariance (not positive definite)".into())
+            })?;
         let log_det = 2.0 * chol.l_dirty().diagonal().iter().map(|v| v.ln()).sum::<f64>();
         let log_norm = -0.5 * (d as f64 * (2.0 * std::f64::consts::PI).ln() + log_det);
         self.cache = Some(Cache { precision: chol.inverse(), log_norm });
@@ -91,7 +90,10 @@ impl Gaussian {
         let weighted = &centred * &cache.precision;
         DVector::from_iterator(
             obs.nrows(),
-            centred.row_iter().zip(weighted.row_iter()).map(|(c, w)| cache.log_norm - 0.5 * c.dot(&w)),
+            centred
+                .row_iter()
+                .zip(weighted.row_iter())
+                .map(|(c, w)| cache.log_norm - 0.5 * c.dot(&w)),
         )
     }
 }
@@ -125,7 +127,8 @@ mod tests {
 
     #[test]
     fn singular_covariances_are_refused() {
-        let r = Gaussian::new(DVector::zeros(2), DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]));
+        let r =
+            Gaussian::new(DVector::zeros(2), DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]));
         assert!(matches!(r, Err(SpeechError::Degenerate(_))));
     }
 

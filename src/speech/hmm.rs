@@ -68,15 +68,20 @@ impl Hmm {
             return Err(mismatch("transition matrix rows", n, self.transitions.nrows()));
         }
         let is_distribution = |p: &mut dyn Iterator<Item = f64>| -> bool {
-                let v: Vec<f64> = p.collect();
-                v.iter().all(|x| x.is_finite() && *x >= 0.0) && (v.iter().sum::<f64>() - 1.0).abs() < 1e-6
-            };
+            let v: Vec<f64> = p.collect();
+            v.iter().all(|x| x.is_finite() && *x >= 0.0)
+                && (v.iter().sum::<f64>() - 1.0).abs() < 1e-6
+        };
         if !is_distribution(&mut self.initial.iter().copied()) {
-            return Err(SpeechError::Degenerate("initial probabilities (not a distribution)".into()));
+            return Err(SpeechError::Degenerate(
+                "initial probabilities (not a distribution)".into(),
+            ));
         }
         for (i, row) in self.transitions.row_iter().enumerate() {
             if !is_distribution(&mut row.iter().copied()) {
-                return Err(SpeechError::Degenerate(format!("transition row {i} (not a distribution)")));
+                return Err(SpeechError::Degenerate(format!(
+                    "transition row {i} (not a distribution)"
+                )));
             }
         }
         for (j, state) in self.states.iter().enumerate() {

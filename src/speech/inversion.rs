@@ -106,7 +106,8 @@ impl Inverter {
                 .collect::<Vec<_>>(),
         );
         let m = self.hmm.n_mixtures();
-        let mut gamma = forward_backward(&self.hmm.initial, &self.hmm.transitions, &audio_log, m)?.components;
+        let mut gamma =
+            forward_backward(&self.hmm.initial, &self.hmm.transitions, &audio_log, m)?.components;
         // Φ^va_jk o_at for every component and frame: the only audio-dependent part.
         let cross: Vec<DMatrix> = self.phi_va.iter().map(|p| audio * p.transpose()).collect();
         let mut visual = self.blend(&gamma, &cross)?;
@@ -115,7 +116,8 @@ impl Inverter {
             joint.columns_mut(0, self.audio_dim).copy_from(audio);
             joint.columns_mut(self.audio_dim, visual.ncols()).copy_from(&visual);
             let comp_log = self.hmm.component_log_densities(&joint)?;
-            gamma = forward_backward(&self.hmm.initial, &self.hmm.transitions, &comp_log, m)?.components;
+            gamma = forward_backward(&self.hmm.initial, &self.hmm.transitions, &comp_log, m)?
+                .components;
             let next = self.blend(&gamma, &cross)?;
             let moved = (&next - &visual).abs().max();
             visual = next;
@@ -161,7 +163,11 @@ mod tests {
         // 2 audio + 1 visual dimensions, correlated.
         let cov = DMatrix::from_row_slice(3, 3, &[2.0, 0.3, 0.8, 0.3, 1.0, -0.4, 0.8, -0.4, 1.5]);
         let g = Gaussian::new(DVector::from_vec(vec![1.0, -2.0, 0.5]), cov).unwrap();
-        Hmm { initial: vec![1.0], transitions: DMatrix::identity(1, 1), states: vec![vec![Component { weight: 1.0, gaussian: g }]] }
+        Hmm {
+            initial: vec![1.0],
+            transitions: DMatrix::identity(1, 1),
+            states: vec![vec![Component { weight: 1.0, gaussian: g }]],
+        }
     }
 
     #[test]
@@ -185,7 +191,11 @@ mod tests {
     fn recovers_which_regime_a_two_state_signal_is_in() {
         // State 0: visual ≈ +3, audio around 0; state 1: visual ≈ −3, audio around 5.
         let mk = |m: [f64; 2]| {
-            Gaussian::new(DVector::from_vec(m.to_vec()), DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.1])).unwrap()
+            Gaussian::new(
+                DVector::from_vec(m.to_vec()),
+                DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.1]),
+            )
+            .unwrap()
         };
         let hmm = Hmm {
             initial: vec![0.5, 0.5],
@@ -196,7 +206,8 @@ mod tests {
             ],
         };
         let audio = DMatrix::from_row_slice(6, 1, &[0.1, -0.2, 0.3, 5.1, 4.8, 5.2]);
-        let est = Inverter::new(&hmm, 1).unwrap().invert(&audio, &InversionOptions::default()).unwrap();
+        let est =
+            Inverter::new(&hmm, 1).unwrap().invert(&audio, &InversionOptions::default()).unwrap();
         assert!(est.rows(0, 3).iter().all(|v| (v - 3.0).abs() < 0.05), "{est}");
         assert!(est.rows(3, 3).iter().all(|v| (v + 3.0).abs() < 0.05), "{est}");
     }

@@ -33,7 +33,11 @@ pub fn cluster_rows(data: &DMatrix, k: usize, seed: u64) -> Result<Vec<usize>, S
     for c in 1..k {
         let total: f64 = nearest.iter().sum();
         if total <= 0.0 {
-            return Err(SpeechError::TooFew { what: "distinct frames for k-means", need: k, got: c });
+            return Err(SpeechError::TooFew {
+                what: "distinct frames for k-means",
+                need: k,
+                got: c,
+            });
         }
         let mut r = rng.random_range(0.0..total);
         let mut pick = n - 1;
@@ -70,7 +74,9 @@ pub fn cluster_rows(data: &DMatrix, k: usize, seed: u64) -> Result<Vec<usize>, S
         for c in 0..k {
             if counts[c] == 0 {
                 let far = (0..n)
-                    .max_by(|&a, &b| dist2(a, &centres, labels[a]).total_cmp(&dist2(b, &centres, labels[b])))
+                    .max_by(|&a, &b| {
+                        dist2(a, &centres, labels[a]).total_cmp(&dist2(b, &centres, labels[b]))
+                    })
                     .unwrap_or(0);
                 centres.row_mut(c).copy_from(&data.row(far));
                 labels[far] = c;

@@ -18,7 +18,11 @@ fn column_stats(m: &DMatrix) -> Vec<(f64, f64)> {
 
 fn check(truth: &DMatrix, estimate: &DMatrix) -> Result<(), SpeechError> {
     if truth.shape() != estimate.shape() {
-        return Err(SpeechError::DimensionMismatch { what: "estimate rows", expected: truth.nrows(), got: estimate.nrows() });
+        return Err(SpeechError::DimensionMismatch {
+            what: "estimate rows",
+            expected: truth.nrows(),
+            got: estimate.nrows(),
+        });
     }
     if truth.nrows() < 2 || truth.ncols() == 0 {
         return Err(SpeechError::TooFew { what: "frames to compare", need: 2, got: truth.nrows() });
@@ -57,7 +61,12 @@ pub fn average_correlation(truth: &DMatrix, estimate: &DMatrix) -> Result<f64, S
         if st.is_nan() || se.is_nan() || st <= 0.0 || se <= 0.0 {
             return Err(SpeechError::Degenerate(format!("visual parameter {r} (constant)")));
         }
-        sum += truth.column(r).iter().zip(estimate.column(r).iter()).map(|(o, e)| (o - mt) * (e - me)).sum::<f64>()
+        sum += truth
+            .column(r)
+            .iter()
+            .zip(estimate.column(r).iter())
+            .map(|(o, e)| (o - mt) * (e - me))
+            .sum::<f64>()
             / (st * se);
     }
     Ok(sum / truth.len() as f64)

@@ -75,7 +75,9 @@ impl MfccOptions {
                 format!("{} coefficients from {} filters", self.n_ceps, self.n_filters),
             ));
         }
-        if !(0.0 <= self.low_hz && self.low_hz < self.high_hz && self.high_hz <= self.sample_rate / 2.0)
+        if !(0.0 <= self.low_hz
+            && self.low_hz < self.high_hz
+            && self.high_hz <= self.sample_rate / 2.0)
         {
             return Err(bad("band", format!("{} … {} Hz", self.low_hz, self.high_hz)));
         }
@@ -103,7 +105,13 @@ pub fn mel_to_hz(mel: f64) -> f64 {
 /// The triangular mel filterbank as a J × (n_fft/2 + 1) matrix of weights on FFT bins: filter
 /// j rises from centre j − 1 to 1 at centre j and falls to 0 at centre j + 1, the J + 2
 /// edges equally spaced in mel between `low_hz` and `high_hz`.
-pub fn mel_filterbank(n_filters: usize, n_fft: usize, sample_rate: f64, low_hz: f64, high_hz: f64) -> DMatrix {
+pub fn mel_filterbank(
+    n_filters: usize,
+    n_fft: usize,
+    sample_rate: f64,
+    low_hz: f64,
+    high_hz: f64,
+) -> DMatrix {
     let n_bins = n_fft / 2 + 1;
     let (lo, hi) = (hz_to_mel(low_hz), hz_to_mel(high_hz));
     let edges: Vec<f64> = (0..n_filters + 2)
@@ -157,7 +165,11 @@ const ENERGY_FLOOR: f64 = 1e-20;
 ///
 /// # Errors
 /// Invalid options, no samples, no frames, or a non-finite sample.
-pub fn compute_mfcc(samples: &[f32], opts: &MfccOptions, n_frames: usize) -> Result<DMatrix, SpeechError> {
+pub fn compute_mfcc(
+    samples: &[f32],
+    opts: &MfccOptions,
+    n_frames: usize,
+) -> Result<DMatrix, SpeechError> {
     opts.validate()?;
     if samples.is_empty() {
         return Err(SpeechError::Empty("audio samples"));
@@ -231,7 +243,13 @@ mod tests {
     #[test]
     fn a_tone_lands_in_the_filter_centred_on_it() {
         // 16 kHz, 4 filters over 0 … 8000 Hz: centres at mel 2840.0·{1,2,3,4}/5 …
-        let opts = MfccOptions { n_filters: 4, n_ceps: 3, mean_normalise: false, pre_emphasis: 0.0, ..MfccOptions::new(16_000.0, 25.0) };
+        let opts = MfccOptions {
+            n_filters: 4,
+            n_ceps: 3,
+            mean_normalise: false,
+            pre_emphasis: 0.0,
+            ..MfccOptions::new(16_000.0, 25.0)
+        };
         let hi = hz_to_mel(8000.0);
         let centre2 = mel_to_hz(hi * 2.0 / 5.0); // filter index 1
         let n_fft = 512;
@@ -239,7 +257,9 @@ mod tests {
         // Put the tone exactly on an FFT bin near that centre.
         let bin = (centre2 * n_fft as f64 / 16_000.0).round();
         let hz = bin * 16_000.0 / n_fft as f64;
-        let best = (0..4).max_by(|&a, &b| fb[(a, bin as usize)].total_cmp(&fb[(b, bin as usize)])).unwrap();
+        let best = (0..4)
+            .max_by(|&a, &b| fb[(a, bin as usize)].total_cmp(&fb[(b, bin as usize)]))
+            .unwrap();
         assert_eq!(best, 1, "tone at {hz} Hz");
         // Rows are triangles peaking at most at 1.
         assert!(fb.iter().all(|w| (0.0..=1.0).contains(w)));
@@ -279,7 +299,9 @@ mod tests {
             (0..x.len()).map(|n| x[n] + if n > 0 { 0.8 * x[n - 1] } else { 0.0 }).collect();
         let raw = MfccOptions { mean_normalise: false, ..MfccOptions::new(16_000.0, 25.0) };
         let cmn = MfccOptions::new(16_000.0, 25.0);
-        let d = |o: &MfccOptions| (compute_mfcc(&x, o, 25).unwrap() - compute_mfcc(&y, o, 25).unwrap()).abs().max();
+        let d = |o: &MfccOptions| {
+            (compute_mfcc(&x, o, 25).unwrap() - compute_mfcc(&y, o, 25).unwrap()).abs().max()
+        };
         let (d_raw, d_cmn) = (d(&raw), d(&cmn));
         assert!(d_cmn < 0.2 * d_raw, "with CMN {d_cmn}, without {d_raw}");
         let m = compute_mfcc(&x, &cmn, 25).unwrap();

@@ -36,8 +36,8 @@ pub use inversion::{InversionOptions, Inverter};
 pub use measures::{average_correlation, average_mse};
 pub use mfcc::{MfccOptions, compute_mfcc, frame_count};
 pub use model::{
-    FeatureDescription, SpeechModel, SpeechOptions, TrainingClip, compute_audio_features, stack_rows,
-    train_speech_model,
+    FeatureDescription, SpeechModel, SpeechOptions, TrainingClip, compute_audio_features,
+    stack_rows, train_speech_model,
 };
 pub use regression::{LinearRegression, fit_linear_regression};
 pub use resample::resample;

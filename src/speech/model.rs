@@ -51,13 +51,23 @@ impl FeatureDescription {
             ("cepstral coefficients", a.n_ceps.to_string(), b.n_ceps.to_string()),
             ("band low edge (Hz)", a.low_hz.to_string(), b.low_hz.to_string()),
             ("band high edge (Hz)", a.high_hz.to_string(), b.high_hz.to_string()),
-            ("cepstral mean normalisation", a.mean_normalise.to_string(), b.mean_normalise.to_string()),
+            (
+                "cepstral mean normalisation",
+                a.mean_normalise.to_string(),
+                b.mean_normalise.to_string(),
+            ),
             ("context t_c", self.context.to_string(), other.context.to_string()),
-            ("visual components", self.visual_components.to_string(), other.visual_components.to_string()),
+            (
+                "visual components",
+                self.visual_components.to_string(),
+                other.visual_components.to_string(),
+            ),
             ("mouth vertices", self.mouth_vertices.to_string(), other.mouth_vertices.to_string()),
         ];
         match fields.into_iter().find(|(_, m, i)| m != i) {
-            Some((field, model, input)) => Err(SpeechError::FeatureMismatch { field, model, input }),
+            Some((field, model, input)) => {
+                Err(SpeechError::FeatureMismatch { field, model, input })
+            }
             None => Ok(()),
         }
     }
@@ -112,7 +122,12 @@ pub struct SpeechModel {
 ///
 /// # Errors
 /// As [`compute_mfcc`].
-pub fn compute_audio_features(samples: &[f32], mfcc: &MfccOptions, context: usize, n_frames: usize) -> Result<DMatrix, SpeechError> {
+pub fn compute_audio_features(
+    samples: &[f32],
+    mfcc: &MfccOptions,
+    context: usize,
+    n_frames: usize,
+) -> Result<DMatrix, SpeechError> {
     Ok(stack_context(&compute_mfcc(samples, mfcc, n_frames)?, context))
 }
 
@@ -147,7 +162,8 @@ pub fn train_speech_model(
         visual_all.push(v);
     }
     let (hmm, report) = train_hmm(&joint, &opts.train, progress)?;
-    let baseline = fit_linear_regression(&stack_rows(&audio_all), &stack_rows(&visual_all), opts.ridge)?;
+    let baseline =
+        fit_linear_regression(&stack_rows(&audio_all), &stack_rows(&visual_all), opts.ridge)?;
     let features = FeatureDescription {
         mfcc: opts.mfcc.clone(),
         context: opts.context,
@@ -187,7 +203,11 @@ impl SpeechModel {
             return Err(mismatch("visual basis components", dv, self.visual.n_components()));
         }
         if self.visual.n_vertices() != self.features.mouth_vertices {
-            return Err(mismatch("visual basis vertices", self.features.mouth_vertices, self.visual.n_vertices()));
+            return Err(mismatch(
+                "visual basis vertices",
+                self.features.mouth_vertices,
+                self.visual.n_vertices(),
+            ));
         }
         if self.baseline.weights.shape() != (da + 1, dv) {
             return Err(mismatch("baseline rows", da + 1, self.baseline.weights.nrows()));
@@ -215,7 +235,12 @@ impl SpeechModel {
     ///
     /// # Errors
     /// As [`SpeechModel::audio_features`] and [`Inverter::invert`].
-    pub fn estimate_visual(&self, samples: &[f32], n_frames: usize, opts: &InversionOptions) -> Result<DMatrix, SpeechError> {
+    pub fn estimate_visual(
+        &self,
+        samples: &[f32],
+        n_frames: usize,
+        opts: &InversionOptions,
+    ) -> Result<DMatrix, SpeechError> {
         self.inverter()?.invert(&self.audio_features(samples, n_frames)?, opts)
     }
 }
@@ -226,11 +251,19 @@ mod tests {
 
     #[test]
     fn a_different_frame_rate_is_named_in_one_line() {
-        let a = FeatureDescription { mfcc: MfccOptions::new(16_000.0, 25.0), context: 3, visual_components: 4, mouth_vertices: 20 };
+        let a = FeatureDescription {
+            mfcc: MfccOptions::new(16_000.0, 25.0),
+            context: 3,
+            visual_components: 4,
+            mouth_vertices: 20,
+        };
         let b = FeatureDescription { mfcc: MfccOptions::new(16_000.0, 30.0), ..a.clone() };
         assert!(a.check_matches(&a).is_ok());
         let e = a.check_matches(&b).unwrap_err().to_string();
-        assert_eq!(e, "the model was trained on frame rate (fps) = 25, these features have frame rate (fps) = 30");
+        assert_eq!(
+            e,
+            "the model was trained on frame rate (fps) = 25, these features have frame rate (fps) = 30"
+        );
         let c = FeatureDescription { context: 2, ..a.clone() };
         assert!(a.check_matches(&c).unwrap_err().to_string().contains("context t_c"));
     }

@@ -19,9 +19,17 @@ pub struct LinearRegression {
 /// # Errors
 /// Row counts that disagree, no rows, negative λ, a singular system (λ = 0 with collinear
 /// features).
-pub fn fit_linear_regression(audio: &DMatrix, visual: &DMatrix, ridge: f64) -> Result<LinearRegression, SpeechError> {
+pub fn fit_linear_regression(
+    audio: &DMatrix,
+    visual: &DMatrix,
+    ridge: f64,
+) -> Result<LinearRegression, SpeechError> {
     if audio.nrows() != visual.nrows() {
-        return Err(SpeechError::DimensionMismatch { what: "visual rows", expected: audio.nrows(), got: visual.nrows() });
+        return Err(SpeechError::DimensionMismatch {
+            what: "visual rows",
+            expected: audio.nrows(),
+            got: visual.nrows(),
+        });
     }
     if audio.nrows() == 0 {
         return Err(SpeechError::Empty("training frames"));

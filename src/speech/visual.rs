@@ -30,12 +30,20 @@ pub struct VisualBasis {
 
 fn displacements(clip: &MouthClip, n_vertices: usize) -> Result<DMatrix, SpeechError> {
     if clip.neutral.len() != n_vertices {
-        return Err(SpeechError::DimensionMismatch { what: "neutral mouth vertices", expected: n_vertices, got: clip.neutral.len() });
+        return Err(SpeechError::DimensionMismatch {
+            what: "neutral mouth vertices",
+            expected: n_vertices,
+            got: clip.neutral.len(),
+        });
     }
     let mut out = DMatrix::zeros(clip.frames.len(), 3 * n_vertices);
     for (f, frame) in clip.frames.iter().enumerate() {
         if frame.len() != n_vertices {
-            return Err(SpeechError::DimensionMismatch { what: "mouth vertices in a frame", expected: n_vertices, got: frame.len() });
+            return Err(SpeechError::DimensionMismatch {
+                what: "mouth vertices in a frame",
+                expected: n_vertices,
+                got: frame.len(),
+            });
         }
         for (v, (p, n)) in frame.iter().zip(clip.neutral).enumerate() {
             let d = p - n;
@@ -56,12 +64,14 @@ fn displacements(clip: &MouthClip, n_vertices: usize) -> Result<DMatrix, SpeechE
 /// No frames, clips with different vertex counts, k = 0 or more than the data's dimension,
 /// or motion with fewer than k directions of non-zero variance.
 pub fn fit_visual_basis(clips: &[MouthClip], k: usize) -> Result<VisualBasis, SpeechError> {
-    let n_vertices = clips.first().map(|c| c.neutral.len()).ok_or(SpeechError::Empty("mouth clips"))?;
+    let n_vertices =
+        clips.first().map(|c| c.neutral.len()).ok_or(SpeechError::Empty("mouth clips"))?;
     let dim = 3 * n_vertices;
     if k == 0 || k > dim {
         return Err(bad("visual components", format!("{k} of {dim} dimensions")));
     }
-    let blocks: Vec<DMatrix> = clips.iter().map(|c| displacements(c, n_vertices)).collect::<Result<_, _>>()?;
+    let blocks: Vec<DMatrix> =
+        clips.iter().map(|c| displacements(c, n_vertices)).collect::<Result<_, _>>()?;
     let n: usize = blocks.iter().map(DMatrix::nrows).sum();
     if n < 2 {
         return Err(SpeechError::TooFew { what: "mouth frames", need: 2, got: n });
@@ -90,7 +100,11 @@ pub fn fit_visual_basis(clips: &[MouthClip], k: usize) -> Result<VisualBasis, Sp
     for (i, &o) in order.iter().take(k).enumerate() {
         let var = eig.eigenvalues[o];
         if var.is_nan() || var <= 1e-12 * top.max(1e-300) {
-            return Err(SpeechError::TooFew { what: "directions of mouth motion", need: k, got: i });
+            return Err(SpeechError::TooFew {
+                what: "directions of mouth motion",
+                need: k,
+                got: i,
+            });
         }
         let mut v = eig.eigenvectors.column(o).into_owned();
         // Eigenvectors have no sign of their own; fix it so the same data gives the same
@@ -132,18 +146,34 @@ impl VisualBasis {
     ///
     /// # Errors
     /// Feature or neutral sizes that do not match the basis.
-    pub fn reconstruct(&self, features: &DMatrix, neutral: &[Point3]) -> Result<Vec<Vec<Point3>>, SpeechError> {
+    pub fn reconstruct(
+        &self,
+        features: &DMatrix,
+        neutral: &[Point3],
+    ) -> Result<Vec<Vec<Point3>>, SpeechError> {
         if features.ncols() != self.n_components() {
-            return Err(SpeechError::DimensionMismatch { what: "visual features", expected: self.n_components(), got: features.ncols() });
+            return Err(SpeechError::DimensionMismatch {
+                what: "visual features",
+                expected: self.n_components(),
+                got: features.ncols(),
+            });
         }
         if neutral.len() != self.n_vertices() {
-            return Err(SpeechError::DimensionMismatch { what: "neutral mouth vertices", expected: self.n_vertices(), got: neutral.len() });
+            return Err(SpeechError::DimensionMismatch {
+                what: "neutral mouth vertices",
+                expected: self.n_vertices(),
+                got: neutral.len(),
+            });
         }
         Ok(features
             .row_iter()
             .map(|f| {
                 let d = &self.mean + &self.components * f.transpose();
-                neutral.iter().enumerate().map(|(v, p)| p + d.fixed_rows::<3>(3 * v).into_owned()).collect()
+                neutral
+                    .iter()
+                    .enumerate()
+                    .map(|(v, p)| p + d.fixed_rows::<3>(3 * v).into_owned())
+                    .collect()
             })
             .collect())
     }

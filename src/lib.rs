@@ -18,6 +18,7 @@ pub mod model;
 pub mod plot;
 pub mod render;
 pub mod session;
+pub mod speech;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
 pub mod tui;

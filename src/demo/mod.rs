@@ -35,6 +35,7 @@ pub mod head;
 pub mod lexicon;
 pub mod speakers;
 pub mod visemes;
+pub mod voice;
 
 use crate::io::model_file::{Precision, write_model_file};
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, Track};

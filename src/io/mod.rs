@@ -23,3 +23,4 @@ pub mod pts;
 pub mod textgrid;
 pub mod track_csv;
 pub mod viseme_table;
+pub mod wav;

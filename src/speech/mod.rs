@@ -1,0 +1,44 @@
+//! Speech-driven mouth motion (Terissi et al. 2011, §3–4; DESIGN.md §10): a joint
+//! audio-visual HMM trained on clips with audio and fitted mouth motion, inverted to estimate
+//! mouth motion from new audio, with a linear-regression baseline and the paper's accuracy
+//! measures.
+//!
+//! Plain values in and out: samples as `&[f32]` with their rate, mouth vertices as
+//! [`Point3`](crate::math::Point3) arrays, features as nalgebra matrices with one row per
+//! video frame. Start with [`train_speech_model`] and [`SpeechModel::estimate_visual`];
+//! the steps are one file each: [`mfcc`] → [`context`] (audio), [`visual`] (mouth PCA),
+//! [`kmeans`] → [`baum_welch`] (with [`forward_backward`]) (the AV-HMM), [`inversion`],
+//! [`regression`] (baseline), [`measures`] (AMSE, ACC); [`resample`] brings audio to the
+//! model's rate. `docs/speech.md` describes the method and its departures from the paper.
+
+pub mod baum_welch;
+pub mod context;
+pub mod error;
+pub mod forward_backward;
+pub mod gaussian;
+pub mod hmm;
+pub mod inversion;
+pub mod kmeans;
+pub mod measures;
+pub mod mfcc;
+pub mod model;
+pub mod regression;
+pub mod resample;
+pub mod visual;
+
+pub use baum_welch::{TrainOptions, TrainReport, train_hmm};
+pub use context::stack_context;
+pub use error::SpeechError;
+pub use forward_backward::{Posteriors, forward_backward};
+pub use gaussian::Gaussian;
+pub use hmm::{Component, Hmm};
+pub use inversion::{InversionOptions, Inverter};
+pub use measures::{average_correlation, average_mse};
+pub use mfcc::{MfccOptions, compute_mfcc, frame_count};
+pub use model::{
+    FeatureDescription, SpeechModel, SpeechOptions, TrainingClip, compute_audio_features,
+    stack_rows, train_speech_model,
+};
+pub use regression::{LinearRegression, fit_linear_regression};
+pub use resample::resample;
+pub use visual::{MouthClip, VisualBasis, fit_visual_basis};

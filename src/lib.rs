@@ -16,6 +16,7 @@ pub mod math;
 pub mod measure;
 pub mod model;
 pub mod plot;
+pub mod saqp;
 pub mod render;
 pub mod session;
 pub mod testdata;

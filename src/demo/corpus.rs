@@ -10,7 +10,10 @@
 //! [`DemoCorpus::to_saqp`]; [`DemoCorpus::truth_corpus`] gives the corpus of the true shapes.
 
 use super::speakers::MouthWarp;
-use super::{coart, demo_head, frame_cameras, head_motion, lexicon, simulate_tracker, speaker_vertices, visemes};
+use super::{
+    coart, demo_head, frame_cameras, head_motion, lexicon, simulate_tracker, speaker_vertices,
+    visemes,
+};
 use crate::alignment::Alignment;
 use crate::fit::FrameFit;
 use crate::landmarks::{N_LANDMARKS, Track};
@@ -108,7 +111,8 @@ pub fn generate_corpus(options: &CorpusOptions) -> Result<DemoCorpus> {
                 let flat = Mesh { vertices: verts, faces: Vec::new() }.to_flat();
                 truth.push(model.shape.coefficients_of(&flat).unwrap_or_else(|| neutral.clone()));
             }
-            let (tracked, _) = simulate_tracker(&points, options.fps, options.noise_px, 0.0, &mut rng);
+            let (tracked, _) =
+                simulate_tracker(&points, options.fps, options.noise_px, 0.0, &mut rng);
             Ok(CorpusSentence {
                 name: format!("s{}_{}", ci + 1, words.join("_")),
                 alignment,
@@ -118,7 +122,13 @@ pub fn generate_corpus(options: &CorpusOptions) -> Result<DemoCorpus> {
             })
         })
         .collect::<Result<Vec<_>>>()?;
-    Ok(DemoCorpus { model, landmarks: head.landmarks, neutral, image_height: HEIGHT as f64, sentences })
+    Ok(DemoCorpus {
+        model,
+        landmarks: head.landmarks,
+        neutral,
+        image_height: HEIGHT as f64,
+        sentences,
+    })
 }
 
 impl DemoCorpus {
@@ -135,7 +145,11 @@ impl DemoCorpus {
                 neutral: self.neutral.clone(),
             })
             .collect();
-        Corpus { shapes: LinearShapes::from_model(&self.model), landmarks: self.landmarks.clone(), sentences }
+        Corpus {
+            shapes: LinearShapes::from_model(&self.model),
+            landmarks: self.landmarks.clone(),
+            sentences,
+        }
     }
 
     /// The SAQP corpus of per-sentence fits (one `FrameFit` per frame, in frame order); a

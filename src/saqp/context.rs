@@ -208,7 +208,8 @@ impl ContextStats {
         }
         let zero = DVector::zeros(self.dims);
         let global = self.stats(&self.global, &zero, ContextLevel::Global);
-        let global = PhoneStats { variance: self.global.variance(&zero, 0.0, &self.floor()), ..global };
+        let global =
+            PhoneStats { variance: self.global.variance(&zero, 0.0, &self.floor()), ..global };
         let vis = phones.viseme(id).and_then(|v| self.vis.get(&v));
         let parent = match vis {
             Some(a) => self.stats(a, &global.variance, ContextLevel::Viseme),
@@ -286,7 +287,8 @@ mod tests {
         let a = phones.intern("AA");
         let ids = vec![a, a, a, a];
         let samples = vec![v(0.0), v(2.0), v(4.0), v(6.0)];
-        let stats = ContextStats::build(1, &phones, [(&ids[..], &samples[..])], ContextOptions::default());
+        let stats =
+            ContextStats::build(1, &phones, [(&ids[..], &samples[..])], ContextOptions::default());
         let mono = stats.monophone(&phones, a).unwrap();
         assert!((mono.mean[0] - 3.0).abs() < 1e-12);
         // Triphone AA-AA-AA seen twice (2, 4): variance 2, shrunk toward the monophone's.

@@ -139,7 +139,12 @@ fn rmse(a: &[f64], b: &[f64]) -> f64 {
 /// Splits `members` into `k` folds of near-equal size that each cover as many phones as
 /// possible: sentences with the rarest phones are placed first, each into the fold (with
 /// room) that lacks most of its phones.
-pub fn balanced_folds(prepared: &Prepared, members: &[usize], k: usize, rng: &mut StdRng) -> Vec<Vec<usize>> {
+pub fn balanced_folds(
+    prepared: &Prepared,
+    members: &[usize],
+    k: usize,
+    rng: &mut StdRng,
+) -> Vec<Vec<usize>> {
     let mut order = members.to_vec();
     order.shuffle(rng);
     let mut freq: HashMap<u16, usize> = HashMap::new();
@@ -158,7 +163,12 @@ pub fn balanced_folds(prepared: &Prepared, members: &[usize], k: usize, rng: &mu
         let best = (0..k)
             .filter(|&f| folds[f].len() < cap)
             .max_by_key(|&f| {
-                let new = ids.iter().collect::<HashSet<_>>().iter().filter(|id| !covered[f].contains(id)).count();
+                let new = ids
+                    .iter()
+                    .collect::<HashSet<_>>()
+                    .iter()
+                    .filter(|id| !covered[f].contains(id))
+                    .count();
                 (new, std::cmp::Reverse(folds[f].len()), std::cmp::Reverse(f))
             })
             .unwrap_or(0);
@@ -197,7 +207,15 @@ impl Scorer<'_> {
         which: &[bool],
     ) -> Result<Option<Pair>, SaqpError> {
         let s = &self.prepared.sentences[target];
-        let fit = match fit_trajectory(&s.name, &set.stats, &self.prepared.phones, &s.ids, &s.phones, s.fps, params) {
+        let fit = match fit_trajectory(
+            &s.name,
+            &set.stats,
+            &self.prepared.phones,
+            &s.ids,
+            &s.phones,
+            s.fps,
+            params,
+        ) {
             Ok(f) => f,
             Err(SaqpError::AllPhonesUnseen(_)) => return Ok(None),
             Err(e) => return Err(e),
@@ -218,7 +236,10 @@ impl Scorer<'_> {
                         None => return Ok(None),
                     }
                 } else {
-                    set.synthesize(kind, s, params)?.iter().map(|a| markers.from_coefficients(a)).collect()
+                    set.synthesize(kind, s, params)?
+                        .iter()
+                        .map(|a| markers.from_coefficients(a))
+                        .collect()
                 };
                 Ok(Some(QualityParts::measure(&s.truth, &synth, &markers.mouth, s.fps)))
             })
@@ -227,7 +248,12 @@ impl Scorer<'_> {
     }
 
     /// Scores every split; pairs in split order.
-    fn score_splits(&self, splits: &[Split], params: SatfParams, which: &[bool]) -> Result<Vec<Option<Pair>>, SaqpError> {
+    fn score_splits(
+        &self,
+        splits: &[Split],
+        params: SatfParams,
+        which: &[bool],
+    ) -> Result<Vec<Option<Pair>>, SaqpError> {
         let per: Vec<Vec<Option<Pair>>> = splits
             .par_iter()
             .map(|sp| {
@@ -246,7 +272,13 @@ fn merge(base: &[Option<Pair>], extra: &[Option<Pair>], which: &[bool]) -> Vec<O
         .map(|(b, x)| match (b, x) {
             (Some(b), Some(x)) => Some(Pair {
                 e: x.e,
-                parts: b.parts.iter().zip(&x.parts).zip(which).map(|((p, q), &w)| if w { *q } else { *p }).collect(),
+                parts: b
+                    .parts
+                    .iter()
+                    .zip(&x.parts)
+                    .zip(which)
+                    .map(|((p, q), &w)| if w { *q } else { *p })
+                    .collect(),
             }),
             _ => None,
         })
@@ -303,7 +335,8 @@ pub fn cross_validate_prepared(
             let k = 1 + j % (folds_n - 1);
             let mut pick: Vec<usize> = (0..folds_n).collect();
             pick.shuffle(&mut rng);
-            let held: HashSet<usize> = pick[..k].iter().flat_map(|&f| folds[f].iter().copied()).collect();
+            let held: HashSet<usize> =
+                pick[..k].iter().flat_map(|&f| folds[f].iter().copied()).collect();
             let train: Vec<usize> = train.iter().copied().filter(|s| !held.contains(s)).collect();
             let mut scored: Vec<usize> = held.into_iter().collect();
             scored.sort_unstable();
@@ -321,7 +354,9 @@ pub fn cross_validate_prepared(
         None => options
             .orders
             .iter()
-            .flat_map(|&order| options.lambda_grid.iter().map(move |&lambda| SatfParams { lambda, order }))
+            .flat_map(|&order| {
+                options.lambda_grid.iter().map(move |&lambda| SatfParams { lambda, order })
+            })
             .collect(),
     };
     let first = candidates.first().copied().unwrap_or_default();
@@ -333,8 +368,11 @@ pub fn cross_validate_prepared(
         let pairs = merge(&base, &extra, &depends);
         let score = (0..options.synths.len())
             .map(|s| {
-                let (e, q): (Vec<f64>, Vec<f64>) =
-                    pairs.iter().flatten().filter_map(|p| p.parts[s].map(|q| (p.e, q.q(1.0)))).unzip();
+                let (e, q): (Vec<f64>, Vec<f64>) = pairs
+                    .iter()
+                    .flatten()
+                    .filter_map(|p| p.parts[s].map(|q| (p.e, q.q(1.0))))
+                    .unzip();
                 pearson(&e, &q).abs()
             })
             .sum::<f64>()
@@ -378,8 +416,14 @@ pub fn cross_validate_prepared(
 }
 
 /// The GP of one synthesizer at a given ω_m: training Likert scores, ξ and the fit.
-fn fit_at(si: usize, pairs: &[Pair], omega: f64, restarts: usize) -> Result<(f64, GaussianProcess), SaqpError> {
-    let (e, q): (Vec<f64>, Vec<f64>) = pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
+fn fit_at(
+    si: usize,
+    pairs: &[Pair],
+    omega: f64,
+    restarts: usize,
+) -> Result<(f64, GaussianProcess), SaqpError> {
+    let (e, q): (Vec<f64>, Vec<f64>) =
+        pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
     let xi = q.iter().copied().fold(0.0, f64::max);
     if !(xi > 0.0) {
         return Err(SaqpError::Gp("every training error is 0".into()));

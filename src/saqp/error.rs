@@ -10,7 +10,9 @@ pub enum SaqpError {
     NoPhones(String),
     #[error("sentence `{0}`: fewer than two phones, no trajectory to fit")]
     TooFewPhones(String),
-    #[error("sentence `{sentence}`: frame {frame} has {got} coefficients, the model has {expected}")]
+    #[error(
+        "sentence `{sentence}`: frame {frame} has {got} coefficients, the model has {expected}"
+    )]
     CoefficientCount { sentence: String, frame: usize, got: usize, expected: usize },
     #[error("sentence `{0}`: frame rate must be positive and finite")]
     BadFps(String),
@@ -18,7 +20,9 @@ pub enum SaqpError {
     NonFinite(String),
     #[error("sentence `{0}`: every phone is unseen in the training corpus")]
     AllPhonesUnseen(String),
-    #[error("sentence `{sentence}`: the synthesized motion has {got} frames, the sentence has {expected}")]
+    #[error(
+        "sentence `{sentence}`: the synthesized motion has {got} frames, the sentence has {expected}"
+    )]
     FrameCount { sentence: String, got: usize, expected: usize },
     #[error(
         "sentence `{sentence}`, frame {frame}: {got} points, expected {markers} (markers) or {vertices} (vertices)"

@@ -80,7 +80,11 @@ fn kernel_matrix(x: &[f64], h: &GpHyper) -> (DMatrix, DMatrix) {
 
 /// Eq. 9 and its gradient with respect to `theta = [ln θ₁, ln θ₂, ln σ²]`, for inputs `x`
 /// and (centred) targets `y`. `None` where K is not positive definite or θ out of range.
-pub fn negative_log_marginal_likelihood(x: &[f64], y: &[f64], theta: &[f64]) -> Option<(f64, Vec<f64>)> {
+pub fn negative_log_marginal_likelihood(
+    x: &[f64],
+    y: &[f64],
+    theta: &[f64],
+) -> Option<(f64, Vec<f64>)> {
     if theta.iter().any(|t| !t.is_finite() || t.abs() > LOG_BOUND) {
         return None;
     }
@@ -125,13 +129,19 @@ impl GaussianProcess {
         let target_mean = targets.iter().sum::<f64>() / n as f64;
         let y: Vec<f64> = targets.iter().map(|t| t - target_mean).collect();
         let var = (y.iter().map(|v| v * v).sum::<f64>() / n as f64).max(1e-12);
-        let (lo, hi) = inputs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+        let (lo, hi) = inputs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
         let range = (hi - lo).max(1e-9);
         let starts: Vec<GpHyper> = (0..restarts.max(1))
             .map(|r| {
                 let frac = [0.3, 0.08, 1.0, 0.02, 3.0][r % 5];
                 let noise = [0.2, 0.5, 0.1, 0.3, 0.05][r % 5];
-                GpHyper { length_scale: frac * range, signal_variance: var, noise_variance: noise * var }
+                GpHyper {
+                    length_scale: frac * range,
+                    signal_variance: var,
+                    noise_variance: noise * var,
+                }
             })
             .collect();
         let options = LbfgsOptions { max_iterations: 300, ..LbfgsOptions::default() };
@@ -141,7 +151,9 @@ impl GaussianProcess {
                 minimize(|t| negative_log_marginal_likelihood(inputs, &y, t), &h.to_log(), options)
             })
             .min_by(|a, b| a.f.total_cmp(&b.f))
-            .ok_or_else(|| SaqpError::Gp("the marginal likelihood is undefined at every start".into()))?;
+            .ok_or_else(|| {
+                SaqpError::Gp("the marginal likelihood is undefined at every start".into())
+            })?;
         Ok(Self {
             hyper: GpHyper::from_log(&best.x),
             inputs: inputs.to_vec(),
@@ -158,15 +170,22 @@ impl GaussianProcess {
     pub fn predict(&self, at: &[f64]) -> Result<Vec<GpPrediction>, SaqpError> {
         let h = &self.hyper;
         let (_, k) = kernel_matrix(&self.inputs, h);
-        let chol = Cholesky::new(k).ok_or_else(|| SaqpError::Gp("kernel matrix not positive definite".into()))?;
-        let y = DVector::from_iterator(self.targets.len(), self.targets.iter().map(|t| t - self.target_mean));
+        let chol = Cholesky::new(k)
+            .ok_or_else(|| SaqpError::Gp("kernel matrix not positive definite".into()))?;
+        let y = DVector::from_iterator(
+            self.targets.len(),
+            self.targets.iter().map(|t| t - self.target_mean),
+        );
         let alpha = chol.solve(&y);
         Ok(at
             .iter()
             .map(|&e| {
                 let kappa = DVector::from_iterator(
                     self.inputs.len(),
-                    self.inputs.iter().map(|&x| h.signal_variance * (-(x - e).powi(2) / (2.0 * h.length_scale.powi(2))).exp()),
+                    self.inputs.iter().map(|&x| {
+                        h.signal_variance
+                            * (-(x - e).powi(2) / (2.0 * h.length_scale.powi(2))).exp()
+                    }),
                 );
                 let v = chol.solve(&kappa);
                 GpPrediction {
@@ -182,8 +201,12 @@ impl GaussianProcess {
     /// eq. 5.12): `Q_i − μ_{−i} = [K⁻¹Q]_i / [K⁻¹]_ii`.
     pub fn loo_residuals(&self) -> Result<Vec<f64>, SaqpError> {
         let (_, k) = kernel_matrix(&self.inputs, &self.hyper);
-        let chol = Cholesky::new(k).ok_or_else(|| SaqpError::Gp("kernel matrix not positive definite".into()))?;
-        let y = DVector::from_iterator(self.targets.len(), self.targets.iter().map(|t| t - self.target_mean));
+        let chol = Cholesky::new(k)
+            .ok_or_else(|| SaqpError::Gp("kernel matrix not positive definite".into()))?;
+        let y = DVector::from_iterator(
+            self.targets.len(),
+            self.targets.iter().map(|t| t - self.target_mean),
+        );
         let alpha = chol.solve(&y);
         let inv = chol.inverse();
         Ok((0..y.len()).map(|i| alpha[i] / inv[(i, i)]).collect())
@@ -211,7 +234,11 @@ mod tests {
                 let fd = (negative_log_marginal_likelihood(&x, &y, &p).unwrap().0
                     - negative_log_marginal_likelihood(&x, &y, &m).unwrap().0)
                     / (2.0 * h);
-                assert!((fd - g[j]).abs() < 1e-6 * g[j].abs().max(1.0), "θ={theta:?} j={j}: {fd} vs {}", g[j]);
+                assert!(
+                    (fd - g[j]).abs() < 1e-6 * g[j].abs().max(1.0),
+                    "θ={theta:?} j={j}: {fd} vs {}",
+                    g[j]
+                );
             }
         }
     }

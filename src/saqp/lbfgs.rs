@@ -40,7 +40,8 @@ pub fn minimize(
     options: LbfgsOptions,
 ) -> Option<Minimum> {
     let mut x = x0.to_vec();
-    let (mut fx, mut g) = f(&x).filter(|(v, g)| v.is_finite() && g.iter().all(|x| x.is_finite()))?;
+    let (mut fx, mut g) =
+        f(&x).filter(|(v, g)| v.is_finite() && g.iter().all(|x| x.is_finite()))?;
     let mut hist: Vec<(Vec<f64>, Vec<f64>, f64)> = Vec::new();
     let mut iterations = 0;
     while iterations < options.max_iterations {
@@ -119,7 +120,8 @@ mod tests {
             let g = vec![-2.0 * (1.0 - a) - 400.0 * a * (b - a * a), 200.0 * (b - a * a)];
             Some((v, g))
         };
-        let opts = LbfgsOptions { max_iterations: 500, relative_tolerance: 0.0, ..Default::default() };
+        let opts =
+            LbfgsOptions { max_iterations: 500, relative_tolerance: 0.0, ..Default::default() };
         let m = minimize(f, &[-1.2, 1.0], opts).unwrap();
         assert!((m.x[0] - 1.0).abs() < 1e-5 && (m.x[1] - 1.0).abs() < 1e-5, "{m:?}");
     }

@@ -30,8 +30,14 @@ pub enum Region {
 }
 
 impl Region {
-    pub const ALL: [Region; 6] =
-        [Region::Mouth, Region::Nose, Region::Eyes, Region::Brows, Region::RightJaw, Region::LeftJaw];
+    pub const ALL: [Region; 6] = [
+        Region::Mouth,
+        Region::Nose,
+        Region::Eyes,
+        Region::Brows,
+        Region::RightJaw,
+        Region::LeftJaw,
+    ];
 
     /// The region of a 0-based iBUG landmark.
     pub fn of_landmark(l: usize) -> Option<Region> {
@@ -91,9 +97,13 @@ pub struct MotionBasis {
 }
 
 /// Assigns every vertex to the region of the nearest mapped landmark on the mean shape.
-fn assign_regions(shapes: &LinearShapes, landmarks: &LandmarkMap) -> Result<Vec<Region>, SaqpError> {
+fn assign_regions(
+    shapes: &LinearShapes,
+    landmarks: &LandmarkMap,
+) -> Result<Vec<Region>, SaqpError> {
     let n = shapes.num_vertices();
-    let vertex = |v: usize| Point3::new(shapes.mean[3 * v], shapes.mean[3 * v + 1], shapes.mean[3 * v + 2]);
+    let vertex =
+        |v: usize| Point3::new(shapes.mean[3 * v], shapes.mean[3 * v + 1], shapes.mean[3 * v + 2]);
     let labelled: Vec<(Point3, Region)> = landmarks
         .pairs()
         .filter(|&(_, v)| v < n)
@@ -250,7 +260,8 @@ mod tests {
         basis[(4, 0)] = -1.0;
         basis[(7, 1)] = 0.5; // nose vertices move with c1
         basis[(10, 1)] = 0.5;
-        let map = LandmarkMap { to_vertex: [(48, 0), (54, 1), (30, 2), (33, 3)].into_iter().collect() };
+        let map =
+            LandmarkMap { to_vertex: [(48, 0), (54, 1), (30, 2), (33, 3)].into_iter().collect() };
         (LinearShapes { mean, basis }, map)
     }
 

@@ -49,11 +49,10 @@ pub fn train(
 ) -> Result<(Predictor, CvReport), SaqpError> {
     let prepared = Prepared::new(corpus)?;
     let report = cross_validate_prepared(corpus, &prepared, external, &options.cv)?;
-    let synth = report
-        .synths
-        .iter()
-        .find(|s| s.synth == options.synth)
-        .ok_or_else(|| SaqpError::Option(format!("{} was not learned", options.synth.name())))?;
+    let synth =
+        report.synths.iter().find(|s| s.synth == options.synth).ok_or_else(|| {
+            SaqpError::Option(format!("{} was not learned", options.synth.name()))
+        })?;
     let all: Vec<usize> = (0..prepared.sentences.len()).collect();
     let stats = ContextStats::build(
         prepared.basis.dims(),

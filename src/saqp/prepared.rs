@@ -2,11 +2,11 @@
 //! coefficients, per-phone midpoint samples and the recorded marker motion. Built once, so
 //! the cross-validation's many sub-corpora only index into it.
 
+use super::SaqpError;
 use super::corpus::Corpus;
 use super::motion::MotionBasis;
 use super::quality::MarkerSet;
 use super::sampling::phone_midpoint_samples;
-use super::SaqpError;
 use crate::alignment::{Phone, grouping_label};
 use crate::eval::VisemeTable;
 use crate::math::DVector;
@@ -99,7 +99,8 @@ impl Prepared {
             .iter()
             .flat_map(|s| s.frames.iter().map(move |c| c - &s.neutral))
             .collect();
-        let basis = MotionBasis::build(&corpus.shapes, &corpus.landmarks, &deltas, REGION_VARIANCE)?;
+        let basis =
+            MotionBasis::build(&corpus.shapes, &corpus.landmarks, &deltas, REGION_VARIANCE)?;
         let markers = MarkerSet::build(&corpus.shapes, &corpus.landmarks, &basis, EXTRA_MARKERS);
         let mut phones = PhoneSet::default();
         let sentences = corpus

@@ -32,16 +32,24 @@ pub struct MarkerSet {
 
 impl MarkerSet {
     /// The landmark vertices and `extra` evenly spread face vertices.
-    pub fn build(shapes: &LinearShapes, landmarks: &LandmarkMap, basis: &MotionBasis, extra: usize) -> Self {
+    pub fn build(
+        shapes: &LinearShapes,
+        landmarks: &LandmarkMap,
+        basis: &MotionBasis,
+        extra: usize,
+    ) -> Self {
         let n = shapes.num_vertices();
-        let p = |v: usize| Point3::new(shapes.mean[3 * v], shapes.mean[3 * v + 1], shapes.mean[3 * v + 2]);
+        let p = |v: usize| {
+            Point3::new(shapes.mean[3 * v], shapes.mean[3 * v + 1], shapes.mean[3 * v + 2])
+        };
         let mut vertices: Vec<usize> = Vec::new();
         for (_, v) in landmarks.pairs() {
             if v < n && !vertices.contains(&v) {
                 vertices.push(v);
             }
         }
-        let (mut lo, mut hi) = (Point3::from([f64::INFINITY; 3]), Point3::from([f64::NEG_INFINITY; 3]));
+        let (mut lo, mut hi) =
+            (Point3::from([f64::INFINITY; 3]), Point3::from([f64::NEG_INFINITY; 3]));
         for &v in &vertices {
             lo = lo.inf(&p(v));
             hi = hi.sup(&p(v));
@@ -56,10 +64,13 @@ impl MarkerSet {
             .collect();
         let mut dist: Vec<f64> = candidates
             .iter()
-            .map(|&c| vertices.iter().map(|&v| (p(v) - p(c)).norm_squared()).fold(f64::INFINITY, f64::min))
+            .map(|&c| {
+                vertices.iter().map(|&v| (p(v) - p(c)).norm_squared()).fold(f64::INFINITY, f64::min)
+            })
             .collect();
         for _ in 0..extra {
-            let best = dist.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(i, d)| (i, *d));
+            let best =
+                dist.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map(|(i, d)| (i, *d));
             let Some((i, d)) = best else { break };
             if d <= 0.0 {
                 break;

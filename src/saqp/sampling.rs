@@ -34,7 +34,12 @@ pub fn phone_midpoint_samples(frames: &[DVector], fps: f64, phones: &[Phone]) ->
 
 /// Frames `0..n_frames` from keys at times `key_times` (seconds, ascending): linear between
 /// keys, held before the first and after the last. `keys` must not be empty.
-pub fn interpolate_keys(key_times: &[f64], keys: &[DVector], fps: f64, n_frames: usize) -> Vec<DVector> {
+pub fn interpolate_keys(
+    key_times: &[f64],
+    keys: &[DVector],
+    fps: f64,
+    n_frames: usize,
+) -> Vec<DVector> {
     let mut k = 0;
     (0..n_frames)
         .map(|f| {

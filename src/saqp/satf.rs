@@ -62,12 +62,18 @@ fn difference_stencil(order: usize) -> Vec<f64> {
 ///
 /// # Errors
 /// A system that is not positive definite (a variance of 0, a negative λ).
-pub fn solve_satf(stats: &[PhoneStats], frames: &[f64], params: SatfParams) -> Result<SatfFit, SaqpError> {
+pub fn solve_satf(
+    stats: &[PhoneStats],
+    frames: &[f64],
+    params: SatfParams,
+) -> Result<SatfFit, SaqpError> {
     let t = stats.len();
     let k = stats.first().map_or(0, |s| s.mean.len());
     let total: f64 = frames.iter().sum();
-    let d2: Vec<f64> =
-        frames.iter().map(|&f| if total > 0.0 { (1.0 - f / total).max(0.0) } else { 1.0 }).collect();
+    let d2: Vec<f64> = frames
+        .iter()
+        .map(|&f| if total > 0.0 { (1.0 - f / total).max(0.0) } else { 1.0 })
+        .collect();
     let c = difference_stencil(params.order);
     let p = params.order.min(t.saturating_sub(1));
     let mut smooth = BandMatrix::zeros(t, p);
@@ -174,7 +180,8 @@ mod tests {
 
     #[test]
     fn lambda_zero_gives_the_means() {
-        let s = stats(&[[1.0, -2.0], [3.0, 0.5], [-1.0, 4.0]], &[[0.5, 1.0], [2.0, 0.1], [1.0, 1.0]]);
+        let s =
+            stats(&[[1.0, -2.0], [3.0, 0.5], [-1.0, 4.0]], &[[0.5, 1.0], [2.0, 0.1], [1.0, 1.0]]);
         let fit = solve_satf(&s, &[3.0, 1.0, 6.0], SatfParams { lambda: 0.0, order: 1 }).unwrap();
         for (y, st) in fit.y.iter().zip(&s) {
             assert!((y - &st.mean).norm() < 1e-12);

@@ -32,7 +32,8 @@ pub enum SynthKind {
 }
 
 impl SynthKind {
-    pub const BUILT_IN: [SynthKind; 3] = [SynthKind::Keyframe, SynthKind::Trajectory, SynthKind::Concatenative];
+    pub const BUILT_IN: [SynthKind; 3] =
+        [SynthKind::Keyframe, SynthKind::Trajectory, SynthKind::Concatenative];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -118,7 +119,9 @@ impl<'a> TrainingSet<'a> {
                 Ok(interpolate_keys(&mids, &fit.y, target.fps, n))
             }
             SynthKind::Concatenative => self.concatenate(target),
-            SynthKind::External => Err(SaqpError::Option("external motion is not synthesized".into())),
+            SynthKind::External => {
+                Err(SaqpError::Option("external motion is not synthesized".into()))
+            }
         }
     }
 
@@ -135,7 +138,11 @@ impl<'a> TrainingSet<'a> {
         let want = dur(&target.phones[i]);
         let same = |a: Option<&u16>, b: Option<&u16>| match (a, b) {
             (Some(a), Some(b)) if a == b => 1.0,
-            (Some(&a), Some(&b)) if phones.viseme(a).is_some() && phones.viseme(a) == phones.viseme(b) => 0.4,
+            (Some(&a), Some(&b))
+                if phones.viseme(a).is_some() && phones.viseme(a) == phones.viseme(b) =>
+            {
+                0.4
+            }
             (None, None) => 1.0,
             _ => 0.0,
         };
@@ -143,7 +150,8 @@ impl<'a> TrainingSet<'a> {
             .iter()
             .map(|&(s, j)| {
                 let c = &self.prepared.sentences[s];
-                let context = same(prev(ids, i), prev(&c.ids, j)) + same(ids.get(i + 1), c.ids.get(j + 1));
+                let context =
+                    same(prev(ids, i), prev(&c.ids, j)) + same(ids.get(i + 1), c.ids.get(j + 1));
                 let timing = (dur(&c.phones[j]) / want).ln().abs();
                 ((s, j), 4.0 * context - timing)
             })
@@ -179,8 +187,10 @@ impl<'a> TrainingSet<'a> {
                 }
                 let p = &target.phones[i];
                 let h = JOIN_HALF_WIDTH;
-                let wp = if i > 0 && t - p.start < h { 0.5 * (1.0 - (t - p.start) / h) } else { 0.0 };
-                let wn = if i < last && p.end - t < h { 0.5 * (1.0 - (p.end - t) / h) } else { 0.0 };
+                let wp =
+                    if i > 0 && t - p.start < h { 0.5 * (1.0 - (t - p.start) / h) } else { 0.0 };
+                let wn =
+                    if i < last && p.end - t < h { 0.5 * (1.0 - (p.end - t) / h) } else { 0.0 };
                 let mut v = value(i, t) * (1.0 - wp - wn);
                 if wp > 0.0 {
                     v += value(i - 1, t) * wp;
@@ -207,7 +217,12 @@ impl External {
     /// # Errors
     /// `FrameCount` when the frame count differs from the sentence's, `PointCount` when a
     /// frame has neither one point per marker nor one per vertex.
-    pub fn marker_motion(&self, corpus: &Corpus, prepared: &Prepared, index: usize) -> Result<Vec<DVector>, SaqpError> {
+    pub fn marker_motion(
+        &self,
+        corpus: &Corpus,
+        prepared: &Prepared,
+        index: usize,
+    ) -> Result<Vec<DVector>, SaqpError> {
         let s = &corpus.sentences[index];
         if self.frames.len() != s.frames.len() {
             return Err(SaqpError::FrameCount {
@@ -223,7 +238,8 @@ impl External {
             .iter()
             .enumerate()
             .map(|(f, pts)| {
-                let pick = |m: usize, v: usize| if pts.len() == markers.len() { pts[m] } else { pts[v] };
+                let pick =
+                    |m: usize, v: usize| if pts.len() == markers.len() { pts[m] } else { pts[v] };
                 if pts.len() != markers.len() && pts.len() != vertices {
                     return Err(SaqpError::PointCount {
                         sentence: s.name.clone(),

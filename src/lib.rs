@@ -17,6 +17,7 @@ pub mod measure;
 pub mod model;
 pub mod plot;
 pub mod render;
+pub mod saqp;
 pub mod session;
 pub mod speech;
 #[cfg(any(test, feature = "test-fixtures"))]

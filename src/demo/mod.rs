@@ -31,6 +31,7 @@
 //!   a few per cent differently from `p_lip`.
 
 pub mod coart;
+pub mod corpus;
 pub mod head;
 pub mod lexicon;
 pub mod speakers;

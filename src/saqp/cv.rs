@@ -1,0 +1,489 @@
+//! The paper's training and validation (Ma & Deng §5.2–5.3): 80 % of the sentences (M_t)
+//! train, 20 % (M_v) validate. M_t is split into 10 phoneme-balanced folds; each
+//! sub-corpus SM_j joins k random folds (k = 1..9 in turn) and its sentences are scored
+//! against M_t − SM_j: the SATF metric E and, per synthesizer, the ground-truth error Q of
+//! synthesizing them from M_t − SM_j. A GP per synthesizer maps E to the Likert score; it
+//! then predicts M_v, scored against M_t.
+//!
+//! Choices the paper makes by cross-validation are made here the same way, inside M_t only,
+//! so the held-out figures stay honest: ω_m by the GP's closed-form leave-one-out RMSE on the
+//! Likert scale; λ and the order of W (which change E for every synthesizer) by how strongly
+//! E tracks Q over the training pairs (mean |Pearson r| across synthesizers), because a GP
+//! fit per candidate per synthesizer costs far more than the cross-validation it serves.
+//! Every random choice comes from one seed.
+
+use super::SaqpError;
+use super::context::ContextOptions;
+use super::corpus::Corpus;
+use super::gp::{GaussianProcess, GpPrediction};
+use super::motion::RegionSummary;
+use super::prepared::Prepared;
+use super::quality::{QualityParts, likert};
+use super::satf::{SatfParams, fit_trajectory};
+use super::synth::{External, SynthKind, TrainingSet};
+use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::collections::{HashMap, HashSet};
+
+/// What the cross-validation does.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CvOptions {
+    pub seed: u64,
+    /// Fraction held out as M_v.
+    pub test_fraction: f64,
+    pub folds: usize,
+    /// Number of sub-corpora SM_j (the paper: 56).
+    pub subcorpora: usize,
+    /// Sentences of each sub-corpus scored (a sample, so the GP sees a few hundred pairs as
+    /// in the paper's 484).
+    pub pairs_per_subcorpus: usize,
+    /// λ and W's order; `None` = chosen from `lambda_grid` × `orders`.
+    pub satf: Option<SatfParams>,
+    pub lambda_grid: Vec<f64>,
+    pub orders: Vec<usize>,
+    /// ω_m; `None` = chosen from `omega_grid` per synthesizer.
+    pub omega_m: Option<f64>,
+    pub omega_grid: Vec<f64>,
+    /// L-BFGS starts of the GP fit.
+    pub restarts: usize,
+    pub context: ContextOptions,
+    pub synths: Vec<SynthKind>,
+}
+
+impl Default for CvOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            test_fraction: 0.2,
+            folds: 10,
+            subcorpora: 56,
+            pairs_per_subcorpus: 4,
+            satf: None,
+            lambda_grid: vec![0.1, 0.5, 2.0],
+            orders: vec![1, 2],
+            omega_m: None,
+            omega_grid: vec![1.0, 2.0, 3.0, 4.0, 5.0],
+            restarts: 3,
+            context: ContextOptions::default(),
+            synths: SynthKind::BUILT_IN.to_vec(),
+        }
+    }
+}
+
+/// One held-out sentence's figures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HeldOut {
+    pub sentence: String,
+    pub e: f64,
+    /// Ground-truth error (eq. 8) and its Likert score.
+    pub q: f64,
+    pub likert: f64,
+    pub predicted: GpPrediction,
+}
+
+/// One synthesizer's model and its validation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SynthReport {
+    pub synth: SynthKind,
+    pub omega_m: f64,
+    /// (ω_m, leave-one-out RMSE) of each candidate tried.
+    pub omega_scores: Vec<(f64, f64)>,
+    /// ξ, the largest training error (the Likert scale's 1).
+    pub xi: f64,
+    pub gp: GaussianProcess,
+    pub held_out: Vec<HeldOut>,
+    /// Pearson r, RMSE of the GP's predictions, and RMSE of predicting the training mean,
+    /// all on the held-out Likert scores.
+    pub pearson_r: f64,
+    pub rmse: f64,
+    pub rmse_constant: f64,
+}
+
+/// Everything the cross-validation found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CvReport {
+    pub regions: Vec<RegionSummary>,
+    pub markers: usize,
+    pub train_sentences: usize,
+    pub test_sentences: usize,
+    /// Training (E, Q) pairs per synthesizer before ω_m.
+    pub pairs: usize,
+    /// Pairs dropped because the sentence's phones were all unseen in the sub-corpus.
+    pub unseen: usize,
+    pub satf: SatfParams,
+    /// (λ, order, mean |r(E, Q)|) of each candidate tried.
+    pub satf_scores: Vec<(f64, usize, f64)>,
+    pub synths: Vec<SynthReport>,
+}
+
+/// Pearson correlation; 0 when either side is constant.
+pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma).powi(2);
+        sbb += (y - mb).powi(2);
+    }
+    if saa > 0.0 && sbb > 0.0 { sab / (saa * sbb).sqrt() } else { 0.0 }
+}
+
+fn rmse(a: &[f64], b: &[f64]) -> f64 {
+    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
+}
+
+/// Splits `members` into `k` folds of near-equal size that each cover as many phones as
+/// possible: sentences with the rarest phones are placed first, each into the fold (with
+/// room) that lacks most of its phones.
+pub fn balanced_folds(
+    prepared: &Prepared,
+    members: &[usize],
+    k: usize,
+    rng: &mut StdRng,
+) -> Vec<Vec<usize>> {
+    let mut order = members.to_vec();
+    order.shuffle(rng);
+    let mut freq: HashMap<u16, usize> = HashMap::new();
+    for &s in members {
+        for id in prepared.sentences[s].ids.iter().collect::<HashSet<_>>() {
+            *freq.entry(*id).or_default() += 1;
+        }
+    }
+    let rarity = |s: usize| prepared.sentences[s].ids.iter().map(|id| freq[id]).min().unwrap_or(0);
+    order.sort_by_key(|&s| rarity(s));
+    let cap = members.len().div_ceil(k);
+    let mut folds: Vec<Vec<usize>> = vec![Vec::new(); k];
+    let mut covered: Vec<HashSet<u16>> = vec![HashSet::new(); k];
+    for s in order {
+        let ids = &prepared.sentences[s].ids;
+        let best = (0..k)
+            .filter(|&f| folds[f].len() < cap)
+            .max_by_key(|&f| {
+                let new = ids
+                    .iter()
+                    .collect::<HashSet<_>>()
+                    .iter()
+                    .filter(|id| !covered[f].contains(id))
+                    .count();
+                (new, std::cmp::Reverse(folds[f].len()), std::cmp::Reverse(f))
+            })
+            .unwrap_or(0);
+        folds[best].push(s);
+        covered[best].extend(ids.iter().copied());
+    }
+    folds
+}
+
+/// One scored sentence of one sub-corpus: E and the quality parts per synthesizer.
+#[derive(Clone, Debug)]
+struct Pair {
+    e: f64,
+    parts: Vec<Option<QualityParts>>,
+}
+
+/// A sub-corpus: who trains, who is scored.
+struct Split {
+    train: Vec<usize>,
+    scored: Vec<usize>,
+}
+
+struct Scorer<'a> {
+    prepared: &'a Prepared,
+    external: &'a HashMap<usize, Vec<crate::math::DVector>>,
+    options: &'a CvOptions,
+}
+
+impl Scorer<'_> {
+    /// Scores `target` against `set` for the synthesizers in `which` (others `None`).
+    fn score(
+        &self,
+        set: &TrainingSet,
+        target: usize,
+        params: SatfParams,
+        which: &[bool],
+    ) -> Result<Option<Pair>, SaqpError> {
+        let s = &self.prepared.sentences[target];
+        let fit = match fit_trajectory(
+            &s.name,
+            &set.stats,
+            &self.prepared.phones,
+            &s.ids,
+            &s.phones,
+            s.fps,
+            params,
+        ) {
+            Ok(f) => f,
+            Err(SaqpError::AllPhonesUnseen(_)) => return Ok(None),
+            Err(e) => return Err(e),
+        };
+        let markers = &self.prepared.markers;
+        let parts = self
+            .options
+            .synths
+            .iter()
+            .zip(which)
+            .map(|(&kind, &on)| {
+                if !on {
+                    return Ok(None);
+                }
+                let synth = if kind == SynthKind::External {
+                    match self.external.get(&target) {
+                        Some(m) => m.clone(),
+                        None => return Ok(None),
+                    }
+                } else {
+                    set.synthesize(kind, s, params)?
+                        .iter()
+                        .map(|a| markers.from_coefficients(a))
+                        .collect()
+                };
+                Ok(Some(QualityParts::measure(&s.truth, &synth, &markers.mouth, s.fps)))
+            })
+            .collect::<Result<Vec<_>, SaqpError>>()?;
+        Ok(Some(Pair { e: fit.e, parts }))
+    }
+
+    /// Scores every split; pairs in split order.
+    fn score_splits(
+        &self,
+        splits: &[Split],
+        params: SatfParams,
+        which: &[bool],
+    ) -> Result<Vec<Option<Pair>>, SaqpError> {
+        let per: Vec<Vec<Option<Pair>>> = splits
+            .par_iter()
+            .map(|sp| {
+                let set = TrainingSet::new(self.prepared, &sp.train, self.options.context);
+                sp.scored.iter().map(|&t| self.score(&set, t, params, which)).collect()
+            })
+            .collect::<Result<_, SaqpError>>()?;
+        Ok(per.into_iter().flatten().collect())
+    }
+}
+
+/// Merges the λ-dependent synthesizer's parts into pairs scored without it.
+fn merge(base: &[Option<Pair>], extra: &[Option<Pair>], which: &[bool]) -> Vec<Option<Pair>> {
+    base.iter()
+        .zip(extra)
+        .map(|(b, x)| match (b, x) {
+            (Some(b), Some(x)) => Some(Pair {
+                e: x.e,
+                parts: b
+                    .parts
+                    .iter()
+                    .zip(&x.parts)
+                    .zip(which)
+                    .map(|((p, q), &w)| if w { *q } else { *p })
+                    .collect(),
+            }),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Runs the cross-validation on a corpus. `external` holds the user's motion for corpus
+/// sentences (by name), used when `options.synths` lists [`SynthKind::External`].
+///
+/// # Errors
+/// An invalid corpus, too few sentences for the folds, an external motion of the wrong size
+/// or for an unknown sentence, or a GP that cannot be fitted.
+pub fn cross_validate(
+    corpus: &Corpus,
+    external: &HashMap<String, External>,
+    options: &CvOptions,
+) -> Result<CvReport, SaqpError> {
+    let prepared = Prepared::new(corpus)?;
+    cross_validate_prepared(corpus, &prepared, external, options)
+}
+
+/// [`cross_validate`] on an already prepared corpus.
+///
+/// # Errors
+/// As [`cross_validate`].
+pub fn cross_validate_prepared(
+    corpus: &Corpus,
+    prepared: &Prepared,
+    external: &HashMap<String, External>,
+    options: &CvOptions,
+) -> Result<CvReport, SaqpError> {
+    let n = prepared.sentences.len();
+    let folds_n = options.folds.max(2);
+    let needed = folds_n + 2;
+    if n < needed {
+        return Err(SaqpError::TooFewSentences { got: n, needed });
+    }
+    if options.synths.is_empty() {
+        return Err(SaqpError::Option("no synthesizer to learn".into()));
+    }
+    let mut ext = HashMap::new();
+    for (name, motion) in external {
+        let i = corpus.find(name).ok_or_else(|| SaqpError::UnknownSentence(name.clone()))?;
+        ext.insert(i, motion.marker_motion(corpus, prepared, i)?);
+    }
+    let mut rng = StdRng::seed_from_u64(options.seed);
+    let mut all: Vec<usize> = (0..n).collect();
+    all.shuffle(&mut rng);
+    let n_test = ((n as f64 * options.test_fraction).round() as usize).clamp(1, n - folds_n);
+    let (test, train) = all.split_at(n_test);
+    let folds = balanced_folds(prepared, train, folds_n, &mut rng);
+    let splits: Vec<Split> = (0..options.subcorpora.max(1))
+        .map(|j| {
+            let k = 1 + j % (folds_n - 1);
+            let mut pick: Vec<usize> = (0..folds_n).collect();
+            pick.shuffle(&mut rng);
+            let held: HashSet<usize> =
+                pick[..k].iter().flat_map(|&f| folds[f].iter().copied()).collect();
+            let train: Vec<usize> = train.iter().copied().filter(|s| !held.contains(s)).collect();
+            let mut scored: Vec<usize> = held.into_iter().collect();
+            scored.sort_unstable();
+            scored.shuffle(&mut rng);
+            scored.truncate(options.pairs_per_subcorpus.max(1));
+            let _ = rng.random::<u64>();
+            Split { train, scored }
+        })
+        .collect();
+    let scorer = Scorer { prepared, external: &ext, options };
+    let depends: Vec<bool> = options.synths.iter().map(|&k| k == SynthKind::Trajectory).collect();
+    let fixed: Vec<bool> = depends.iter().map(|d| !d).collect();
+    let candidates: Vec<SatfParams> = match options.satf {
+        Some(p) => vec![p],
+        None => options
+            .orders
+            .iter()
+            .flat_map(|&order| {
+                options.lambda_grid.iter().map(move |&lambda| SatfParams { lambda, order })
+            })
+            .collect(),
+    };
+    let first = candidates.first().copied().unwrap_or_default();
+    let base = scorer.score_splits(&splits, first, &fixed)?;
+    let mut satf_scores = Vec::new();
+    let mut best: Option<(f64, SatfParams, Vec<Option<Pair>>)> = None;
+    for &params in &candidates {
+        let extra = scorer.score_splits(&splits, params, &depends)?;
+        let pairs = merge(&base, &extra, &depends);
+        let score = (0..options.synths.len())
+            .map(|s| {
+                let (e, q): (Vec<f64>, Vec<f64>) = pairs
+                    .iter()
+                    .flatten()
+                    .filter_map(|p| p.parts[s].map(|q| (p.e, q.q(1.0))))
+                    .unzip();
+                pearson(&e, &q).abs()
+            })
+            .sum::<f64>()
+            / options.synths.len() as f64;
+        satf_scores.push((params.lambda, params.order, score));
+        if best.as_ref().is_none_or(|b| score > b.0) {
+            best = Some((score, params, pairs));
+        }
+    }
+    let (_, satf, pairs) = best.ok_or_else(|| SaqpError::Option("no λ/order candidate".into()))?;
+    let unseen = pairs.iter().filter(|p| p.is_none()).count();
+    let pairs: Vec<Pair> = pairs.into_iter().flatten().collect();
+
+    let full = TrainingSet::new(prepared, train, options.context);
+    let all_on = vec![true; options.synths.len()];
+    let held: Vec<(usize, Pair)> = test
+        .iter()
+        .map(|&t| scorer.score(&full, t, satf, &all_on).map(|p| p.map(|p| (t, p))))
+        .collect::<Result<Vec<_>, _>>()?
+        .into_iter()
+        .flatten()
+        .collect();
+
+    let synths = options
+        .synths
+        .iter()
+        .enumerate()
+        .map(|(si, &kind)| fit_synth(si, kind, &pairs, &held, prepared, options))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(CvReport {
+        regions: prepared.basis.summaries().to_vec(),
+        markers: prepared.markers.len(),
+        train_sentences: train.len(),
+        test_sentences: test.len(),
+        pairs: pairs.len(),
+        unseen,
+        satf,
+        satf_scores,
+        synths,
+    })
+}
+
+/// The GP of one synthesizer at a given ω_m: training Likert scores, ξ and the fit.
+fn fit_at(
+    si: usize,
+    pairs: &[Pair],
+    omega: f64,
+    restarts: usize,
+) -> Result<(f64, GaussianProcess), SaqpError> {
+    let (e, q): (Vec<f64>, Vec<f64>) =
+        pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
+    let xi = q.iter().copied().fold(0.0, f64::max);
+    if !(xi > 0.0) {
+        return Err(SaqpError::Gp("every training error is 0".into()));
+    }
+    let l: Vec<f64> = q.iter().map(|&x| likert(x, xi)).collect();
+    Ok((xi, GaussianProcess::fit(&e, &l, restarts)?))
+}
+
+fn fit_synth(
+    si: usize,
+    kind: SynthKind,
+    pairs: &[Pair],
+    held: &[(usize, Pair)],
+    prepared: &Prepared,
+    options: &CvOptions,
+) -> Result<SynthReport, SaqpError> {
+    let grid = match options.omega_m {
+        Some(w) => vec![w],
+        None => options.omega_grid.clone(),
+    };
+    let fits: Vec<(f64, f64, GaussianProcess, f64)> = grid
+        .par_iter()
+        .map(|&w| {
+            let (xi, gp) = fit_at(si, pairs, w, options.restarts)?;
+            let loo = gp.loo_residuals()?;
+            let score = (loo.iter().map(|r| r * r).sum::<f64>() / loo.len() as f64).sqrt();
+            Ok((w, xi, gp, score))
+        })
+        .collect::<Result<_, SaqpError>>()?;
+    let omega_scores = fits.iter().map(|f| (f.0, f.3)).collect();
+    let (omega_m, xi, gp, _) = fits
+        .into_iter()
+        .min_by(|a, b| a.3.total_cmp(&b.3))
+        .ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
+    let held: Vec<(usize, f64, f64)> =
+        held.iter().filter_map(|(t, p)| p.parts[si].map(|x| (*t, p.e, x.q(omega_m)))).collect();
+    let preds = gp.predict(&held.iter().map(|h| h.1).collect::<Vec<_>>())?;
+    let held_out: Vec<HeldOut> = held
+        .iter()
+        .zip(preds)
+        .map(|(&(t, e, q), predicted)| HeldOut {
+            sentence: prepared.sentences[t].name.clone(),
+            e,
+            q,
+            likert: likert(q, xi),
+            predicted,
+        })
+        .collect();
+    let truth: Vec<f64> = held_out.iter().map(|h| h.likert).collect();
+    let pred: Vec<f64> = held_out.iter().map(|h| h.predicted.mean).collect();
+    let constant = vec![gp.target_mean; truth.len()];
+    Ok(SynthReport {
+        synth: kind,
+        omega_m,
+        omega_scores,
+        xi,
+        pearson_r: pearson(&pred, &truth),
+        rmse: rmse(&pred, &truth),
+        rmse_constant: rmse(&constant, &truth),
+        gp,
+        held_out,
+    })
+}

@@ -1,0 +1,92 @@
+//! A trained quality predictor for one synthesizer: the context statistics of the whole
+//! corpus, the SATF parameters, ω_m, ξ and the GP, so a new timed phone sequence gets a
+//! predicted Likert score with its standard deviation. Serde; files are written by the
+//! application layer.
+
+use super::SaqpError;
+use super::context::ContextStats;
+use super::corpus::Corpus;
+use super::cv::{CvOptions, CvReport, cross_validate_prepared};
+use super::gp::{GaussianProcess, GpPrediction};
+use super::prepared::{PhoneSet, Prepared};
+use super::satf::{SatfParams, fit_trajectory};
+use super::synth::{External, SynthKind};
+use crate::alignment::Phone;
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// How to train: the cross-validation that chooses λ, W's order and ω_m and fits the GP,
+/// and which synthesizer to keep.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainOptions {
+    pub cv: CvOptions,
+    pub synth: SynthKind,
+}
+
+/// A trained predictor.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Predictor {
+    pub synth: SynthKind,
+    pub satf: SatfParams,
+    pub omega_m: f64,
+    pub xi: f64,
+    /// Frame rate durations are counted in (the corpus's).
+    pub fps: f64,
+    pub gp: GaussianProcess,
+    phones: PhoneSet,
+    stats: ContextStats,
+}
+
+/// Trains a predictor: runs the cross-validation and keeps `options.synth`'s model, with
+/// context statistics from every sentence of the corpus. Returns the report too.
+///
+/// # Errors
+/// As [`super::cross_validate`]; `options.synth` not among the synthesizers learned.
+pub fn train(
+    corpus: &Corpus,
+    external: &HashMap<String, External>,
+    options: &TrainOptions,
+) -> Result<(Predictor, CvReport), SaqpError> {
+    let prepared = Prepared::new(corpus)?;
+    let report = cross_validate_prepared(corpus, &prepared, external, &options.cv)?;
+    let synth =
+        report.synths.iter().find(|s| s.synth == options.synth).ok_or_else(|| {
+            SaqpError::Option(format!("{} was not learned", options.synth.name()))
+        })?;
+    let all: Vec<usize> = (0..prepared.sentences.len()).collect();
+    let stats = ContextStats::build(
+        prepared.basis.dims(),
+        &prepared.phones,
+        all.iter().map(|&s| {
+            let s = &prepared.sentences[s];
+            (&s.ids[..], &s.samples[..])
+        }),
+        options.cv.context,
+    );
+    let predictor = Predictor {
+        synth: synth.synth,
+        satf: report.satf,
+        omega_m: synth.omega_m,
+        xi: synth.xi,
+        fps: corpus.sentences[0].fps,
+        gp: synth.gp.clone(),
+        phones: prepared.phones.clone(),
+        stats,
+    };
+    Ok((predictor, report))
+}
+
+impl Predictor {
+    /// E of a timed phone sequence against the training corpus, and the predicted Likert
+    /// score for it.
+    ///
+    /// # Errors
+    /// `TooFewPhones`, `AllPhonesUnseen` (named `name`), a corrupted model.
+    pub fn predict(&self, name: &str, phones: &[Phone]) -> Result<(f64, GpPrediction), SaqpError> {
+        let mut set = self.phones.clone();
+        let ids = set.intern_all(phones);
+        let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
+        let p = self.gp.predict(&[fit.e])?;
+        Ok((fit.e, p[0]))
+    }
+}

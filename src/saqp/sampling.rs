@@ -1,0 +1,89 @@
+//! Per-phone representative samples and the reverse, frames from per-phone keys.
+//!
+//! The paper takes a viseme's middle frame as its representative sample (§5.1). At 25 fps a
+//! consonant can cover one frame or none, so a middle frame need not exist; the trajectory
+//! is instead interpolated linearly at the phone's midpoint time (frame `f` is at `f/fps`).
+
+use crate::alignment::Phone;
+use crate::math::DVector;
+
+/// The trajectory at fractional frame `x` (linear between neighbours, held at the ends).
+/// `frames` must not be empty.
+pub fn sample_at(frames: &[DVector], x: f64) -> DVector {
+    let last = frames.len() - 1;
+    if !(x > 0.0) {
+        return frames[0].clone();
+    }
+    if x >= last as f64 {
+        return frames[last].clone();
+    }
+    let i = x.floor() as usize;
+    let w = x - i as f64;
+    &frames[i] * (1.0 - w) + &frames[i + 1] * w
+}
+
+/// The midpoint time of a phone, seconds.
+pub fn midpoint(phone: &Phone) -> f64 {
+    0.5 * (phone.start + phone.end)
+}
+
+/// One representative sample per phone: the trajectory at the phone's midpoint.
+pub fn phone_midpoint_samples(frames: &[DVector], fps: f64, phones: &[Phone]) -> Vec<DVector> {
+    phones.iter().map(|p| sample_at(frames, midpoint(p) * fps)).collect()
+}
+
+/// Frames `0..n_frames` from keys at times `key_times` (seconds, ascending): linear between
+/// keys, held before the first and after the last. `keys` must not be empty.
+pub fn interpolate_keys(
+    key_times: &[f64],
+    keys: &[DVector],
+    fps: f64,
+    n_frames: usize,
+) -> Vec<DVector> {
+    let mut k = 0;
+    (0..n_frames)
+        .map(|f| {
+            let t = f as f64 / fps;
+            while k + 1 < key_times.len() && key_times[k + 1] <= t {
+                k += 1;
+            }
+            if t <= key_times[0] {
+                return keys[0].clone();
+            }
+            if k + 1 >= keys.len() {
+                return keys[keys.len() - 1].clone();
+            }
+            let span = key_times[k + 1] - key_times[k];
+            let w = if span > 0.0 { (t - key_times[k]) / span } else { 1.0 };
+            &keys[k] * (1.0 - w) + &keys[k + 1] * w
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(x: f64) -> DVector {
+        DVector::from_vec(vec![x])
+    }
+
+    #[test]
+    fn midpoint_sample_of_a_zero_frame_phone_interpolates() {
+        // Frames at 0, 0.04, 0.08 s hold 0, 1, 2; a phone 0.045–0.055 s covers no frame.
+        let frames = vec![v(0.0), v(1.0), v(2.0)];
+        let p = Phone { start: 0.045, end: 0.055, label: "B".into() };
+        let s = phone_midpoint_samples(&frames, 25.0, &[p]);
+        assert!((s[0][0] - 1.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn keys_interpolate_and_hold() {
+        let out = interpolate_keys(&[0.1, 0.3], &[v(0.0), v(2.0)], 10.0, 5);
+        let got: Vec<f64> = out.iter().map(|x| x[0]).collect();
+        let want = [0.0, 0.0, 1.0, 2.0, 2.0];
+        for (g, w) in got.iter().zip(want) {
+            assert!((g - w).abs() < 1e-12, "{got:?}");
+        }
+    }
+}

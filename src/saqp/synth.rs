@@ -1,0 +1,268 @@
+//! The synthesizers SAQP learns the quality of (Ma & Deng trained one predictor per
+//! algorithm, §5.3). Each synthesizes a held-out sentence's motion, in region coefficients
+//! per frame, from a training set of other sentences only:
+//!
+//! - **keyframe**: every phone's monophone mean (back-off: viseme class, global) placed at
+//!   its midpoint, linear in between;
+//! - **trajectory**: the SATF optimum y (eq. 4) at the midpoints, Ezzat et al.'s MMM
+//!   trajectory synthesis;
+//! - **concatenative**: per phone the training segment of the best context match (both
+//!   neighbours, then one, then the viseme class; closest duration breaks ties), time-warped
+//!   linearly onto the target interval and cross-faded over 40 ms at the joins, after eFASE;
+//! - **external**: the user's own per-frame positions for a corpus sentence.
+
+use super::SaqpError;
+use super::context::{ContextOptions, ContextStats};
+use super::corpus::Corpus;
+use super::prepared::{Prepared, PreparedSentence};
+use super::sampling::{interpolate_keys, midpoint, sample_at};
+use super::satf::{SatfParams, fit_trajectory, sequence_stats};
+use crate::math::{DVector, Point3};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// A synthesis algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum SynthKind {
+    Keyframe,
+    Trajectory,
+    Concatenative,
+    /// Motion supplied by the user.
+    External,
+}
+
+impl SynthKind {
+    pub const BUILT_IN: [SynthKind; 3] =
+        [SynthKind::Keyframe, SynthKind::Trajectory, SynthKind::Concatenative];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SynthKind::Keyframe => "keyframe",
+            SynthKind::Trajectory => "trajectory",
+            SynthKind::Concatenative => "concat",
+            SynthKind::External => "external",
+        }
+    }
+}
+
+/// Half-width of the cross-fade at concatenation joins, seconds.
+const JOIN_HALF_WIDTH: f64 = 0.04;
+
+/// A training set: sentences of a prepared corpus, their context statistics and an index of
+/// phone occurrences for concatenation.
+pub struct TrainingSet<'a> {
+    pub prepared: &'a Prepared,
+    pub stats: ContextStats,
+    occurrences: HashMap<u16, Vec<(usize, usize)>>,
+    by_viseme: HashMap<u16, Vec<(usize, usize)>>,
+}
+
+impl<'a> TrainingSet<'a> {
+    pub fn new(prepared: &'a Prepared, members: &[usize], options: ContextOptions) -> Self {
+        let k = prepared.basis.dims();
+        let stats = ContextStats::build(
+            k,
+            &prepared.phones,
+            members.iter().map(|&s| {
+                let s = &prepared.sentences[s];
+                (&s.ids[..], &s.samples[..])
+            }),
+            options,
+        );
+        let mut occurrences: HashMap<u16, Vec<(usize, usize)>> = HashMap::new();
+        let mut by_viseme: HashMap<u16, Vec<(usize, usize)>> = HashMap::new();
+        for &s in members {
+            for (i, &id) in prepared.sentences[s].ids.iter().enumerate() {
+                occurrences.entry(id).or_default().push((s, i));
+                if let Some(v) = prepared.phones.viseme(id) {
+                    by_viseme.entry(v).or_default().push((s, i));
+                }
+            }
+        }
+        Self { prepared, stats, occurrences, by_viseme }
+    }
+
+    /// Synthesizes `target`'s frames (region coefficients) with a built-in algorithm.
+    ///
+    /// # Errors
+    /// `AllPhonesUnseen`, `TooFewPhones`, a singular SATF system; `External` is not built in.
+    pub fn synthesize(
+        &self,
+        kind: SynthKind,
+        target: &PreparedSentence,
+        params: SatfParams,
+    ) -> Result<Vec<DVector>, SaqpError> {
+        let phones = &self.prepared.phones;
+        let n = target.n_frames();
+        let mids: Vec<f64> = target.phones.iter().map(midpoint).collect();
+        match kind {
+            SynthKind::Keyframe => {
+                sequence_stats(&target.name, &self.stats, phones, &target.ids)?;
+                let keys: Vec<DVector> = target
+                    .ids
+                    .iter()
+                    .map(|&id| self.stats.monophone(phones, id).map(|s| s.mean))
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| SaqpError::AllPhonesUnseen(target.name.clone()))?;
+                Ok(interpolate_keys(&mids, &keys, target.fps, n))
+            }
+            SynthKind::Trajectory => {
+                let fit = fit_trajectory(
+                    &target.name,
+                    &self.stats,
+                    phones,
+                    &target.ids,
+                    &target.phones,
+                    target.fps,
+                    params,
+                )?;
+                Ok(interpolate_keys(&mids, &fit.y, target.fps, n))
+            }
+            SynthKind::Concatenative => self.concatenate(target),
+            SynthKind::External => {
+                Err(SaqpError::Option("external motion is not synthesized".into()))
+            }
+        }
+    }
+
+    /// The best training occurrence for phone `i` of `target`.
+    fn best_segment(&self, target: &PreparedSentence, i: usize) -> Option<(usize, usize)> {
+        let phones = &self.prepared.phones;
+        let ids = &target.ids;
+        let id = ids[i];
+        let cands = self
+            .occurrences
+            .get(&id)
+            .or_else(|| phones.viseme(id).and_then(|v| self.by_viseme.get(&v)))?;
+        let dur = |p: &crate::alignment::Phone| (p.end - p.start).max(1e-3);
+        let want = dur(&target.phones[i]);
+        let same = |a: Option<&u16>, b: Option<&u16>| match (a, b) {
+            (Some(a), Some(b)) if a == b => 1.0,
+            (Some(&a), Some(&b))
+                if phones.viseme(a).is_some() && phones.viseme(a) == phones.viseme(b) =>
+            {
+                0.4
+            }
+            (None, None) => 1.0,
+            _ => 0.0,
+        };
+        cands
+            .iter()
+            .map(|&(s, j)| {
+                let c = &self.prepared.sentences[s];
+                let context =
+                    same(prev(ids, i), prev(&c.ids, j)) + same(ids.get(i + 1), c.ids.get(j + 1));
+                let timing = (dur(&c.phones[j]) / want).ln().abs();
+                ((s, j), 4.0 * context - timing)
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|x| x.0)
+    }
+
+    fn concatenate(&self, target: &PreparedSentence) -> Result<Vec<DVector>, SaqpError> {
+        sequence_stats(&target.name, &self.stats, &self.prepared.phones, &target.ids)?;
+        let global = self
+            .stats
+            .monophone(&self.prepared.phones, u16::MAX)
+            .map(|s| s.mean)
+            .ok_or_else(|| SaqpError::AllPhonesUnseen(target.name.clone()))?;
+        let segments: Vec<Option<(usize, usize)>> =
+            (0..target.ids.len()).map(|i| self.best_segment(target, i)).collect();
+        let value = |i: usize, t: f64| -> DVector {
+            let Some((s, j)) = segments[i] else { return global.clone() };
+            let c = &self.prepared.sentences[s];
+            let (tp, cp) = (&target.phones[i], &c.phones[j]);
+            let span = tp.end - tp.start;
+            let u = if span > 0.0 { (t - tp.start) / span } else { 0.5 };
+            let tc = cp.start + u * (cp.end - cp.start);
+            sample_at(&c.coefficients, tc * c.fps)
+        };
+        let last = target.phones.len() - 1;
+        let mut i = 0;
+        Ok((0..target.n_frames())
+            .map(|f| {
+                let t = f as f64 / target.fps;
+                while i < last && target.phones[i].end <= t {
+                    i += 1;
+                }
+                let p = &target.phones[i];
+                let h = JOIN_HALF_WIDTH;
+                let wp =
+                    if i > 0 && t - p.start < h { 0.5 * (1.0 - (t - p.start) / h) } else { 0.0 };
+                let wn =
+                    if i < last && p.end - t < h { 0.5 * (1.0 - (p.end - t) / h) } else { 0.0 };
+                let mut v = value(i, t) * (1.0 - wp - wn);
+                if wp > 0.0 {
+                    v += value(i - 1, t) * wp;
+                }
+                if wn > 0.0 {
+                    v += value(i + 1, t) * wn;
+                }
+                v
+            })
+            .collect())
+    }
+}
+
+/// A user's synthesized motion for one corpus sentence: per frame the pose-free positions
+/// (model space) of either the markers (in [`super::MarkerSet`] order) or every vertex.
+#[derive(Clone, Debug, PartialEq)]
+pub struct External {
+    pub frames: Vec<Vec<Point3>>,
+}
+
+impl External {
+    /// The marker displacements (from sentence `index`'s neutral shape) of this motion.
+    ///
+    /// # Errors
+    /// `FrameCount` when the frame count differs from the sentence's, `PointCount` when a
+    /// frame has neither one point per marker nor one per vertex.
+    pub fn marker_motion(
+        &self,
+        corpus: &Corpus,
+        prepared: &Prepared,
+        index: usize,
+    ) -> Result<Vec<DVector>, SaqpError> {
+        let s = &corpus.sentences[index];
+        if self.frames.len() != s.frames.len() {
+            return Err(SaqpError::FrameCount {
+                sentence: s.name.clone(),
+                got: self.frames.len(),
+                expected: s.frames.len(),
+            });
+        }
+        let markers = &prepared.markers;
+        let neutral = corpus.shapes.shape(&s.neutral);
+        let vertices = corpus.shapes.num_vertices();
+        self.frames
+            .iter()
+            .enumerate()
+            .map(|(f, pts)| {
+                let pick =
+                    |m: usize, v: usize| if pts.len() == markers.len() { pts[m] } else { pts[v] };
+                if pts.len() != markers.len() && pts.len() != vertices {
+                    return Err(SaqpError::PointCount {
+                        sentence: s.name.clone(),
+                        frame: f,
+                        got: pts.len(),
+                        markers: markers.len(),
+                        vertices,
+                    });
+                }
+                let mut d = DVector::zeros(3 * markers.len());
+                for (m, &v) in markers.vertices.iter().enumerate() {
+                    let p = pick(m, v);
+                    for a in 0..3 {
+                        d[3 * m + a] = p[a] - neutral[3 * v + a];
+                    }
+                }
+                Ok(d)
+            })
+            .collect()
+    }
+}
+
+/// The phone before position `j`.
+fn prev(v: &[u16], j: usize) -> Option<&u16> {
+    if j > 0 { v.get(j - 1) } else { None }
+}

@@ -19,5 +19,6 @@ pub mod plot;
 pub mod render;
 pub mod session;
 pub mod testdata;
+pub mod transfer;
 pub mod tui;
 pub mod workflow;

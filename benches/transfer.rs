@@ -17,7 +17,8 @@ fn main() {
     let obj_path = dir.join("base.obj");
     let mesh = obj::read_obj(&obj_path).expect("base.obj");
     let skin = obj::labelable_vertices(&obj_path).expect("base.obj").unwrap_or_default();
-    let map_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let map_path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
     let map = read_landmark_map(&map_path).expect("fixture");
     let triangles: Vec<[u32; 3]> =
         mesh.triangles().into_iter().filter(|t| t.iter().all(|&v| skin[v as usize])).collect();
@@ -25,15 +26,26 @@ fn main() {
     let reference = mesh.to_flat();
     let jaw = read_target(&dir.join("faceunits/jawOpen.target")).expect("jawOpen");
 
-    let mut c = Criterion::default().sample_size(10).measurement_time(Duration::from_secs(20)).configure_from_args();
+    let mut c = Criterion::default()
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(20))
+        .configure_from_args();
     for mode in [Interpolation::Biharmonic, Interpolation::Barycentric] {
         let options = TransferOptions { interpolation: mode, ..TransferOptions::default() };
         let build = || {
-            let source = SourceFace { reference: &reference, triangles: &triangles, landmarks: &map, identity: None, face: Some(&face) };
+            let source = SourceFace {
+                reference: &reference,
+                triangles: &triangles,
+                landmarks: &map,
+                identity: None,
+                face: Some(&face),
+            };
             let target = TargetHead { mesh: &mesh, skin: &skin, landmarks: &map };
             Transfer::new(source, target, &options).expect("setup")
         };
-        c.bench_function(&format!("transfer setup, {mode:?}, 19k-vertex head"), |b| b.iter(|| black_box(build())));
+        c.bench_function(&format!("transfer setup, {mode:?}, 19k-vertex head"), |b| {
+            b.iter(|| black_box(build()))
+        });
         let transfer = build();
         let mut frame = reference.clone();
         for o in &jaw {

@@ -32,8 +32,10 @@ fn agreement(got: &[f64], truth: &[f64]) -> (f64, f64) {
     let (a, b) = (centred(got), centred(truth));
     let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
     let r = dot(&a, &b) / (dot(&a, &a) * dot(&b, &b)).sqrt();
-    let rmse = (a.iter().zip(&b).map(|(p, q)| (p - q).powi(2)).sum::<f64>() / a.len() as f64).sqrt();
-    let range = truth.iter().cloned().fold(f64::NEG_INFINITY, f64::max) - truth.iter().cloned().fold(f64::INFINITY, f64::min);
+    let rmse =
+        (a.iter().zip(&b).map(|(p, q)| (p - q).powi(2)).sum::<f64>() / a.len() as f64).sqrt();
+    let range = truth.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - truth.iter().cloned().fold(f64::INFINITY, f64::min);
     (r, rmse / range)
 }
 
@@ -55,13 +57,15 @@ fn demo_motion_drives_makehuman_with_the_same_w_and_h() {
     let head_path = dir.join("base.obj");
     let mesh = obj::read_obj(&head_path).unwrap();
     let skin = obj::labelable_vertices(&head_path).unwrap().unwrap();
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
     let target_map = read_landmark_map(&fixture).unwrap().with_commissures_completed();
     let settings = FitSettings::default();
     let mut shapes = Vec::new();
     for clip in &out.speakers[0].clips {
         let track = read_track(&clip.tracked_csv).unwrap();
-        let fits = fit_clip(&model, &source_map, &track.frames, clip.height as f64, &settings, None);
+        let fits =
+            fit_clip(&model, &source_map, &track.frames, clip.height as f64, &settings, None);
         shapes.extend(fits.iter().filter(|f| f.failed.is_none()).map(|f| fitted_shape(&model, f)));
     }
     assert!(shapes.len() > 50, "{} fitted frames", shapes.len());

@@ -23,7 +23,8 @@ fn head() -> Option<Head> {
     let path = dir.join("base.obj");
     let mesh = obj::read_obj(&path).unwrap();
     let skin = obj::labelable_vertices(&path).unwrap().unwrap();
-    let fixture = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
     let map = read_landmark_map(&fixture).unwrap();
     let triangles: Vec<[u32; 3]> =
         mesh.triangles().into_iter().filter(|t| t.iter().all(|&v| skin[v as usize])).collect();
@@ -69,11 +70,20 @@ fn relative_rms(out: &DVector, rest: &[Point3], truth: &[Vector3], vertices: &[u
 fn face_units_are_reproduced_from_their_controls() {
     let Some(h) = head() else { return };
     let rest = &h.mesh.vertices;
-    let units = ["jawOpen", "mouthPucker", "mouthSmileLeft", "mouthSmileRight", "mouthStretchLeft", "mouthStretchRight", "mouthFunnel"];
+    let units = [
+        "jawOpen",
+        "mouthPucker",
+        "mouthSmileLeft",
+        "mouthSmileRight",
+        "mouthStretchLeft",
+        "mouthStretchRight",
+        "mouthFunnel",
+    ];
     let mut results = Vec::new();
     for mode in [Interpolation::Biharmonic, Interpolation::Barycentric] {
         let t = setup(&h, mode);
-        let controls: std::collections::HashSet<usize> = t.target_controls.iter().copied().collect();
+        let controls: std::collections::HashSet<usize> =
+            t.target_controls.iter().copied().collect();
         let inner_lip: Vec<usize> = [61, 62, 63, 65, 66, 67]
             .iter()
             .map(|&l| rest[h.map.vertex(l).unwrap()])
@@ -101,7 +111,9 @@ fn face_units_are_reproduced_from_their_controls() {
     for (mode, unit, e) in &results {
         println!("{mode:?} {unit}: relative RMS {e:.3}");
     }
-    let get = |mode: Interpolation, unit: &str| results.iter().find(|r| r.0 == mode && r.1 == unit).unwrap().2;
+    let get = |mode: Interpolation, unit: &str| {
+        results.iter().find(|r| r.0 == mode && r.1 == unit).unwrap().2
+    };
     let limits = [
         ("jawOpen", 0.10),
         ("mouthPucker", 0.20),
@@ -115,7 +127,10 @@ fn face_units_are_reproduced_from_their_controls() {
     for (unit, limit) in limits {
         let e = get(Interpolation::Biharmonic, unit);
         assert!(e <= limit, "{unit}: biharmonic relative RMS {e:.3} > {limit}");
-        assert!(e < get(Interpolation::Barycentric, unit), "{unit}: biharmonic no better than barycentric");
+        assert!(
+            e < get(Interpolation::Barycentric, unit),
+            "{unit}: biharmonic no better than barycentric"
+        );
     }
 }
 
@@ -131,10 +146,15 @@ fn rigid_motion_of_the_controls_moves_the_head_rigidly() {
         let positions: Vec<Point3> = t.rest_controls().iter().map(moved).collect();
         let out = t.apply_controls(&positions).unwrap();
         // The source moved rigidly gives the same.
-        let source: Vec<f64> = h.mesh.vertices.iter().flat_map(|p| {
-            let q = moved(p);
-            [q.x, q.y, q.z]
-        }).collect();
+        let source: Vec<f64> = h
+            .mesh
+            .vertices
+            .iter()
+            .flat_map(|p| {
+                let q = moved(p);
+                [q.x, q.y, q.z]
+            })
+            .collect();
         let out_source = t.apply(&DVector::from_vec(source)).unwrap();
         for result in [out, out_source] {
             let worst = h
@@ -142,9 +162,15 @@ fn rigid_motion_of_the_controls_moves_the_head_rigidly() {
                 .vertices
                 .iter()
                 .enumerate()
-                .map(|(v, p)| (Point3::new(result[3 * v], result[3 * v + 1], result[3 * v + 2]) - moved(p)).norm())
+                .map(|(v, p)| {
+                    (Point3::new(result[3 * v], result[3 * v + 1], result[3 * v + 2]) - moved(p))
+                        .norm()
+                })
                 .fold(0.0, f64::max);
-            assert!(worst <= 1e-9 * size, "{mode:?}: worst rigid error {worst:e} (head size {size})");
+            assert!(
+                worst <= 1e-9 * size,
+                "{mode:?}: worst rigid error {worst:e} (head size {size})"
+            );
         }
     }
 }
@@ -161,9 +187,14 @@ fn render_landmark_fixture() {
     let points: Vec<Point3> = h.face.iter().map(|&v| h.mesh.vertices[v]).collect();
     for (view, name) in [(View::Front, "front"), (View::Side, "side")] {
         let camera = Camera::fit_to_points(view, 0.0, &points, 0.08, 900, 900).unwrap();
-        let mut img =
-            render_mesh(&h.mesh.vertices, &h.triangles, &[[200, 190, 180]], &camera, &RenderOptions::default())
-                .unwrap();
+        let mut img = render_mesh(
+            &h.mesh.vertices,
+            &h.triangles,
+            &[[200, 190, 180]],
+            &camera,
+            &RenderOptions::default(),
+        )
+        .unwrap();
         for (l, v) in h.map.pairs() {
             let p = camera.project(&h.mesh.vertices[v]);
             let colour = if l % 2 == 0 { [220, 0, 0] } else { [0, 0, 220] };

@@ -29,11 +29,13 @@ impl Transfer {
         let stable_src: Vec<usize> = self.stable.iter().map(|&c| self.source_controls[c]).collect();
         let from: Vec<Point3> = stable_src.iter().map(|&v| self.reference[v]).collect();
         let to: Vec<Point3> = stable_src.iter().map(|&v| at(v)).collect();
-        let pose = estimate_similarity(&from, &to, false).unwrap_or_else(|_| Similarity::identity());
+        let pose =
+            estimate_similarity(&from, &to, false).unwrap_or_else(|_| Similarity::identity());
         let t = &self.placement.similarity;
         // The source pose seen in target space: p ↦ T(P(T⁻¹(p))).
         let rotation = t.rotation * pose.rotation * t.rotation.transpose();
-        let translation = t.translation + t.scale * (t.rotation * pose.translation) - rotation * t.translation;
+        let translation =
+            t.translation + t.scale * (t.rotation * pose.translation) - rotation * t.translation;
         let target_pose = Similarity { scale: 1.0, rotation, translation };
         let positions: Vec<Point3> = self
             .source_controls
@@ -63,7 +65,8 @@ impl Transfer {
         let rest: Vec<Point3> = self.target_controls.iter().map(|&v| self.rest[v]).collect();
         let from: Vec<Point3> = self.stable.iter().map(|&c| rest[c]).collect();
         let to: Vec<Point3> = self.stable.iter().map(|&c| positions[c]).collect();
-        let pose = estimate_similarity(&from, &to, false).unwrap_or_else(|_| Similarity::identity());
+        let pose =
+            estimate_similarity(&from, &to, false).unwrap_or_else(|_| Similarity::identity());
         let current: Vec<Point3> = positions.iter().map(|p| pose.apply_inverse(p)).collect();
         let mut displacement = vec![Vector3::zeros(); self.rest.len()];
         for (c, &v) in self.target_controls.iter().enumerate() {

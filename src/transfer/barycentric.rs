@@ -41,7 +41,9 @@ pub fn frame_point(z: &[Point3; 3], coords: &Vector3) -> Point3 {
 
 /// Eq. 5 as printed: `γ = Z⁻¹ v`, `Z` having the control points as columns.
 pub fn paper_coefficients(z: &[Point3; 3], v: &Point3) -> Option<Vector3> {
-    Matrix3::from_columns(&[z[0].coords, z[1].coords, z[2].coords]).try_inverse().map(|i| i * v.coords)
+    Matrix3::from_columns(&[z[0].coords, z[1].coords, z[2].coords])
+        .try_inverse()
+        .map(|i| i * v.coords)
 }
 
 /// Eq. 4: `v = γ₁z₁ + γ₂z₂ + γ₃z₃`.
@@ -137,7 +139,11 @@ mod tests {
             Point3::new(1.0, 1.0, 0.5),
         ];
         let triangles = [[0, 1, 2], [1, 3, 2]];
-        let points = vec![Point3::new(0.2, 0.2, 0.05), Point3::new(3.0, 3.0, 0.0), Point3::new(0.2, 0.2, 5.0)];
+        let points = vec![
+            Point3::new(0.2, 0.2, 0.05),
+            Point3::new(3.0, 3.0, 0.0),
+            Point3::new(0.2, 0.2, 5.0),
+        ];
         let b = bind_vertices(&points, &[0, 1, 2], &controls, &triangles, 0.5);
         assert_eq!(b[0].triangle, 0);
         assert_eq!(b[1].triangle, 1);

@@ -32,7 +32,11 @@ impl Biharmonic {
     /// # Errors
     /// `Solver` when the system is not positive definite (a free part of the region that
     /// touches neither a control nor a held vertex).
-    pub fn new(surface: &Surface, controls: &[usize], region: &[bool]) -> Result<Self, TransferError> {
+    pub fn new(
+        surface: &Surface,
+        controls: &[usize],
+        region: &[bool],
+    ) -> Result<Self, TransferError> {
         let n = surface.vertices.len();
         let mut control_of = vec![usize::MAX; n];
         for (c, &v) in controls.iter().enumerate() {
@@ -54,7 +58,10 @@ impl Biharmonic {
             let area = 0.5 * (p[1] - p[0]).cross(&(p[2] - p[0])).norm();
             for k in 0..3 {
                 let (i, j, o) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
-                let (a, b) = (surface.vertices[i] - surface.vertices[o], surface.vertices[j] - surface.vertices[o]);
+                let (a, b) = (
+                    surface.vertices[i] - surface.vertices[o],
+                    surface.vertices[j] - surface.vertices[o],
+                );
                 let cot = a.dot(&b) / a.cross(&b).norm();
                 *weight.entry((i.min(j), i.max(j))).or_insert(0.0) += 0.5 * cot;
                 *mass.entry(t[k]).or_insert(0.0) += area / 3.0;
@@ -94,8 +101,9 @@ impl Biharmonic {
         }
         let triplets: Vec<Triplet<usize, usize, f64>> =
             q_ff.iter().map(|(&(r, c), &val)| Triplet { row: r, col: c, val }).collect();
-        let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(free.len(), free.len(), &triplets)
-            .map_err(|e| TransferError::Solver(format!("{e:?}")))?;
+        let matrix =
+            SparseColMat::<usize, f64>::try_new_from_triplets(free.len(), free.len(), &triplets)
+                .map_err(|e| TransferError::Solver(format!("{e:?}")))?;
         let llt = matrix
             .sp_cholesky(Side::Lower)
             .map_err(|e| TransferError::Solver(format!("biharmonic system: {e:?}")))?;
@@ -117,7 +125,10 @@ impl Biharmonic {
 
     /// Displacements of the free vertices, as (target vertex, displacement), given the
     /// controls' displacements in control order.
-    pub fn solve(&self, control_displacements: &[Vector3]) -> impl Iterator<Item = (usize, Vector3)> + '_ {
+    pub fn solve(
+        &self,
+        control_displacements: &[Vector3],
+    ) -> impl Iterator<Item = (usize, Vector3)> + '_ {
         let mut rhs = Mat::<f64>::zeros(self.free.len(), 3);
         for &(r, c, q) in &self.coupling {
             let d = control_displacements[c];
@@ -144,8 +155,9 @@ mod tests {
         let s = Surface::new(&mesh, &[]).unwrap();
         // Controls: an inner ring and the border; the border ring of the grid is not
         // "region" but held; here all border vertices are controls so linear is exact.
-        let border: Vec<usize> =
-            (0..121).filter(|v| v % 11 == 0 || v % 11 == 10 || v / 11 == 0 || v / 11 == 10).collect();
+        let border: Vec<usize> = (0..121)
+            .filter(|v| v % 11 == 0 || v % 11 == 10 || v / 11 == 0 || v / 11 == 10)
+            .collect();
         let mut controls = border.clone();
         controls.push(60);
         let region: Vec<bool> = (0..mesh.vertices.len()).map(|v| v < 121).collect();

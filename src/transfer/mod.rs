@@ -29,9 +29,13 @@ pub use surface::Surface;
 /// Why a transfer cannot be set up or applied.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TransferError {
-    #[error("only {found} landmarks are labelled on both source and target; at least {needed} are needed")]
+    #[error(
+        "only {found} landmarks are labelled on both source and target; at least {needed} are needed"
+    )]
     TooFewLandmarks { found: usize, needed: usize },
-    #[error("the {side} landmark map puts iBUG point {landmark} on vertex {vertex}, but the {side} has {vertices} vertices (a map for another mesh?)")]
+    #[error(
+        "the {side} landmark map puts iBUG point {landmark} on vertex {vertex}, but the {side} has {vertices} vertices (a map for another mesh?)"
+    )]
     LandmarkOutOfRange { side: &'static str, landmark: usize, vertex: usize, vertices: usize },
     #[error("face {face} uses vertex {vertex}, but the head has {vertices} vertices")]
     FaceOutOfRange { face: usize, vertex: usize, vertices: usize },

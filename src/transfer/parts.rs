@@ -85,7 +85,13 @@ impl PartsPlan {
     /// Adds the parts' displacements (in the head's pose-free frame) to `displacement`,
     /// given the controls' rest and current positions in that frame. Skin displacements
     /// must already be in `displacement` for followers.
-    pub fn displace(&self, points: &[Point3], rest: &[Point3], current: &[Point3], displacement: &mut [Vector3]) {
+    pub fn displace(
+        &self,
+        points: &[Point3],
+        rest: &[Point3],
+        current: &[Point3],
+        displacement: &mut [Vector3],
+    ) {
         if !self.jaw.is_empty() {
             let from: Vec<Point3> = self.jaw_controls.iter().map(|&c| rest[c]).collect();
             let to: Vec<Point3> = self.jaw_controls.iter().map(|&c| current[c]).collect();
@@ -117,7 +123,8 @@ mod tests {
             Point3::new(0.2, 0.5, 0.3),  // upper tooth (part 4)
         ];
         let part = vec![0, 0, 0, 3, 4];
-        let plan = plan_parts(PartsMode::Jaw, &points, &[3, 4], &part, Some(0.0), vec![0, 1, 2], &[]);
+        let plan =
+            plan_parts(PartsMode::Jaw, &points, &[3, 4], &part, Some(0.0), vec![0, 1, 2], &[]);
         assert_eq!(plan.jaw, vec![3]);
         let rot = Rotation3::from_axis_angle(&V::x_axis(), 0.2);
         let rest: Vec<Point3> = points[..3].to_vec();
@@ -127,11 +134,16 @@ mod tests {
         assert!((points[3] + d[3] - rot * points[3]).norm() < 1e-12);
         assert_eq!(d[4], V::zeros());
 
-        let plan = plan_parts(PartsMode::NearestSurface, &points, &[3], &part, None, vec![], &[0, 1]);
+        let plan =
+            plan_parts(PartsMode::NearestSurface, &points, &[3], &part, None, vec![], &[0, 1]);
         let mut d = vec![V::zeros(); 5];
         d[0] = V::new(0.0, 0.5, 0.0);
         plan.displace(&points, &rest, &rest, &mut d);
         assert_eq!(d[3], V::new(0.0, 0.5, 0.0));
-        assert!(plan_parts(PartsMode::Jaw, &points, &[3], &part, Some(0.0), vec![0], &[]).jaw.is_empty());
+        assert!(
+            plan_parts(PartsMode::Jaw, &points, &[3], &part, Some(0.0), vec![0], &[])
+                .jaw
+                .is_empty()
+        );
     }
 }

@@ -92,11 +92,7 @@ pub fn place_source(
 fn adapt(source: &[Point3], identity: Option<Identity<'_>>, alpha: &DVector) -> Vec<Point3> {
     let Some(id) = identity.filter(|_| !alpha.is_empty()) else { return source.to_vec() };
     let offset = id.basis * alpha;
-    source
-        .iter()
-        .enumerate()
-        .map(|(i, p)| p + offset.fixed_rows::<3>(3 * i).into_owned())
-        .collect()
+    source.iter().enumerate().map(|(i, p)| p + offset.fixed_rows::<3>(3 * i).into_owned()).collect()
 }
 
 /// The regularised least-squares identity for a fixed similarity: in source space,
@@ -127,7 +123,10 @@ fn rms_distance(t: &Similarity, source: &[Point3], pairs: &[(usize, Point3)]) ->
 }
 
 fn nearest_point(points: &[Point3], p: &Point3) -> Option<Point3> {
-    points.iter().min_by(|a, b| (*a - p).norm_squared().total_cmp(&(*b - p).norm_squared())).copied()
+    points
+        .iter()
+        .min_by(|a, b| (*a - p).norm_squared().total_cmp(&(*b - p).norm_squared()))
+        .copied()
 }
 
 #[cfg(test)]

@@ -23,9 +23,15 @@ const VISIBILITY_CELL: f64 = 0.015;
 /// 26–17) in the frontal plane and visible from the front (within a cell's depth of the
 /// front-most vertex of their grid cell), so that no control lands inside the mouth.
 /// `None` when a point of the outline is unmapped or out of range.
-pub fn frontal_face_vertices(points: &[Point3], skin: &[bool], map: &LandmarkMap) -> Option<Vec<usize>> {
-    let outline: Vec<Point3> =
-        (0..17).chain((17..27).rev()).map(|l| map.vertex(l).and_then(|v| points.get(v).copied())).collect::<Option<_>>()?;
+pub fn frontal_face_vertices(
+    points: &[Point3],
+    skin: &[bool],
+    map: &LandmarkMap,
+) -> Option<Vec<usize>> {
+    let outline: Vec<Point3> = (0..17)
+        .chain((17..27).rev())
+        .map(|l| map.vertex(l).and_then(|v| points.get(v).copied()))
+        .collect::<Option<_>>()?;
     let inside = |p: &Point3| {
         let mut crossings = 0;
         for k in 0..outline.len() {
@@ -40,14 +46,20 @@ pub fn frontal_face_vertices(points: &[Point3], skin: &[bool], map: &LandmarkMap
         - outline.iter().map(|p| p.y).fold(f64::INFINITY, f64::min);
     let size = VISIBILITY_CELL * height;
     let cell = |p: &Point3| ((p.x / size).floor() as i64, (p.y / size).floor() as i64);
-    let candidates: Vec<usize> =
-        (0..points.len()).filter(|&v| skin.get(v).copied().unwrap_or(true) && inside(&points[v])).collect();
+    let candidates: Vec<usize> = (0..points.len())
+        .filter(|&v| skin.get(v).copied().unwrap_or(true) && inside(&points[v]))
+        .collect();
     let mut front: HashMap<(i64, i64), f64> = HashMap::new();
     for &v in &candidates {
         let z = front.entry(cell(&points[v])).or_insert(f64::NEG_INFINITY);
         *z = z.max(points[v].z);
     }
-    Some(candidates.into_iter().filter(|&v| points[v].z >= front[&cell(&points[v])] - 2.0 * size).collect())
+    Some(
+        candidates
+            .into_iter()
+            .filter(|&v| points[v].z >= front[&cell(&points[v])] - 2.0 * size)
+            .collect(),
+    )
 }
 
 /// Candidate target vertices considered per control before giving up.
@@ -72,7 +84,12 @@ pub fn select_controls(
     }
     let mut nearest: Vec<f64> = face
         .iter()
-        .map(|&v| chosen.iter().map(|&c| (points[c] - points[v]).norm_squared()).fold(f64::INFINITY, f64::min))
+        .map(|&v| {
+            chosen
+                .iter()
+                .map(|&c| (points[c] - points[v]).norm_squared())
+                .fold(f64::INFINITY, f64::min)
+        })
         .collect();
     while chosen.len() < count {
         let Some((i, &d)) = nearest.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) else {

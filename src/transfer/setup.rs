@@ -122,7 +122,11 @@ impl Transfer {
     /// `TooFewLandmarks`, the target surface's checks (`FaceOutOfRange`,
     /// `DegenerateTriangle`, `NonManifoldEdge`, `SkinLength`), `DegeneratePlacement`,
     /// `NoTargetVertex`, `NoControlTriangles` (barycentric) and `Solver` (biharmonic).
-    pub fn new(source: SourceFace<'_>, target: TargetHead<'_>, options: &TransferOptions) -> Result<Self, TransferError> {
+    pub fn new(
+        source: SourceFace<'_>,
+        target: TargetHead<'_>,
+        options: &TransferOptions,
+    ) -> Result<Self, TransferError> {
         let len = source.reference.len();
         if len % 3 != 0 || len == 0 {
             return Err(TransferError::ShapeLength { len, expected: 3 * (len / 3).max(1) });
@@ -130,8 +134,12 @@ impl Transfer {
         if source.reference.iter().any(|x| !x.is_finite()) {
             return Err(TransferError::NonFinite);
         }
-        let reference: Vec<Point3> =
-            source.reference.as_slice().chunks_exact(3).map(|c| Point3::new(c[0], c[1], c[2])).collect();
+        let reference: Vec<Point3> = source
+            .reference
+            .as_slice()
+            .chunks_exact(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
         check_map(source.landmarks, reference.len(), "source")?;
         check_map(target.landmarks, target.mesh.vertices.len(), "target")?;
         let surface = Surface::new(target.mesh, target.skin)?;
@@ -146,8 +154,10 @@ impl Transfer {
         }
         let all: Vec<usize> = (0..reference.len()).collect();
         let face = source.face.unwrap_or(&all);
-        let skin_points: Vec<Point3> =
-            (0..surface.vertices.len()).filter(|&v| surface.skin[v]).map(|v| surface.vertices[v]).collect();
+        let skin_points: Vec<Point3> = (0..surface.vertices.len())
+            .filter(|&v| surface.skin[v])
+            .map(|v| surface.vertices[v])
+            .collect();
         let landmark_pairs: Vec<(usize, Point3)> =
             pairs.iter().map(|&(_, sv, tv)| (sv, surface.vertices[tv])).collect();
         let placement = place_source(
@@ -161,7 +171,8 @@ impl Transfer {
 
         // Controls: landmarks first, each tied to its labelled target vertex.
         let landmark_sources: Vec<usize> = pairs.iter().map(|&(_, sv, _)| sv).collect();
-        let source_controls = select_controls(&placement.adapted, &landmark_sources, face, options.controls);
+        let source_controls =
+            select_controls(&placement.adapted, &landmark_sources, face, options.controls);
         let mut fixed_taken = HashSet::new();
         let control_landmark: Vec<Option<usize>> = source_controls
             .iter()
@@ -169,17 +180,24 @@ impl Transfer {
             .collect();
         let fixed: Vec<Option<usize>> = control_landmark
             .iter()
-            .map(|l| l.and_then(|l| target.landmarks.vertex(l)).filter(|&tv| fixed_taken.insert(tv)))
+            .map(|l| {
+                l.and_then(|l| target.landmarks.vertex(l)).filter(|&tv| fixed_taken.insert(tv))
+            })
             .collect();
         let source_normals = vertex_normals(&placement.adapted, source.triangles);
         let t = &placement.similarity;
-        let positions: Vec<Point3> = source_controls.iter().map(|&v| t.apply(&placement.adapted[v])).collect();
-        let normals: Vec<Vector3> = source_controls.iter().map(|&v| t.rotation * source_normals[v]).collect();
-        let target_controls = project_controls(&positions, &normals, &fixed, &surface, options.min_normal_cos)?;
-        let rest_controls: Vec<Point3> = target_controls.iter().map(|&v| surface.vertices[v]).collect();
+        let positions: Vec<Point3> =
+            source_controls.iter().map(|&v| t.apply(&placement.adapted[v])).collect();
+        let normals: Vec<Vector3> =
+            source_controls.iter().map(|&v| t.rotation * source_normals[v]).collect();
+        let target_controls =
+            project_controls(&positions, &normals, &fixed, &surface, options.min_normal_cos)?;
+        let rest_controls: Vec<Point3> =
+            target_controls.iter().map(|&v| surface.vertices[v]).collect();
 
         let frontal: Vec<Point3> = source_controls.iter().map(|&v| placement.adapted[v]).collect();
-        let triangles = triangulate_controls(&frontal, &target_controls, &surface, options.geodesic_ratio);
+        let triangles =
+            triangulate_controls(&frontal, &target_controls, &surface, options.geodesic_ratio);
         let all_triangles = delaunay_count(&frontal);
 
         // The head region: skin within a radius of the controls.
@@ -192,7 +210,9 @@ impl Transfer {
         let region: Vec<bool> = (0..near.len()).map(|v| near[v] && surface.skin[v]).collect();
         let is_control: HashSet<usize> = target_controls.iter().copied().collect();
         let interpolator = match options.interpolation {
-            Interpolation::Biharmonic => Interpolator::Biharmonic(Biharmonic::new(&surface, &target_controls, &region)?),
+            Interpolation::Biharmonic => {
+                Interpolator::Biharmonic(Biharmonic::new(&surface, &target_controls, &region)?)
+            }
             Interpolation::Barycentric => {
                 if triangles.is_empty() {
                     return Err(TransferError::NoControlTriangles);
@@ -204,21 +224,32 @@ impl Transfer {
                     .collect();
                 edges.sort_by(f64::total_cmp);
                 let gate = options.depth_gate_scale * edges[edges.len() / 2];
-                let bound: Vec<usize> = (0..region.len()).filter(|&v| region[v] && !is_control.contains(&v)).collect();
-                Interpolator::Barycentric(bind_vertices(&surface.vertices, &bound, &rest_controls, &triangles, gate))
+                let bound: Vec<usize> =
+                    (0..region.len()).filter(|&v| region[v] && !is_control.contains(&v)).collect();
+                Interpolator::Barycentric(bind_vertices(
+                    &surface.vertices,
+                    &bound,
+                    &rest_controls,
+                    &triangles,
+                    gate,
+                ))
             }
         };
 
         // Parts no control reaches, near the head.
-        let control_parts: HashSet<usize> = target_controls.iter().map(|&v| surface.part[v]).collect();
-        let part_vertices: Vec<usize> =
-            (0..near.len()).filter(|&v| near[v] && !control_parts.contains(&surface.part[v])).collect();
+        let control_parts: HashSet<usize> =
+            target_controls.iter().map(|&v| surface.part[v]).collect();
+        let part_vertices: Vec<usize> = (0..near.len())
+            .filter(|&v| near[v] && !control_parts.contains(&surface.part[v]))
+            .collect();
         let at = |l: usize| target.landmarks.vertex(l).map(|v| surface.vertices[v]);
         let (mouth_y, jaw_controls) = match (at(48), at(54), at(57)) {
             (Some(left), Some(right), Some(lower)) => {
                 let half = 0.75 * (right.x - left.x).abs();
                 let jaw = (0..rest_controls.len())
-                    .filter(|&c| rest_controls[c].y < lower.y && (rest_controls[c].x - lower.x).abs() < half)
+                    .filter(|&c| {
+                        rest_controls[c].y < lower.y && (rest_controls[c].x - lower.x).abs() < half
+                    })
                     .collect();
                 (Some(0.5 * (left.y + right.y)), jaw)
             }
@@ -259,13 +290,16 @@ impl Transfer {
 /// Every mapped vertex must exist; the error names the 1-based iBUG id, as map files do.
 fn check_map(map: &LandmarkMap, vertices: usize, side: &'static str) -> Result<(), TransferError> {
     match map.pairs().find(|&(_, v)| v >= vertices) {
-        Some((l, vertex)) => Err(TransferError::LandmarkOutOfRange { side, landmark: l + 1, vertex, vertices }),
+        Some((l, vertex)) => {
+            Err(TransferError::LandmarkOutOfRange { side, landmark: l + 1, vertex, vertices })
+        }
         None => Ok(()),
     }
 }
 
 fn delaunay_count(frontal: &[Point3]) -> usize {
-    let points: Vec<delaunator::Point> = frontal.iter().map(|p| delaunator::Point { x: p.x, y: p.y }).collect();
+    let points: Vec<delaunator::Point> =
+        frontal.iter().map(|p| delaunator::Point { x: p.x, y: p.y }).collect();
     delaunator::triangulate(&points).len()
 }
 
@@ -293,16 +327,29 @@ mod tests {
     /// The grid as both source and target, landmarks on ten spread vertices.
     fn case() -> (Mesh, LandmarkMap) {
         let mesh = grid(12);
-        let map = LandmarkMap { to_vertex: (0..10).map(|l| (l + 27, 13 * l + 2 * (l % 3))).collect() };
+        let map =
+            LandmarkMap { to_vertex: (0..10).map(|l| (l + 27, 13 * l + 2 * (l % 3))).collect() };
         (mesh, map)
     }
 
-    fn build(mesh: &Mesh, source_map: &LandmarkMap, target_map: &LandmarkMap, mode: Interpolation) -> Result<Transfer, TransferError> {
+    fn build(
+        mesh: &Mesh,
+        source_map: &LandmarkMap,
+        target_map: &LandmarkMap,
+        mode: Interpolation,
+    ) -> Result<Transfer, TransferError> {
         let reference = mesh.to_flat();
         let triangles = mesh.triangles();
-        let source = SourceFace { reference: &reference, triangles: &triangles, landmarks: source_map, identity: None, face: None };
+        let source = SourceFace {
+            reference: &reference,
+            triangles: &triangles,
+            landmarks: source_map,
+            identity: None,
+            face: None,
+        };
         let target = TargetHead { mesh, skin: &[], landmarks: target_map };
-        let options = TransferOptions { interpolation: mode, controls: 40, ..TransferOptions::default() };
+        let options =
+            TransferOptions { interpolation: mode, controls: 40, ..TransferOptions::default() };
         Transfer::new(source, target, &options)
     }
 
@@ -315,14 +362,19 @@ mod tests {
             assert!(t.placement.residual < 1e-9);
             let out = t.apply(&mesh.to_flat()).unwrap();
             assert!((out - mesh.to_flat()).amax() < 1e-9, "{mode:?}");
-            assert!(matches!(t.apply(&DVector::zeros(5)), Err(TransferError::ShapeLength { len: 5, .. })));
+            assert!(matches!(
+                t.apply(&DVector::zeros(5)),
+                Err(TransferError::ShapeLength { len: 5, .. })
+            ));
         }
     }
 
     #[test]
     fn bad_inputs_are_typed_errors() {
         let (mesh, map) = case();
-        let few = LandmarkMap { to_vertex: map.to_vertex.iter().take(2).map(|(&l, &v)| (l, v)).collect() };
+        let few = LandmarkMap {
+            to_vertex: map.to_vertex.iter().take(2).map(|(&l, &v)| (l, v)).collect(),
+        };
         assert!(matches!(
             build(&mesh, &few, &map, Interpolation::Biharmonic),
             Err(TransferError::TooFewLandmarks { found: 2, needed: 6 })
@@ -330,7 +382,10 @@ mod tests {
         let mut other = map.clone();
         other.to_vertex.insert(30, 10_000);
         let err = build(&mesh, &map, &other, Interpolation::Biharmonic).unwrap_err();
-        assert!(matches!(err, TransferError::LandmarkOutOfRange { side: "target", landmark: 31, vertex: 10_000, .. }));
+        assert!(matches!(
+            err,
+            TransferError::LandmarkOutOfRange { side: "target", landmark: 31, vertex: 10_000, .. }
+        ));
         assert!(err.to_string().contains("another mesh"));
         let mut flat = mesh.clone();
         flat.faces.push(vec![0, 1, 0]);

@@ -34,7 +34,11 @@ impl Surface {
     pub fn new(mesh: &Mesh, skin: &[bool]) -> Result<Self, TransferError> {
         let n = mesh.vertices.len();
         if let Some((face, vertex)) = mesh.first_face_out_of_range() {
-            return Err(TransferError::FaceOutOfRange { face, vertex: vertex as usize, vertices: n });
+            return Err(TransferError::FaceOutOfRange {
+                face,
+                vertex: vertex as usize,
+                vertices: n,
+            });
         }
         if !skin.is_empty() && skin.len() != n {
             return Err(TransferError::SkinLength { len: skin.len(), vertices: n });
@@ -110,9 +114,9 @@ impl Surface {
 /// The diagonal of the axis-aligned bounding box of `points` (0 when empty).
 pub fn bounding_diagonal(points: &[Point3]) -> f64 {
     let Some(first) = points.first() else { return 0.0 };
-    let (lo, hi) = points.iter().fold((first.coords, first.coords), |(lo, hi), p| {
-        (lo.inf(&p.coords), hi.sup(&p.coords))
-    });
+    let (lo, hi) = points
+        .iter()
+        .fold((first.coords, first.coords), |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)));
     (hi - lo).norm()
 }
 
@@ -207,7 +211,10 @@ pub(crate) mod tests {
         let mut fan = mesh.clone();
         fan.faces.push(vec![0, 1, 26]);
         fan.faces.push(vec![1, 0, 27]);
-        assert!(matches!(Surface::new(&fan, &[]), Err(TransferError::NonManifoldEdge { a: 0, b: 1 })));
+        assert!(matches!(
+            Surface::new(&fan, &[]),
+            Err(TransferError::NonManifoldEdge { a: 0, b: 1 })
+        ));
         let mut out = mesh;
         out.faces.push(vec![0, 1, 99]);
         assert!(matches!(Surface::new(&out, &[]), Err(TransferError::FaceOutOfRange { .. })));

@@ -207,7 +207,13 @@ impl Transfer {
             .iter()
             .map(|p| rest_controls.iter().any(|c| (c - p).norm_squared() <= radius * radius))
             .collect();
-        let region: Vec<bool> = (0..near.len()).map(|v| near[v] && surface.skin[v]).collect();
+        // Only parts a control reaches can move: a free part with no control would leave the
+        // biharmonic system singular.
+        let control_parts: HashSet<usize> =
+            target_controls.iter().map(|&v| surface.part[v]).collect();
+        let region: Vec<bool> = (0..near.len())
+            .map(|v| near[v] && surface.skin[v] && control_parts.contains(&surface.part[v]))
+            .collect();
         let is_control: HashSet<usize> = target_controls.iter().copied().collect();
         let interpolator = match options.interpolation {
             Interpolation::Biharmonic => {
@@ -237,8 +243,6 @@ impl Transfer {
         };
 
         // Parts no control reaches, near the head.
-        let control_parts: HashSet<usize> =
-            target_controls.iter().map(|&v| surface.part[v]).collect();
         let part_vertices: Vec<usize> = (0..near.len())
             .filter(|&v| near[v] && !control_parts.contains(&surface.part[v]))
             .collect();

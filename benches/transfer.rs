@@ -49,8 +49,8 @@ fn main() {
         let transfer = build();
         let mut frame = reference.clone();
         for o in &jaw {
-            for k in 0..3 {
-                frame[3 * o.vertex + k] += 0.7 * o.delta[k];
+            for (k, dk) in o.delta.iter().enumerate() {
+                frame[3 * o.vertex + k] += 0.7 * dk;
             }
         }
         c.bench_function(&format!("transfer frame, {mode:?}, 19k-vertex head"), |b| {

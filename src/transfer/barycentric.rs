@@ -23,7 +23,7 @@ fn frame(z: &[Point3; 3]) -> Option<Matrix3> {
     let (e1, e2) = (z[1] - z[0], z[2] - z[0]);
     let cross = e1.cross(&e2);
     let len = cross.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return None;
     }
     Some(Matrix3::from_columns(&[e1, e2, cross / len.sqrt()]))

@@ -132,8 +132,8 @@ impl Biharmonic {
         let mut rhs = Mat::<f64>::zeros(self.free.len(), 3);
         for &(r, c, q) in &self.coupling {
             let d = control_displacements[c];
-            for k in 0..3 {
-                rhs[(r, k)] -= q * d[k];
+            for (k, dk) in d.iter().enumerate() {
+                rhs[(r, k)] -= q * dk;
             }
         }
         self.llt.solve_in_place(&mut rhs);

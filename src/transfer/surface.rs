@@ -56,8 +56,9 @@ impl Surface {
                 let t = [poly[0] as usize, poly[k] as usize, poly[k + 1] as usize];
                 let [a, b, c] = t.map(|v| mesh.vertices[v]);
                 let cross = (b - a).cross(&(c - a));
+                let twice_area = cross.norm();
                 // Relative to the head's size, so units (mm, dm) do not matter.
-                if !(cross.norm() > 1e-14 * extent * extent) {
+                if twice_area.is_nan() || twice_area <= 1e-14 * extent * extent {
                     return Err(TransferError::DegenerateTriangle { face });
                 }
                 for v in t {

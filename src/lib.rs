@@ -22,5 +22,6 @@ pub mod session;
 pub mod speech;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
+pub mod transfer;
 pub mod tui;
 pub mod workflow;

@@ -1,0 +1,401 @@
+//! Setting a transfer up, once per source/target pair: check the inputs, place the source,
+//! choose and project the controls, and build the interpolation (its factor or bindings)
+//! and the plan for the disconnected parts.
+
+use super::TransferError;
+use super::barycentric::{Binding, bind_vertices};
+use super::biharmonic::Biharmonic;
+use super::parts::{PartsMode, PartsPlan, plan_parts};
+use super::placement::{Identity, Placement, place_source};
+use super::projection::{project_controls, select_controls, triangulate_controls};
+use super::surface::{Surface, bounding_diagonal};
+use crate::math::{DVector, Point3, Vector3};
+use crate::model::{LandmarkMap, Mesh};
+use std::collections::HashSet;
+
+/// iBUG points (0-based) that expressions barely move: nose bridge and eye corners. The
+/// head's rigid pose is estimated on them, so articulation does not leak into it.
+const STABLE_LANDMARKS: [usize; 7] = [27, 28, 29, 36, 39, 42, 45];
+
+/// The face model whose motion drives the target.
+#[derive(Clone, Copy, Debug)]
+pub struct SourceFace<'a> {
+    /// The reference (neutral) shape, flat `x0 y0 z0 …`, in model space (y up, face +z).
+    pub reference: &'a DVector,
+    pub triangles: &'a [[u32; 3]],
+    pub landmarks: &'a LandmarkMap,
+    /// The identity part of the model, for adapting it to the target.
+    pub identity: Option<Identity<'a>>,
+    /// Vertices that may become controls (`None`: all, as for a face model).
+    pub face: Option<&'a [usize]>,
+}
+
+/// The head to animate.
+#[derive(Clone, Copy, Debug)]
+pub struct TargetHead<'a> {
+    pub mesh: &'a Mesh,
+    /// Per-vertex skin mask (false for helper/joint geometry); empty: all skin.
+    pub skin: &'a [bool],
+    pub landmarks: &'a LandmarkMap,
+}
+
+/// How vertices follow the controls.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Interpolation {
+    /// Smooth thin-plate displacements over the head region (the default).
+    #[default]
+    Biharmonic,
+    /// The paper's per-triangle interpolation, in frames that move with the triangles.
+    Barycentric,
+}
+
+/// Setup choices; the defaults suit a face model driving a head.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TransferOptions {
+    pub interpolation: Interpolation,
+    pub parts: PartsMode,
+    /// Controls wanted (landmarks included).
+    pub controls: usize,
+    /// Landmarks labelled on both sides needed for the placement.
+    pub min_landmarks: usize,
+    pub closest_point_rounds: usize,
+    /// A control triangle is dropped when an edge is this many times longer along the
+    /// target surface than straight.
+    pub geodesic_ratio: f64,
+    /// Least cosine between a control's normal and its target vertex's.
+    pub min_normal_cos: f64,
+    /// Head region radius as a fraction of the controls' bounding-box diagonal: beyond it
+    /// vertices only follow the head's rigid pose.
+    pub region_scale: f64,
+    /// Barycentric depth gate as a multiple of the median control-triangle edge.
+    pub depth_gate_scale: f64,
+}
+
+impl Default for TransferOptions {
+    fn default() -> Self {
+        Self {
+            interpolation: Interpolation::Biharmonic,
+            parts: PartsMode::Jaw,
+            controls: 300,
+            min_landmarks: 6,
+            closest_point_rounds: 0,
+            geodesic_ratio: 2.0,
+            min_normal_cos: 0.3,
+            region_scale: 0.25,
+            depth_gate_scale: 0.5,
+        }
+    }
+}
+
+#[derive(Debug)]
+pub(crate) enum Interpolator {
+    Biharmonic(Biharmonic),
+    Barycentric(Vec<Binding>),
+}
+
+/// A transfer set up for one source and one target; apply it per frame.
+#[derive(Debug)]
+pub struct Transfer {
+    pub placement: Placement,
+    /// Source vertex of each control.
+    pub source_controls: Vec<usize>,
+    /// Target vertex of each control (all distinct).
+    pub target_controls: Vec<usize>,
+    /// Control triangles kept (indices into the controls) and how many were dropped.
+    pub triangles: Vec<[usize; 3]>,
+    pub triangles_dropped: usize,
+    /// Target vertices inside the head region.
+    pub region: Vec<bool>,
+    pub(crate) rest: Vec<Point3>,
+    pub(crate) reference: Vec<Point3>,
+    /// Controls the rigid pose is estimated on.
+    pub(crate) stable: Vec<usize>,
+    pub(crate) interpolator: Interpolator,
+    pub(crate) parts: PartsPlan,
+}
+
+impl Transfer {
+    /// Sets a transfer up.
+    ///
+    /// # Errors
+    /// `ShapeLength` (reference not 3N), `LandmarkOutOfRange` (a map for another mesh),
+    /// `TooFewLandmarks`, the target surface's checks (`FaceOutOfRange`,
+    /// `DegenerateTriangle`, `NonManifoldEdge`, `SkinLength`), `DegeneratePlacement`,
+    /// `NoTargetVertex`, `NoControlTriangles` (barycentric) and `Solver` (biharmonic).
+    pub fn new(
+        source: SourceFace<'_>,
+        target: TargetHead<'_>,
+        options: &TransferOptions,
+    ) -> Result<Self, TransferError> {
+        let len = source.reference.len();
+        if len % 3 != 0 || len == 0 {
+            return Err(TransferError::ShapeLength { len, expected: 3 * (len / 3).max(1) });
+        }
+        if source.reference.iter().any(|x| !x.is_finite()) {
+            return Err(TransferError::NonFinite);
+        }
+        let reference: Vec<Point3> = source
+            .reference
+            .as_slice()
+            .chunks_exact(3)
+            .map(|c| Point3::new(c[0], c[1], c[2]))
+            .collect();
+        check_map(source.landmarks, reference.len(), "source")?;
+        check_map(target.landmarks, target.mesh.vertices.len(), "target")?;
+        let surface = Surface::new(target.mesh, target.skin)?;
+        let pairs: Vec<(usize, usize, usize)> = source
+            .landmarks
+            .pairs()
+            .filter_map(|(l, sv)| target.landmarks.vertex(l).map(|tv| (l, sv, tv)))
+            .collect();
+        let needed = options.min_landmarks.max(3);
+        if pairs.len() < needed {
+            return Err(TransferError::TooFewLandmarks { found: pairs.len(), needed });
+        }
+        let all: Vec<usize> = (0..reference.len()).collect();
+        let face = source.face.unwrap_or(&all);
+        let skin_points: Vec<Point3> = (0..surface.vertices.len())
+            .filter(|&v| surface.skin[v])
+            .map(|v| surface.vertices[v])
+            .collect();
+        let landmark_pairs: Vec<(usize, Point3)> =
+            pairs.iter().map(|&(_, sv, tv)| (sv, surface.vertices[tv])).collect();
+        let placement = place_source(
+            &reference,
+            source.identity,
+            &landmark_pairs,
+            face,
+            &skin_points,
+            options.closest_point_rounds,
+        )?;
+
+        // Controls: landmarks first, each tied to its labelled target vertex.
+        let landmark_sources: Vec<usize> = pairs.iter().map(|&(_, sv, _)| sv).collect();
+        let source_controls =
+            select_controls(&placement.adapted, &landmark_sources, face, options.controls);
+        let mut fixed_taken = HashSet::new();
+        let control_landmark: Vec<Option<usize>> = source_controls
+            .iter()
+            .map(|&sv| pairs.iter().find(|p| p.1 == sv).map(|p| p.0))
+            .collect();
+        let fixed: Vec<Option<usize>> = control_landmark
+            .iter()
+            .map(|l| {
+                l.and_then(|l| target.landmarks.vertex(l)).filter(|&tv| fixed_taken.insert(tv))
+            })
+            .collect();
+        let source_normals = vertex_normals(&placement.adapted, source.triangles);
+        let t = &placement.similarity;
+        let positions: Vec<Point3> =
+            source_controls.iter().map(|&v| t.apply(&placement.adapted[v])).collect();
+        let normals: Vec<Vector3> =
+            source_controls.iter().map(|&v| t.rotation * source_normals[v]).collect();
+        let target_controls =
+            project_controls(&positions, &normals, &fixed, &surface, options.min_normal_cos)?;
+        let rest_controls: Vec<Point3> =
+            target_controls.iter().map(|&v| surface.vertices[v]).collect();
+
+        let frontal: Vec<Point3> = source_controls.iter().map(|&v| placement.adapted[v]).collect();
+        let triangles =
+            triangulate_controls(&frontal, &target_controls, &surface, options.geodesic_ratio);
+        let all_triangles = delaunay_count(&frontal);
+
+        // The head region: skin within a radius of the controls.
+        let radius = options.region_scale * bounding_diagonal(&rest_controls);
+        let near: Vec<bool> = surface
+            .vertices
+            .iter()
+            .map(|p| rest_controls.iter().any(|c| (c - p).norm_squared() <= radius * radius))
+            .collect();
+        // Only parts a control reaches can move: a free part with no control would leave the
+        // biharmonic system singular.
+        let control_parts: HashSet<usize> =
+            target_controls.iter().map(|&v| surface.part[v]).collect();
+        let region: Vec<bool> = (0..near.len())
+            .map(|v| near[v] && surface.skin[v] && control_parts.contains(&surface.part[v]))
+            .collect();
+        let is_control: HashSet<usize> = target_controls.iter().copied().collect();
+        let interpolator = match options.interpolation {
+            Interpolation::Biharmonic => {
+                Interpolator::Biharmonic(Biharmonic::new(&surface, &target_controls, &region)?)
+            }
+            Interpolation::Barycentric => {
+                if triangles.is_empty() {
+                    return Err(TransferError::NoControlTriangles);
+                }
+                let mut edges: Vec<f64> = triangles
+                    .iter()
+                    .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+                    .map(|(a, b)| (rest_controls[a] - rest_controls[b]).norm())
+                    .collect();
+                edges.sort_by(f64::total_cmp);
+                let gate = options.depth_gate_scale * edges[edges.len() / 2];
+                let bound: Vec<usize> =
+                    (0..region.len()).filter(|&v| region[v] && !is_control.contains(&v)).collect();
+                Interpolator::Barycentric(bind_vertices(
+                    &surface.vertices,
+                    &bound,
+                    &rest_controls,
+                    &triangles,
+                    gate,
+                ))
+            }
+        };
+
+        // Parts no control reaches, near the head.
+        let part_vertices: Vec<usize> = (0..near.len())
+            .filter(|&v| near[v] && !control_parts.contains(&surface.part[v]))
+            .collect();
+        let at = |l: usize| target.landmarks.vertex(l).map(|v| surface.vertices[v]);
+        let (mouth_y, jaw_controls) = match (at(48), at(54), at(57)) {
+            (Some(left), Some(right), Some(lower)) => {
+                let half = 0.75 * (right.x - left.x).abs();
+                let jaw = (0..rest_controls.len())
+                    .filter(|&c| {
+                        rest_controls[c].y < lower.y && (rest_controls[c].x - lower.x).abs() < half
+                    })
+                    .collect();
+                (Some(0.5 * (left.y + right.y)), jaw)
+            }
+            _ => (None, Vec::new()),
+        };
+        let moving_skin: Vec<usize> = (0..region.len()).filter(|&v| region[v]).collect();
+        let parts = plan_parts(
+            options.parts,
+            &surface.vertices,
+            &part_vertices,
+            &surface.part,
+            mouth_y,
+            jaw_controls,
+            &moving_skin,
+        );
+        let mut stable: Vec<usize> = (0..source_controls.len())
+            .filter(|&c| control_landmark[c].is_some_and(|l| STABLE_LANDMARKS.contains(&l)))
+            .collect();
+        if stable.len() < 3 {
+            stable = (0..source_controls.len()).collect();
+        }
+        Ok(Self {
+            placement,
+            source_controls,
+            target_controls,
+            triangles_dropped: all_triangles - triangles.len(),
+            triangles,
+            region,
+            rest: surface.vertices,
+            reference,
+            stable,
+            interpolator,
+            parts,
+        })
+    }
+}
+
+/// Every mapped vertex must exist; the error names the 1-based iBUG id, as map files do.
+fn check_map(map: &LandmarkMap, vertices: usize, side: &'static str) -> Result<(), TransferError> {
+    match map.pairs().find(|&(_, v)| v >= vertices) {
+        Some((l, vertex)) => {
+            Err(TransferError::LandmarkOutOfRange { side, landmark: l + 1, vertex, vertices })
+        }
+        None => Ok(()),
+    }
+}
+
+fn delaunay_count(frontal: &[Point3]) -> usize {
+    let points: Vec<delaunator::Point> =
+        frontal.iter().map(|p| delaunator::Point { x: p.x, y: p.y }).collect();
+    delaunator::triangulate(&points).len()
+}
+
+/// Unit area-weighted vertex normals (zero for vertices of no triangle).
+fn vertex_normals(points: &[Point3], triangles: &[[u32; 3]]) -> Vec<Vector3> {
+    let mut normals = vec![Vector3::zeros(); points.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|v| v as usize);
+        if a.max(b).max(c) >= points.len() {
+            continue;
+        }
+        let n = (points[b] - points[a]).cross(&(points[c] - points[a]));
+        for v in [a, b, c] {
+            normals[v] += n;
+        }
+    }
+    normals.iter().map(|n| n.try_normalize(0.0).unwrap_or_else(Vector3::zeros)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::transfer::surface::tests::grid;
+
+    /// The grid as both source and target, landmarks on ten spread vertices.
+    fn case() -> (Mesh, LandmarkMap) {
+        let mesh = grid(12);
+        let map =
+            LandmarkMap { to_vertex: (0..10).map(|l| (l + 27, 13 * l + 2 * (l % 3))).collect() };
+        (mesh, map)
+    }
+
+    fn build(
+        mesh: &Mesh,
+        source_map: &LandmarkMap,
+        target_map: &LandmarkMap,
+        mode: Interpolation,
+    ) -> Result<Transfer, TransferError> {
+        let reference = mesh.to_flat();
+        let triangles = mesh.triangles();
+        let source = SourceFace {
+            reference: &reference,
+            triangles: &triangles,
+            landmarks: source_map,
+            identity: None,
+            face: None,
+        };
+        let target = TargetHead { mesh, skin: &[], landmarks: target_map };
+        let options =
+            TransferOptions { interpolation: mode, controls: 40, ..TransferOptions::default() };
+        Transfer::new(source, target, &options)
+    }
+
+    #[test]
+    fn sets_up_and_reproduces_the_rest_shape() {
+        let (mesh, map) = case();
+        for mode in [Interpolation::Biharmonic, Interpolation::Barycentric] {
+            let t = build(&mesh, &map, &map, mode).unwrap();
+            assert_eq!(t.target_controls.len(), 40);
+            assert!(t.placement.residual < 1e-9);
+            let out = t.apply(&mesh.to_flat()).unwrap();
+            assert!((out - mesh.to_flat()).amax() < 1e-9, "{mode:?}");
+            assert!(matches!(
+                t.apply(&DVector::zeros(5)),
+                Err(TransferError::ShapeLength { len: 5, .. })
+            ));
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_typed_errors() {
+        let (mesh, map) = case();
+        let few = LandmarkMap {
+            to_vertex: map.to_vertex.iter().take(2).map(|(&l, &v)| (l, v)).collect(),
+        };
+        assert!(matches!(
+            build(&mesh, &few, &map, Interpolation::Biharmonic),
+            Err(TransferError::TooFewLandmarks { found: 2, needed: 6 })
+        ));
+        let mut other = map.clone();
+        other.to_vertex.insert(30, 10_000);
+        let err = build(&mesh, &map, &other, Interpolation::Biharmonic).unwrap_err();
+        assert!(matches!(
+            err,
+            TransferError::LandmarkOutOfRange { side: "target", landmark: 31, vertex: 10_000, .. }
+        ));
+        assert!(err.to_string().contains("another mesh"));
+        let mut flat = mesh.clone();
+        flat.faces.push(vec![0, 1, 0]);
+        assert!(matches!(
+            build(&flat, &map, &map, Interpolation::Biharmonic),
+            Err(TransferError::DegenerateTriangle { .. })
+        ));
+    }
+}

@@ -65,7 +65,7 @@ impl BandMatrix {
             for k in lo..j {
                 s -= l[at(j, k)] * l[at(j, k)];
             }
-            if !(s > 0.0) || !s.is_finite() {
+            if !(s.is_finite() && s > 0.0) {
                 return Err(SaqpError::NotPositiveDefinite(j));
             }
             let d = s.sqrt();
@@ -92,6 +92,8 @@ pub struct BandCholesky {
 
 impl BandCholesky {
     /// Solves `A·x = b` by forward and back substitution.
+    // Index loops keep the subscripts of the band formulas (k runs over the band of row i).
+    #[allow(clippy::needless_range_loop)]
     pub fn solve(&self, b: &[f64]) -> Vec<f64> {
         let (n, p, w) = (self.n, self.p, self.p + 1);
         let at = |i: usize, j: usize| i * w + (i - j);

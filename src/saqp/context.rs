@@ -257,9 +257,9 @@ mod tests {
         let mut phones = PhoneSet::default();
         let [a, b, c, p, m] = ["AA", "B", "IY", "P", "M"].map(|l| phones.intern(l));
         let ids = vec![a, b, c];
-        let samples = vec![v(1.0), v(2.0), v(3.0)];
-        let ids2 = vec![c, b, a];
-        let samples2 = vec![v(3.5), v(4.0), v(1.5)];
+        let samples = [v(1.0), v(2.0), v(3.0)];
+        let ids2 = [c, b, a];
+        let samples2 = [v(3.5), v(4.0), v(1.5)];
         let stats = ContextStats::build(
             1,
             &phones,
@@ -286,7 +286,7 @@ mod tests {
         let mut phones = PhoneSet::default();
         let a = phones.intern("AA");
         let ids = vec![a, a, a, a];
-        let samples = vec![v(0.0), v(2.0), v(4.0), v(6.0)];
+        let samples = [v(0.0), v(2.0), v(4.0), v(6.0)];
         let stats =
             ContextStats::build(1, &phones, [(&ids[..], &samples[..])], ContextOptions::default());
         let mono = stats.monophone(&phones, a).unwrap();

@@ -425,7 +425,7 @@ fn fit_at(
     let (e, q): (Vec<f64>, Vec<f64>) =
         pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
     let xi = q.iter().copied().fold(0.0, f64::max);
-    if !(xi > 0.0) {
+    if xi.is_nan() || xi <= 0.0 {
         return Err(SaqpError::Gp("every training error is 0".into()));
     }
     let l: Vec<f64> = q.iter().map(|&x| likert(x, xi)).collect();

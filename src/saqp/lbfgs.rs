@@ -68,7 +68,7 @@ pub fn minimize(
         }
         let mut d: Vec<f64> = q.iter().map(|v| -v).collect();
         let mut slope = dot(&g, &d);
-        if !(slope < 0.0) {
+        if slope.is_nan() || slope >= 0.0 {
             d = g.iter().map(|v| -v).collect();
             slope = -dot(&g, &g);
             hist.clear();

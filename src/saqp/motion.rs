@@ -235,12 +235,12 @@ impl MotionBasis {
         let mut o = DVector::zeros(3 * n);
         for (i, &v) in vertices.iter().enumerate() {
             let rows = shapes.basis.rows(3 * v, 3);
-            o.rows_mut(3 * i, 3).copy_from(&(&rows * &self.mean_delta));
+            o.rows_mut(3 * i, 3).copy_from(&(rows * &self.mean_delta));
             let ri = Region::ALL.iter().position(|x| *x == self.vertex_region[v]).unwrap_or(0);
             let r = &self.regions[ri];
             let k = r.reconstruction.ncols();
             if k > 0 {
-                let block = &rows * &r.reconstruction * self.scale;
+                let block = rows * &r.reconstruction * self.scale;
                 j.view_mut((3 * i, r.offset), (3, k)).copy_from(&block);
             }
         }

@@ -11,7 +11,7 @@ use crate::math::DVector;
 /// `frames` must not be empty.
 pub fn sample_at(frames: &[DVector], x: f64) -> DVector {
     let last = frames.len() - 1;
-    if !(x > 0.0) {
+    if x.is_nan() || x <= 0.0 {
         return frames[0].clone();
     }
     if x >= last as f64 {

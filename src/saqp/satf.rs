@@ -101,8 +101,8 @@ pub fn solve_satf(
         let fit: f64 = (0..t).map(|i| w[i] * (yj[i] - u[i]).powi(2)).sum();
         let rough: f64 = yj.iter().zip(&sy).map(|(a, b)| a * b).sum();
         e += fit + rough;
-        for i in 0..t {
-            y[i][j] = yj[i];
+        for (yi, &v) in y.iter_mut().zip(&yj) {
+            yi[j] = v;
         }
     }
     Ok(SatfFit { y, e, levels: stats.iter().map(|s| s.level).collect() })

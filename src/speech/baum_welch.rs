@@ -276,8 +276,8 @@ fn reestimate(
     let mut xi = DMatrix::zeros(n, n);
     let mut gamma = DMatrix::zeros(data.nrows(), n * m);
     for (p, &(s, len)) in posts.iter().zip(bounds) {
-        for j in 0..n {
-            initial[j] += p.states[(0, j)];
+        for (j, init) in initial.iter_mut().enumerate() {
+            *init += p.states[(0, j)];
         }
         xi += &p.transitions;
         gamma.rows_mut(s, len).copy_from(&p.components);

@@ -71,8 +71,8 @@ pub fn cluster_rows(data: &DMatrix, k: usize, seed: u64) -> Result<Vec<usize>, S
             row += data.row(i);
             counts[l] += 1;
         }
-        for c in 0..k {
-            if counts[c] == 0 {
+        for (c, &count) in counts.iter().enumerate() {
+            if count == 0 {
                 let far = (0..n)
                     .max_by(|&a, &b| {
                         dist2(a, &centres, labels[a]).total_cmp(&dist2(b, &centres, labels[b]))
@@ -82,7 +82,7 @@ pub fn cluster_rows(data: &DMatrix, k: usize, seed: u64) -> Result<Vec<usize>, S
                 labels[far] = c;
                 changed = true;
             } else {
-                centres.row_mut(c).copy_from(&(sums.row(c) / counts[c] as f64));
+                centres.row_mut(c).copy_from(&(sums.row(c) / count as f64));
             }
         }
         if !changed {

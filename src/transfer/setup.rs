@@ -128,7 +128,7 @@ impl Transfer {
         options: &TransferOptions,
     ) -> Result<Self, TransferError> {
         let len = source.reference.len();
-        if len % 3 != 0 || len == 0 {
+        if !len.is_multiple_of(3) || len == 0 {
             return Err(TransferError::ShapeLength { len, expected: 3 * (len / 3).max(1) });
         }
         if source.reference.iter().any(|x| !x.is_finite()) {

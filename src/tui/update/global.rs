@@ -24,7 +24,8 @@ pub(super) fn update(app: &mut App, action: Action) {
             }
         }
         A::Cancel => {
-            if app.overlays.pop().is_none() {
+            let closed = app.overlays.pop();
+            if closed.is_none() {
                 app.status.clear();
             }
         }

@@ -20,32 +20,24 @@ pub(super) fn update(app: &mut App, action: Action) {
         A::FrameFailed { frame, error } => {
             app.image_errors.insert(frame, error);
         }
-        A::FitProgress { generation, done, total } => {
-            if generation == app.fit.generation {
-                app.fit.progress = (done, total);
-            }
+        A::FitProgress { generation, done, total } if generation == app.fit.generation => {
+            app.fit.progress = (done, total);
         }
-        A::FitDone { generation, fits } => {
-            if generation == app.fit.generation {
-                fit_done(app, fits);
-            }
+        A::FitDone { generation, fits } if generation == app.fit.generation => {
+            fit_done(app, fits);
         }
-        A::FitFailed { generation, error } => {
-            if generation == app.fit.generation {
-                app.fit.running = false;
-                app.status = format!("fit failed: {error}");
-                app.fit.error = Some(error);
-            }
+        A::FitFailed { generation, error } if generation == app.fit.generation => {
+            app.fit.running = false;
+            app.status = format!("fit failed: {error}");
+            app.fit.error = Some(error);
         }
         // The cache is part of the session: autosave writes it.
         A::FitsStored => app.save.change_made(),
         A::FitsNotStored { error } => app.status = format!("fit cache not updated: {error}"),
-        A::AnalysisReady { generation, data } => {
-            if generation == app.analysis_generation {
-                app.analysis = data;
-                let n = app.analysis.tables.len().max(1);
-                app.analysis_view.table = app.analysis_view.table.min(n - 1);
-            }
+        A::AnalysisReady { generation, data } if generation == app.analysis_generation => {
+            app.analysis = data;
+            let n = app.analysis.tables.len().max(1);
+            app.analysis_view.table = app.analysis_view.table.min(n - 1);
         }
         A::SideReady { side } => {
             let failed = side.track.automatic.iter().filter(|p| p.failed.is_some()).count();

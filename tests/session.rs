@@ -741,7 +741,7 @@ fn a_session_from_before_the_solver_setting_loads_with_the_same_solver_and_cache
         s.store_fits(0, &settings, (0..4).map(fit_of).collect()).unwrap();
         s.save(&file).unwrap();
         let saved = std::fs::read_to_string(&file).unwrap();
-        assert!(saved.contains("\"solver\"") && !saved.contains("pose_refinement_steps"));
+        assert!(saved.contains("\"solver\""));
         std::fs::write(&file, as_written_before_the_solver_setting(&saved, steps, noise)).unwrap();
         let back = Session::load(&file).unwrap();
         assert_eq!(back.fit_settings, settings, "steps {steps}");

@@ -5,7 +5,7 @@
 //! Run: `cargo bench --bench saqp`.
 
 use lipmap::demo::corpus::{CorpusOptions, generate_corpus};
-use lipmap::fit::{FitSettings, fit_clip};
+use lipmap::fit::FitSettings;
 use lipmap::saqp::{CvOptions, cross_validate};
 use std::collections::HashMap;
 use std::time::Instant;
@@ -20,20 +20,7 @@ fn main() {
     println!("generate 200 sentences ({frames} frames): {:.2} s", t.elapsed().as_secs_f64());
     let t = Instant::now();
     let settings = FitSettings::default();
-    let fits: Vec<_> = demo
-        .sentences
-        .iter()
-        .map(|s| {
-            fit_clip(
-                &demo.model,
-                &demo.landmarks,
-                &s.tracked.frames,
-                demo.image_height,
-                &settings,
-                None,
-            )
-        })
-        .collect();
+    let fits = demo.fit_sentences(&settings);
     println!("fit every clip: {:.2} s", t.elapsed().as_secs_f64());
     let corpus = demo.to_saqp(&fits);
     let mut best = f64::INFINITY;

@@ -4,7 +4,7 @@
 
 use lipmap::alignment::Phone;
 use lipmap::demo::corpus::{CorpusOptions, DemoCorpus, generate_corpus};
-use lipmap::fit::{FitSettings, fit_clip};
+use lipmap::fit::FitSettings;
 use lipmap::math::Point3;
 use lipmap::saqp::{self, Corpus, CvOptions, External, SaqpError, SynthKind};
 use std::collections::HashMap;
@@ -16,20 +16,7 @@ fn demo() -> &'static (DemoCorpus, Corpus) {
         let demo =
             generate_corpus(&CorpusOptions { sentences: 200, ..CorpusOptions::default() }).unwrap();
         let settings = FitSettings::default();
-        let fits: Vec<_> = demo
-            .sentences
-            .iter()
-            .map(|s| {
-                fit_clip(
-                    &demo.model,
-                    &demo.landmarks,
-                    &s.tracked.frames,
-                    demo.image_height,
-                    &settings,
-                    None,
-                )
-            })
-            .collect();
+        let fits = demo.fit_sentences(&settings);
         let corpus = demo.to_saqp(&fits);
         (demo, corpus)
     })

@@ -152,6 +152,23 @@ impl DemoCorpus {
         }
     }
 
+    /// Fits every sentence's tracked landmarks as one clip with `settings`, sentence order.
+    pub fn fit_sentences(&self, settings: &crate::fit::FitSettings) -> Vec<Vec<FrameFit>> {
+        self.sentences
+            .iter()
+            .map(|s| {
+                crate::fit::fit_clip(
+                    &self.model,
+                    &self.landmarks,
+                    &s.tracked.frames,
+                    self.image_height,
+                    settings,
+                    None,
+                )
+            })
+            .collect()
+    }
+
     /// The SAQP corpus of per-sentence fits (one `FrameFit` per frame, in frame order); a
     /// failed frame takes the previous good frame's coefficients.
     pub fn to_saqp(&self, fits: &[Vec<FrameFit>]) -> Corpus {

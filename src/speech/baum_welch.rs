@@ -192,12 +192,16 @@ fn weighted_gaussian(
         return Err(SpeechError::Degenerate("mixture component (no frames)".into()));
     }
     let mean = data.tr_mul(&DVector::from_column_slice(w)) / total;
+    // Σ = Σ_t w_t (o_t − μ)(o_t − μ)ᵀ / Σ_t w_t as one blocked product Xᵀ X with X's rows
+    // √w_t (o_t − μ)ᵀ, built column by column (column-major storage). `tr_mul` would take
+    // d² unblocked dot products over the whole corpus, which is memory-bound.
+    let sqrt_w = DVector::from_iterator(w.len(), w.iter().map(|v| v.max(0.0).sqrt()));
     let mut scaled = data.clone();
-    for (i, mut row) in scaled.row_iter_mut().enumerate() {
-        row -= mean.transpose();
-        row *= w[i].sqrt();
+    for (mut col, m) in scaled.column_iter_mut().zip(mean.iter()) {
+        col.add_scalar_mut(-m);
+        col.component_mul_assign(&sqrt_w);
     }
-    let cov = scaled.tr_mul(&scaled) / total + floor;
+    let cov = scaled.transpose() * &scaled / total + floor;
     let cov = (&cov + cov.transpose()) * 0.5;
     Ok((total, Gaussian::new(mean, cov)?))
 }

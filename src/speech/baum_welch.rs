@@ -181,6 +181,9 @@ fn column_variances(data: &DMatrix) -> DVector {
     )
 }
 
+/// Posterior weight below which a frame is left out of a component's re-estimation.
+const NEGLIGIBLE_WEIGHT: f64 = 1e-12;
+
 /// Weighted mean and covariance (plus floor) of the rows of `data`, weights `w`.
 fn weighted_gaussian(
     data: &DMatrix,
@@ -191,17 +194,24 @@ fn weighted_gaussian(
     if total.is_nan() || total <= 1e-10 {
         return Err(SpeechError::Degenerate("mixture component (no frames)".into()));
     }
-    let mean = data.tr_mul(&DVector::from_column_slice(w)) / total;
+    // Frames the component does not explain carry posteriors of e⁻³⁰ and less in 81
+    // dimensions; leaving out those under NEGLIGIBLE_WEIGHT changes the sums by less than
+    // T · 10⁻¹² frames and shrinks the products below to the component's own frames.
+    let kept: Vec<usize> = (0..w.len()).filter(|&t| w[t] > NEGLIGIBLE_WEIGHT).collect();
+    let own = data.select_rows(&kept);
+    let w_kept = DVector::from_iterator(kept.len(), kept.iter().map(|&t| w[t]));
+    let total_kept = w_kept.sum();
+    let mean = own.tr_mul(&w_kept) / total_kept;
     // Σ = Σ_t w_t (o_t − μ)(o_t − μ)ᵀ / Σ_t w_t as one blocked product Xᵀ X with X's rows
     // √w_t (o_t − μ)ᵀ, built column by column (column-major storage). `tr_mul` would take
-    // d² unblocked dot products over the whole corpus, which is memory-bound.
-    let sqrt_w = DVector::from_iterator(w.len(), w.iter().map(|v| v.max(0.0).sqrt()));
-    let mut scaled = data.clone();
+    // d² unblocked dot products over the frames, which is memory-bound.
+    let sqrt_w = w_kept.map(f64::sqrt);
+    let mut scaled = own;
     for (mut col, m) in scaled.column_iter_mut().zip(mean.iter()) {
         col.add_scalar_mut(-m);
         col.component_mul_assign(&sqrt_w);
     }
-    let cov = scaled.transpose() * &scaled / total + floor;
+    let cov = scaled.transpose() * &scaled / total_kept + floor;
     let cov = (&cov + cov.transpose()) * 0.5;
     Ok((total, Gaussian::new(mean, cov)?))
 }

@@ -7,6 +7,7 @@
 //! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
 
 pub mod audio;
+pub mod create;
 pub mod demo;
 pub mod error;
 pub mod evaluate;

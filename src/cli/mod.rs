@@ -14,8 +14,8 @@ pub mod new;
 pub mod output;
 pub mod phones;
 pub mod profile_cmd;
-pub mod speech_cmd;
 pub mod progress;
+pub mod speech_cmd;
 pub mod tui_cmd;
 pub mod validate;
 

@@ -179,11 +179,8 @@ fn scores_table(e: &SpeechEvaluation) -> Table {
 
 fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
     let model = load_speech_model(&a.model)?;
-    let head = a
-        .head
-        .as_deref()
-        .zip(a.mapping.as_deref())
-        .map(|(obj, map)| TransferHead { obj, map });
+    let head =
+        a.head.as_deref().zip(a.mapping.as_deref()).map(|(obj, map)| TransferHead { obj, map });
     let bar = steps_bar();
     let progress = crate::cli::progress::show_on(&bar);
     let anim = animate_speech(&model, &a.audio, head, &progress)?;

@@ -48,11 +48,8 @@ impl MouthDriver {
             return Err(bad("ridge", ridge.to_string()));
         }
         let drives_expression = model.num_expressions() > 0;
-        let k = if drives_expression {
-            model.num_expressions()
-        } else {
-            model.num_shape_components()
-        };
+        let k =
+            if drives_expression { model.num_expressions() } else { model.num_shape_components() };
         if k == 0 {
             return Err(SpeechError::Empty("model components to drive the mouth with"));
         }

@@ -4,9 +4,9 @@
 //! Start with [`create_session`] and [`import_into_session`]; [`read_clip`] reads one clip's
 //! files into a [`Clip`].
 
+use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
 use super::resources::{check_map_for_fit, check_map_vertices};
-use super::audio::{AudioInput, read_clip_audio};
 use super::session::{clip_or_first, load_session};
 use crate::fit::FitSettings;
 use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
@@ -418,8 +418,13 @@ mod tests {
     fn an_import_with_nothing_to_import_is_refused_before_the_session_is_touched() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.lipmap.json");
-        let e = import_into_session(&Import { path: path.clone(), clip: None, mapping: None, audio: None })
-            .unwrap_err();
+        let e = import_into_session(&Import {
+            path: path.clone(),
+            clip: None,
+            mapping: None,
+            audio: None,
+        })
+        .unwrap_err();
         assert!(e.to_string().contains("--mapping FILE"), "{e}");
         assert!(!path.exists() && std::fs::read_dir(dir.path()).unwrap().next().is_none());
     }

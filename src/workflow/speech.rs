@@ -89,8 +89,7 @@ impl HeadBinding {
     /// # Errors
     /// The model's `FormatError`; a model whose vertex count changed.
     pub fn load_model(&self) -> Result<MorphableModel> {
-        let model =
-            crate::io::model_source::load_model(&self.model, self.blendshapes.as_deref())?;
+        let model = crate::io::model_source::load_model(&self.model, self.blendshapes.as_deref())?;
         self.check_model(&model, &self.model)?;
         Ok(model)
     }
@@ -366,15 +365,8 @@ pub fn train_speech(
             }
         }
         for clip in 0..o.read.session.clips.len() {
-            let d = clip_data(
-                &mut o.read.session,
-                &o.res,
-                clip,
-                &o.mouth,
-                progress,
-                &mut warnings,
-            )
-            .map_err(|e| e.context(s))?;
+            let d = clip_data(&mut o.read.session, &o.res, clip, &o.mouth, progress, &mut warnings)
+                .map_err(|e| e.context(s))?;
             data.extend(d);
         }
         o.read.save_if_locked()?;

@@ -95,7 +95,7 @@ fn train_eval_animate_and_every_bad_input() {
     assert!(shapes.data.iter().all(|v| v.is_finite()));
 
     let stereo = dir.path().join("stereo48k.wav");
-    write_stereo(&stereo, &lipmap::speech::resample(&audio.samples, 16_000.0, 48_000.0));
+    write_stereo(&stereo, &lipmap::speech::resample(&audio.samples, 16_000.0, 48_000.0).unwrap());
     let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&stereo), "--out", s(&anim)]);
     assert!(out.status.success(), "stereo 48 kHz: {}", text(&out.stderr));
 

@@ -44,6 +44,7 @@ fn fixture() -> Option<Fixture> {
             alignment: Some((textgrid, None)),
             side: None,
             name: Some("carphone".into()),
+            audio: None,
         },
         head: None,
         model: model.clone(),

@@ -15,6 +15,7 @@ pub mod output;
 pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
+pub mod speech_cmd;
 pub mod tui_cmd;
 pub mod validate;
 
@@ -65,6 +66,9 @@ pub enum Command {
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
+    #[command(subcommand)]
+    Speech(speech_cmd::SpeechCommand),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -127,6 +131,10 @@ fn run_command(command: Command) -> Result<Outcome> {
         }
         Command::Model(cmd) => {
             model_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Speech(cmd) => {
+            speech_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Validate(args) => {

@@ -5,6 +5,7 @@ use crate::cli::output::plural;
 use crate::cli::phones::tier_choice;
 use crate::cli::progress::print_warnings;
 use crate::landmarks::LandmarkSet;
+use crate::workflow::audio::{AudioInput, AudioSource};
 use crate::workflow::create::{
     ClipInputs, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs, create_session,
     import_into_session, map_hint,
@@ -44,15 +45,36 @@ pub struct ClipArgs {
     #[arg(long, allow_hyphen_values = true, requires = "side_frames")]
     pub side_offset: Option<f64>,
     /// Clip name (default: the video's file name, or the frames folder's name; the folder
-    /// above it when the folder is called e.g. `frames` or `images`).
-    #[arg(long, requires = "frames")]
+    /// above it when the folder is called e.g. `frames` or `images`). With `import --audio`
+    /// and no --frames: the existing clip to give the audio to (default: the first).
+    #[arg(long)]
     pub clip: Option<String>,
+    /// The clip's speech as a WAV file (for `lipmap speech`); `video` takes the audio track
+    /// of the clip's video (needs ffmpeg; written beside the session as SESSION.CLIP.wav).
+    #[arg(long, value_name = "FILE.wav|video")]
+    pub audio: Option<PathBuf>,
+    /// Seconds from the front view's frame 0 to the audio's first sample (default 0).
+    #[arg(long, allow_hyphen_values = true, requires = "audio")]
+    pub audio_offset: Option<f64>,
 }
 
 impl ClipArgs {
     /// Whether a clip was given at all.
     pub fn is_given(&self) -> bool {
         self.frames.is_some() || self.landmarks.is_some()
+    }
+
+    /// The audio flags (`None` without --audio). A file literally named `video` is given as
+    /// `./video`.
+    pub fn audio(&self) -> Option<AudioInput> {
+        self.audio.as_ref().map(|a| AudioInput {
+            source: if a.as_os_str() == "video" {
+                AudioSource::VideoTrack
+            } else {
+                AudioSource::Wav(a.clone())
+            },
+            offset_s: self.audio_offset.unwrap_or(0.0),
+        })
     }
 
     /// The clip's inputs for the workflow (`None` when no clip was given).
@@ -80,6 +102,7 @@ impl ClipArgs {
                 offset_s: self.side_offset.unwrap_or(0.0),
             }),
             name: self.clip.clone(),
+            audio: self.audio(),
         }))
     }
 }
@@ -157,9 +180,14 @@ pub fn run_new(a: &NewArgs) -> Result<String> {
 
 /// Adds to the session and says what changed.
 pub fn run_import(a: &ImportArgs) -> Result<String> {
+    let clip = a.clip.inputs()?;
+    if clip.is_none() && a.clip.clip.is_some() && a.clip.audio.is_none() {
+        bail!("--clip without --frames names the clip to give --audio to; add --audio FILE.wav");
+    }
     let imported = import_into_session(&Import {
         path: session_path(&a.session),
-        clip: a.clip.inputs()?,
+        audio: if clip.is_none() { a.clip.audio().map(|i| (i, a.clip.clip.clone())) } else { None },
+        clip,
         mapping: a.mapping.clone(),
     })?;
     print_warnings(&imported.warnings);
@@ -175,6 +203,9 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
     }
     if let Some(map) = &imported.map {
         lines.push(map_set_message(map, path));
+    }
+    if let Some((clip, file)) = &imported.audio {
+        lines.push(format!("{}: clip `{clip}` has audio {}", path.display(), file.display()));
     }
     Ok(lines.join("\n"))
 }

@@ -15,7 +15,7 @@ pub mod store;
 pub use cache::{CachedFrame, FitCacheEntry};
 pub use corrections::Corrections;
 pub use migrate::CURRENT_SCHEMA;
-pub use model::{Clip, FramesRef, MapRef, ModelRef, Session, View};
+pub use model::{Clip, ClipAudio, FramesRef, MapRef, ModelRef, Session, View};
 pub use store::{LockInfo, SessionLock};
 
 use crate::fit::{FitSettings, FrameFit};

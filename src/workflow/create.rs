@@ -4,9 +4,10 @@
 //! Start with [`create_session`] and [`import_into_session`]; [`read_clip`] reads one clip's
 //! files into a [`Clip`].
 
+use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
 use super::resources::{check_map_for_fit, check_map_vertices};
-use super::session::load_session;
+use super::session::{clip_or_first, load_session};
 use crate::fit::FitSettings;
 use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::textgrid::TierChoice;
@@ -31,6 +32,8 @@ pub struct ClipInputs {
     pub side: Option<SideInputs>,
     /// The clip's name (`None`: from the frames path, see [`default_clip_name`]).
     pub name: Option<String>,
+    /// The clip's audio (for speech-driven animation).
+    pub audio: Option<AudioInput>,
 }
 
 /// A side view's frames and timing.
@@ -68,6 +71,8 @@ pub struct Import {
     pub clip: Option<ClipInputs>,
     /// A landmark map file that replaces the session's map.
     pub mapping: Option<PathBuf>,
+    /// Audio for an existing clip (named, or the first) when no clip is added.
+    pub audio: Option<(AudioInput, Option<String>)>,
 }
 
 /// Whether a session's map can be fitted with, as far as creating it can tell.
@@ -125,6 +130,8 @@ pub struct Imported {
     pub path: PathBuf,
     pub clip: Option<AddedClip>,
     pub map: Option<MapSet>,
+    /// The existing clip given audio, and the audio file.
+    pub audio: Option<(String, PathBuf)>,
     pub warnings: Vec<Warning>,
 }
 
@@ -141,7 +148,10 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
             path.display()
         )));
     }
-    let (clip, mut warnings) = read_clip(&new.clip)?;
+    let (mut clip, mut warnings) = read_clip(&new.clip)?;
+    if let Some(audio) = &new.clip.audio {
+        clip.audio = Some(read_clip_audio(&clip, path, audio)?);
+    }
     let model = model_source::load_model(&new.model, new.blendshapes.as_deref())?;
     let map = new.mapping.as_deref().map(landmark_map_toml::read_landmark_map).transpose()?;
     if let (Some(map), Some(file)) = (&map, &new.mapping) {
@@ -187,9 +197,9 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
 /// Nothing to import, the session cannot be opened or locked, any input that cannot be read;
 /// the session is then unchanged.
 pub fn import_into_session(import: &Import) -> Result<Imported> {
-    if import.clip.is_none() && import.mapping.is_none() {
+    if import.clip.is_none() && import.mapping.is_none() && import.audio.is_none() {
         return Err(Error::Invalid(
-            "give a clip to add (--frames and --landmarks) or a landmark map (--mapping FILE)"
+            "give a clip to add (--frames and --landmarks), a landmark map (--mapping FILE) or a clip's audio (--audio FILE.wav)"
                 .into(),
         ));
     }
@@ -199,10 +209,21 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
     // Read everything before changing the session, so a bad input changes nothing.
     let (clip, warnings) = match &import.clip {
         Some(inputs) => {
-            let (clip, warnings) = read_clip(inputs)?;
+            let (mut clip, warnings) = read_clip(inputs)?;
+            if let Some(audio) = &inputs.audio {
+                clip.audio = Some(read_clip_audio(&clip, path, audio)?);
+            }
             (Some(clip), warnings)
         }
         None => (None, Vec::new()),
+    };
+    let audio = match (&import.clip, &import.audio) {
+        (None, Some((input, name))) => {
+            let index = clip_or_first(&session, name.as_deref())?;
+            let clip = session.clip(index)?;
+            Some((index, clip.name.clone(), read_clip_audio(clip, path, input)?))
+        }
+        _ => None,
     };
     let map = import
         .mapping
@@ -217,8 +238,13 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         }
         None => None,
     };
+    let audio = audio.map(|(index, name, a)| {
+        let file = a.file.clone();
+        session.clips[index].audio = Some(a);
+        (name, file)
+    });
     session.save(path)?;
-    Ok(Imported { path: path.clone(), clip, map, warnings })
+    Ok(Imported { path: path.clone(), clip, map, audio, warnings })
 }
 
 /// Reads one clip's files into a [`Clip`], checking them before anything is written; the
@@ -392,8 +418,13 @@ mod tests {
     fn an_import_with_nothing_to_import_is_refused_before_the_session_is_touched() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("s.lipmap.json");
-        let e = import_into_session(&Import { path: path.clone(), clip: None, mapping: None })
-            .unwrap_err();
+        let e = import_into_session(&Import {
+            path: path.clone(),
+            clip: None,
+            mapping: None,
+            audio: None,
+        })
+        .unwrap_err();
         assert!(e.to_string().contains("--mapping FILE"), "{e}");
         assert!(!path.exists() && std::fs::read_dir(dir.path()).unwrap().next().is_none());
     }

@@ -6,6 +6,7 @@
 //! Start with [`open_for_read`] / [`open_for_edit`] and [`load_resources`], then
 //! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
 
+pub mod audio;
 pub mod create;
 pub mod demo;
 pub mod error;
@@ -17,6 +18,7 @@ pub mod measure_fits;
 pub mod resources;
 pub mod session;
 pub mod side_view;
+pub mod speech;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,

@@ -16,6 +16,7 @@ pub mod measure_fits;
 pub mod resources;
 pub mod session;
 pub mod side_view;
+pub mod transfer;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,

@@ -76,7 +76,8 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     let obj = std::fs::read_to_string(&head).unwrap();
     let n = obj.lines().filter(|l| l.starts_with("v ")).count();
     let first = obj.lines().find(|l| l.starts_with("f ")).unwrap();
-    let idx: Vec<&str> = first.split_whitespace().skip(1).map(|t| t.split('/').next().unwrap()).collect();
+    let idx: Vec<&str> =
+        first.split_whitespace().skip(1).map(|t| t.split('/').next().unwrap()).collect();
     let bad = dir.path().join("nonmanifold.obj");
     std::fs::write(
         &bad,
@@ -91,7 +92,10 @@ fn transfers_the_demo_and_refuses_bad_heads() {
         ),
     )
     .unwrap();
-    assert_one_line_error(&transfer(&session, &bad, &map, &out), &["nonmanifold.obj", "non-manifold"]);
+    assert_one_line_error(
+        &transfer(&session, &bad, &map, &out),
+        &["nonmanifold.obj", "non-manifold"],
+    );
     // A triangle of zero area.
     let flat = dir.path().join("degenerate.obj");
     std::fs::write(
@@ -99,5 +103,8 @@ fn transfers_the_demo_and_refuses_bad_heads() {
         format!("{obj}v 9 9 9\nv 9.5 9 9\nv 10 9 9\nf {} {} {}\n", n + 1, n + 2, n + 3),
     )
     .unwrap();
-    assert_one_line_error(&transfer(&session, &flat, &map, &out), &["degenerate.obj", "degenerate"]);
+    assert_one_line_error(
+        &transfer(&session, &flat, &map, &out),
+        &["degenerate.obj", "degenerate"],
+    );
 }

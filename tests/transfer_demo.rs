@@ -76,7 +76,12 @@ fn demo_motion_drives_makehuman_with_the_same_w_and_h() {
     // controls, so the head's own mouth landmarks follow through the interpolation: with them
     // as controls W and H would be copied from the source by construction.
     let held_out = LandmarkMap {
-        to_vertex: source_map.to_vertex.iter().filter(|e| *e.0 < 48).map(|(&l, &v)| (l, v)).collect(),
+        to_vertex: source_map
+            .to_vertex
+            .iter()
+            .filter(|e| *e.0 < 48)
+            .map(|(&l, &v)| (l, v))
+            .collect(),
     };
     for mode in [Interpolation::Biharmonic, Interpolation::Barycentric] {
         let source = SourceFace {
@@ -90,8 +95,7 @@ fn demo_motion_drives_makehuman_with_the_same_w_and_h() {
         let options = TransferOptions { interpolation: mode, ..TransferOptions::default() };
         let transfer = Transfer::new(source, target, &options).unwrap();
         let mouth: Vec<usize> = (48..68).filter_map(|l| target_map.vertex(l)).collect();
-        let mouth_controls =
-            transfer.target_controls.iter().filter(|v| mouth.contains(v)).count();
+        let mouth_controls = transfer.target_controls.iter().filter(|v| mouth.contains(v)).count();
         let (mut src, mut dst) = ((Vec::new(), Vec::new()), (Vec::new(), Vec::new()));
         for s in &shapes {
             let (w, h) = wh(s, &source_map);

@@ -59,7 +59,8 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
         objs: a.objs,
     };
     let bar = frames_bar(0, "fitting");
-    let report = workflow::transfer::transfer_session(&mut session, &res, &request, &show_on(&bar))?;
+    let report =
+        workflow::transfer::transfer_session(&mut session, &res, &request, &show_on(&bar))?;
     session.save(&path)?;
     writeln!(
         out,

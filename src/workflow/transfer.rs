@@ -255,7 +255,12 @@ fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<
 }
 
 /// Records (or updates) the head in the session's transferred heads; returns its name.
-pub fn record_head(session: &mut Session, head: &Path, mapping: &Path, mode: Interpolation) -> String {
+pub fn record_head(
+    session: &mut Session,
+    head: &Path,
+    mapping: &Path,
+    mode: Interpolation,
+) -> String {
     let mesh = std::path::absolute(head).unwrap_or_else(|_| head.to_path_buf());
     let mapping = std::path::absolute(mapping).unwrap_or_else(|_| mapping.to_path_buf());
     let mode = mode_name(mode).to_string();
@@ -300,7 +305,8 @@ pub fn transferred_utterances(
                     shapes[frame] = Some(shape);
                 }
             }
-            let head = trajectory_from_shapes(shapes.iter().map(Option::as_ref), &target.map, &options);
+            let head =
+                trajectory_from_shapes(shapes.iter().map(Option::as_ref), &target.map, &options);
             Ok(Utterance { head, ..u.clone() })
         })
         .collect()
@@ -323,7 +329,8 @@ pub fn transferred_head_tables(
             Ok(utterances) => {
                 let r = super::evaluate(&utterances, &done.fit_refs(), normalisation, n_worst);
                 for mut t in [r.sentences, r.phonemes, r.visemes] {
-                    t.title = format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
+                    t.title =
+                        format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
                     tables.push(t);
                 }
             }

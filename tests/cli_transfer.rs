@@ -70,7 +70,7 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     // A map for another mesh.
     let other = dir.path().join("other.toml");
     let text = std::fs::read_to_string(&map).unwrap();
-    std::fs::write(&other, format!("{}\n", text.replacen("= ", "= 99999", 1))).unwrap();
+    std::fs::write(&other, format!("{}\n", text.replacen("\n1 = ", "\n1 = 99999", 1))).unwrap();
     assert_one_line_error(&transfer(&session, &head, &other, &out), &["head.obj", "another mesh"]);
     // A non-manifold edge: two more triangles on the first face's first edge.
     let obj = std::fs::read_to_string(&head).unwrap();

@@ -16,6 +16,7 @@ pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
 pub mod speech_cmd;
+pub mod transfer_cmd;
 pub mod tui_cmd;
 pub mod validate;
 
@@ -63,6 +64,8 @@ pub enum Command {
     Phones(phones::PhonesArgs),
     /// Check that files parse; prints `ok` or the error for each.
     Validate(validate::ValidateArgs),
+    /// Drive another head (OBJ + landmark map) with a session's fitted motion.
+    Transfer(transfer_cmd::TransferArgs),
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
@@ -127,6 +130,10 @@ fn run_command(command: Command) -> Result<Outcome> {
         }
         Command::Phones(args) => {
             phones::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Transfer(args) => {
+            transfer_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Model(cmd) => {

@@ -11,12 +11,14 @@ pub mod corrections;
 pub mod migrate;
 pub mod model;
 pub mod store;
+pub mod transferred;
 
 pub use cache::{CachedFrame, FitCacheEntry};
 pub use corrections::Corrections;
 pub use migrate::CURRENT_SCHEMA;
 pub use model::{Clip, ClipAudio, FramesRef, MapRef, ModelRef, Session, View};
 pub use store::{LockInfo, SessionLock};
+pub use transferred::TransferredHead;
 
 use crate::fit::{FitSettings, FrameFit};
 use crate::io::frames::{FrameError, FrameOptions, FrameSource};

@@ -43,6 +43,9 @@ pub struct Session {
     /// Data owned by other parts of lipmap (TUI layout, ...), kept verbatim.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub extensions: BTreeMap<String, Value>,
+    /// Heads the motion was transferred onto (`lipmap transfer`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transferred_heads: Vec<super::transferred::TransferredHead>,
     /// Folder the session's relative paths were resolved against (the file's folder).
     #[serde(skip)]
     pub(crate) base_dir: PathBuf,
@@ -200,6 +203,7 @@ impl Session {
             fit_settings: FitSettings::default(),
             fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
+            transferred_heads: Vec::new(),
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
         }
     }

@@ -19,6 +19,7 @@ pub mod resources;
 pub mod session;
 pub mod side_view;
 pub mod speech;
+pub mod transfer;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,

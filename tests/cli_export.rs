@@ -6,12 +6,12 @@ mod common;
 
 use lipmap::cli::Outcome;
 use lipmap::cli::export::{self, ExportArgs, TABLE_FILES};
-use lipmap::cli::new::{ClipArgs, NewArgs, run_new};
 use lipmap::cli::output::NormaliseArg;
 use lipmap::io::landmark_format::{LandmarkFormat, read_track};
 use lipmap::io::{model_source, obj};
 use lipmap::landmarks::{LandmarkPoint, LandmarkSet, PointSource};
 use lipmap::session::Session;
+use lipmap::workflow::create::{ClipInputs, NewSession, create_session};
 use std::path::{Path, PathBuf};
 
 /// Frames of the clip in the session: enough for a sequence, few enough for a fast fit.
@@ -35,18 +35,15 @@ fn fixture() -> Option<Fixture> {
     let session = root.join("s.lipmap.json");
     let (model, blendshapes) =
         (eos.join("sfm_shape_3448.bin"), eos.join("expression_blendshapes_3448.bin"));
-    let args = NewArgs {
-        session: session.to_string_lossy().into_owned(),
-        clip: ClipArgs {
-            frames: Some(frames),
+    let args = NewSession {
+        path: session.clone(),
+        clip: ClipInputs {
+            frames,
             fps: Some(25.0),
-            landmarks: Some(landmarks),
-            alignment: Some(textgrid),
-            tier: None,
-            side_frames: None,
-            side_fps: None,
-            side_offset: None,
-            clip: Some("carphone".into()),
+            landmarks,
+            alignment: Some((textgrid, None)),
+            side: None,
+            name: Some("carphone".into()),
         },
         head: None,
         model: model.clone(),
@@ -55,7 +52,7 @@ fn fixture() -> Option<Fixture> {
         set: LandmarkSet::F4,
         force: false,
     };
-    run_new(&args).unwrap();
+    create_session(&args).unwrap();
     // One correction, so effective landmarks differ from the tracked ones; its x carries the
     // float noise a drag in the TUI leaves, which the export must not spell out.
     let mut s = Session::load(&session).unwrap();

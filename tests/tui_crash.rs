@@ -34,11 +34,8 @@ fn reviewed_after_restart(path: &Path) -> usize {
 fn start_tui(term: &Term, session: &Path, pid_file: &Path) -> u32 {
     let bin = env!("CARGO_BIN_EXE_lipmap");
     let _ = std::fs::remove_file(pid_file);
-    let cmd = format!(
-        "bash -c 'echo $$ > {}; exec {bin} tui {}'",
-        pid_file.display(),
-        session.display()
-    );
+    let cmd =
+        format!("bash -c 'echo $$ > {}; exec {bin} tui {}'", pid_file.display(), session.display());
     term.send(&[&cmd, "Enter"]);
     term.wait_for_tui();
     let pid = std::fs::read_to_string(pid_file).unwrap();
@@ -116,7 +113,11 @@ fn term_int_and_hup_save_unlock_and_restore_the_terminal() {
         let bin = env!("CARGO_BIN_EXE_lipmap");
         // Not `exec`: the shell must come back to check the terminal.
         term.send(&[
-            &format!("bash -c 'echo $$ > {}; exec {bin} tui {}'", pid_file.display(), session.display()),
+            &format!(
+                "bash -c 'echo $$ > {}; exec {bin} tui {}'",
+                pid_file.display(),
+                session.display()
+            ),
             "Enter",
         ]);
         term.wait_for_tui();

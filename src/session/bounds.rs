@@ -56,7 +56,10 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
     check_frame("tracked frame", clip.tracked.frames.last().map(|f| f.frame))?;
     check_frame("correction of frame", clip.corrections.points.keys().next_back().copied())?;
     check_frame("reviewed frame", clip.corrections.reviewed.iter().next_back().copied())?;
-    check_frame("profile correction of frame", clip.profile_corrections.keys().next_back().copied())?;
+    check_frame(
+        "profile correction of frame",
+        clip.profile_corrections.keys().next_back().copied(),
+    )?;
     if let Some(a) = &clip.alignment {
         // A phone past the last frame lipmap accepts at this clip's rate would size the
         // per-frame phone table beyond it.
@@ -144,52 +147,47 @@ mod tests {
         assert_eq!(check_values(&session_with_clip()), Ok(()));
     }
 
+    fn refused(field: &str, edit: impl Fn(&mut Session)) {
+        let mut s = session_with_clip();
+        edit(&mut s);
+        let err = check_values(&s).expect_err(field);
+        assert!(err.contains(field), "{field}: {err}");
+        assert!(!err.contains('\n'), "one line: {err}");
+    }
+
+    fn phones(s: &mut Session, start: f64, end: f64) {
+        let phone = crate::alignment::Phone { start, end, label: "AA".into() };
+        s.clips[0].alignment = Some(crate::alignment::Alignment { phones: vec![phone] });
+    }
+
     #[test]
     fn each_bound_names_its_field() {
-        let cases: Vec<(&str, Box<dyn Fn(&mut Session)>)> = vec![
-            ("fps", Box::new(|s| s.clips[0].front.fps = 1e20)),
-            ("fps", Box::new(|s| s.clips[0].front.fps = 1e-300)),
-            ("size", Box::new(|s| s.clips[0].front.size = Some([4_000_000_000, 10]))),
-            ("offset_s", Box::new(|s| s.clips[0].front.offset_s = 1e300)),
-            ("lambda", Box::new(|s| s.fit_settings.lambda = -1.0)),
-            ("lambda_expression", Box::new(|s| s.fit_settings.lambda_expression = f64::NAN)),
-            ("iterations", Box::new(|s| s.fit_settings.iterations = 1 << 40)),
-            ("landmark_weights has 70", Box::new(|s| s.fit_settings.landmark_weights = vec![1.0; 70])),
-            ("landmark_weights[3]", Box::new(|s| s.fit_settings.landmark_weights = vec![1.0, 1.0, 1.0, -2.0])),
-            ("max_reproj_rms_px", Box::new(|s| s.fit_settings.max_reproj_rms_px = 0.0)),
-            (
-                "correction of frame 1000000000000",
-                Box::new(|s| {
-                    s.clips[0]
-                        .corrections
-                        .set(1_000_000_000_000, 3, crate::landmarks::LandmarkPoint::tracked(1.0, 2.0))
-                        .unwrap();
-                }),
-            ),
-            ("reviewed frame", Box::new(|s| {
-                s.clips[0].corrections.reviewed.insert(4_000_000_000);
-            })),
-            ("profile correction", Box::new(|s| {
-                s.clips[0].profile_corrections.insert(MAX_FRAME + 1, crate::math::Point2::new(1.0, 1.0));
-            })),
-            ("end before its start", Box::new(|s| {
-                s.clips[0].alignment = Some(crate::alignment::Alignment {
-                    phones: vec![crate::alignment::Phone { start: 2.0, end: 1.0, label: "AA".into() }],
-                });
-            })),
-            ("end past", Box::new(|s| {
-                s.clips[0].alignment = Some(crate::alignment::Alignment {
-                    phones: vec![crate::alignment::Phone { start: 0.0, end: 1e9, label: "AA".into() }],
-                });
-            })),
-        ];
-        for (field, edit) in cases {
-            let mut s = session_with_clip();
-            edit(&mut s);
-            let err = check_values(&s).expect_err(field);
-            assert!(err.contains(field), "{field}: {err}");
-            assert!(!err.contains('\n'), "one line: {err}");
-        }
+        refused("fps", |s| s.clips[0].front.fps = 1e20);
+        refused("fps", |s| s.clips[0].front.fps = 1e-300);
+        refused("size", |s| s.clips[0].front.size = Some([4_000_000_000, 10]));
+        refused("offset_s", |s| s.clips[0].front.offset_s = 1e300);
+        refused("lambda", |s| s.fit_settings.lambda = -1.0);
+        refused("lambda_expression", |s| s.fit_settings.lambda_expression = f64::NAN);
+        refused("iterations", |s| s.fit_settings.iterations = 1 << 40);
+        refused("landmark_weights has 70", |s| s.fit_settings.landmark_weights = vec![1.0; 70]);
+        refused("landmark_weights[3]", |s| {
+            s.fit_settings.landmark_weights = vec![1.0, 1.0, 1.0, -2.0];
+        });
+        refused("max_reproj_rms_px", |s| s.fit_settings.max_reproj_rms_px = 0.0);
+        refused("correction of frame 1000000000000", |s| {
+            let p = crate::landmarks::LandmarkPoint::tracked(1.0, 2.0);
+            s.clips[0].corrections.set(1_000_000_000_000, 3, p).unwrap();
+        });
+        refused("reviewed frame", |s| {
+            s.clips[0].corrections.reviewed.insert(4_000_000_000);
+        });
+        refused("profile correction", |s| {
+            let p = crate::math::Point2::new(1.0, 1.0);
+            s.clips[0].profile_corrections.insert(MAX_FRAME + 1, p);
+        });
+        refused("end before its start", |s| phones(s, 2.0, 1.0));
+        refused("end past", |s| phones(s, 0.0, 1e9));
+        refused("negative start", |s| phones(s, -1.0, 1.0));
     }
 
     #[test]

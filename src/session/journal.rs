@@ -73,8 +73,10 @@ impl Journal {
     /// `Io` naming the journal.
     pub fn record(&mut self, entry: &JournalEntry) -> Result<(), SessionError> {
         let io = |source| SessionError::Io { path: self.path.clone(), source };
-        let mut line = serde_json::to_vec(entry)
-            .map_err(|e| SessionError::Invalid { path: self.path.clone(), message: e.to_string() })?;
+        let mut line = serde_json::to_vec(entry).map_err(|e| SessionError::Invalid {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
         line.push(b'\n');
         if self.file.is_none() {
             let f = OpenOptions::new().create(true).append(true).open(&self.path).map_err(io)?;

@@ -299,11 +299,15 @@ impl Keymap {
     /// `NoWayOut` naming the first such view.
     pub fn check_way_out(&self, path: &str) -> Result<(), KeymapError> {
         for chain in VIEW_CHAINS {
-            let quits = chain.iter().flat_map(|&m| self.of_mode(m)).any(|b| {
-                self.lookup(chain, b.key) == Some(&Action::Quit)
-            });
+            let quits = chain
+                .iter()
+                .flat_map(|&m| self.of_mode(m))
+                .any(|b| self.lookup(chain, b.key) == Some(&Action::Quit));
             if !quits {
-                return Err(KeymapError::NoWayOut { path: path.to_string(), view: chain[0].name() });
+                return Err(KeymapError::NoWayOut {
+                    path: path.to_string(),
+                    view: chain[0].name(),
+                });
             }
         }
         Ok(())
@@ -378,7 +382,11 @@ mod tests {
         let e = Keymap::load(&file).unwrap_err().to_string();
         assert!(e.contains("head view"), "{e}");
         // Moving Quit to another key is fine.
-        std::fs::write(&file, "[global]\n\"q\" = \"none\"\n\"ctrl-c\" = \"none\"\n\"Q\" = \"Quit\"\n").unwrap();
+        std::fs::write(
+            &file,
+            "[global]\n\"q\" = \"none\"\n\"ctrl-c\" = \"none\"\n\"Q\" = \"Quit\"\n",
+        )
+        .unwrap();
         assert!(Keymap::load(&file).is_ok());
         assert!(Keymap::builtin().unwrap().check_way_out("builtin").is_ok());
     }

@@ -229,9 +229,17 @@ impl SessionBridge {
             Some(side) => side.track.corrected.clone(),
             None => c.profile_corrections.clone(),
         };
-        let landmark_map =
-            app.map.as_ref().filter(|m| self.loaded_map.as_ref() != Some(*m)).map(|m| m.to_vertex.clone());
-        Ok(JournalEntry { clip: c.name.clone(), corrections: fresh, profile_corrections, landmark_map })
+        let landmark_map = app
+            .map
+            .as_ref()
+            .filter(|m| self.loaded_map.as_ref() != Some(*m))
+            .map(|m| m.to_vertex.clone());
+        Ok(JournalEntry {
+            clip: c.name.clone(),
+            corrections: fresh,
+            profile_corrections,
+            landmark_map,
+        })
     }
 
     /// Appends the App's edit layer to the journal, on disk when this returns.

@@ -56,8 +56,8 @@ pub fn check_setup_in_frame(session: &Session, clip: usize, setup: &ProfileSetup
             .ok_or_else(|| Error::Invalid(format!("clip `{}` has no side view", c.name)))?
             .size(),
     };
-    let regions =
-        std::iter::once(("crop", &setup.crop)).chain(setup.anchor.as_ref().map(|a| ("anchor region", &a.region)));
+    let regions = std::iter::once(("crop", &setup.crop))
+        .chain(setup.anchor.as_ref().map(|a| ("anchor region", &a.region)));
     for (field, r) in regions {
         let inside = r.width > 0
             && r.height > 0

@@ -97,10 +97,31 @@ mod tests {
             ("tracked frame", clip("4000000000", "25", "")),
             ("fps", clip("3", "1e20", "")),
             ("fps", clip("3", "1e-300", "")),
-            ("correction of frame", clip("3", "25", r#", "corrections": {"points": {"1000000000000": {"4": {"x": 1, "y": 2, "visible": true}}}}"#)),
+            (
+                "correction of frame",
+                clip(
+                    "3",
+                    "25",
+                    r#", "corrections": {"points": {"1000000000000": {"4": {"x": 1, "y": 2, "visible": true}}}}"#,
+                ),
+            ),
             ("reviewed frame", clip("3", "25", r#", "corrections": {"reviewed": [99999999999]}"#)),
-            ("end before its start", clip("3", "25", r#", "alignment": {"phones": [{"start": 2, "end": 1, "label": "AA"}]}"#)),
-            ("end past", clip("3", "25", r#", "alignment": {"phones": [{"start": 0, "end": 1e12, "label": "AA"}]}"#)),
+            (
+                "end before its start",
+                clip(
+                    "3",
+                    "25",
+                    r#", "alignment": {"phones": [{"start": 2, "end": 1, "label": "AA"}]}"#,
+                ),
+            ),
+            (
+                "end past",
+                clip(
+                    "3",
+                    "25",
+                    r#", "alignment": {"phones": [{"start": 0, "end": 1e12, "label": "AA"}]}"#,
+                ),
+            ),
         ];
         for (field, text) in hostile {
             std::fs::write(&path, text).unwrap();

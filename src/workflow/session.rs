@@ -196,7 +196,7 @@ mod tests {
         std::fs::set_permissions(&folder, std::fs::Permissions::from_mode(0o755)).unwrap();
         let opened = opened.unwrap();
         assert!(opened.lock.is_none());
-        assert!(opened.notice.is_some_and(|w| w.0.contains("read-only")));
+        assert!(opened.notice.as_ref().is_some_and(|w| w.0.contains("read-only")));
         assert!(!crate::session::store::lock_path(&path).exists(), "a lock file was created");
         opened.save_if_locked().unwrap();
     }

@@ -90,6 +90,7 @@ pub fn run(a: &ProfileArgs, out: &mut dyn Write) -> Result<()> {
         }
         let mut setup = workflow::profile_setup(&session, c)?;
         apply_overrides(&mut setup, a)?;
+        workflow::check_setup_in_frame(&session, c, &setup)?;
         session.clips[c].extensions.insert(PROFILE_SETUP_KEY.into(), serde_json::to_value(&setup)?);
         if editing {
             let n_side = session.open_side_frames(c, 1)?.map_or(0, |f| f.len());

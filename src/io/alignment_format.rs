@@ -105,7 +105,7 @@ pub fn parse_alignment_as(
     format: AlignmentFormat,
     tier: Option<&TierChoice>,
 ) -> Result<Alignment> {
-    match format {
+    let alignment = match format {
         AlignmentFormat::TextGrid => {
             textgrid::parse_textgrid_str(text, path)?.alignment(tier, path)
         }
@@ -114,7 +114,11 @@ pub fn parse_alignment_as(
         }
         AlignmentFormat::Xlabel => htk_lab::parse_xlabel(text, path),
         AlignmentFormat::PhonesCsv => phones_csv::parse_phones_csv(text, path),
-    }
+    }?;
+    alignment
+        .check_times(crate::alignment::MAX_PHONE_END_S)
+        .map_err(|m| FormatError::at_field(path, "phones", m))?;
+    Ok(alignment)
 }
 
 /// Reads a phone alignment from any supported file; `tier` picks the TextGrid tier (default:

@@ -133,15 +133,12 @@ impl FrameSource {
         }
         names.sort_by(|a, b| natural_cmp(a, b));
         let files: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
-        let size = match opts.size {
-            Some(s) => s,
-            None => {
-                let (w, h) = image::image_dimensions(&files[0]).map_err(|e| {
-                    FrameError::Decode { path: files[0].clone(), frame: 0, message: e.to_string() }
-                })?;
-                [w, h]
-            }
-        };
+        let (w, h) = image::image_dimensions(&files[0]).map_err(|e| FrameError::Decode {
+            path: files[0].clone(),
+            frame: 0,
+            message: e.to_string(),
+        })?;
+        let size = agreed_size(&files[0], opts.size, Some([w, h]))?;
         let fps = opts.fps.unwrap_or(DEFAULT_FOLDER_FPS);
         check_fps(dir, fps)?;
         Ok(Self {
@@ -175,10 +172,7 @@ impl FrameSource {
             message: "the video does not state its frame rate; give one".into(),
         })?;
         check_fps(file, fps)?;
-        let size = opts.size.or(info.size).ok_or_else(|| FrameError::Invalid {
-            path: file.to_path_buf(),
-            message: "cannot tell the video's frame size".into(),
-        })?;
+        let size = agreed_size(file, opts.size, info.size)?;
         let len = match (info.frames, info.duration) {
             (Some(n), _) => n,
             (None, Some(d)) => (d * fps).round().max(0.0) as usize,
@@ -368,15 +362,52 @@ impl FrameSource {
     }
 }
 
-fn check_fps(path: &Path, fps: f64) -> Result<(), FrameError> {
-    if fps.is_finite() && fps > 0.0 {
+/// Frame rates lipmap accepts (frames per second): a camera's range, no more. Frame counts
+/// are derived from durations × fps, so a rate outside it (1e20, 1e-300) is an error, not
+/// an allocation or a loop of that size.
+pub const FPS_RANGE: std::ops::RangeInclusive<f64> = 1.0..=1000.0;
+
+/// The one frame-rate rule: `fps` within [`FPS_RANGE`].
+///
+/// # Errors
+/// A message giving the value and the range.
+pub fn check_fps_value(fps: f64) -> Result<(), String> {
+    if FPS_RANGE.contains(&fps) {
         Ok(())
     } else {
-        Err(FrameError::Invalid {
-            path: path.to_path_buf(),
-            message: format!("frame rate {fps} is not positive"),
-        })
+        Err(format!("frame rate {fps} is outside {}–{} fps", FPS_RANGE.start(), FPS_RANGE.end()))
     }
+}
+
+/// Longest image side lipmap accepts (px). Buffers are sized width × height, so a size from
+/// a file is bounded before anything is allocated for it.
+pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
+
+/// The frame size to use: the one given (a session's record) when the frames agree with it,
+/// else the frames' own; each side within 1..=[`MAX_IMAGE_SIDE`].
+fn agreed_size(
+    path: &Path,
+    given: Option<[u32; 2]>,
+    found: Option<[u32; 2]>,
+) -> Result<[u32; 2], FrameError> {
+    let invalid = |message: String| FrameError::Invalid { path: path.to_path_buf(), message };
+    if let (Some([gw, gh]), Some([fw, fh])) = (given, found)
+        && [gw, gh] != [fw, fh]
+    {
+        return Err(invalid(format!(
+            "the recorded frame size {gw}×{gh} disagrees with the frames' {fw}×{fh}"
+        )));
+    }
+    let [w, h] = given.or(found).ok_or_else(|| invalid("cannot tell the frame size".into()))?;
+    if !(1..=MAX_IMAGE_SIDE).contains(&w) || !(1..=MAX_IMAGE_SIDE).contains(&h) {
+        return Err(invalid(format!("frame size {w}×{h} is outside 1–{MAX_IMAGE_SIDE} px")));
+    }
+    Ok([w, h])
+}
+
+fn check_fps(path: &Path, fps: f64) -> Result<(), FrameError> {
+    check_fps_value(fps)
+        .map_err(|message| FrameError::Invalid { path: path.to_path_buf(), message })
 }
 
 fn has_image_extension(name: &str) -> bool {

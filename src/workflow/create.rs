@@ -267,6 +267,20 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     if tracked.is_empty() {
         return Err(Error::Invalid(format!("{}: no frames of landmarks", landmarks.display())));
     }
+    // A probed frame count can be off by a frame or two (container estimates); more than
+    // that past the end is landmarks for another clip, or a corrupt frame number.
+    let slack = (frames.len() / 100).max(2);
+    if let Some(last) = tracked.frames.last()
+        && last.frame >= frames.len() + slack
+    {
+        return Err(Error::Invalid(format!(
+            "{}: field `frame`: frame {} is past the end of {} ({} frames)",
+            landmarks.display(),
+            last.frame,
+            frames_path.display(),
+            frames.len()
+        )));
+    }
     if let Some(last) = tracked.frames.last()
         && last.frame >= frames.len()
     {

@@ -20,6 +20,7 @@ pub mod session;
 pub mod side_view;
 pub mod speech;
 pub mod transfer;
+pub mod untrusted;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
@@ -38,7 +39,7 @@ pub use session::{
     open_for_edit, open_for_read, read_only_notice, select_clips, session_path,
 };
 pub use side_view::{
-    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, head_p_by_render, head_p_of_clip_by_render,
-    head_p_options, profile_setup, resample_to_front, side_view_points, side_view_protrusion,
-    side_view_track,
+    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, check_setup_in_frame, head_p_by_render,
+    head_p_of_clip_by_render, head_p_options, profile_setup, resample_to_front, side_view_points,
+    side_view_protrusion, side_view_track,
 };

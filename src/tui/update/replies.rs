@@ -100,7 +100,14 @@ pub(super) fn update(app: &mut App, action: Action) {
         A::SaveFailed { error } => {
             app.save.save_failed();
             app.switch_clip = None;
-            app.status = format!("save failed: {error} (q again quits without saving)");
+            app.status = if app.save.force_quit_armed() {
+                format!(
+                    "save failed: {error} (q again quits without saving; the edits stay in the \
+                     session's journal and are restored when it is opened again)"
+                )
+            } else {
+                format!("save failed: {error} (s retries; q retries, then quits)")
+            };
         }
         A::Status(s) => app.status = s,
         _ => {}

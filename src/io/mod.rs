@@ -6,6 +6,7 @@ pub mod frames;
 
 pub use error::FormatError;
 pub mod alignment_format;
+pub mod atomic;
 pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;

@@ -3,6 +3,7 @@
 
 pub mod error;
 pub mod frames;
+pub mod input;
 
 pub use error::FormatError;
 pub mod alignment_format;

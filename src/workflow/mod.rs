@@ -9,10 +9,13 @@
 pub mod demo;
 pub mod error;
 pub mod evaluate;
+pub mod export;
 pub mod fit;
+pub mod fit_files;
 pub mod heads;
 pub mod indices;
 pub mod measure_fits;
+pub mod profile_edit;
 pub mod resources;
 pub mod session;
 pub mod side_view;

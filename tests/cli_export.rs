@@ -1,5 +1,5 @@
 //! Exporting end to end on real data: a session of the carphone clip (first frames), the SFM
-//! model and a Praat alignment (made by the `lipmap new` binary), exported through the
+//! model and a Praat alignment (made by `workflow::create`), exported through the
 //! workflow as landmarks, CSV tables, PNGs and (when asked for) OBJs; hostile clip names and
 //! symlinks inside the output folder; and the `lipmap export` binary's printed counts.
 
@@ -7,8 +7,9 @@ mod common;
 
 use lipmap::io::landmark_format::{LandmarkFormat, read_track};
 use lipmap::io::{model_source, obj};
-use lipmap::landmarks::{LandmarkPoint, PointSource};
+use lipmap::landmarks::{LandmarkPoint, LandmarkSet, PointSource};
 use lipmap::session::Session;
+use lipmap::workflow::create::{ClipInputs, NewSession, create_session};
 use lipmap::workflow::export::{
     self as export, ExportPlan, ExportReport, ExportRequest, TABLE_FILES,
 };
@@ -37,24 +38,24 @@ fn fixture() -> Option<Fixture> {
     let session = root.join("s.lipmap.json");
     let (model, blendshapes) =
         (eos.join("sfm_shape_3448.bin"), eos.join("expression_blendshapes_3448.bin"));
-    let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
-        .arg("new")
-        .arg(&session)
-        .arg("--frames")
-        .arg(&frames)
-        .args(["--fps", "25", "--clip", "carphone", "--landmarks"])
-        .arg(&landmarks)
-        .arg("--alignment")
-        .arg(&textgrid)
-        .arg("--model")
-        .arg(&model)
-        .arg("--blendshapes")
-        .arg(&blendshapes)
-        .arg("--mapping")
-        .arg(eos.join("ibug_to_sfm.txt"))
-        .output()
-        .unwrap();
-    assert!(st.status.success(), "new failed: {}", String::from_utf8_lossy(&st.stderr));
+    let args = NewSession {
+        path: session.clone(),
+        clip: ClipInputs {
+            frames,
+            fps: Some(25.0),
+            landmarks,
+            alignment: Some((textgrid, None)),
+            side: None,
+            name: Some("carphone".into()),
+        },
+        head: None,
+        model: model.clone(),
+        blendshapes: Some(blendshapes.clone()),
+        mapping: Some(eos.join("ibug_to_sfm.txt")),
+        set: LandmarkSet::F4,
+        force: false,
+    };
+    create_session(&args).unwrap();
     // One correction, so effective landmarks differ from the tracked ones; its x carries the
     // float noise a drag in the TUI leaves, which the export must not spell out.
     let mut s = Session::load(&session).unwrap();

@@ -6,6 +6,7 @@
 //! Start with [`open_for_read`] / [`open_for_edit`] and [`load_resources`], then
 //! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
 
+pub mod create;
 pub mod demo;
 pub mod error;
 pub mod evaluate;

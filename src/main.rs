@@ -39,6 +39,6 @@ fn open_tui(open: &OpenTui) -> anyhow::Result<()> {
 /// The error and its causes on one line, without repeating a cause already in the message,
 /// control characters escaped.
 fn one_line(err: &anyhow::Error) -> String {
-    let msg = lipmap::workflow::error_chain(err.as_ref()).replace('\n', " ");
+    let msg = lipmap::workflow::error_chain(&**err).replace('\n', " ");
     lipmap::cli::output::terminal_safe(&msg).into_owned()
 }

@@ -324,13 +324,18 @@ fn hostile_clip_names_stay_inside_out_and_the_counts_are_what_was_written() {
     for name in ["../../evil", "/tmp/lipmap-abs-evil", "x/../../../evil2"] {
         rename_clip(&f.session, name);
         let out_dir = f.root.join("deep/out");
-        let a = ExportRequest { plan: plan(Some(LandmarkFormat::PtsFolder), true, true), ..args(&out_dir) };
+        let a = ExportRequest {
+            plan: plan(Some(LandmarkFormat::PtsFolder), true, true),
+            ..args(&out_dir)
+        };
         let report = run(&f.session, &a).unwrap();
         let files = all_files(&out_dir);
         // Landmarks (a .pts per frame), an OBJ per frame, 5 tables, 1 plot: all inside.
         assert_eq!(files.len(), FRAMES + FRAMES + TABLE_FILES.len() + 1, "{name}: {files:?}");
         assert_eq!(
-            files_of(&report.landmarks) + files_of(&report.meshes) + files_of(&report.tables)
+            files_of(&report.landmarks)
+                + files_of(&report.meshes)
+                + files_of(&report.tables)
                 + files_of(&report.plots),
             files.len()
         );
@@ -369,7 +374,11 @@ fn an_escape_sequence_in_a_clip_name_reaches_the_terminal_escaped() {
     let Some(f) = fixture() else { return };
     rename_clip(&f.session, "evil\x1b[2J\x1b]0;owned\x07");
     for args in [vec!["eval"], vec!["fit"]] {
-        let st = Command::new(env!("CARGO_BIN_EXE_lipmap")).args(&args).arg(&f.session).output().unwrap();
+        let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+            .args(&args)
+            .arg(&f.session)
+            .output()
+            .unwrap();
         let (out, err) = (st.stdout, st.stderr);
         assert!(!out.contains(&0x1b) && !err.contains(&0x1b) && !out.contains(&0x07), "{args:?}");
         let text = String::from_utf8_lossy(&out);

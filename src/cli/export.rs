@@ -93,16 +93,16 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         writeln!(out, "{what}: {} in {}", plural(w.files, noun), terminal_safe(&dir))
     };
     if let (Some(w), Some(format)) = (&report.landmarks, req.plan.landmarks) {
-        line(out, &format!("landmarks ({format})"), w, "file")?;
+        line(&mut *out, &format!("landmarks ({format})"), w, "file")?;
     }
     if let Some(w) = &report.meshes {
-        line(out, "meshes", w, "OBJ file")?;
+        line(&mut *out, "meshes", w, "OBJ file")?;
     }
     if let Some(w) = &report.tables {
-        line(out, "tables", w, "CSV file")?;
+        line(&mut *out, "tables", w, "CSV file")?;
     }
     if let Some(w) = &report.plots {
-        line(out, "plots", w, "PNG file")?;
+        line(&mut *out, "plots", w, "PNG file")?;
     }
     if !req.plan.meshes {
         return Ok(Outcome::Ok);

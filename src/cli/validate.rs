@@ -187,7 +187,11 @@ fn validate_blendshapes(path: &Path) -> Option<Result<String>> {
     }
     targets.sort();
     let checked = targets.iter().try_for_each(|t| makehuman_target::read_target(t).map(drop));
-    Some(checked.map(|()| format!("blendshape folder, {}", plural(targets.len(), "target"))).map_err(Into::into))
+    Some(
+        checked
+            .map(|()| format!("blendshape folder, {}", plural(targets.len(), "target")))
+            .map_err(Into::into),
+    )
 }
 
 fn plural_vertices(n: usize) -> String {

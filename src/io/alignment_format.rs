@@ -149,7 +149,8 @@ pub fn format_alignment(alignment: &Alignment, format: AlignmentFormat) -> Strin
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_alignment(alignment: &Alignment, path: &Path, format: AlignmentFormat) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_alignment(alignment, format).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_alignment(alignment, format).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

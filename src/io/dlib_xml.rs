@@ -265,7 +265,8 @@ pub fn format_dlib_xml(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_dlib_xml(track: &Track, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_dlib_xml(track).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_dlib_xml(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -244,7 +244,8 @@ pub fn format_xlabel(alignment: &Alignment) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_htk_lab(alignment: &Alignment, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_htk_lab(alignment).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_htk_lab(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Writes an alignment as a Festival xlabel file.
@@ -252,7 +253,8 @@ pub fn write_htk_lab(alignment: &Alignment, path: &Path) -> Result<()> {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_xlabel(alignment: &Alignment, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_xlabel(alignment).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_xlabel(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

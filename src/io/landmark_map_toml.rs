@@ -119,7 +119,8 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap) -> Result<()> {
     if let Some(&l) = map.to_vertex.keys().find(|&&l| l >= N_LANDMARKS) {
         return Err(FormatError::whole(path, format!("point {l} is not an iBUG-68 point")));
     }
-    super::atomic::write_atomic_bytes(path, format_landmark_map(map).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_landmark_map(map).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Reads eos's exported `landmarks_and_contours.json`: the object `ibug_to_sfm_vertex`

@@ -8,7 +8,6 @@
 use crate::io::error::{FormatError, Location, Result};
 use crate::math::{DMatrix, DVector};
 use crate::model::{Expressions, MorphableModel, PcaModel};
-use std::io::Write;
 use std::path::Path;
 
 /// The 8 bytes every lipmap model file starts with.

@@ -181,7 +181,8 @@ pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
 /// # Errors
 /// I/O errors, naming the file.
 pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
-    super::atomic::write_atomic(path, |w| write_obj_to(w, mesh)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic(path, |w| write_obj_to(w, mesh))
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Writes OBJ text to any writer (see [`write_obj`]).

@@ -184,7 +184,8 @@ pub fn format_openface_csv(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_openface_csv(track: &Track, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_openface_csv(track).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_openface_csv(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -89,7 +89,8 @@ pub fn format_phones_csv(alignment: &Alignment) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_phones_csv(alignment: &Alignment, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_phones_csv(alignment).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_phones_csv(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -261,7 +261,8 @@ pub fn format_pts(frame: &FrameLandmarks) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_pts(frame: &FrameLandmarks, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_pts(frame).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_pts(frame).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// File name used for frame `frame` in a `.pts` folder; zero-padded so every tool's sort

@@ -564,7 +564,8 @@ pub fn format_textgrid(alignment: &Alignment, tier_name: &str) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_textgrid(alignment: &Alignment, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_textgrid(alignment, "phones").as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_textgrid(alignment, "phones").as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -353,7 +353,8 @@ pub fn format_track_csv(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_track_csv(track: &Track, path: &Path) -> Result<()> {
-    super::atomic::write_atomic_bytes(path, format_track_csv(track).as_bytes()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_track_csv(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

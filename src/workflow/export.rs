@@ -37,7 +37,13 @@ impl ExportPlan {
     /// The plan of the kinds asked for: landmarks (as lipmap CSV unless a format is given),
     /// tables and plots when nothing is asked for or `all` is; meshes only when asked for
     /// (an OBJ per frame of the whole model is hundreds of megabytes for a few seconds).
-    pub fn of(landmarks: Option<LandmarkFormat>, meshes: bool, tables: bool, plots: bool, all: bool) -> Self {
+    pub fn of(
+        landmarks: Option<LandmarkFormat>,
+        meshes: bool,
+        tables: bool,
+        plots: bool,
+        all: bool,
+    ) -> Self {
         let all = all || (landmarks.is_none() && !meshes && !tables && !plots);
         Self {
             landmarks: landmarks.or(all.then_some(LandmarkFormat::LipmapCsv)),
@@ -176,7 +182,9 @@ fn ensure_real_dir(dir: &Path) -> Result<()> {
             std::fs::remove_file(dir).map_err(|e| Error::io(dir, e))?;
         }
         Ok(m) if m.is_dir() => return Ok(()),
-        Ok(_) => return Err(Error::Invalid(format!("{}: a file where a folder goes", dir.display()))),
+        Ok(_) => {
+            return Err(Error::Invalid(format!("{}: a file where a folder goes", dir.display())));
+        }
         Err(_) => {}
     }
     std::fs::create_dir(dir).map_err(|e| Error::io(dir, e))
@@ -189,7 +197,10 @@ fn ensure_real_dir(dir: &Path) -> Result<()> {
 /// `out` is a file.
 pub fn check_out_dir(out: &Path) -> Result<()> {
     if out.is_file() {
-        return Err(Error::Invalid(format!("{}: --out must be a folder, not a file", out.display())));
+        return Err(Error::Invalid(format!(
+            "{}: --out must be a folder, not a file",
+            out.display()
+        )));
     }
     Ok(())
 }
@@ -252,8 +263,11 @@ pub fn export(
         })
         .filter(|(_, failed)| !failed.is_empty())
         .collect();
-    let file_of = |name: &str| -> &str {
-        all_names.iter().position(|n| n == name).map_or(name, |i| files[i].as_str())
+    let file_of = |name: &str| -> String {
+        all_names
+            .iter()
+            .position(|n| n == name)
+            .map_or_else(|| name.to_string(), |i| files[i].clone())
     };
 
     if req.plan.meshes {
@@ -263,7 +277,8 @@ pub fn export(
         let total: usize = done.fits.iter().map(|(_, f)| f.len()).sum();
         progress(Progress::Stage { what: "writing meshes".into(), total });
         for (clip, fits) in &done.fits {
-            written += write_meshes(&res, fits, &req.out, file_of(clip), written, total, progress)?;
+            written +=
+                write_meshes(&res, fits, &req.out, &file_of(clip), written, total, progress)?;
         }
         progress(Progress::Finished);
         report.meshes = Some(Written { files: written, dir });
@@ -274,8 +289,7 @@ pub fn export(
         ensure_real_dir(&dir)?;
         for (table, file) in eval.tables().iter().zip(TABLE_FILES) {
             let p = dir.join(file);
-            write_atomic(&p, |mut w| table.write_csv(&mut w))
-                .map_err(|e| Error::io(&p, e))?;
+            write_atomic(&p, |mut w| table.write_csv(&mut w)).map_err(|e| Error::io(&p, e))?;
         }
         report.tables = Some(Written { files: TABLE_FILES.len(), dir });
     }
@@ -284,7 +298,7 @@ pub fn export(
         ensure_real_dir(&dir)?;
         for u in &done.utterances {
             let img = trajectory_chart(u, req.normalisation, req.plot_width);
-            let p = plot_path(&req.out, file_of(&u.name));
+            let p = plot_path(&req.out, &file_of(&u.name));
             write_atomic(&p, |w| {
                 let enc = image::codecs::png::PngEncoder::new(w);
                 img.write_with_encoder(enc).map_err(std::io::Error::other)
@@ -348,7 +362,11 @@ fn mesh_faces(res: &Resources) -> Vec<Vec<u32>> {
 
 /// The W/H/P chart of one clip: video (blue) against the fitted head (orange), on the scale
 /// the evaluation compares them with, phone boundaries from the clip's alignment.
-pub fn trajectory_chart(u: &Utterance, normalisation: Normalisation, width: u32) -> image::RgbImage {
+pub fn trajectory_chart(
+    u: &Utterance,
+    normalisation: Normalisation,
+    width: u32,
+) -> image::RgbImage {
     let compared = normalisation.apply(std::slice::from_ref(u)).remove(0);
     let measures: Vec<Measure> = Measure::ALL
         .into_iter()

@@ -210,7 +210,8 @@ mod tests {
         assert!(fit.starts_with("frame,yaw,pitch,roll,scale,tx,ty,reproj_rms_px,failed"));
         let shapes = npy_model::read_npy(&out.join("shapes.npy")).unwrap();
         assert_eq!(shapes.shape, vec![4, 3 * 3448]);
-        let names: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> =
+            std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names.len(), 2, "no temp files left: {names:?}");
     }
 }

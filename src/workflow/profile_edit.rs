@@ -110,7 +110,8 @@ pub fn edit_profiles(
             }
             for &f in &corrections.uncorrect {
                 if session.clear_profile_correction(c, f)?.is_none() {
-                    edit.warnings.push(Warning(format!("lipmap: side-view frame {f} had no correction")));
+                    edit.warnings
+                        .push(Warning(format!("lipmap: side-view frame {f} had no correction")));
                 }
             }
             for &(f, p) in &corrections.correct {
@@ -133,7 +134,8 @@ fn check_overrides(o: &ProfileOverrides) -> Result<()> {
         return bad(format!("--crop needs a positive width and height, got {c:?}"));
     }
     if let Some((p, q)) = o.line
-        && ((p - q).norm() < 1e-9 || !(p.x.is_finite() && p.y.is_finite() && q.x.is_finite() && q.y.is_finite()))
+        && ((p - q).norm() < 1e-9
+            || !(p.x.is_finite() && p.y.is_finite() && q.x.is_finite() && q.y.is_finite()))
     {
         return bad(format!("--line needs two distinct finite points, got {p:?} and {q:?}"));
     }
@@ -223,7 +225,11 @@ mod tests {
         assert!(check_overrides(&o).unwrap_err().to_string().contains("--line"));
         let o = ProfileOverrides { nose_px: Some(-1.0), ..Default::default() };
         assert!(check_overrides(&o).unwrap_err().to_string().contains("--nose-px"));
-        let o = ProfileOverrides { crop: Some([1, 2, 3, 4]), nose_px: Some(30.0), ..Default::default() };
+        let o = ProfileOverrides {
+            crop: Some([1, 2, 3, 4]),
+            nose_px: Some(30.0),
+            ..Default::default()
+        };
         assert!(check_overrides(&o).is_ok());
     }
 

@@ -5,6 +5,8 @@ use super::{BoxPlot, FacialIndex, FacialIndices, box_plot};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
+/// An index value's class against its bounds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum IndexClass {
     Low,
@@ -215,5 +217,3 @@ impl BoundsTable {
         Ok((Self { bounds }, plots))
     }
 }
-
-/// A Tukey box plot of one sample.

@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+/// A Tukey box plot of one sample.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BoxPlot {
     /// Number of finite values used.
@@ -57,5 +58,3 @@ pub fn box_plot(values: &[f64]) -> Option<BoxPlot> {
         n_outliers: v.len() - inside.len(),
     })
 }
-
-/// One row of a speaker–head comparison.

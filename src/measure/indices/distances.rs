@@ -189,6 +189,3 @@ pub fn frame_indices(frame: &FrameLandmarks) -> Result<FacialIndices, MeasureErr
 pub fn shape_indices(shape: &DVector, map: &LandmarkMap) -> Result<FacialIndices, MeasureError> {
     facial_indices(&super::mesh::frontal_landmarks(shape, map))
 }
-
-/// An index value's class against its bounds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]

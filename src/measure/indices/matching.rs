@@ -5,6 +5,7 @@ use super::{BoundsTable, FacialIndex, FacialIndices, IndexClass};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
+/// One row of a speaker–head comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IndexComparison {
     pub index: FacialIndex,
@@ -92,5 +93,3 @@ pub fn match_speaker_head(
     }
     MatchVerdict { rows, warnings }
 }
-
-/// The frame chosen as neutral, and whether it lies inside a silence interval.

@@ -144,6 +144,5 @@ impl fmt::Display for FacialIndex {
     }
 }
 
-
 #[cfg(test)]
 mod tests;

@@ -4,6 +4,7 @@ use crate::alignment::{Alignment, grouping_label};
 use crate::measure::Series;
 use serde::{Deserialize, Serialize};
 
+/// The frame chosen as neutral, and whether it lies inside a silence interval.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NeutralFrame {
     pub frame: usize,

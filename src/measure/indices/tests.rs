@@ -8,9 +8,8 @@ use crate::model::LandmarkMap;
 
 fn sample_points() -> Vec<Option<Point2>> {
     let mut pts: Vec<Option<Point2>> = vec![None; 68];
-    let set = |pts: &mut Vec<Option<Point2>>, i: usize, x: f64, y: f64| {
-        pts[i] = Some(Point2::new(x, y))
-    };
+    let set =
+        |pts: &mut Vec<Option<Point2>>, i: usize, x: f64, y: f64| pts[i] = Some(Point2::new(x, y));
     set(&mut pts, 0, -70.0, 0.0);
     set(&mut pts, 16, 70.0, 0.0);
     set(&mut pts, 8, 0.0, 120.0);
@@ -145,9 +144,8 @@ fn csv_and_toml_round_trip_and_errors() {
     let e = BoundsTable::from_csv_str("index,low,high\nfacial,1,2\nfacial,1,2\n").unwrap_err();
     assert!(e.message.contains("twice"));
     assert!(BoundsTable::from_csv_str("index,low\nfacial,1\n").is_err());
-    let e =
-        BoundsTable::from_toml_str("[[bounds]]\nindex = \"facial\"\nlow = \"a\"\nhigh = 2\n")
-            .unwrap_err();
+    let e = BoundsTable::from_toml_str("[[bounds]]\nindex = \"facial\"\nlow = \"a\"\nhigh = 2\n")
+        .unwrap_err();
     assert_eq!(e.line, Some(3));
 }
 

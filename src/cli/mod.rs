@@ -91,14 +91,15 @@ pub fn run(cli: Cli) -> Result<Next> {
     }
     if let Command::Demo(args) = &command {
         let stdout = std::io::stdout();
-        return demo_cmd::run(args, &mut stdout.lock());
+        return demo_cmd::run(args, &mut output::TerminalSafe::new(stdout.lock()));
     }
     run_command(command).map(Next::Exit)
 }
 
 fn run_command(command: Command) -> Result<Outcome> {
     let stdout = std::io::stdout();
-    let mut out = stdout.lock();
+    // Names from files (clips, phones, paths) reach the terminal with control characters escaped.
+    let mut out = output::TerminalSafe::new(stdout.lock());
     match command {
         Command::Convert(args) => {
             let msg = convert::run(&args)?;

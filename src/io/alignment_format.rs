@@ -134,7 +134,7 @@ pub fn parse_alignment_as(
 /// println!("{} phones", a.phones.len());
 /// ```
 pub fn read_alignment(path: &Path, tier: Option<&TierChoice>) -> Result<Alignment> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_alignment(&bytes, path, tier)
 }
 
@@ -153,7 +153,8 @@ pub fn format_alignment(alignment: &Alignment, format: AlignmentFormat) -> Strin
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_alignment(alignment: &Alignment, path: &Path, format: AlignmentFormat) -> Result<()> {
-    std::fs::write(path, format_alignment(alignment, format)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_alignment(alignment, format).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -133,6 +133,7 @@ impl FrameSource {
         }
         names.sort_by(|a, b| natural_cmp(a, b));
         let files: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
+        check_frame_file(&files[0])?;
         let (w, h) = image::image_dimensions(&files[0]).map_err(|e| FrameError::Decode {
             path: files[0].clone(),
             frame: 0,
@@ -157,12 +158,7 @@ impl FrameSource {
     /// # Errors
     /// `ProgramMissing` when ffmpeg is not installed, `Program` when it cannot read the file.
     pub fn open_video(file: &Path, opts: &FrameOptions) -> Result<Self, FrameError> {
-        if !file.is_file() {
-            return Err(FrameError::Io {
-                path: file.to_path_buf(),
-                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such video file"),
-            });
-        }
+        check_frame_file(file)?;
         let info = match probe_with_ffprobe(file) {
             Err(FrameError::ProgramMissing { .. }) => probe_with_ffmpeg(file)?,
             other => other?,
@@ -301,6 +297,7 @@ impl FrameSource {
     }
 
     fn decode_image(&self, path: &Path, frame: usize) -> Result<RgbImage, FrameError> {
+        check_frame_file(path)?;
         let img = image::open(path)
             .map_err(|e| FrameError::Decode {
                 path: path.to_path_buf(),
@@ -336,7 +333,7 @@ impl FrameSource {
             .args(["-nostdin", "-v", "error", "-ss"])
             .arg(format!("{t:.6}"))
             .arg("-i")
-            .arg(file)
+            .arg(child_path_arg(file))
             .args(["-frames:v", &count.to_string(), "-an", "-sn"])
             .args(["-vf", &format!("scale={w}:{h}")])
             .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
@@ -360,6 +357,19 @@ impl FrameSource {
             .map(Arc::new)
             .collect())
     }
+}
+
+/// Refuses a frame or video path that is not a regular file (a FIFO would hang the decoder).
+fn check_frame_file(path: &Path) -> Result<(), FrameError> {
+    super::input::check_regular_file(path)
+        .map(drop)
+        .map_err(|e| FrameError::Invalid { path: path.to_path_buf(), message: e.message })
+}
+
+/// `path` as a child program's argument: a relative path gets a `./` prefix, so a name such as
+/// `-y.mp4` is not read as an option and `concat:x.mp4` not as an ffmpeg protocol.
+fn child_path_arg(path: &Path) -> PathBuf {
+    if path.is_relative() { Path::new(".").join(path) } else { path.to_path_buf() }
 }
 
 /// Frame rates lipmap accepts (frames per second): a camera's range, no more. Frame counts
@@ -482,7 +492,7 @@ fn probe_with_ffprobe(file: &Path) -> Result<VideoInfo, FrameError> {
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
         .arg("stream=width,height,avg_frame_rate,r_frame_rate,nb_frames,duration:format=duration")
         .args(["-of", "default=noprint_wrappers=1"])
-        .arg(file)
+        .arg(child_path_arg(file))
         .stdin(Stdio::null())
         .output()
         .map_err(|e| program_error(file, "ffprobe", e))?;
@@ -538,7 +548,7 @@ fn parse_rate(v: &str) -> Option<f64> {
 fn probe_with_ffmpeg(file: &Path) -> Result<VideoInfo, FrameError> {
     let mut child = Command::new("ffmpeg")
         .args(["-nostdin", "-hide_banner", "-i"])
-        .arg(file)
+        .arg(child_path_arg(file))
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -651,6 +661,25 @@ impl FrameCache {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn child_programs_never_see_a_path_as_an_option() {
+        assert_eq!(child_path_arg(Path::new("-y.mp4")), PathBuf::from("./-y.mp4"));
+        assert_eq!(child_path_arg(Path::new("a/b.mp4")), PathBuf::from("./a/b.mp4"));
+        assert_eq!(child_path_arg(Path::new("/v/-y.mp4")), PathBuf::from("/v/-y.mp4"));
+    }
+
+    #[test]
+    fn a_device_or_folder_is_not_a_video() {
+        let opts = FrameOptions::default();
+        if Path::new("/dev/zero").exists() {
+            let e = FrameSource::open_video(Path::new("/dev/zero"), &opts).err().unwrap();
+            assert_eq!(e.to_string(), "/dev/zero: not a regular file (a device)");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let e = FrameSource::open_video(dir.path(), &opts).err().unwrap().to_string();
+        assert!(e.ends_with("not a regular file (a folder)"), "{e}");
+    }
     use super::*;
 
     #[test]

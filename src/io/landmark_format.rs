@@ -114,7 +114,7 @@ pub fn detect(path: &Path) -> Result<LandmarkFormat> {
         Some("xml") => return Ok(LandmarkFormat::DlibXml),
         _ => {}
     }
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64 * 1024)]);
     detect_text(&head).ok_or_else(|| {
         FormatError::at_line(
@@ -177,7 +177,7 @@ pub fn read_track(path: &Path) -> Result<Track> {
     match detect(path)? {
         LandmarkFormat::PtsFolder => check_frame_numbers(pts::read_pts_folder(path)?, path),
         format => {
-            let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+            let text = super::input::read_input_string(path)?;
             parse_track(&text, path, format)
         }
     }

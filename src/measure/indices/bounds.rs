@@ -68,7 +68,7 @@ pub struct BoundsTable {
 impl Default for BoundsTable {
     /// The published table ([`DEFAULT_BOUNDS_CSV`]).
     fn default() -> Self {
-        DEFAULT_BOUNDS.clone()
+        super::DEFAULT_BOUNDS.clone()
     }
 }
 

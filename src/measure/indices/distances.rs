@@ -169,7 +169,7 @@ pub fn facial_indices_partial(points: &[Option<Point2>]) -> FacialIndices {
 
 /// [`facial_indices_partial`] of a head shape's frontal landmark projection.
 pub fn shape_indices_partial(shape: &DVector, map: &LandmarkMap) -> FacialIndices {
-    facial_indices_partial(&super::mesh::frontal_landmarks(shape, map))
+    facial_indices_partial(&crate::measure::mesh::frontal_landmarks(shape, map))
 }
 
 /// The facial indices of one tracked frame (visible points only).
@@ -177,7 +177,7 @@ pub fn shape_indices_partial(shape: &DVector, map: &LandmarkMap) -> FacialIndice
 /// # Errors
 /// As [`facial_indices`]; occluded points count as missing.
 pub fn frame_indices(frame: &FrameLandmarks) -> Result<FacialIndices, MeasureError> {
-    facial_indices(&super::mouth::visible_points(frame))
+    facial_indices(&crate::measure::mouth::visible_points(frame))
 }
 
 /// The facial indices of a head shape (flat model-space `x0 y0 z0 …`, typically its
@@ -187,5 +187,5 @@ pub fn frame_indices(frame: &FrameLandmarks) -> Result<FacialIndices, MeasureErr
 /// # Errors
 /// As [`facial_indices`]; an unmapped landmark counts as missing.
 pub fn shape_indices(shape: &DVector, map: &LandmarkMap) -> Result<FacialIndices, MeasureError> {
-    facial_indices(&super::mesh::frontal_landmarks(shape, map))
+    facial_indices(&crate::measure::mesh::frontal_landmarks(shape, map))
 }

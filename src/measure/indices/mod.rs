@@ -134,7 +134,7 @@ impl FacialIndex {
 pub const DEFAULT_BOUNDS_CSV: &str = include_str!("../../../data/facial_index_bounds.csv");
 
 /// [`DEFAULT_BOUNDS_CSV`] parsed once.
-static DEFAULT_BOUNDS: LazyLock<BoundsTable> = LazyLock::new(|| {
+pub(super) static DEFAULT_BOUNDS: LazyLock<BoundsTable> = LazyLock::new(|| {
     BoundsTable::from_csv_str(DEFAULT_BOUNDS_CSV).expect("the embedded table parses (tested)")
 });
 

@@ -322,9 +322,9 @@ fn hostile_clip_names_stay_inside_out_and_the_counts_are_what_was_written() {
     let Some(f) = fixture() else { return };
     let victim = f.root.join("victim");
     std::fs::create_dir(&victim).unwrap();
-    for name in ["../../evil", "/tmp/lipmap-abs-evil", "x/../../../evil2"] {
+    for (i, name) in ["../../evil", "/tmp/lipmap-abs-evil", "x/../../../evil2"].iter().enumerate() {
         rename_clip(&f.session, name);
-        let out_dir = f.root.join("deep/out");
+        let out_dir = f.root.join(format!("deep/out{i}"));
         let a = ExportRequest {
             plan: plan(Some(LandmarkFormat::PtsFolder), true, true),
             ..args(&out_dir)

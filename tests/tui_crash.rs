@@ -70,7 +70,7 @@ fn kill_9_at_random_moments_loses_at_most_the_last_edit() {
         let mut sent = 0;
         for _ in 0..rng.random_range(1..=3) {
             let k = rng.random_range(3..=7).min(frames.saturating_sub(sent + 1));
-            let keys: Vec<&str> = std::iter::repeat(["r", "n"]).take(k).flatten().collect();
+            let keys: Vec<&str> = std::iter::repeat_n(["r", "n"], k).flatten().collect();
             term.send(&keys);
             sent += k;
             std::thread::sleep(Duration::from_millis(rng.random_range(20..250)));

@@ -7,8 +7,8 @@ pub mod input;
 
 pub use error::FormatError;
 pub mod alignment_format;
-pub mod audio_track;
 pub mod atomic;
+pub mod audio_track;
 pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;

@@ -100,16 +100,9 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         app.term_size = (size.width, size.height);
         request_images(&mut app);
         app.request_analysis();
-        let result = event_loop(
-            &mut guard.terminal,
-            &mut app,
-            &keymap,
-            &mut bridge,
-            &workers,
-            &rx,
-            &mut gfx,
-            &signals,
-        );
+        let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
+        let result =
+            event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
         drop(workers);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
@@ -195,19 +188,26 @@ pub fn apply(app: &mut App, action: Action) {
     }
 }
 
+/// Where the event loop's actions come from: keys (through the keymap), worker replies and
+/// the stopping signals.
+struct LoopInputs<'a> {
+    keymap: &'a Keymap,
+    rx: &'a Receiver<Action>,
+    signals: &'a Signals,
+}
+
 fn event_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
-    keymap: &Keymap,
     bridge: &mut SessionBridge,
     workers: &Workers,
-    rx: &Receiver<Action>,
     gfx: &mut GraphicsState,
-    signals: &Signals,
+    inputs: LoopInputs<'_>,
 ) -> anyhow::Result<()>
 where
     B::Error: Send + Sync + 'static,
 {
+    let LoopInputs { keymap, rx, signals } = inputs;
     let mut redraw = true;
     let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();

@@ -210,7 +210,7 @@ fn all_failed_in<'a>(clips: impl Iterator<Item = &'a [SidePoint]> + Clone) -> Op
         return None;
     }
     let mut reasons: Vec<(&str, usize)> = reasons.into_iter().collect();
-    reasons.sort_by(|a, b| b.1.cmp(&a.1));
+    reasons.sort_by_key(|r| std::cmp::Reverse(r.1));
     let list: Vec<String> = reasons.iter().map(|(w, n)| format!("{n}× {w}")).collect();
     Some(format!("no side-view frame gave a lip point ({})", list.join("; ")))
 }

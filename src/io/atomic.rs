@@ -133,7 +133,7 @@ fn parent_dir(target: &Path) -> PathBuf {
 }
 
 /// Makes a rename in `dir` durable; a no-op where folders cannot be opened (Windows).
-fn sync_dir(dir: &Path) -> io::Result<()> {
+pub fn sync_dir(dir: &Path) -> io::Result<()> {
     #[cfg(unix)]
     {
         File::open(dir)?.sync_all()

@@ -16,6 +16,7 @@ pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
 pub mod speech_cmd;
+pub mod tables_cmd;
 pub mod transfer_cmd;
 pub mod tui_cmd;
 pub mod validate;
@@ -31,6 +32,11 @@ use std::io::Write;
 #[derive(Parser, Debug)]
 #[command(name = "lipmap", version, about, long_about = None)]
 pub struct Cli {
+    /// A folder of reference tables replacing the built-in ones: any of visemes.toml,
+    /// facial_index_bounds.csv, ibug68.csv, keymap.toml (`lipmap tables --out DIR` writes them
+    /// to edit). Default: $LIPMAP_DATA.
+    #[arg(long, global = true, value_name = "DIR")]
+    pub data: Option<std::path::PathBuf>,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -69,6 +75,8 @@ pub enum Command {
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Write the built-in reference tables (visemes, index bounds, point names, keys) to edit.
+    Tables(tables_cmd::TablesArgs),
     /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
     #[command(subcommand)]
     Speech(speech_cmd::SpeechCommand),
@@ -85,15 +93,24 @@ pub enum Next {
 
 /// Runs one parsed command.
 pub fn run(cli: Cli) -> Result<Next> {
+    let data_keymap = tables_cmd::install_data_folder(cli.data.as_deref())?;
     let command = cli.command;
-    if let Command::Tui(args) = &command {
-        return Ok(Next::OpenTui(OpenTui::of(args), Outcome::Ok));
-    }
-    if let Command::Demo(args) = &command {
-        let stdout = std::io::stdout();
-        return demo_cmd::run(args, &mut output::TerminalSafe::new(stdout.lock()));
-    }
-    run_command(command).map(Next::Exit)
+    let next = match &command {
+        Command::Tui(args) => Next::OpenTui(OpenTui::of(args), Outcome::Ok),
+        Command::Demo(args) => {
+            let stdout = std::io::stdout();
+            demo_cmd::run(args, &mut output::TerminalSafe::new(stdout.lock()))?
+        }
+        _ => return run_command(command).map(Next::Exit),
+    };
+    Ok(match next {
+        // `--keymap` names the keys to change for this run; the data folder's are the default.
+        Next::OpenTui(mut open, outcome) => {
+            open.keymap = open.keymap.or(data_keymap);
+            Next::OpenTui(open, outcome)
+        }
+        exit => exit,
+    })
 }
 
 fn run_command(command: Command) -> Result<Outcome> {
@@ -143,6 +160,10 @@ fn run_command(command: Command) -> Result<Outcome> {
         }
         Command::Speech(cmd) => {
             speech_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Tables(args) => {
+            tables_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Validate(args) => {

@@ -19,8 +19,7 @@ use crate::fit::fit_clip;
 use crate::io::model_source::{ModelSourceKind, detect_model_source, load_model};
 use crate::io::{landmark_map_toml, obj};
 use crate::measure::{
-    BoundsTable, FacialIndex, IndexClass, MatchVerdict, Measure, MeshMeasureOptions,
-    match_speaker_head,
+    FacialIndex, IndexClass, MatchVerdict, Measure, MeshMeasureOptions, match_speaker_head,
 };
 use crate::session::Session;
 use std::path::{Path, PathBuf};
@@ -358,7 +357,7 @@ pub fn compare_heads(
                 .into(),
         ));
     }
-    let bounds = BoundsTable::default();
+    let bounds = &crate::reference::current().bounds;
     let mut configs = Vec::new();
     let mut matches = Vec::new();
     for h in heads {
@@ -367,7 +366,7 @@ pub fn compare_heads(
         configs
             .push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
         let verdict = match (&speaker, resources_head_indices(&h.resources)) {
-            (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi.indices, &bounds)),
+            (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi.indices, bounds)),
             (None, _) => Err("no speaker indices".to_string()),
             (_, Err(e)) => Err(super::error_chain(&e)),
         };

@@ -18,6 +18,7 @@ pub mod heads;
 pub mod indices;
 pub mod measure_fits;
 pub mod profile_edit;
+pub mod reference;
 pub mod resources;
 pub mod session;
 pub mod side_view;

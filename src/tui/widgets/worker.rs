@@ -153,7 +153,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         &job.track,
         &job.alignment,
         job.fps,
-        &crate::measure::BoundsTable::default(),
+        &crate::reference::current().bounds,
     )
     .unwrap_or_default();
     let tables = [

@@ -13,6 +13,21 @@ use crate::tui::views::head;
 /// Applies an action of this file (routed here by `update`).
 pub(super) fn update(app: &mut App, action: Action) {
     use Action as A;
+    // A transferred head is looked at, turned and zoomed; labels go on the model.
+    let labelling = matches!(
+        action,
+        A::MoveCursor { .. }
+            | A::NextLabel
+            | A::PrevLabel
+            | A::ConfirmLabel
+            | A::ClearLabel
+            | A::SuggestLabel
+            | A::SuggestAllLabels
+    );
+    if app.heads.shown.is_some() && labelling {
+        app.status = "labels are set on the model: t until the model is shown".into();
+        return;
+    }
     match action {
         A::ZoomIn | A::ZoomOut | A::ZoomReset => {
             app.head.zoom = match action {

@@ -5,11 +5,11 @@
 use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::print_warnings;
 use crate::eval::{Cell, Table};
-use crate::workflow::speech_session::record_speech_model;
 use crate::workflow::speech::{
     SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech, evaluate_speech,
     load_speech_model, save_speech_model, train_speech, write_via_temp,
 };
+use crate::workflow::speech_session::record_speech_model;
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::{IsTerminal, Write};

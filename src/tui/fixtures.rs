@@ -387,12 +387,18 @@ pub fn synthetic_prepared_head() -> super::app::PreparedHead {
         (54, 6, 2),
         (8, 8, 0),
     ];
-    let map =
-        LandmarkMap { to_vertex: front.iter().map(|&(l, i, j)| (l, 1 + (i - 1) * 16 + j)).collect() };
+    let map = LandmarkMap {
+        to_vertex: front.iter().map(|&(l, i, j)| (l, 1 + (i - 1) * 16 + j)).collect(),
+    };
     let reference = mesh.to_flat();
     let triangles = mesh.triangles();
-    let source =
-        SourceFace { reference: &reference, triangles: &triangles, landmarks: &map, identity: None, face: None };
+    let source = SourceFace {
+        reference: &reference,
+        triangles: &triangles,
+        landmarks: &map,
+        identity: None,
+        face: None,
+    };
     let target = TargetHead { mesh: &mesh, skin: &[], landmarks: &map };
     let options = TransferOptions { controls: 40, ..TransferOptions::default() };
     let transfer = match Transfer::new(source, target, &options) {

@@ -85,7 +85,6 @@ impl HeadFraming {
     }
 }
 
-
 /// The unique edges of `mesh`'s faces for a wireframe, leaving out the vertices `keep`
 /// excludes (a figure's helper and joint geometry, which would hide the face's own edges).
 pub fn wire_edges(mesh: &Mesh, keep: Option<&[bool]>) -> Vec<[u32; 2]> {
@@ -103,7 +102,7 @@ pub fn wire_edges(mesh: &Mesh, keep: Option<&[bool]>) -> Vec<[u32; 2]> {
 }
 
 /// A transferred head set up for the view: the transfer (computed once, on a worker), the
-/// head's mesh at rest, its wireframe edges and the framing of its face.
+/// head's mesh at rest (skin faces only), its wireframe edges and the framing of its face.
 #[derive(Debug)]
 pub struct PreparedHead {
     pub name: String,
@@ -135,6 +134,12 @@ impl PreparedHead {
         map: &LandmarkMap,
     ) -> Self {
         let keep = (!skin.is_empty()).then_some(skin);
+        let mut mesh = mesh;
+        // Helper and joint geometry is neither drawn nor lets its faces hide the skin (a
+        // figure's proxy shells wrap the head and would hide it from the side).
+        if let Some(k) = keep {
+            mesh.faces.retain(|f| f.iter().all(|&v| k.get(v as usize) == Some(&true)));
+        }
         let edges = Arc::new(wire_edges(&mesh, keep));
         let framing = HeadFraming::of_face(&mesh, None, Some(map));
         Self { name, mode, transfer, mesh: Arc::new(mesh), edges, framing }

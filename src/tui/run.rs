@@ -385,10 +385,9 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
             }
             Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
                 Some(job) => workers.run_once("the transferred head's set-up", job),
-                None => apply(
-                    app,
-                    Action::HeadPrepared { index, head: Err("no such head".into()) },
-                ),
+                None => {
+                    apply(app, Action::HeadPrepared { index, head: Err("no such head".into()) })
+                }
             },
             Effect::TransferFrame { head, frame } => {
                 let prepared = match app.heads.setups.get(head) {

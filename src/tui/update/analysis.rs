@@ -81,7 +81,9 @@ pub(super) fn update(app: &mut App, action: Action) {
 /// none and it is not hidden on purpose.
 pub(super) fn speech_absent(app: &App) -> Option<String> {
     match &app.speech {
-        SpeechSeries::Absent(why) if app.show_speech => Some(format!("no speech-driven head: {why}")),
+        SpeechSeries::Absent(why) if app.show_speech => {
+            Some(format!("no speech-driven head: {why}"))
+        }
         _ => None,
     }
 }

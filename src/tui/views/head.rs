@@ -329,10 +329,8 @@ fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
     let h = &app.head;
     let f = app.frame();
     let name = app.heads.names.get(index).cloned().unwrap_or_default();
-    let mut lines = vec![
-        Line::from("transferred head").bold(),
-        Line::from(name).fg(Color::LightGreen),
-    ];
+    let mut lines =
+        vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
     match app.heads.setups.get(index) {
         Some(HeadSetup::Ready(p)) => {
             let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());

@@ -403,23 +403,12 @@ impl Workers {
                 }
             });
         }
-        Self {
-            frames,
-            fits,
-            analyses,
-            side_frames: Arc::new(Slot::new()),
-            head_frames,
-            tx: own_tx,
-        }
+        Self { frames, fits, analyses, side_frames: Arc::new(Slot::new()), head_frames, tx: own_tx }
     }
 
     /// Runs a one-off job (a transferred head's set-up, the speech-driven head) on a thread
     /// of its own and sends its reply; a panic replies `panicked` instead.
-    pub fn run_once(
-        &self,
-        what: &'static str,
-        job: impl FnOnce() -> Action + Send + 'static,
-    ) {
+    pub fn run_once(&self, what: &'static str, job: impl FnOnce() -> Action + Send + 'static) {
         let tx = self.tx.clone();
         std::thread::spawn(move || {
             let reply = std::panic::catch_unwind(std::panic::AssertUnwindSafe(job))

@@ -14,17 +14,17 @@ use crate::tui::views::head;
 pub(super) fn update(app: &mut App, action: Action) {
     use Action as A;
     // A transferred head is looked at, turned and zoomed; labels go on the model.
-    let labelling = matches!(
+    let looking = matches!(
         action,
-        A::MoveCursor { .. }
-            | A::NextLabel
-            | A::PrevLabel
-            | A::ConfirmLabel
-            | A::ClearLabel
-            | A::SuggestLabel
-            | A::SuggestAllLabels
+        A::ZoomIn
+            | A::ZoomOut
+            | A::ZoomReset
+            | A::Rotate { .. }
+            | A::ResetView
+            | A::LoadMap
+            | A::SaveMap
     );
-    if app.heads.shown.is_some() && labelling {
+    if app.heads.shown.is_some() && !looking {
         app.status = "labels are set on the model: t until the model is shown".into();
         return;
     }

@@ -103,6 +103,12 @@ mod tests {
         assert_eq!(app.heads.shown, Some(0));
         assert_eq!(app.effects, vec![Effect::PrepareHead(0)]);
         assert_eq!(app.heads.setups[0], HeadSetup::Preparing);
+        // Labels go on the model, never on a transferred head; turning it works.
+        let (cursor, yaw) = (app.head.cursor, app.head.yaw);
+        update(&mut app, Action::MoveCursor { dx: 5, dy: 0 });
+        update(&mut app, Action::Rotate { yaw: 15, pitch: 0 });
+        assert_eq!(app.head.cursor, cursor);
+        assert!((app.head.yaw - yaw - 15.0).abs() < 1e-9);
         app.effects.clear();
         update(&mut app, Action::CycleHead);
         update(&mut app, Action::CycleHead);

@@ -82,6 +82,7 @@ fn train_eval_animate_and_every_bad_input() {
         .unwrap();
     let acc = scores[0]["ACC"].as_f64().unwrap();
     assert!((-1.0..=1.0).contains(&acc), "ACC {acc}");
+    session_names_the_model(&session, &model);
 
     // Animate from the demo voice, and from a stereo 48 kHz copy (resampled, mixed).
     let voice = first_voice(&session);
@@ -101,6 +102,36 @@ fn train_eval_animate_and_every_bad_input() {
 
     bad_wavs(dir.path(), &model, &voice, &anim);
     bad_models(dir.path(), &model, &session);
+}
+
+/// Training (and scoring) recorded the model in the session; the TUI's charts drive the
+/// clip's head with it, and say why when they cannot (no model named, no audio).
+fn session_names_the_model(session: &Path, model: &Path) {
+    use lipmap::tui::Action;
+    use lipmap::workflow::speech_session::drive_clip_with_session_model;
+    let mut s = lipmap::session::Session::load(session).unwrap();
+    let named = s.speech_model.clone().expect("speech train records the model");
+    assert_eq!(named, std::path::absolute(model).unwrap());
+    let n = s.clips[0].tracked.len();
+    match lipmap::tui::widgets::worker::speech_for_tui(&mut s.clone(), 0) {
+        Action::SpeechReady { series } => {
+            let names: Vec<&str> = series.iter().map(|(m, _)| m.as_str()).collect();
+            assert!(names.contains(&"W") && names.contains(&"H"), "{names:?}");
+            for (m, pts) in &series {
+                assert!(pts.len() * 10 >= n * 9, "{m}: {} points of {n} frames", pts.len());
+                // Min–max normalised like the video's and the fitted head's series.
+                assert!(pts.iter().all(|p| (-1e-9..=1.0 + 1e-9).contains(&p.1)), "{m}");
+            }
+        }
+        other => panic!("no speech-driven series: {other:?}"),
+    }
+    let mut unnamed = s.clone();
+    unnamed.speech_model = None;
+    let e = drive_clip_with_session_model(&mut unnamed, 0).unwrap_err().to_string();
+    assert!(e.contains("names no speech model") && e.contains("speech train"), "{e}");
+    s.clips[0].audio = None;
+    let e = drive_clip_with_session_model(&mut s, 0).unwrap_err().to_string();
+    assert_eq!(e, "the clip has no audio");
 }
 
 /// `samples` as a 2-channel 48 kHz 16-bit WAV (both channels the same).

@@ -9,6 +9,7 @@ use crate::workflow::speech::{
     SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech, evaluate_speech,
     load_speech_model, save_speech_model, train_speech, write_via_temp,
 };
+use crate::workflow::speech_session::record_speech_model;
 use anyhow::Result;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::{IsTerminal, Write};
@@ -111,6 +112,7 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     bar.finish_and_clear();
     print_warnings(&trained.warnings);
     save_speech_model(&a.out, &trained.file)?;
+    print_warnings(&record_speech_model(&a.sessions, &a.out));
     let report = &trained.file.speech.report;
     let ll = report.log_likelihood_per_frame.last().copied().unwrap_or(f64::NAN);
     writeln!(
@@ -133,6 +135,7 @@ fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let e = evaluate_speech(&model, &a.session, a.normalise.into(), &progress)?;
     bar.finish_and_clear();
     print_warnings(&e.warnings);
+    print_warnings(&record_speech_model(std::slice::from_ref(&a.session), &a.model));
     let scores = scores_table(&e);
     let mut tables = vec![&scores];
     let titled = |t: &Table, who: &str| {

@@ -46,6 +46,10 @@ pub struct Session {
     /// Heads the motion was transferred onto (`lipmap transfer`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub transferred_heads: Vec<super::transferred::TransferredHead>,
+    /// The speech model last trained or evaluated on this session (`lipmap speech train`,
+    /// `speech eval`): the TUI drives the clip's head from its audio with it.
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub speech_model: Option<PathBuf>,
     /// Folder the session's relative paths were resolved against (the file's folder).
     #[serde(skip)]
     pub(crate) base_dir: PathBuf,
@@ -204,6 +208,7 @@ impl Session {
             fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
             transferred_heads: Vec::new(),
+            speech_model: None,
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
         }
     }

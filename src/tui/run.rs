@@ -19,7 +19,7 @@ use super::views::draw;
 use super::views::frames::draw_graphics;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
-use super::widgets::worker::{AnalysisJob, FitJob, Workers};
+use super::widgets::worker::{AnalysisJob, FitJob, HeadFrameJob, Workers};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -93,6 +93,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         }
         bridge.start_saver(tx.clone());
         let workers = Workers::start(provider, tx.clone());
+        workers.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
             workers.start_side_frames(side, tx);
         }
@@ -212,6 +213,8 @@ where
     let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();
     let mut journaled = app.save.changes();
+    // Playback's next frame is due then.
+    let mut next_tick: Option<Instant> = None;
     loop {
         run_effects(app, bridge, workers);
         if app.save.should_quit() || signals.caught().is_some() {
@@ -255,7 +258,30 @@ where
             })?;
             redraw = false;
         }
-        if event::poll(POLL)? {
+        let wait = match (app.playing, next_tick) {
+            (false, _) => {
+                next_tick = None;
+                POLL
+            }
+            (true, None) => {
+                next_tick = Some(Instant::now() + frame_interval(app.fps));
+                POLL
+            }
+            (true, Some(due)) => {
+                let now = Instant::now();
+                if now >= due {
+                    apply(app, Action::PlayTick);
+                    // Late ticks do not pile up: the next one is a frame from now.
+                    let interval = frame_interval(app.fps);
+                    let floor = now.checked_sub(interval).unwrap_or(due);
+                    next_tick = Some(due.max(floor) + interval);
+                    redraw = true;
+                    continue;
+                }
+                POLL.min(due - now)
+            }
+        };
+        if event::poll(wait)? {
             // Take every event already waiting before drawing again: a burst of keys is
             // applied (and journaled) at once rather than one frame each.
             loop {
@@ -280,6 +306,12 @@ where
             redraw = true;
         }
     }
+}
+
+/// One frame's time at `fps` (25 fps when the rate is unusable).
+fn frame_interval(fps: f64) -> Duration {
+    let fps = if fps.is_finite() && fps > 0.0 { fps } else { 25.0 };
+    Duration::from_secs_f64(1.0 / fps)
 }
 
 /// Carries out queued effects.
@@ -350,6 +382,22 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     head: app.mesh.clone(),
                     side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
+            }
+            Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
+                Some(job) => workers.run_once("the transferred head's set-up", job),
+                None => {
+                    apply(app, Action::HeadPrepared { index, head: Err("no such head".into()) })
+                }
+            },
+            Effect::TransferFrame { head, frame } => {
+                let prepared = match app.heads.setups.get(head) {
+                    Some(super::app::HeadSetup::Ready(p)) => p.clone(),
+                    _ => continue,
+                };
+                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
+                if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
+                    workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
+                }
             }
             Effect::Quit => {}
         }

@@ -176,6 +176,9 @@ impl SessionBridge {
             app.side = super::app::SideState::Measuring;
         }
         app.clip_names = session.clips.iter().map(|c| c.name.clone()).collect();
+        app.heads = super::app::TransferredHeads::named(
+            session.transferred_heads.iter().map(|h| h.name.clone()).collect(),
+        );
         app.clip = clip;
         if !problems.is_empty() {
             app.status = problems.join("; ");
@@ -287,6 +290,24 @@ impl SessionBridge {
                 },
                 Err(e) => Action::SideFailed { error: format!("{e:#}") },
             }
+        })
+    }
+
+    /// The speech-driven head of this clip for a worker thread (it may fit what the cache
+    /// lacks and inverts the whole clip's audio): replies `SpeechReady` or `SpeechAbsent`.
+    pub fn speech_job(&self) -> impl FnOnce() -> Action + Send + 'static {
+        let (mut session, clip) = (self.session.clone(), self.clip);
+        move || super::widgets::worker::speech_for_tui(&mut session, clip)
+    }
+
+    /// The set-up of the session's transferred head number `index` for a worker thread:
+    /// replies `HeadPrepared`. `None` when the session has no such head.
+    pub fn head_setup_job(&self, index: usize) -> Option<impl FnOnce() -> Action + Send + 'static> {
+        let entry = self.session.transferred_heads.get(index)?.clone();
+        let session = self.session.clone();
+        Some(move || {
+            let head = super::widgets::worker::prepare_head_for_tui(&session, &entry);
+            Action::HeadPrepared { index, head: head.map(Arc::new) }
         })
     }
 

@@ -23,6 +23,7 @@ pub mod resources;
 pub mod session;
 pub mod side_view;
 pub mod speech;
+pub mod speech_session;
 pub mod transfer;
 pub mod untrusted;
 

@@ -13,6 +13,21 @@ use crate::tui::views::head;
 /// Applies an action of this file (routed here by `update`).
 pub(super) fn update(app: &mut App, action: Action) {
     use Action as A;
+    // A transferred head is looked at, turned and zoomed; labels go on the model.
+    let looking = matches!(
+        action,
+        A::ZoomIn
+            | A::ZoomOut
+            | A::ZoomReset
+            | A::Rotate { .. }
+            | A::ResetView
+            | A::LoadMap
+            | A::SaveMap
+    );
+    if app.heads.shown.is_some() && !looking {
+        app.status = "labels are set on the model: t until the model is shown".into();
+        return;
+    }
     match action {
         A::ZoomIn | A::ZoomOut | A::ZoomReset => {
             app.head.zoom = match action {

@@ -132,6 +132,9 @@ fn fit_done(app: &mut App, fits: Vec<crate::fit::FrameFit>) {
     }
     app.recompute_flags();
     app.request_analysis();
+    // A transferred head follows the new fit.
+    app.heads.current = None;
+    super::transferred::request_head_frame(app);
     app.status = format!("fitted {n} frames ({failed} failed)");
 }
 

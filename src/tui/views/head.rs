@@ -1,5 +1,6 @@
 //! Head view: the head mesh as a braille wireframe, rotatable, with the landmark map's
-//! vertices, the 2D labelling cursor and the vertex it picks (the 3D cursor).
+//! vertices, the 2D labelling cursor and the vertex it picks (the 3D cursor); or, cycled to
+//! with `CycleHead`, a transferred head at the current frame, front and side (`transferred`).
 //!
 //! Projection: R = Ry(yaw)·Rx(pitch) about the mesh's bounding-box centre, orthographic
 //! along −z, scaled so the bounding sphere has radius 1 ("head units"; y up on screen).
@@ -7,7 +8,7 @@
 use crate::landmarks::landmark_name;
 use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
-use crate::tui::app::{App, HeadFraming, HeadView};
+use crate::tui::app::{App, HeadFraming, HeadSetup, HeadView};
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Stylize};
@@ -214,10 +215,20 @@ pub fn head_wire_view(app: &App) -> WireView {
     WireView { framing: app.head_framing, zoom: h.zoom, centre }
 }
 
-pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+/// The wireframe's area and the side panel's (absent below 50 columns).
+fn split(area: Rect) -> (Rect, Rect) {
     let side_w = if area.width >= 50 { 26.min(area.width / 3) } else { 0 };
     let canvas_area = Rect::new(area.x, area.y, area.width - side_w, area.height);
     let side = Rect::new(area.x + canvas_area.width, area.y, side_w, area.height);
+    (canvas_area, side)
+}
+
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    if let Some(index) = app.heads.shown {
+        draw_transferred(app, index, frame, area);
+        return;
+    }
+    let (canvas_area, side) = split(area);
     let h = &app.head;
     let picked = match h.suggested {
         Some((l, v)) if l == h.label => Some(v),
@@ -308,6 +319,79 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             .block(Block::new().borders(Borders::LEFT).border_style(Color::DarkGray)),
         side,
     );
+}
+
+/// The shown transferred head at the current frame, front and side (the side turned 90° from
+/// the front): the frame's shape when the worker has it, the last frame's meanwhile, the
+/// head at rest where the frame has no fit.
+fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
+    let (canvas_area, side) = split(area);
+    let h = &app.head;
+    let f = app.frame();
+    let name = app.heads.names.get(index).cloned().unwrap_or_default();
+    let mut lines =
+        vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
+    match app.heads.setups.get(index) {
+        Some(HeadSetup::Ready(p)) => {
+            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());
+            let current = app.heads.current.as_ref().filter(|c| c.head == index);
+            let (shape, note) = match current.map(|c| (&c.shape, c.frame)) {
+                Some((Err(e), _)) => (p.mesh.clone(), format!("frame {f}: {e}")),
+                Some((Ok(m), cf)) if fitted && cf == f => (m.clone(), format!("frame {f}")),
+                Some((Ok(m), cf)) if fitted => (m.clone(), format!("frame {cf} ({f} next)")),
+                _ if fitted => (p.mesh.clone(), format!("frame {f}: transferring…")),
+                _ => (p.mesh.clone(), format!("frame {f}: not fitted, at rest")),
+            };
+            let half = canvas_area.width / 2;
+            let rot = rotation(h.yaw, h.pitch);
+            let views = [
+                (Rect::new(canvas_area.x, canvas_area.y, half, canvas_area.height), rot, "front"),
+                (
+                    Rect::new(
+                        canvas_area.x + half,
+                        canvas_area.y,
+                        canvas_area.width - half,
+                        canvas_area.height,
+                    ),
+                    rotation(90.0, 0.0) * rot,
+                    "side",
+                ),
+            ];
+            let view = WireView { framing: p.framing, zoom: h.zoom, centre: (0.0, 0.0) };
+            for (r, rot, label) in views {
+                let below = Rect::new(r.x, r.y + 1, r.width, r.height.saturating_sub(1));
+                frame.render_widget(Paragraph::new(label).fg(Color::Gray), r);
+                draw_wireframe(frame, below, &shape, &p.edges, &rot, &view, |_, _, _| {});
+            }
+            lines.extend([
+                Line::from(format!("{} transfer", p.mode)),
+                Line::from(note).fg(Color::Yellow),
+                Line::from(""),
+                Line::from(format!("yaw {:.0}° pitch {:.0}°", h.yaw, h.pitch)),
+                Line::from(format!("zoom {:.1}×", h.zoom)),
+                Line::from(format!("{} vertices", p.mesh.vertices.len())).fg(Color::DarkGray),
+            ]);
+        }
+        Some(HeadSetup::Failed(e)) => {
+            frame.render_widget(
+                Paragraph::new(format!("This head cannot be shown: {e}"))
+                    .wrap(ratatui::widgets::Wrap { trim: true })
+                    .fg(Color::LightRed),
+                canvas_area,
+            );
+        }
+        _ => frame.render_widget(
+            Paragraph::new("Setting up the transfer onto this head…").fg(Color::Gray),
+            canvas_area,
+        ),
+    }
+    if side.width > 0 {
+        frame.render_widget(
+            Paragraph::new(lines)
+                .block(Block::new().borders(Borders::LEFT).border_style(Color::DarkGray)),
+            side,
+        );
+    }
 }
 
 #[cfg(test)]

@@ -271,14 +271,17 @@ where
                 let now = Instant::now();
                 if now >= due {
                     apply(app, Action::PlayTick);
-                    // Late ticks do not pile up: the next one is a frame from now.
+                    // A tick more than a frame late is not caught up with a burst of frames:
+                    // playback slows down instead (a slow draw must not starve the keys,
+                    // which are still read below, without waiting).
                     let interval = frame_interval(app.fps);
                     let floor = now.checked_sub(interval).unwrap_or(due);
                     next_tick = Some(due.max(floor) + interval);
                     redraw = true;
-                    continue;
+                    Duration::ZERO
+                } else {
+                    POLL.min(due - now)
                 }
-                POLL.min(due - now)
             }
         };
         if event::poll(wait)? {

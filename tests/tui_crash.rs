@@ -1,6 +1,7 @@
 //! Crash safety of the TUI through a real terminal (tmux): bursts of edits then `kill -9`
 //! at random moments lose at most the last edit; TERM, INT and HUP save the edits, release
-//! the lock and restore the terminal.
+//! the lock and restore the terminal; a terminal that closes stops the editor without losing
+//! the edits or leaving the lock.
 
 mod common;
 
@@ -138,4 +139,26 @@ fn term_int_and_hup_save_unlock_and_restore_the_terminal() {
         assert!(term.screen().contains("stopped by SIG"), "{sig}: {}", term.screen());
         let _ = tmux(&["kill-session", "-t", &term.0]);
     }
+}
+
+#[test]
+fn a_closed_terminal_stops_the_editor_with_its_edits_and_lock_released() {
+    if !available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::demo_session(dir.path());
+    let session = fresh_copy(&demo, "hangup");
+    // The terminal itself goes away, as when an SSH connection drops: the pane's pty closes
+    // and the editor gets a HUP it may be unable to read through the dead terminal.
+    let term = Term::new(&format!("lipmap-hangup-{}", std::process::id()));
+    let pid = start_tui(&term, &session, &dir.path().join("pid"));
+    term.send(&["r", "n", "r"]);
+    wait_for("the edits to reach the journal", Duration::from_secs(10), || {
+        reviewed_after_restart(&session) == 2
+    });
+    let _ = tmux(&["kill-session", "-t", &term.0]);
+    wait_for("lipmap to stop", Duration::from_secs(15), || gone(pid));
+    assert!(!lipmap::session::store::lock_path(&session).exists(), "the lock file was left");
+    assert_eq!(reviewed_after_restart(&session), 2, "edits lost");
 }

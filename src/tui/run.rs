@@ -24,6 +24,8 @@ use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
 use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
@@ -79,7 +81,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let (mut app, mut bridge, mut provider) = SessionBridge::open(session_path, clip)?;
     let env = TermEnv::from_process();
     let graphics = options.graphics;
-    let signals = Signals::register()?;
+    let signals = Signals::register(session_path)?;
     let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
     if app.status.is_empty() && !gfx.note.is_empty() {
         app.status = gfx.note.clone();
@@ -104,6 +106,9 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
         let result =
             event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
+        if signals.caught().is_some() {
+            signals.loop_left();
+        }
         drop(workers);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
@@ -143,26 +148,43 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
 
 /// The signals that stop the editor (TERM, INT, HUP), caught so that leaving saves the
 /// edits, releases the lock and restores the terminal instead of dying on the spot.
+///
+/// A watchdog backs this up. When the terminal goes away (an SSH connection dropped, a tmux
+/// session killed) the HUP arrives while crossterm's reader spins on the dead terminal
+/// without returning, so the event loop never sees the signal. If the loop has not come back
+/// within [`SIGNAL_GRACE`], the watchdog releases this process's lock and exits; every
+/// finished edit is already in the fsynced journal, which the next open replays.
 struct Signals {
-    caught: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    caught: Arc<AtomicUsize>,
+    /// Set once the event loop has returned (saving may then take its time).
+    loop_left: Arc<AtomicBool>,
     ids: Vec<signal_hook::SigId>,
 }
 
+/// How long the event loop has to notice a stopping signal before the watchdog steps in.
+const SIGNAL_GRACE: Duration = Duration::from_secs(3);
+
 impl Signals {
-    fn register() -> anyhow::Result<Self> {
+    fn register(session: &Path) -> anyhow::Result<Self> {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-        let caught = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let caught = Arc::new(AtomicUsize::new(0));
+        let loop_left = Arc::new(AtomicBool::new(false));
         let ids = [SIGTERM, SIGINT, SIGHUP]
             .into_iter()
             .map(|sig| signal_hook::flag::register_usize(sig, caught.clone(), sig as usize))
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(Self { caught, ids })
+        let (c, left) = (caught.clone(), loop_left.clone());
+        let lock = crate::session::store::lock_path(session);
+        std::thread::Builder::new()
+            .name("signal watchdog".into())
+            .spawn(move || stop_when_loop_is_stuck(&c, &left, &lock))?;
+        Ok(Self { caught, loop_left, ids })
     }
 
     /// The name of the signal caught, if any.
     fn caught(&self) -> Option<&'static str> {
         use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
-        match self.caught.load(std::sync::atomic::Ordering::SeqCst) as i32 {
+        match self.caught.load(Ordering::SeqCst) as i32 {
             0 => None,
             SIGTERM => Some("SIGTERM"),
             SIGINT => Some("SIGINT"),
@@ -170,10 +192,47 @@ impl Signals {
             _ => Some("a signal"),
         }
     }
+
+    /// The event loop has returned: the watchdog stands down.
+    fn loop_left(&self) {
+        self.loop_left.store(true, Ordering::SeqCst);
+    }
+}
+
+/// The watchdog's body: waits for a stopping signal, gives the event loop [`SIGNAL_GRACE`] to
+/// return, and otherwise releases the lock (when it is still this process's) and exits with
+/// the shell's code for the signal.
+fn stop_when_loop_is_stuck(caught: &AtomicUsize, loop_left: &AtomicBool, lock: &Path) {
+    let step = Duration::from_millis(100);
+    let sig = loop {
+        if loop_left.load(Ordering::SeqCst) {
+            return;
+        }
+        match caught.load(Ordering::SeqCst) {
+            0 => std::thread::sleep(step),
+            sig => break sig,
+        }
+    };
+    let deadline = Instant::now() + SIGNAL_GRACE;
+    while Instant::now() < deadline {
+        if loop_left.load(Ordering::SeqCst) {
+            return;
+        }
+        std::thread::sleep(step);
+    }
+    let ours = std::fs::read_to_string(lock)
+        .ok()
+        .and_then(|t| serde_json::from_str::<crate::session::LockInfo>(&t).ok())
+        .is_some_and(|info| info.pid == std::process::id());
+    if ours {
+        let _ = std::fs::remove_file(lock);
+    }
+    std::process::exit(128 + sig as i32);
 }
 
 impl Drop for Signals {
     fn drop(&mut self) {
+        self.loop_left();
         // Back to the default actions once the editor is gone.
         for id in self.ids.drain(..) {
             signal_hook::low_level::unregister(id);

@@ -9,6 +9,7 @@ pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
 pub mod indices;
+pub mod map_cmd;
 pub mod model_cmd;
 pub mod new;
 pub mod output;
@@ -65,6 +66,9 @@ pub enum Command {
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Suggest a session's landmark map from a few labels, or check it against anatomy.
+    #[command(subcommand)]
+    Map(map_cmd::MapCommand),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -129,6 +133,10 @@ fn run_command(command: Command) -> Result<Outcome> {
             model_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
         }
+        Command::Map(cmd) => match map_cmd::run(&cmd, &mut out)? {
+            true => Ok(Outcome::Ok),
+            false => anyhow::bail!("the landmark map has problems"),
+        },
         Command::Validate(args) => {
             let bad = validate::run(&args, &mut out)?;
             if bad > 0 {

@@ -6,6 +6,7 @@
 //! the defaults and how they were chosen.
 
 mod alternating;
+pub mod assignment;
 pub mod camera;
 pub mod clip;
 mod flags;
@@ -14,6 +15,7 @@ pub mod pipeline;
 pub mod result;
 pub mod shape;
 mod shapes;
+pub mod map_suggest;
 pub mod suggest;
 
 pub use camera::OrthoPose;

@@ -12,6 +12,7 @@ pub mod evaluate;
 pub mod fit;
 pub mod heads;
 pub mod indices;
+pub mod map;
 pub mod measure_fits;
 pub mod resources;
 pub mod session;

@@ -104,7 +104,18 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         opened.save_if_locked()?;
         crate::cli::output::require_some_fit(&done.fits)?;
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
-        write_tables(&report.tables(), a.output.format(), out)?;
+        // Heads the motion was transferred onto, measured on their own maps, beside the model.
+        let (transferred, warnings) = workflow::transfer::transferred_head_tables(
+            &opened.session,
+            &res,
+            &done,
+            normalise,
+            a.worst,
+        );
+        print_warnings(&warnings);
+        let mut tables: Vec<&crate::eval::Table> = report.tables().to_vec();
+        tables.extend(&transferred);
+        write_tables(&tables, a.output.format(), out)?;
         return Ok(());
     }
     let mut configs = Vec::new();

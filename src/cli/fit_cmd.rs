@@ -168,7 +168,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             fits.failed()
         )?;
         for line in failure_lines(&name, &fits.fits) {
-            eprintln!("{line}");
+            eprintln!("{}", crate::cli::output::terminal_safe(&line));
         }
     }
     session.save(&path)?;

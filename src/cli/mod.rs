@@ -16,6 +16,8 @@ pub mod output;
 pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
+pub mod speech_cmd;
+pub mod transfer_cmd;
 pub mod tui_cmd;
 pub mod validate;
 
@@ -63,12 +65,17 @@ pub enum Command {
     Phones(phones::PhonesArgs),
     /// Check that files parse; prints `ok` or the error for each.
     Validate(validate::ValidateArgs),
+    /// Drive another head (OBJ + landmark map) with a session's fitted motion.
+    Transfer(transfer_cmd::TransferArgs),
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
     /// Suggest a session's landmark map from a few labels, or check it against anatomy.
     #[command(subcommand)]
     Map(map_cmd::MapCommand),
+    /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
+    #[command(subcommand)]
+    Speech(speech_cmd::SpeechCommand),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -88,14 +95,15 @@ pub fn run(cli: Cli) -> Result<Next> {
     }
     if let Command::Demo(args) = &command {
         let stdout = std::io::stdout();
-        return demo_cmd::run(args, &mut stdout.lock());
+        return demo_cmd::run(args, &mut output::TerminalSafe::new(stdout.lock()));
     }
     run_command(command).map(Next::Exit)
 }
 
 fn run_command(command: Command) -> Result<Outcome> {
     let stdout = std::io::stdout();
-    let mut out = stdout.lock();
+    // Names from files (clips, phones, paths) reach the terminal with control characters escaped.
+    let mut out = output::TerminalSafe::new(stdout.lock());
     match command {
         Command::Convert(args) => {
             let msg = convert::run(&args)?;
@@ -129,6 +137,10 @@ fn run_command(command: Command) -> Result<Outcome> {
             phones::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
+        Command::Transfer(args) => {
+            transfer_cmd::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
         Command::Model(cmd) => {
             model_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
@@ -137,6 +149,10 @@ fn run_command(command: Command) -> Result<Outcome> {
             true => Ok(Outcome::Ok),
             false => anyhow::bail!("the landmark map has problems"),
         },
+        Command::Speech(cmd) => {
+            speech_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
         Command::Validate(args) => {
             let bad = validate::run(&args, &mut out)?;
             if bad > 0 {

@@ -276,15 +276,16 @@ fn write_landmark_map_toml(map: &LandmarkMap, path: &Path) -> Result<()> {
     for (l, v) in map.pairs() {
         let _ = writeln!(s, "{} = {} # {}", l + 1, v, crate::landmarks::landmark_name(l));
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    crate::io::atomic::write_atomic_bytes(path, s.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn write_png(img: &image::RgbImage, path: &Path) -> Result<()> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    let w = std::io::BufWriter::new(file);
-    let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
-    img.write_with_encoder(enc).with_context(|| format!("encoding {}", path.display()))
+    crate::io::atomic::write_atomic(path, |w| {
+        let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
+        img.write_with_encoder(enc).map_err(std::io::Error::other)
+    })
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Adds tracker noise and gross errors to the true landmarks of a clip; returns the tracked

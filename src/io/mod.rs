@@ -3,9 +3,12 @@
 
 pub mod error;
 pub mod frames;
+pub mod input;
 
 pub use error::FormatError;
 pub mod alignment_format;
+pub mod atomic;
+pub mod audio_track;
 pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;

@@ -19,9 +19,14 @@ use std::path::Path;
 /// Unreadable file, a malformed `v` or `f` line, an index of 0, or a face pointing past the
 /// last vertex (or before the first, for a negative index): each names the line.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     let text = String::from_utf8_lossy(&bytes);
-    parse_obj(&text, path)
+    let mesh = parse_obj(&text, path)?;
+    if mesh.vertices.is_empty() {
+        // A binary file or another format named .obj parses to nothing; say so.
+        return Err(FormatError::whole(path, "no vertices (`v` lines): not an OBJ mesh"));
+    }
+    Ok(mesh)
 }
 
 /// Parses OBJ text; `path` is used only in error messages.
@@ -132,7 +137,7 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh> {
 /// # Errors
 /// When the file cannot be read.
 pub fn labelable_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     Ok(labelable_vertices_in(&text))
 }
 
@@ -176,16 +181,15 @@ pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
 /// # Errors
 /// I/O errors, naming the file.
 pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
-    let file = std::fs::File::create(path).map_err(|e| FormatError::io(path, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    write_obj_to(&mut w, mesh).and_then(|_| w.flush()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic(path, |w| write_obj_to(w, mesh))
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Writes OBJ text to any writer (see [`write_obj`]).
 ///
 /// # Errors
 /// Errors of the writer.
-pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
+pub fn write_obj_to<W: Write + ?Sized>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
     writeln!(w, "# lipmap mesh: {} vertices, {} faces", mesh.vertices.len(), mesh.faces.len())?;
     for p in &mesh.vertices {
         writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
@@ -202,6 +206,15 @@ pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_binary_file_named_obj_is_not_a_mesh() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("head.obj");
+        std::fs::write(&p, [0u8, 159, 146, 150, 7, 0, 255]).unwrap();
+        let e = read_obj(&p).unwrap_err().to_string();
+        assert_eq!(e, format!("{}: no vertices (`v` lines): not an OBJ mesh", p.display()));
+    }
     use super::*;
 
     #[test]

@@ -11,7 +11,7 @@
 
 use crate::math::{Point3, Real, Vector3};
 use crate::model::LandmarkMap;
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeMap;
 use std::fmt;
 
 /// iBUG-68 mirror pairs (0-based): (subject's right, subject's left).

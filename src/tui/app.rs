@@ -350,6 +350,8 @@ pub struct Trajectory {
 pub struct AnalysisData {
     pub tables: Vec<AnalysisTable>,
     pub trajectories: Vec<Trajectory>,
+    /// What the analysis worked around (shown in the status line).
+    pub warnings: Vec<String>,
 }
 
 /// Analysis view cursor and sorting.

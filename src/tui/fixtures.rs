@@ -210,6 +210,7 @@ pub fn synthetic_analysis(n_frames: usize) -> AnalysisData {
     let w = |f: usize| 0.6 + 0.1 * mouth_open(f);
     let h = |f: usize| 0.1 + 0.3 * mouth_open(f);
     AnalysisData {
+        warnings: Vec::new(),
         tables: vec![
             AnalysisTable {
                 title: "RMSE per phoneme".into(),

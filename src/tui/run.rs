@@ -5,7 +5,10 @@
 //! encoding) is owned here, not by the `App`, and drawn over the half-block image.
 //!
 //! Autosave: edits are saved once the user pauses (`AUTOSAVE_IDLE`) and never mid-drag; `q`
-//! saves what is left before quitting. The terminal is restored on return, error and panic.
+//! saves what is left before quitting. Until then every edit is in the session's journal
+//! (`session::journal`), on disk before the next key is read, so a crash loses at most the
+//! edit being made. TERM, INT and HUP leave like `q` (saving, unlocking, restoring the
+//! terminal). The terminal is restored on return, error, signal and panic.
 
 use super::action::Action;
 use super::app::{App, Effect};
@@ -76,6 +79,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let (mut app, mut bridge, mut provider) = SessionBridge::open(session_path, clip)?;
     let env = TermEnv::from_process();
     let graphics = options.graphics;
+    let signals = Signals::register()?;
     let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
     if app.status.is_empty() && !gfx.note.is_empty() {
         app.status = gfx.note.clone();
@@ -96,15 +100,9 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         app.term_size = (size.width, size.height);
         request_images(&mut app);
         app.request_analysis();
-        let result = event_loop(
-            &mut guard.terminal,
-            &mut app,
-            &keymap,
-            &mut bridge,
-            &workers,
-            &rx,
-            &mut gfx,
-        );
+        let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
+        let result =
+            event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
         drop(workers);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
@@ -115,9 +113,18 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             drop(guard);
             return Err(e);
         }
-        let next = app.switch_clip.filter(|_| result.is_ok());
+        if app.save.is_clean() {
+            // Everything is in the session file: the journal has nothing more to give.
+            let _ = bridge.clear_journal();
+        }
+        let next = app.switch_clip.filter(|_| result.is_ok() && signals.caught().is_none());
         let Some(next) = next else {
             drop(guard);
+            drop(bridge);
+            if let Some(name) = signals.caught() {
+                // The edits are saved and the lock is released; say why lipmap stopped.
+                anyhow::bail!("stopped by {name}; the session was saved");
+            }
             return result;
         };
         drop(bridge);
@@ -133,6 +140,46 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     }
 }
 
+/// The signals that stop the editor (TERM, INT, HUP), caught so that leaving saves the
+/// edits, releases the lock and restores the terminal instead of dying on the spot.
+struct Signals {
+    caught: std::sync::Arc<std::sync::atomic::AtomicUsize>,
+    ids: Vec<signal_hook::SigId>,
+}
+
+impl Signals {
+    fn register() -> anyhow::Result<Self> {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        let caught = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let ids = [SIGTERM, SIGINT, SIGHUP]
+            .into_iter()
+            .map(|sig| signal_hook::flag::register_usize(sig, caught.clone(), sig as usize))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self { caught, ids })
+    }
+
+    /// The name of the signal caught, if any.
+    fn caught(&self) -> Option<&'static str> {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        match self.caught.load(std::sync::atomic::Ordering::SeqCst) as i32 {
+            0 => None,
+            SIGTERM => Some("SIGTERM"),
+            SIGINT => Some("SIGINT"),
+            SIGHUP => Some("SIGHUP"),
+            _ => Some("a signal"),
+        }
+    }
+}
+
+impl Drop for Signals {
+    fn drop(&mut self) {
+        // Back to the default actions once the editor is gone.
+        for id in self.ids.drain(..) {
+            signal_hook::low_level::unregister(id);
+        }
+    }
+}
+
 /// Applies an action and its follow-ups.
 pub fn apply(app: &mut App, action: Action) {
     let mut next = Some(action);
@@ -141,25 +188,48 @@ pub fn apply(app: &mut App, action: Action) {
     }
 }
 
+/// Where the event loop's actions come from: keys (through the keymap), worker replies and
+/// the stopping signals.
+struct LoopInputs<'a> {
+    keymap: &'a Keymap,
+    rx: &'a Receiver<Action>,
+    signals: &'a Signals,
+}
+
 fn event_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
-    keymap: &Keymap,
     bridge: &mut SessionBridge,
     workers: &Workers,
-    rx: &Receiver<Action>,
     gfx: &mut GraphicsState,
+    inputs: LoopInputs<'_>,
 ) -> anyhow::Result<()>
 where
     B::Error: Send + Sync + 'static,
 {
+    let LoopInputs { keymap, rx, signals } = inputs;
     let mut redraw = true;
     let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();
+    let mut journaled = app.save.changes();
     loop {
         run_effects(app, bridge, workers);
-        if app.save.should_quit() {
+        if app.save.should_quit() || signals.caught().is_some() {
             return Ok(());
+        }
+        // Every finished edit goes to the journal before the next input is read (a drag is
+        // written when it ends: it is one edit).
+        if app.save.changes() != journaled && !app.dragging {
+            journaled = app.save.changes();
+            if let Err(e) = bridge.journal(app) {
+                app.status = format!("edits not journaled: {e:#}");
+                redraw = true;
+            }
+        }
+        if app.save.is_clean()
+            && let Err(e) = bridge.clear_journal()
+        {
+            app.status = format!("journal not removed: {e:#}");
         }
         if app.save.unsaved() != seen_edits {
             seen_edits = app.save.unsaved();
@@ -186,14 +256,22 @@ where
             redraw = false;
         }
         if event::poll(POLL)? {
-            let action = match event::read()? {
-                Event::Key(k) => key_to_action(app, keymap, &k),
-                Event::Mouse(m) => mouse_to_action(&m),
-                Event::Resize(w, h) => Some(Action::Resize { width: w, height: h }),
-                _ => None,
-            };
-            if let Some(a) = action {
-                apply(app, a);
+            // Take every event already waiting before drawing again: a burst of keys is
+            // applied (and journaled) at once rather than one frame each.
+            loop {
+                let action = match event::read()? {
+                    Event::Key(k) => key_to_action(app, keymap, &k),
+                    Event::Mouse(m) => mouse_to_action(&m),
+                    Event::Resize(w, h) => Some(Action::Resize { width: w, height: h }),
+                    _ => None,
+                };
+                if let Some(a) = action {
+                    apply(app, a);
+                }
+                run_effects(app, bridge, workers);
+                if app.save.should_quit() || !event::poll(Duration::ZERO)? {
+                    break;
+                }
             }
             redraw = true;
         }

@@ -12,6 +12,7 @@ use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
+use crate::session::journal::{self, Journal, JournalEntry};
 use crate::session::{Session, SessionLock};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -70,6 +71,8 @@ pub struct SessionBridge {
     written_map: Option<PathBuf>,
     /// The thread writing session snapshots, once started.
     saver: Option<Saver>,
+    /// Every edit, on disk before the next (see `session::journal`).
+    journal: Journal,
     _lock: SessionLock,
 }
 
@@ -82,7 +85,19 @@ impl SessionBridge {
     /// When the session cannot be locked or read, or has no clip `clip`.
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
         let lock = SessionLock::acquire(path)?;
-        let session = Session::load(path)?;
+        let mut session = Session::load(path)?;
+        let mut problems: Vec<String> = Vec::new();
+        // Edits a crashed editor left in the journal come back first; a journal that cannot
+        // be replayed is set aside (kept for the user) so new edits start a clean one.
+        let restored = match journal::replay(&mut session, path) {
+            Ok(n) => n > 0,
+            Err(e) => {
+                let aside = journal::set_aside(path);
+                problems.push(format!("journal not replayed: {e} (moved to {})", aside.display()));
+                false
+            }
+        };
+        let journal = Journal::new(path);
         let c = session.clip(clip)?;
         let tracked = c.tracked.clone();
         let track = c.corrections.effective_track(&c.tracked);
@@ -92,7 +107,14 @@ impl SessionBridge {
         app.fps = c.front.fps;
         app.image_size = c.front.size.map(|[w, h]| (w, h));
         app.fit_settings = session.fit_settings.clone();
-        let mut problems: Vec<String> = Vec::new();
+        if restored {
+            // Not on disk in the session file yet: autosave writes them.
+            app.save.edit_made();
+            problems.push(format!(
+                "restored the edits of an editor that stopped without saving (from {})",
+                journal.path().display()
+            ));
+        }
 
         let provider: Arc<dyn FrameProvider> = match session.open_frames(clip, FRAME_CACHE_MB) {
             Ok(src) => {
@@ -165,6 +187,7 @@ impl SessionBridge {
             loaded_map: map,
             written_map: None,
             saver: None,
+            journal,
             _lock: lock,
         };
         Ok((app, bridge, provider))
@@ -176,7 +199,23 @@ impl SessionBridge {
     /// # Errors
     /// When a correction is rejected by the session (non-finite, bad index).
     pub fn write_back(&mut self, app: &App) -> anyhow::Result<()> {
+        let layer = self.edit_layer(app)?;
         let c = self.session.clips.get_mut(self.clip).context("the clip disappeared")?;
+        c.corrections = layer.corrections;
+        if app.side.view().is_some() {
+            c.profile_corrections = layer.profile_corrections;
+        }
+        if let Some(map) = layer.landmark_map {
+            self.session.landmark_map.inline = Some(map);
+        }
+        Ok(())
+    }
+
+    /// The App's edits of this clip as the session stores them: corrections, reviewed
+    /// frames, side-view corrections (the session's own when the side view is not loaded)
+    /// and the map when it was changed.
+    fn edit_layer(&self, app: &App) -> anyhow::Result<JournalEntry> {
+        let c = self.session.clips.get(self.clip).context("the clip disappeared")?;
         let mut fresh = crate::session::Corrections::default();
         for (frame, index, p) in corrections(&app.tracked, &app.track) {
             // Placeholders of frames the tracker missed are not corrections.
@@ -186,14 +225,40 @@ impl SessionBridge {
             fresh.set(frame, index, p).map_err(|m| anyhow::anyhow!(m))?;
         }
         fresh.reviewed = app.reviewed.clone();
-        c.corrections = fresh;
-        if let Some(side) = app.side.view() {
-            c.profile_corrections = side.track.corrected.clone();
-        }
-        if let Some(map) = &app.map
-            && self.loaded_map.as_ref() != Some(map)
-        {
-            self.session.landmark_map.set_inline(map);
+        let profile_corrections = match app.side.view() {
+            Some(side) => side.track.corrected.clone(),
+            None => c.profile_corrections.clone(),
+        };
+        let landmark_map = app
+            .map
+            .as_ref()
+            .filter(|m| self.loaded_map.as_ref() != Some(*m))
+            .map(|m| m.to_vertex.clone());
+        Ok(JournalEntry {
+            clip: c.name.clone(),
+            corrections: fresh,
+            profile_corrections,
+            landmark_map,
+        })
+    }
+
+    /// Appends the App's edit layer to the journal, on disk when this returns.
+    ///
+    /// # Errors
+    /// As `write_back`; the journal cannot be written.
+    pub fn journal(&mut self, app: &App) -> anyhow::Result<()> {
+        let entry = self.edit_layer(app)?;
+        self.journal.record(&entry)?;
+        Ok(())
+    }
+
+    /// Removes the journal: call when the session file holds every edit.
+    ///
+    /// # Errors
+    /// The journal exists and cannot be removed.
+    pub fn clear_journal(&mut self) -> anyhow::Result<()> {
+        if self.journal.is_present() {
+            self.journal.clear()?;
         }
         Ok(())
     }
@@ -259,7 +324,7 @@ impl SessionBridge {
     pub fn save(&mut self, app: &App) -> anyhow::Result<()> {
         self.write_back(app)?;
         self.session.save(&self.path)?;
-        Ok(())
+        self.clear_journal()
     }
 
     /// Starts the saver thread: `save_in_background` then replies `Saved`/`SaveFailed` on

@@ -113,7 +113,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
     // With a side view, the head's P is its whole upper lip's foremost point, as a profile
     // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
     // landmark vertices there too).
-    let (options, _) =
+    let (options, warning) =
         head_p_options(&job.model, &job.map, job.side_p.is_some(), &MeshMeasureOptions::default());
     let mut u = utterance_from_parts(
         &job.name,
@@ -185,7 +185,12 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
             }
         })
         .collect();
-    AnalysisData { tables, trajectories }
+    // The status line has no room for the command line's `lipmap: ` prefix.
+    let warnings = warning
+        .into_iter()
+        .map(|w| w.0.strip_prefix("lipmap: ").unwrap_or(&w.0).to_string())
+        .collect();
+    AnalysisData { tables, trajectories, warnings }
 }
 
 /// An eval `Table` as an analysis table: a `frame` column gives the row's jump target; in the

@@ -200,7 +200,7 @@ impl MapCheck {
         match self.problems.as_slice() {
             [] => "map looks anatomically plausible".into(),
             [p] => format!("map problem: {p}"),
-            [p, q, rest @ ..] if rest.is_empty() => format!("map problems: {p}; {q}"),
+            [p, q] => format!("map problems: {p}; {q}"),
             [p, q, rest @ ..] => format!("map problems: {p}; {q}; and {} more", rest.len()),
         }
     }

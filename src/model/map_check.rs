@@ -40,11 +40,11 @@ pub const MIRROR_PAIRS: [(usize, usize); 29] = [
     (48, 54),
     (49, 53),
     (50, 52),
-    (55, 59),
-    (56, 58),
+    (59, 55),
+    (58, 56),
     (60, 64),
     (61, 63),
-    (65, 67),
+    (67, 65),
 ];
 
 /// Landmarks on the midline (chin, nose bridge and tip, philtrum and lip centres).

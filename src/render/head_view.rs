@@ -201,7 +201,7 @@ mod tests {
         let shot = HeadShot::render(&v, &t, &vp, 120, 80).unwrap();
         // Head units: the grid point (0.4, 0.4) model is (0.2, 0.2) head units.
         let target = 8 + 3 * 5 + 3;
-        assert_eq!(v[target], Point3::new(0.4, 0.4, 1.0));
+        assert!((v[target] - Point3::new(0.4, 0.4, 1.0)).norm() < 1e-12);
         let at = shot.pixel_of(&vp, (0.2, 0.2));
         assert_eq!(shot.pick(&v, None, at, 6.0), Some(target));
         // The box's back corners project onto the front ones; the front wins.

@@ -5,7 +5,7 @@
 //! `../shared/data` is absent.
 
 use lipmap::fit::map_suggest::suggest_map;
-use lipmap::fit::suggest::SuggestHead;
+use lipmap::fit::suggest::{SuggestHead, surface_triangles};
 use lipmap::fit::{FitSettings, fit_frame};
 use lipmap::io::landmark_format::read_track;
 use lipmap::io::{landmark_map_toml::read_landmark_map, model_source, obj};
@@ -26,7 +26,8 @@ fn six_labels_suggest_a_unique_sane_map_that_fits_carphone_like_the_fixture() {
     let path = mh.join("base.obj");
     let mesh = obj::read_obj(&path).unwrap();
     let skin = obj::labelable_vertices(&path).unwrap().unwrap();
-    let triangles = mesh.triangles();
+    let solid = obj::occluding_vertices(&path).unwrap().unwrap();
+    let triangles = surface_triangles(&mesh.triangles(), Some(&solid));
     let fixture = read_landmark_map(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml"),
     )

@@ -6,10 +6,17 @@
 //! Start with [`suggest_map`]. With the pose estimated from the labels, the accepted
 //! suggestions re-estimate it and the assignment is made again ([`ROUNDS`] times): a pose
 //! from four labels is rough, one from forty is not.
+//!
+//! The speaker in the frame is not the head: a pose alone leaves every landmark off by the
+//! two faces' difference in proportion (a wider mouth, closer-set eyes), often more than the
+//! spacing of the vertices there. So the tracked points are first carried onto the head's
+//! proportions by a thin-plate spline ([`super::thin_plate`]) through the hand labels (each
+//! labelled landmark's tracked point to its vertex's projection), and matched after that.
 
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
 use super::suggest::{SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head};
+use super::thin_plate::ThinPlate;
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
 use crate::model::LandmarkMap;
@@ -29,7 +36,8 @@ const CANDIDATES: usize = 24;
 pub struct MapSuggestion {
     pub landmark: usize,
     pub vertex: usize,
-    /// Pixels between the vertex's projection and the tracked point.
+    /// Pixels between the vertex's projection and the tracked point (carried onto the head's
+    /// proportions by the hand labels' warp when there are at least three).
     pub distance_px: Real,
     /// In (0, 1]: `exp(-d²/2σ²)` with σ a fixed fraction of the face's size in the image.
     pub confidence: Real,
@@ -161,11 +169,15 @@ fn propose_once(
     let face = face_size_px(frame).max(20.0);
     let sigma = 0.03 * face;
     let taken: BTreeSet<usize> = map.to_vertex.values().copied().collect();
+    let warp = labels_warp(map, frame, &seen);
     let mut left = Vec::new();
     let mut wanted = Vec::new();
     for l in (0..N_LANDMARKS).filter(|l| map.vertex(*l).is_none()) {
         match frame.points.get(l).filter(|p| p.visible) {
-            Some(p) => wanted.push((l, Point2::new(p.x, p.y))),
+            Some(p) => {
+                let tracked = Point2::new(p.x, p.y);
+                wanted.push((l, warp.as_ref().map_or(tracked, |w| w.apply(&tracked))));
+            }
             None => left.push((l, LeftOut::NotVisible)),
         }
     }
@@ -193,6 +205,20 @@ fn propose_once(
     left.extend(rejected);
     left.sort_by_key(|(l, _)| *l);
     MapProposal { accepted, left }
+}
+
+/// The thin-plate spline taking the labelled landmarks' tracked points (visible ones) to
+/// their vertices' projections; `None` (match the tracked points as they are) with fewer
+/// than three or a degenerate set.
+fn labels_warp(map: &LandmarkMap, frame: &FrameLandmarks, seen: &SeenHead) -> Option<ThinPlate> {
+    let (from, to): (Vec<Point2>, Vec<Point2>) = map
+        .pairs()
+        .filter_map(|(l, v)| {
+            let p = frame.points.get(l).filter(|p| p.visible)?;
+            Some((Point2::new(p.x, p.y), seen.projected.get(v)?.0))
+        })
+        .unzip();
+    ThinPlate::fit(&from, &to)
 }
 
 /// Gives each wanted (landmark, image point) its own visible vertex not in `taken`, least

@@ -17,6 +17,7 @@ pub mod shape;
 mod shapes;
 pub mod map_suggest;
 pub mod suggest;
+pub mod thin_plate;
 
 pub use camera::OrthoPose;
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};

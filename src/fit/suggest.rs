@@ -54,6 +54,15 @@ pub enum SuggestError {
     NoVertices,
 }
 
+/// The triangles whose corners are all `kept` (when given): the head's surface for drawing
+/// (its labelable vertices) or what hides a vertex from suggestions (see
+/// [`crate::io::obj::occluding_vertices`]). A figure's helper shells (hair, clothing proxies)
+/// sit in front of the skin; they must hide nothing.
+pub fn surface_triangles(triangles: &[[u32; 3]], kept: Option<&[bool]>) -> Vec<[u32; 3]> {
+    let ok = |v: u32| kept.is_none_or(|e| e.get(v as usize) == Some(&true));
+    triangles.iter().copied().filter(|t| t.iter().all(|&v| ok(v))).collect()
+}
+
 /// Estimates the frame's camera from the mapped landmarks (visible ones only) of `vertices`.
 ///
 /// # Errors

@@ -7,7 +7,7 @@
 use super::error::{Error, Result};
 use super::session::{clip_or_first, image_height};
 use crate::fit::map_suggest::{MapProposal, suggest_map};
-use crate::fit::suggest::SuggestHead;
+use crate::fit::suggest::{SuggestHead, surface_triangles};
 use crate::io::{model_source, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::Point3;
@@ -25,7 +25,7 @@ pub struct LabelHead {
 }
 
 impl LabelHead {
-    /// As the suggester sees it.
+    /// As the suggester sees it (`triangles` are already those that hide what is behind).
     pub fn as_suggest_head(&self) -> SuggestHead<'_> {
         SuggestHead {
             vertices: &self.vertices,
@@ -44,11 +44,7 @@ pub fn label_head(session: &Session) -> Result<LabelHead> {
     let (vertices, triangles, source) = match (&session.head_mesh, &session.model) {
         (Some(path), _) => {
             let mesh = obj::read_obj(path)?;
-            let tris = mesh
-                .faces
-                .iter()
-                .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
-                .collect();
+            let tris = mesh.triangles();
             (mesh.vertices, tris, path.clone())
         }
         (None, Some(m)) => {
@@ -57,7 +53,12 @@ pub fn label_head(session: &Session) -> Result<LabelHead> {
         }
         (None, None) => return Err(Error::NoModel),
     };
-    let eligible = if is_obj(&source) { obj::labelable_vertices(&source)? } else { None };
+    let (eligible, occluding) = if is_obj(&source) {
+        (obj::labelable_vertices(&source)?, obj::occluding_vertices(&source)?)
+    } else {
+        (None, None)
+    };
+    let triangles = surface_triangles(&triangles, occluding.as_deref());
     Ok(LabelHead { vertices, triangles, eligible })
 }
 

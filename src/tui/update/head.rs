@@ -90,12 +90,10 @@ fn confirm_label(app: &mut App) {
 type SuggestionBasis = (Vec<crate::math::Point3>, Vec<[u32; 3]>, Option<OrthoPose>);
 
 fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
-    // The head mesh's faces hide what is behind the surface; fan-triangulated polygons.
+    // The head's skin, eyes and teeth hide what is behind them; helper shells do not.
+    let occluders = app.occluders.as_deref().map(Vec::as_slice);
     let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
-        mesh.faces
-            .iter()
-            .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
-            .collect()
+        crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
     };
     let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
     if let (Some(model), Some(fit)) = (&app.model, fit) {

@@ -95,8 +95,7 @@ pub fn visible_vertices(mesh: &Mesh, pts: &[(f64, f64, f64)]) -> Vec<bool> {
 /// The triangles a head is drawn and picked with: its faces fan-triangulated, without those
 /// touching a vertex that is not `eligible` (a figure's helper and joint geometry).
 pub fn label_triangles(mesh: &Mesh, eligible: Option<&[bool]>) -> Vec<[u32; 3]> {
-    let ok = |v: u32| eligible.is_none_or(|e| e.get(v as usize) == Some(&true));
-    mesh.triangles().into_iter().filter(|t| t.iter().all(|&v| ok(v))).collect()
+    crate::fit::suggest::surface_triangles(&mesh.triangles(), eligible)
 }
 
 /// The viewport of the head view: its turn and framing, `half_height` head units above and

@@ -93,6 +93,13 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
                         writeln!(out, "{p}")?;
                     }
                     writeln!(out, "{}", check.summary())?;
+                    if !check.is_plausible() {
+                        writeln!(
+                            out,
+                            "fix the labels in the TUI (view 2), or label 4-6 good ones and run `lipmap map suggest {} --out MAP.toml`",
+                            a.session
+                        )?;
+                    }
                     Ok(check.is_plausible())
                 }
             }

@@ -74,26 +74,27 @@ const ABOVE_NOSE: [usize; 22] =
 /// leaves them.
 pub const PROPORTIONS: [Proportion; 3] = [
     Proportion {
-        name: "intercanthal / biocular width (39–42 over 36–45)",
+        name: "intercanthal / biocular width (40–43 over 37–46)",
         num: (39, 42),
         den: (36, 45),
         range: (0.25, 0.5),
     },
     Proportion {
-        name: "mouth width / intercanthal width (48–54 over 39–42)",
+        name: "mouth width / intercanthal width (49–55 over 40–43)",
         num: (48, 54),
         den: (39, 42),
         range: (1.0, 2.6),
     },
     Proportion {
-        name: "mouth width / biocular width (48–54 over 36–45)",
+        name: "mouth width / biocular width (49–55 over 37–46)",
         num: (48, 54),
         den: (36, 45),
         range: (0.4, 0.85),
     },
 ];
 
-/// A ratio of two landmark distances and its plausible range.
+/// A ratio of two landmark distances and its plausible range (`name` numbers landmarks
+/// 1-based, as every message does; `num` and `den` are 0-based).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Proportion {
     pub name: &'static str,

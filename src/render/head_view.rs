@@ -75,19 +75,25 @@ impl HeadShot {
         )
     }
 
-    /// Whether vertex `p` is seen: no surface lies in front of it at its pixel, by more than
-    /// `tolerance` model units.
+    /// Whether vertex `p` is seen: at its pixel or one beside it, no surface lies in front of
+    /// it by more than `tolerance` model units. The neighbours count because a vertex in a
+    /// crease (a mouth corner, an eye corner) shares its pixel with the bulge beside it when
+    /// a pixel spans millimetres.
     pub fn sees(&self, p: &Point3, tolerance: Real) -> bool {
         let (q, z) = self.camera.project_with_depth(p);
+        let (w, h) = (i64::from(self.camera.width), i64::from(self.camera.height));
         let (x, y) = (q.x.round(), q.y.round());
-        if x < 0.0 || y < 0.0 || x >= Real::from(self.camera.width) {
+        if !(x >= 0.0 && y >= 0.0 && x < w as Real && y < h as Real) {
             return false;
         }
-        if y >= Real::from(self.camera.height) {
-            return false;
-        }
-        let d = self.rendered.depth[y as usize * self.camera.width as usize + x as usize];
-        !d.is_finite() || z >= Real::from(d) - tolerance
+        let (x, y) = (x as i64, y as i64);
+        (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (x + dx, y + dy))).any(|(u, v)| {
+            if u < 0 || v < 0 || u >= w || v >= h {
+                return false;
+            }
+            let d = self.rendered.depth[(v * w + u) as usize];
+            !d.is_finite() || z >= Real::from(d) - tolerance
+        })
     }
 
     /// The vertex under image point `at` (px): where the surface covers `at`, the eligible

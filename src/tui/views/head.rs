@@ -294,8 +294,9 @@ pub fn draw_shaded_mesh(
             cell.set_symbol(symbol).set_fg(colour);
         }
     };
-    // Two hundredths of the framing radius: a vertex on a fold beside the surface counts.
-    let tolerance = 0.02 * vp.radius;
+    // Five hundredths of the framing radius (about 6 mm on a head): a landmark in a crease
+    // (the mouth corners) is marked, one behind the nose or the cheek is not.
+    let tolerance = 0.05 * vp.radius;
     for &(v, symbol, colour) in &overlay.vertices {
         if let Some(p) = mesh.vertices.get(v).filter(|p| shot.sees(p, tolerance)) {
             mark(shot.camera.project(p), symbol, colour);

@@ -209,7 +209,10 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     let out = lipmap(&["import", s(&session), "--mapping", s(&i.mapping), "--head", s(&head)]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
-    assert!(stdout.contains("does not fit this head") && stdout.contains("map problem"), "{stdout}");
+    assert!(
+        stdout.contains("does not fit this head") && stdout.contains("map problem"),
+        "{stdout}"
+    );
     assert!(!stdout.contains("replaces"), "the same head replaces nothing: {stdout}");
 }
 

@@ -39,7 +39,8 @@ fn six_labels_suggest_a_unique_sane_map_that_fits_carphone_like_the_fixture() {
     for l in [30, 36, 45, 48, 54, 8] {
         labels.to_vertex.insert(l, fixture.vertex(l).unwrap());
     }
-    let head = SuggestHead { vertices: &mesh.vertices, triangles: &triangles, eligible: Some(&skin) };
+    let head =
+        SuggestHead { vertices: &mesh.vertices, triangles: &triangles, eligible: Some(&skin) };
     let proposal = suggest_map(&head, &labels, frame, IMAGE_HEIGHT, None).unwrap();
     let map = proposal.applied_to(&labels);
     eprintln!("{}", proposal.summary());
@@ -61,7 +62,12 @@ fn six_labels_suggest_a_unique_sane_map_that_fits_carphone_like_the_fixture() {
     let off_mm: Vec<f64> = proposal
         .accepted
         .iter()
-        .filter_map(|s| Some((mesh.vertices[s.vertex] - mesh.vertices[fixture.vertex(s.landmark)?]).norm() * 100.0))
+        .filter_map(|s| {
+            Some(
+                (mesh.vertices[s.vertex] - mesh.vertices[fixture.vertex(s.landmark)?]).norm()
+                    * 100.0,
+            )
+        })
         .collect();
     let within = |mm: f64| off_mm.iter().filter(|d| **d <= mm).count();
     eprintln!(
@@ -75,8 +81,7 @@ fn six_labels_suggest_a_unique_sane_map_that_fits_carphone_like_the_fixture() {
 
     // Fitted reprojection RMS over carphone frames: the suggested map against the fixture's,
     // each on its own landmarks' residuals.
-    let model =
-        model_source::load_model(&path, Some(&mh.join("faceunits"))).unwrap();
+    let model = model_source::load_model(&path, Some(&mh.join("faceunits"))).unwrap();
     let settings = FitSettings::default();
     let frames: Vec<_> = track.frames.iter().step_by(12).cloned().collect();
     let rms = |m: &LandmarkMap| {

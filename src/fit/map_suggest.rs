@@ -15,7 +15,9 @@
 
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
-use super::suggest::{SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head};
+use super::suggest::{
+    SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head,
+};
 use super::thin_plate::ThinPlate;
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
@@ -103,9 +105,9 @@ impl MapProposal {
                 .or_default() += 1;
         }
         let reasons: Vec<String> = counts.iter().map(|(k, n)| format!("{n} {k}")).collect();
-        let lowest = self.lowest_confidence().map_or(String::new(), |c| {
-            format!(" (lowest confidence {c:.2})")
-        });
+        let lowest = self
+            .lowest_confidence()
+            .map_or(String::new(), |c| format!(" (lowest confidence {c:.2})"));
         if self.left.is_empty() {
             format!("suggested {} landmarks{lowest}", self.accepted.len())
         } else {
@@ -146,8 +148,7 @@ pub fn suggest_map(
         proposal = propose_once(head, map, frame, image_height, &pose);
         if round + 1 < rounds {
             // A pose that fails on the larger set keeps the last one.
-            match pose_from_labels(head.vertices, &proposal.applied_to(map), frame, image_height)
-            {
+            match pose_from_labels(head.vertices, &proposal.applied_to(map), frame, image_height) {
                 Ok(p) => pose = p,
                 Err(_) => break,
             }
@@ -245,13 +246,8 @@ fn assign_unique(
             near
         })
         .collect();
-    let columns: Vec<usize> = candidates
-        .iter()
-        .flatten()
-        .map(|(v, _)| *v)
-        .collect::<BTreeSet<_>>()
-        .into_iter()
-        .collect();
+    let columns: Vec<usize> =
+        candidates.iter().flatten().map(|(v, _)| *v).collect::<BTreeSet<_>>().into_iter().collect();
     let column_of: BTreeMap<usize, usize> =
         columns.iter().enumerate().map(|(c, &v)| (v, c)).collect();
     // One "unassigned" column per landmark, dearer than any candidate and cheaper than a
@@ -356,7 +352,14 @@ mod tests {
             36..=47 => {
                 let k = (l - 36) % 6;
                 let side = if l < 42 { -1.0 } else { 1.0 };
-                let (dx, dy) = [(-0.12, 0.0), (-0.06, 0.04), (0.06, 0.04), (0.12, 0.0), (0.06, -0.04), (-0.06, -0.04)][k];
+                let (dx, dy) = [
+                    (-0.12, 0.0),
+                    (-0.06, 0.04),
+                    (0.06, 0.04),
+                    (0.12, 0.0),
+                    (0.06, -0.04),
+                    (-0.06, -0.04),
+                ][k];
                 (side * 0.3 + dx, 0.3 + dy)
             }
             48..=59 => {
@@ -402,10 +405,10 @@ mod tests {
             assert_eq!(vtx, truth[l], "landmark {l}");
         }
         assert!(proposal.lowest_confidence().unwrap() > 0.99);
-        assert!(check_layout(
-            &full.pairs().map(|(l, x)| (l, v[x])).collect::<BTreeMap<_, _>>()
-        )
-        .is_empty());
+        assert!(
+            check_layout(&full.pairs().map(|(l, x)| (l, v[x])).collect::<BTreeMap<_, _>>())
+                .is_empty()
+        );
     }
 
     #[test]
@@ -426,8 +429,8 @@ mod tests {
         for (k, l) in [37, 38, 40, 41].into_iter().enumerate() {
             frame.points[l] = LandmarkPoint::tracked(centre.x + 0.1 * k as Real, centre.y);
         }
-        let proposal = suggest_map(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose))
-            .unwrap();
+        let proposal =
+            suggest_map(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose)).unwrap();
         let full = proposal.applied_to(&map);
         let mut used: Vec<usize> = full.to_vertex.values().copied().collect();
         let n = used.len();

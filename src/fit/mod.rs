@@ -11,11 +11,11 @@ pub mod camera;
 pub mod clip;
 mod flags;
 mod joint;
+pub mod map_suggest;
 pub mod pipeline;
 pub mod result;
 pub mod shape;
 mod shapes;
-pub mod map_suggest;
 pub mod suggest;
 pub mod thin_plate;
 

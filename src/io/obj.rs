@@ -257,10 +257,7 @@ mod tests {
         // Eyeballs hide the socket behind them; hair does not hide the skin.
         let eyes = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nv 3 3 0\n\
                     g body\nf 1 2 3\ng helper-l-eye\nf 2 4 5\ng helper-hair\nf 6 6 6\n";
-        assert_eq!(
-            occluding_vertices_in(eyes),
-            Some(vec![true, true, true, true, true, false])
-        );
+        assert_eq!(occluding_vertices_in(eyes), Some(vec![true, true, true, true, true, false]));
         assert_eq!(labelable_vertices_in(eyes), Some(vec![true, true, true, false, false, false]));
     }
     use crate::io::error::Location;

@@ -141,9 +141,8 @@ impl MapProblem {
 /// Landmarks in messages are 1-based, as in eos's map files and the iBUG figure.
 impl fmt::Display for MapProblem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let one = |ls: &[usize]| {
-            ls.iter().map(|l| (l + 1).to_string()).collect::<Vec<_>>().join(", ")
-        };
+        let one =
+            |ls: &[usize]| ls.iter().map(|l| (l + 1).to_string()).collect::<Vec<_>>().join(", ");
         match self {
             Self::SharedVertex { vertex, landmarks } => {
                 write!(f, "landmarks {} share vertex {vertex}", one(landmarks))
@@ -214,9 +213,8 @@ impl MapCheck {
 pub fn face_axes(points: &BTreeMap<usize, Point3>) -> Option<crate::math::Matrix3> {
     let mean_of = |ls: &mut dyn Iterator<Item = usize>| {
         let ps: Vec<&Point3> = ls.filter_map(|l| points.get(&l)).collect();
-        (!ps.is_empty()).then(|| {
-            ps.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / ps.len() as Real
-        })
+        (!ps.is_empty())
+            .then(|| ps.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / ps.len() as Real)
     };
     let upper = mean_of(&mut (17..=27).chain(36..=47))?;
     let lower = mean_of(&mut (48..=67).chain(5..=11))?;
@@ -379,9 +377,10 @@ mod tests {
         for (l, x) in (31..=35).zip([-14.0, -7.0, 0.0, 7.0, 14.0]) {
             p.insert(l, Point3::new(x, -3.0, 20.0));
         }
-        for (l, x, y) in [(36, -45.0, 30.0), (37, -38.0, 34.0), (38, -26.0, 34.0), (39, -16.0, 30.0)]
-            .into_iter()
-            .chain([(40, -26.0, 27.0), (41, -38.0, 27.0)])
+        for (l, x, y) in
+            [(36, -45.0, 30.0), (37, -38.0, 34.0), (38, -26.0, 34.0), (39, -16.0, 30.0)]
+                .into_iter()
+                .chain([(40, -26.0, 27.0), (41, -38.0, 27.0)])
         {
             p.insert(l, Point3::new(x, y, 0.0));
             let mirror = [45, 44, 43, 42, 47, 46][l - 36];
@@ -487,9 +486,6 @@ mod tests {
         let map = LandmarkMap { to_vertex: [(48, 0), (54, 5)].into_iter().collect() };
         let check = check_map(&map, &[Point3::origin()]);
         assert!(!check.axes_found);
-        assert_eq!(
-            check.problems,
-            vec![MapProblem::VertexOutOfRange { landmark: 54, vertex: 5 }]
-        );
+        assert_eq!(check.problems, vec![MapProblem::VertexOutOfRange { landmark: 54, vertex: 5 }]);
     }
 }

@@ -192,11 +192,7 @@ pub fn withholds_verdict(check: &MapCheck) -> bool {
 
 /// The head's vertices of a flat shape, for the map check.
 fn shape_points(shape: &DVector) -> Vec<crate::math::Point3> {
-    shape
-        .as_slice()
-        .chunks_exact(3)
-        .map(|c| crate::math::Point3::new(c[0], c[1], c[2]))
-        .collect()
+    shape.as_slice().chunks_exact(3).map(|c| crate::math::Point3::new(c[0], c[1], c[2])).collect()
 }
 
 /// The neutral pose of a head, flat `x0 y0 z0 …`: the head mesh when it has the model's

@@ -286,8 +286,7 @@ pub fn draw_shaded_mesh(
     }
     let mut mark = |p: crate::math::Point2, symbol: &str, colour: Color| {
         let (col, row) = (p.x.round(), (p.y / 2.0).floor());
-        if col < 0.0 || row < 0.0 || col >= f64::from(area.width) || row >= f64::from(area.height)
-        {
+        if col < 0.0 || row < 0.0 || col >= f64::from(area.width) || row >= f64::from(area.height) {
             return;
         }
         if let Some(cell) = buf.cell_mut((area.x + col as u16, area.y + row as u16)) {

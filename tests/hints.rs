@@ -36,8 +36,9 @@ fn hint_words(rest: &str) -> Vec<String> {
         .collect()
 }
 
-/// `lipmap WORD …` in backticks, or followed by a flag or a placeholder, is a hint; prose
-/// such as "a lipmap model file" is not.
+/// `lipmap WORD …` in backticks, or followed by a flag or a placeholder (`SESSION`), is a
+/// hint; prose such as "a lipmap model file", "this lipmap reads {VERSION}" or a format
+/// string's "lipmap mesh: {} vertices" is not (a `{}` alone does not make a hint).
 fn is_hint(before: Option<char>, words: &[String]) -> bool {
     let Some(first) = words.first() else { return false };
     if !first.chars().all(|c| c.is_ascii_lowercase() || c == '-') {
@@ -45,7 +46,6 @@ fn is_hint(before: Option<char>, words: &[String]) -> bool {
     }
     let placeholder = |w: &String| {
         w.starts_with("--")
-            || w.starts_with('{')
             || (w.len() > 1 && w.chars().all(|c| c.is_ascii_uppercase() || c == '_'))
     };
     before == Some('`') || words.iter().skip(1).take(2).any(placeholder)
@@ -111,6 +111,10 @@ fn the_check_catches_a_missing_flag() {
     let hint = Hint { at: "test".into(), words: vec!["import".into(), "--mesh".into()] };
     let e = Cli::try_parse_from(argv(&hint)).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::UnknownArgument);
+    // Prose and format strings are not hints; a session placeholder before a flag is.
+    assert!(!is_hint(Some(' '), &hint_words("reads {VERSION})")));
+    assert!(!is_hint(Some(' '), &hint_words("mesh: {} vertices, {} faces")));
+    assert!(is_hint(Some(' '), &hint_words("import {} --mapping {}")));
     let hint = Hint { at: "test".into(), words: vec!["relabel".into(), "x".into()] };
     let e = Cli::try_parse_from(argv(&hint)).unwrap_err();
     assert_eq!(e.kind(), ErrorKind::InvalidSubcommand);

@@ -9,6 +9,7 @@ pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
 pub mod indices;
+pub mod map_cmd;
 pub mod model_cmd;
 pub mod new;
 pub mod output;
@@ -77,6 +78,9 @@ pub enum Command {
     Model(model_cmd::ModelCommand),
     /// Write the built-in reference tables (visemes, index bounds, point names, keys) to edit.
     Tables(tables_cmd::TablesArgs),
+    /// Suggest a session's landmark map from a few labels, or check it against anatomy.
+    #[command(subcommand)]
+    Map(map_cmd::MapCommand),
     /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
     #[command(subcommand)]
     Speech(speech_cmd::SpeechCommand),
@@ -158,6 +162,10 @@ fn run_command(command: Command) -> Result<Outcome> {
             model_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
         }
+        Command::Map(cmd) => match map_cmd::run(&cmd, &mut out)? {
+            true => Ok(Outcome::Ok),
+            false => anyhow::bail!("the landmark map has problems"),
+        },
         Command::Speech(cmd) => {
             speech_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)

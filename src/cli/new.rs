@@ -7,8 +7,8 @@ use crate::cli::progress::print_warnings;
 use crate::landmarks::LandmarkSet;
 use crate::workflow::audio::{AudioInput, AudioSource};
 use crate::workflow::create::{
-    ClipInputs, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs, create_session,
-    import_into_session, map_hint,
+    ClipInputs, HeadSet, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs,
+    create_session, import_into_session, map_hint,
 };
 use crate::workflow::session_path;
 use anyhow::{Result, bail};
@@ -135,7 +135,7 @@ pub struct NewArgs {
     pub force: bool,
 }
 
-/// Add a clip to an existing session, and/or set or replace its landmark map.
+/// Add a clip to an existing session, and/or set or replace its landmark map or head mesh.
 #[derive(clap::Args, Debug)]
 pub struct ImportArgs {
     /// Session file or name.
@@ -147,6 +147,10 @@ pub struct ImportArgs {
     /// and any map labelled in the TUI.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
+    /// Make this OBJ the session's head mesh (the one labelled in the TUI's view 2), replacing
+    /// the head it named; the session's map is checked on it.
+    #[arg(long, value_name = "HEAD.obj")]
+    pub head: Option<PathBuf>,
 }
 
 /// Creates the session and says what it holds (warnings go to stderr first).
@@ -189,6 +193,7 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
         audio: if clip.is_none() { a.clip.audio().map(|i| (i, a.clip.clip.clone())) } else { None },
         clip,
         mapping: a.mapping.clone(),
+        head: a.head.clone(),
     })?;
     print_warnings(&imported.warnings);
     let path = &imported.path;
@@ -204,10 +209,42 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
     if let Some(map) = &imported.map {
         lines.push(map_set_message(map, path));
     }
+    if let Some(head) = &imported.head {
+        lines.push(head_set_message(head, path));
+    }
     if let Some((clip, file)) = &imported.audio {
         lines.push(format!("{}: clip `{clip}` has audio {}", path.display(), file.display()));
     }
     Ok(lines.join("\n"))
+}
+
+/// What setting a head did, as `import` prints it, and how to label the head next.
+fn head_set_message(head: &HeadSet, path: &Path) -> String {
+    let mut msg = format!(
+        "{}: head mesh set to {} ({} vertices)",
+        path.display(),
+        head.file.display(),
+        head.vertices
+    );
+    if let Some(old) = &head.replaced {
+        msg.push_str(&format!("; replaces {}", old.display()));
+    }
+    let suggest = format!(
+        "label 4-6 landmarks in the TUI (view 2), then `lipmap map suggest {} --out MAP.toml` labels the rest",
+        path.display()
+    );
+    match &head.map_check {
+        None => msg.push_str(&format!("\nno landmark map yet: {suggest}")),
+        Some(check) if check.is_plausible() => {
+            msg.push_str(&format!("\nthe session's map on this head: {}", check.summary()));
+        }
+        Some(check) => msg.push_str(&format!(
+            "\nthe session's map does not fit this head (labelled on another mesh?): {}\n\
+             relabel: {suggest}",
+            check.summary()
+        )),
+    }
+    msg
 }
 
 /// What setting a map file did, as `import` prints it.
@@ -260,5 +297,9 @@ mod tests {
         let Command::New(a) = Cli::try_parse_from(new).unwrap().command else { panic!() };
         assert!(a.mapping.is_none() && a.clip.is_given());
         assert!(Cli::try_parse_from(["lipmap", "new", "s", "--model", "m"]).is_err());
+        // A head alone is an import too.
+        let cli = Cli::try_parse_from(["lipmap", "import", "s", "--head", "h.obj"]).unwrap();
+        let Command::Import(a) = cli.command else { panic!("not import") };
+        assert_eq!(a.head.as_deref(), Some(Path::new("h.obj")));
     }
 }

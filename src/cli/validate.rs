@@ -99,7 +99,12 @@ pub fn validate_file(path: &Path) -> Result<String> {
     Ok(match classify(path) {
         FileKind::Session => {
             let s = Session::load(path)?;
-            format!("session, {}", plural(s.clips.len(), "clip"))
+            let map = match crate::workflow::map::check_session_map(&s) {
+                Ok(Some(check)) => format!("; {}", check.summary()),
+                Ok(None) => String::new(),
+                Err(e) => format!("; map not checked: {e}"),
+            };
+            format!("session, {}{map}", plural(s.clips.len(), "clip"))
         }
         FileKind::Landmarks => {
             let t = landmark_format::read_track(path)?;

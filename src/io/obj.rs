@@ -143,7 +143,34 @@ pub fn labelable_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
 
 /// [`labelable_vertices`] on the text of an OBJ.
 pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
-    let is_aux = |g: &str| g.starts_with("helper-") || g.starts_with("joint-");
+    vertices_outside_groups(text, |g| g.starts_with("helper-") || g.starts_with("joint-"))
+}
+
+/// Which vertices of an OBJ hide what lies behind them: the skin and the solid parts inside
+/// it (MakeHuman's `helper-*-eye` eyeballs, teeth and tongue), not the see-through shells
+/// (hair, clothing proxies, eyelashes) or joint markers. Without the eyeballs an eye socket's
+/// back shows through the lids and takes the eye's landmarks. `None` when the file has no
+/// such shell (every vertex occludes).
+///
+/// # Errors
+/// When the file cannot be read.
+pub fn occluding_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
+    let text = super::input::read_input_string(path)?;
+    Ok(occluding_vertices_in(&text))
+}
+
+/// [`occluding_vertices`] on the text of an OBJ.
+pub fn occluding_vertices_in(text: &str) -> Option<Vec<bool>> {
+    let solid = |g: &str| g.ends_with("-eye") || g.ends_with("-teeth") || g.ends_with("-tongue");
+    vertices_outside_groups(text, |g| {
+        g.starts_with("joint-") || (g.starts_with("helper-") && !solid(g))
+    })
+}
+
+/// Vertices used by a face of a group/object that `skip` does not name (`None` when no
+/// group is skipped).
+fn vertices_outside_groups(text: &str, skip: impl Fn(&str) -> bool) -> Option<Vec<bool>> {
+    let is_aux = &skip;
     let (mut n_vertices, mut aux_seen, mut in_aux) = (0usize, false, false);
     let mut surface: Vec<bool> = Vec::new();
     for raw in text.lines() {
@@ -227,6 +254,11 @@ mod tests {
             "vertex 2 is shared with the body and stays"
         );
         assert_eq!(labelable_vertices_in("v 0 0 0\nv 1 0 0\nv 0 1 0\ng head\nf 1 2 3\n"), None);
+        // Eyeballs hide the socket behind them; hair does not hide the skin.
+        let eyes = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nv 3 3 0\n\
+                    g body\nf 1 2 3\ng helper-l-eye\nf 2 4 5\ng helper-hair\nf 6 6 6\n";
+        assert_eq!(occluding_vertices_in(eyes), Some(vec![true, true, true, true, true, false]));
+        assert_eq!(labelable_vertices_in(eyes), Some(vec![true, true, true, false, false, false]));
     }
     use crate::io::error::Location;
 

@@ -100,6 +100,8 @@ pub enum Action {
     SuggestLabel,
     /// Assign every unmapped landmark its suggested vertex (one undo step).
     SuggestAllLabels,
+    /// Switch the head view between shaded and wireframe.
+    ToggleWireframe,
     SaveMap,
     /// Replace the labels with the session's map file (undoable).
     LoadMap,
@@ -316,6 +318,7 @@ impl Action {
             Self::SuggestLabel => "suggest a vertex from the current frame",
             Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
             Self::SaveMap => "save the landmark map (eos format)",
+            Self::ToggleWireframe => "shaded or wireframe head",
             Self::LoadMap => "load the session's map file over the labels",
             Self::CycleHead => "show the model / each transferred head",
             Self::NudgeLipPoint { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => {

@@ -412,6 +412,9 @@ pub struct App {
     /// Vertices landmarks may be labelled on (`None`: all): not a figure's helper or joint
     /// geometry (see `io::obj::labelable_vertices`).
     pub label_candidates: Option<Arc<Vec<bool>>>,
+    /// Vertices whose triangles hide what is behind them from suggestions (`None`: all): the
+    /// skin, eyeballs and teeth, not see-through shells (see `io::obj::occluding_vertices`).
+    pub occluders: Option<Arc<Vec<bool>>>,
     pub model: Option<Arc<MorphableModel>>,
     pub map: Option<LandmarkMap>,
     pub head: HeadView,
@@ -474,6 +477,7 @@ impl App {
             mesh_edges: Arc::new(Vec::new()),
             head_framing: HeadFraming::default(),
             label_candidates: None,
+            occluders: None,
             model: None,
             map: None,
             head: HeadView::default(),

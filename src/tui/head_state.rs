@@ -21,11 +21,21 @@ pub struct HeadView {
     /// (landmark, vertex) the cursor was put on by a suggestion; Enter assigns the vertex
     /// even when it is hidden from this angle. Moving the cursor or the label drops it.
     pub suggested: Option<(usize, usize)>,
+    /// Draw the mesh as a braille wireframe instead of shaded.
+    pub wireframe: bool,
 }
 
 impl Default for HeadView {
     fn default() -> Self {
-        Self { yaw: 0.0, pitch: 0.0, zoom: 1.0, cursor: (0.0, 0.0), label: 48, suggested: None }
+        Self {
+            yaw: 0.0,
+            pitch: 0.0,
+            zoom: 1.0,
+            cursor: (0.0, 0.0),
+            label: 48,
+            suggested: None,
+            wireframe: false,
+        }
     }
 }
 

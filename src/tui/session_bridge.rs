@@ -142,6 +142,7 @@ impl SessionBridge {
         if let Some(p) = head_obj.or(model_obj) {
             app.label_candidates =
                 crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
+            app.occluders = crate::io::obj::occluding_vertices(&p).ok().flatten().map(Arc::new);
         }
         // Nor drawn: the proxy shells and joint markers would hide the face's own edges.
         if let Some(keep) = app.label_candidates.clone() {

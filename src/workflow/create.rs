@@ -13,7 +13,7 @@ use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::textgrid::TierChoice;
 use crate::io::{alignment_format, landmark_format, landmark_map_toml, model_source, obj};
 use crate::landmarks::LandmarkSet;
-use crate::model::LandmarkMap;
+use crate::model::{LandmarkMap, MapCheck, Mesh, check_map};
 use crate::session::{Clip, FramesRef, ModelRef, Session, SessionLock, View, absolute};
 use std::path::{Path, PathBuf};
 
@@ -73,6 +73,8 @@ pub struct Import {
     pub mapping: Option<PathBuf>,
     /// Audio for an existing clip (named, or the first) when no clip is added.
     pub audio: Option<(AudioInput, Option<String>)>,
+    /// A head mesh (OBJ) that becomes the session's head, replacing the one it named.
+    pub head: Option<PathBuf>,
 }
 
 /// Whether a session's map can be fitted with, as far as creating it can tell.
@@ -124,12 +126,25 @@ pub enum ReplacedMap {
     File(PathBuf),
 }
 
+/// A head mesh set on a session.
+#[derive(Clone, Debug)]
+pub struct HeadSet {
+    pub file: PathBuf,
+    pub vertices: usize,
+    /// The head file the session named before.
+    pub replaced: Option<PathBuf>,
+    /// The session's map checked on the new head (`None`: the session has no map yet). A map
+    /// labelled on another mesh names the wrong vertices here, and this says so.
+    pub map_check: Option<MapCheck>,
+}
+
 /// What an import changed.
 #[derive(Clone, Debug)]
 pub struct Imported {
     pub path: PathBuf,
     pub clip: Option<AddedClip>,
     pub map: Option<MapSet>,
+    pub head: Option<HeadSet>,
     /// The existing clip given audio, and the audio file.
     pub audio: Option<(String, PathBuf)>,
     pub warnings: Vec<Warning>,
@@ -160,14 +175,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     let settings = FitSettings { set: new.set, ..FitSettings::default() };
     if let Some(head) = &new.head {
         let mesh = obj::read_obj(head)?;
-        if mesh.vertices.len() != model.num_vertices() {
-            warnings.push(Warning(format!(
-                "lipmap: warning: {} has {} vertices but the model has {}",
-                head.display(),
-                mesh.vertices.len(),
-                model.num_vertices()
-            )));
-        }
+        warnings.extend(head_model_mismatch(head, &mesh, model.num_vertices()));
     }
     let _lock = SessionLock::acquire(path)?;
     let mut session = Session::new(path);
@@ -191,15 +199,33 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     Ok(Created { path: path.clone(), clip: added, map, warnings })
 }
 
-/// Adds a clip and/or sets the landmark map of an existing session, under its lock.
+/// A warning when a head mesh and the model differ in vertex count: the fitted shape cannot
+/// then be shown on that head, only its landmarks' map read on it.
+fn head_model_mismatch(head: &Path, mesh: &Mesh, model_vertices: usize) -> Option<Warning> {
+    (mesh.vertices.len() != model_vertices).then(|| {
+        Warning(format!(
+            "lipmap: warning: {} has {} vertices but the model has {}",
+            head.display(),
+            mesh.vertices.len(),
+            model_vertices
+        ))
+    })
+}
+
+/// Adds a clip, sets the landmark map and/or the head mesh of an existing session, under its
+/// lock.
 ///
 /// # Errors
 /// Nothing to import, the session cannot be opened or locked, any input that cannot be read;
 /// the session is then unchanged.
 pub fn import_into_session(import: &Import) -> Result<Imported> {
-    if import.clip.is_none() && import.mapping.is_none() && import.audio.is_none() {
+    if import.clip.is_none()
+        && import.mapping.is_none()
+        && import.audio.is_none()
+        && import.head.is_none()
+    {
         return Err(Error::Invalid(
-            "give a clip to add (--frames and --landmarks), a landmark map (--mapping FILE) or a clip's audio (--audio FILE.wav)"
+            "give a clip to add (--frames and --landmarks), a landmark map (--mapping FILE), a head mesh (--head HEAD.obj) or a clip's audio (--audio FILE.wav)"
                 .into(),
         ));
     }
@@ -207,7 +233,7 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
     let _lock = SessionLock::acquire(path)?;
     let mut session = load_session(path)?;
     // Read everything before changing the session, so a bad input changes nothing.
-    let (clip, warnings) = match &import.clip {
+    let (clip, mut warnings) = match &import.clip {
         Some(inputs) => {
             let (mut clip, warnings) = read_clip(inputs)?;
             if let Some(audio) = &inputs.audio {
@@ -225,11 +251,28 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         }
         _ => None,
     };
+    let head = match &import.head {
+        Some(file) => {
+            let mesh = obj::read_obj(file)?;
+            if let Some(m) = &session.model {
+                let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
+                warnings.extend(head_model_mismatch(file, &mesh, n));
+            }
+            Some((file, mesh))
+        }
+        None => None,
+    };
     let map = import
         .mapping
         .as_deref()
         .map(|file| set_map_from_file(&mut session, file, path))
         .transpose()?;
+    // Checked after a map given in the same import is set, so the check is of the pair the
+    // session now holds.
+    let head = match head {
+        Some((file, mesh)) => Some(set_head(&mut session, file, &mesh)?),
+        None => None,
+    };
     let clip = match clip {
         Some(clip) => {
             let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
@@ -244,7 +287,21 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         (name, file)
     });
     session.save(path)?;
-    Ok(Imported { path: path.clone(), clip, map, audio, warnings })
+    Ok(Imported { path: path.clone(), clip, map, head, audio, warnings })
+}
+
+/// Makes `file` (already read as `mesh`) the session's head and checks the session's map on
+/// it. Fits are of the model, not the head, so the fit cache stays.
+fn set_head(session: &mut Session, file: &Path, mesh: &Mesh) -> Result<HeadSet> {
+    let file_abs = absolute(file);
+    let replaced = session.head_mesh.replace(file_abs).filter(|old| *old != absolute(file));
+    let map = session.landmark_map.resolve()?.filter(|m| !m.is_empty());
+    Ok(HeadSet {
+        file: file.to_path_buf(),
+        vertices: mesh.vertices.len(),
+        replaced,
+        map_check: map.map(|m| check_map(&m, &mesh.vertices)),
+    })
 }
 
 /// Reads one clip's files into a [`Clip`], checking them before anything is written; the
@@ -437,9 +494,11 @@ mod tests {
             clip: None,
             mapping: None,
             audio: None,
+            head: None,
         })
         .unwrap_err();
         assert!(e.to_string().contains("--mapping FILE"), "{e}");
+        assert!(e.to_string().contains("--head HEAD.obj"), "{e}");
         assert!(!path.exists() && std::fs::read_dir(dir.path()).unwrap().next().is_none());
     }
 }

@@ -16,6 +16,7 @@ pub mod fit;
 pub mod fit_files;
 pub mod heads;
 pub mod indices;
+pub mod map;
 pub mod measure_fits;
 pub mod profile_edit;
 pub mod reference;

@@ -70,6 +70,7 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         | A::ClearLabel
         | A::SuggestLabel
         | A::SuggestAllLabels
+        | A::ToggleWireframe
         | A::LoadMap
         | A::SaveMap => head::update(app, action),
         A::RunFit => fit::run_fit(app),

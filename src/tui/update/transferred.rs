@@ -42,7 +42,7 @@ pub(super) fn update(app: &mut App, action: Action) {
 fn cycle(app: &mut App) {
     if app.heads.names.is_empty() {
         app.status = "no transferred heads in this session \
-                      (lipmap transfer SESSION --head HEAD.obj --out DIR adds one)"
+                      (add one with `lipmap transfer SESSION --head HEAD.obj --out DIR`)"
             .into();
         return;
     }

@@ -307,7 +307,6 @@ pub fn draw_shaded_mesh(
     }
 }
 
-
 /// The wireframe's area and the side panel's (absent below 50 columns).
 fn split(area: Rect) -> (Rect, Rect) {
     let side_w = if area.width >= 50 { 26.min(area.width / 3) } else { 0 };

@@ -108,3 +108,43 @@ fn transfers_the_demo_and_refuses_bad_heads() {
         &["degenerate.obj", "degenerate"],
     );
 }
+
+#[test]
+fn eval_heads_drives_a_plain_obj_head_through_transfer() {
+    let Some(makehuman) = lipmap::testdata::shared("data/makehuman/base.obj") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::demo_session(dir.path());
+    let demo = session.parent().unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let heads = format!("{},{}", demo.display(), makehuman.display());
+    let eval = |extra: &[&Path]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_lipmap"));
+        cmd.arg("eval").arg(&session).arg("--heads").arg(&heads);
+        for m in extra {
+            cmd.arg("--mapping").arg(m);
+        }
+        cmd.output().unwrap()
+    };
+    let ok = eval(&[&map]);
+    let text = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(text.contains("base W") && text.contains("demo W"), "{text}");
+    assert!(text.contains("transferred onto") && text.contains("biharmonic"), "{text}");
+    // The row of the transferred head holds numbers, not blanks.
+    let mean = text.lines().find(|l| l.starts_with("mean")).unwrap();
+    let values: Vec<f64> = mean.split_whitespace().skip(1).map(|v| v.parse().unwrap()).collect();
+    assert_eq!(values.len(), 6, "{mean}");
+    assert!(values.iter().all(|v| v.is_finite() && *v < 0.5), "{mean}");
+    // An OBJ head with no map beside it and none given is refused, naming the head.
+    let bare = dir.path().join("bare.obj");
+    std::fs::copy(&makehuman, &bare).unwrap();
+    let heads_bare = format!("{},{}", demo.display(), bare.display());
+    let o = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .arg("eval")
+        .arg(&session)
+        .arg("--heads")
+        .arg(&heads_bare)
+        .output()
+        .unwrap();
+    assert_one_line_error(&o, &["bare.obj"]);
+}

@@ -3,6 +3,7 @@
 //! `eval` prints its tables too.
 
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
+use crate::transfer::Interpolation;
 use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::Result;
 use std::io::Write;
@@ -34,11 +35,20 @@ pub struct TransferArgs {
     pub out: PathBuf,
 }
 
-/// `--mode`.
+/// `--mode` (and `eval --transfer-mode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModeArg {
     Biharmonic,
     Barycentric,
+}
+
+impl From<ModeArg> for Interpolation {
+    fn from(mode: ModeArg) -> Self {
+        match mode {
+            ModeArg::Biharmonic => Interpolation::Biharmonic,
+            ModeArg::Barycentric => Interpolation::Barycentric,
+        }
+    }
 }
 
 pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
@@ -46,14 +56,10 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     let (res, warnings) = workflow::load_resources(&session, &path)?;
     print_warnings(&warnings);
     let clips = select_clips(&session, a.clip.as_deref())?;
-    let mode = match a.mode {
-        ModeArg::Biharmonic => crate::transfer::Interpolation::Biharmonic,
-        ModeArg::Barycentric => crate::transfer::Interpolation::Barycentric,
-    };
     let request = workflow::transfer::TransferRequest {
         head: a.head.clone(),
         mapping: a.mapping.clone(),
-        mode,
+        mode: a.mode.into(),
         clips,
         out_dir: a.out.clone(),
         objs: a.objs,

@@ -293,23 +293,36 @@ pub fn transferred_utterances(
 ) -> Result<Vec<Utterance>> {
     let target = load_target(&entry.mesh, &entry.mapping)?;
     let transfer = set_up_for_head(res, &target, parse_mode(&entry.mode)?, &entry.mesh)?;
-    let options = MeshMeasureOptions::default();
     done.utterances
         .iter()
         .zip(&done.fits)
-        .map(|(u, (_, fits))| {
-            let n = u.head.w.len();
-            let mut shapes: Vec<Option<DVector>> = vec![None; n];
-            for (frame, shape) in transfer_fits(res, &transfer, fits)? {
-                if frame < n {
-                    shapes[frame] = Some(shape);
-                }
-            }
-            let head =
-                trajectory_from_shapes(shapes.iter().map(Option::as_ref), &target.map, &options);
-            Ok(Utterance { head, ..u.clone() })
-        })
+        .map(|(u, (_, fits))| transferred_utterance(res, &transfer, &target.map, u, fits))
         .collect()
+}
+
+/// `utterance` (the clip measured on the fitted model) with its head side measured on the
+/// transferred head instead, through the head's landmark map `map`; frames without a usable
+/// fit stay empty.
+///
+/// # Errors
+/// As [`transfer_fits`].
+pub fn transferred_utterance(
+    res: &Resources,
+    transfer: &Transfer,
+    map: &LandmarkMap,
+    utterance: &Utterance,
+    fits: &[FrameFit],
+) -> Result<Utterance> {
+    let n = utterance.head.w.len();
+    let mut shapes: Vec<Option<DVector>> = vec![None; n];
+    for (frame, shape) in transfer_fits(res, transfer, fits)? {
+        if frame < n {
+            shapes[frame] = Some(shape);
+        }
+    }
+    let options = MeshMeasureOptions::default();
+    let head = trajectory_from_shapes(shapes.iter().map(Option::as_ref), map, &options);
+    Ok(Utterance { head, ..utterance.clone() })
 }
 
 /// The per-sentence, per-phoneme and per-viseme tables of every head recorded in the session,

@@ -621,10 +621,10 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
                 &true_csv,
             )?;
             let truth_csv = dir.join("truth.csv");
-            std::fs::write(&truth_csv, format_truth(&rows))
+            crate::io::atomic::write_atomic_bytes(&truth_csv, format_truth(&rows).as_bytes())
                 .with_context(|| format!("writing {}", truth_csv.display()))?;
             let errors_csv = dir.join("errors.csv");
-            std::fs::write(&errors_csv, format_errors(&errors))
+            crate::io::atomic::write_atomic_bytes(&errors_csv, format_errors(&errors).as_bytes())
                 .with_context(|| format!("writing {}", errors_csv.display()))?;
             let (front_dir, side_dir) = if opts.write_frames {
                 let fd = dir.join("front");
@@ -715,7 +715,8 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         speakers: speaker_outputs,
     };
     let json = serde_json::to_string_pretty(&output)?;
-    std::fs::write(&manifest, json).with_context(|| format!("writing {}", manifest.display()))?;
+    crate::io::atomic::write_atomic_bytes(&manifest, json.as_bytes())
+        .with_context(|| format!("writing {}", manifest.display()))?;
     Ok(output)
 }
 

@@ -8,7 +8,8 @@ use lipmap::io::frames::{FrameError, FrameOptions, FrameSource};
 use lipmap::landmarks::{
     FrameLandmarks, LandmarkPoint, LandmarkSet, N_LANDMARKS, PointSource, Track,
 };
-use lipmap::session::store::{backup_path, lock_path, temp_path};
+use lipmap::io::atomic::temp_path;
+use lipmap::session::store::{backup_path, lock_path};
 use lipmap::session::{
     CURRENT_SCHEMA, Clip, FramesRef, LockInfo, MapRef, ModelRef, Session, SessionError,
     SessionLock, View,
@@ -397,11 +398,16 @@ fn a_partial_temp_file_from_a_crash_is_ignored() {
     let mut next = s.clone();
     next.name = "next".into();
     let bytes = next.to_json(&file).unwrap();
-    std::fs::write(temp_path(&file), &bytes[..bytes.len() / 2]).unwrap();
+    // The temp file of a process that has since died.
+    let mut child = std::process::Command::new("true").spawn().unwrap();
+    let dead = child.id();
+    child.wait().unwrap();
+    let temp = temp_path(&file, dead, 0);
+    std::fs::write(&temp, &bytes[..bytes.len() / 2]).unwrap();
     assert_eq!(Session::load(&file).unwrap(), s);
     next.save(&file).unwrap();
     assert_eq!(Session::load(&file).unwrap().name, "next");
-    assert!(!temp_path(&file).exists());
+    assert!(!temp.exists());
 }
 
 #[test]

@@ -7,7 +7,7 @@ use crate::cli::progress::print_warnings;
 use crate::eval::{Cell, Table};
 use crate::workflow::speech::{
     SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech, evaluate_speech,
-    load_speech_model, save_speech_model, train_speech, write_via_temp,
+    load_speech_model, save_speech_model, train_speech,
 };
 use crate::workflow::speech_session::record_speech_model;
 use anyhow::Result;
@@ -216,6 +216,5 @@ fn display(p: Option<&Path>) -> String {
 fn write_shapes(path: &Path, m: &crate::math::DMatrix) -> Result<()> {
     let data: Vec<f32> = m.transpose().iter().map(|&v| v as f32).collect();
     let shape = [m.nrows() as u64, m.ncols() as u64];
-    write_via_temp(path, |tmp| Ok(crate::io::npy_model::write_npy_f32(tmp, &shape, &data)?))?;
-    Ok(())
+    Ok(crate::io::npy_model::write_npy_f32(path, &shape, &data)?)
 }

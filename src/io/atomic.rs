@@ -2,17 +2,18 @@
 //! failing encoder never leaves a truncated file where a good one (or none) was.
 //!
 //! Start with [`write_atomic`] (a closure writes the contents) or [`write_atomic_bytes`]. For
-//! callers that must act between writing and replacing (the session store rotates its backups
-//! there), [`AtomicFile`] exposes the two steps.
+//! writers that need a file handle (`Seek` for zip archives) or must act between writing and
+//! replacing (the session store rotates its backups there, [`AtomicFile::commit_after`]),
+//! [`AtomicFile`] exposes the two steps.
 //!
-//! The contents go to `.NAME.tmp.PID.N` in the target's folder (same file system, so the rename
+//! The contents go to `.NAME.tmp.PID.N` ([`temp_path`]) in the target's folder (same file system, so the rename
 //! is atomic), are fsynced, and the temp file is renamed over the target; then the folder is
 //! fsynced so the rename itself survives a power cut. Renaming replaces a symlink at the target,
 //! never the file it points to, so an output can never be redirected through a planted link.
 
 use std::ffi::OsString;
 use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -33,19 +34,20 @@ impl AtomicFile {
     /// # Errors
     /// The I/O error creating the temp file (folder missing, read-only, no space).
     pub fn create(target: &Path) -> io::Result<Self> {
-        let dir = parent_dir(target);
-        let name = target
-            .file_name()
-            .ok_or_else(|| io::Error::new(io::ErrorKind::InvalidInput, "not a file name"))?;
-        let mut temp_name = OsString::from(".");
-        temp_name.push(name);
-        temp_name.push(format!(
-            ".tmp.{}.{}",
-            std::process::id(),
-            TEMP_COUNTER.fetch_add(1, Ordering::Relaxed)
-        ));
-        let temp = dir.join(temp_name);
-        let file = OpenOptions::new().write(true).create_new(true).open(&temp)?;
+        if target.file_name().is_none() {
+            return Err(io::Error::new(io::ErrorKind::InvalidInput, "not a file name"));
+        }
+        // A crashed process whose pid has been reused may have left our next name behind; a
+        // fresh counter value is as good a name.
+        let (temp, file) = loop {
+            let n = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+            let temp = temp_path(target, std::process::id(), n);
+            match OpenOptions::new().write(true).create_new(true).open(&temp) {
+                Ok(file) => break (temp, file),
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists && n < 1 << 20 => {}
+                Err(e) => return Err(e),
+            }
+        };
         // Replacing a file keeps its permissions (a user who made an output read-only for the
         // group does not see it widened by the next run).
         if let Ok(meta) = fs::symlink_metadata(target)
@@ -67,11 +69,25 @@ impl AtomicFile {
     /// # Errors
     /// The I/O error of any step; the temp file is removed and the target is untouched
     /// unless the rename itself succeeded.
-    pub fn commit(mut self) -> io::Result<()> {
+    pub fn commit(self) -> io::Result<()> {
+        self.commit_after(|_| Ok(()))
+    }
+
+    /// As [`AtomicFile::commit`], calling `before_rename` with the target once the new
+    /// contents are safely on disk and before they replace it (the session store rotates
+    /// its backups there, so a failed write never shifts them).
+    ///
+    /// # Errors
+    /// As [`AtomicFile::commit`], or `before_rename`'s error (the target is then untouched).
+    pub fn commit_after(
+        mut self,
+        before_rename: impl FnOnce(&Path) -> io::Result<()>,
+    ) -> io::Result<()> {
         let writer = self.writer.take().expect("writer present until commit");
         let file = writer.into_inner().map_err(|e| e.into_error())?;
         file.sync_all()?;
         drop(file);
+        before_rename(&self.target)?;
         fs::rename(&self.temp, &self.target)?;
         sync_dir(&parent_dir(&self.target))
     }
@@ -84,6 +100,13 @@ impl Write for AtomicFile {
 
     fn flush(&mut self) -> io::Result<()> {
         self.writer.as_mut().expect("writer present until commit").flush()
+    }
+}
+
+/// Zip archives (`.npz`) seek back to patch their headers.
+impl Seek for AtomicFile {
+    fn seek(&mut self, pos: SeekFrom) -> io::Result<u64> {
+        self.writer.as_mut().expect("writer present until commit").seek(pos)
     }
 }
 
@@ -123,6 +146,25 @@ where
 /// As [`write_atomic`].
 pub fn write_atomic_bytes(target: &Path, bytes: &[u8]) -> io::Result<()> {
     write_atomic(target, |w| w.write_all(bytes))
+}
+
+/// The temp name process `pid` writes `target` under for its `n`-th atomic file:
+/// `.NAME.tmp.PID.N` beside it (hidden, and recognisable by [`temp_owner`]).
+pub fn temp_path(target: &Path, pid: u32, n: u64) -> PathBuf {
+    let mut name = OsString::from(".");
+    name.push(target.file_name().unwrap_or_default());
+    name.push(format!(".tmp.{pid}.{n}"));
+    parent_dir(target).join(name)
+}
+
+/// The pid of the process that wrote `file_name` as a temp file for `target` (see
+/// [`temp_path`]), or `None` when the name is not one of `target`'s temp files.
+pub fn temp_owner(target: &Path, file_name: &str) -> Option<u32> {
+    let name = target.file_name()?.to_str()?;
+    let rest = file_name.strip_prefix('.')?.strip_prefix(name)?.strip_prefix(".tmp.")?;
+    let (pid, n) = rest.split_once('.')?;
+    n.parse::<u64>().ok()?;
+    pid.parse().ok()
 }
 
 fn parent_dir(target: &Path) -> PathBuf {
@@ -225,6 +267,64 @@ mod tests {
         assert_eq!(fs::read_to_string(&outside).unwrap(), "precious");
         assert!(!fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(fs::read_to_string(&link).unwrap(), "export");
+    }
+
+    #[test]
+    fn temp_names_are_recognised_only_for_their_target() {
+        let t = Path::new("/s/a.lipmap.json");
+        let tmp = temp_path(t, 4242, 7);
+        assert_eq!(tmp, Path::new("/s/.a.lipmap.json.tmp.4242.7"));
+        let name = tmp.file_name().unwrap().to_str().unwrap();
+        assert_eq!(temp_owner(t, name), Some(4242));
+        assert_eq!(temp_owner(Path::new("/s/a.lipmap"), name), None);
+        assert_eq!(temp_owner(t, ".a.lipmap.json.tmp.4242"), None);
+        assert_eq!(temp_owner(t, "a.lipmap.json.bak"), None);
+    }
+
+    #[test]
+    fn a_leftover_temp_with_our_next_name_is_stepped_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        let next = TEMP_COUNTER.load(Ordering::Relaxed);
+        // Leave the next few names taken, as a crashed process with our pid would.
+        for n in next..next + 3 {
+            fs::write(temp_path(&p, std::process::id(), n), "stale").unwrap();
+        }
+        write_atomic_bytes(&p, b"new").unwrap();
+        assert_eq!(fs::read_to_string(&p).unwrap(), "new");
+    }
+
+    #[test]
+    fn a_seeking_writer_patches_earlier_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.bin");
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"xxxxtail").unwrap();
+        f.seek(SeekFrom::Start(0)).unwrap();
+        f.write_all(b"head").unwrap();
+        f.seek(SeekFrom::End(0)).unwrap();
+        f.commit().unwrap();
+        assert_eq!(fs::read(&p).unwrap(), b"headtail");
+    }
+
+    #[test]
+    fn a_failing_hook_before_the_rename_leaves_the_target() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.json");
+        fs::write(&p, "old").unwrap();
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"new").unwrap();
+        let seen = std::cell::Cell::new(false);
+        let err = f
+            .commit_after(|t| {
+                seen.set(fs::read_to_string(t).unwrap() == "old");
+                Err(io::Error::other("backup failed"))
+            })
+            .unwrap_err();
+        assert_eq!(err.to_string(), "backup failed");
+        assert!(seen.get());
+        assert_eq!(fs::read_to_string(&p).unwrap(), "old");
+        assert_eq!(entries(dir.path()), vec!["s.json".to_string()]);
     }
 
     #[test]

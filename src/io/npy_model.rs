@@ -356,13 +356,15 @@ fn assemble(
     Ok(model)
 }
 
-/// Writes a model as an `.npz` archive (f64 arrays, names as read by [`read_npz`]).
+/// Writes a model as an `.npz` archive (f64 arrays, names as read by [`read_npz`]),
+/// atomically.
 ///
 /// # Errors
 /// I/O errors, naming the file.
 pub fn write_npz(path: &Path, model: &MorphableModel) -> Result<()> {
     let io = |e: std::io::Error| FormatError::io(path, e);
-    let mut npz = npyz::npz::NpzWriter::create(path).map_err(io)?;
+    let file = super::atomic::AtomicFile::create(path).map_err(io)?;
+    let mut npz = npyz::npz::NpzWriter::new(file);
     let s = &model.shape;
     let len = s.mean.len() as u64;
     let k = s.basis.ncols() as u64;
@@ -398,7 +400,8 @@ pub fn write_npz(path: &Path, model: &MorphableModel) -> Result<()> {
         .map_err(io)?;
     w.extend(model.triangles.iter().flat_map(|t| t.map(|v| v as i32))).map_err(io)?;
     w.finish().map_err(io)?;
-    Ok(())
+    let file = npz.zip_writer().finish().map_err(|e| io(std::io::Error::other(e)))?;
+    file.commit().map_err(io)
 }
 
 /// Writes an f32 `.npy` file of the given shape from C-order values (e.g. `shapes.npy`,

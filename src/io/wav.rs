@@ -104,11 +104,13 @@ pub fn write_wav(path: &Path, samples: &[f32], sample_rate: u32) -> Result<()> {
         sample_format: hound::SampleFormat::Int,
     };
     let fail = |e: hound::Error| FormatError::whole(path, format!("writing WAV: {e}"));
-    let mut w = hound::WavWriter::create(path, spec).map_err(fail)?;
+    let mut file = super::atomic::AtomicFile::create(path).map_err(|e| FormatError::io(path, e))?;
+    let mut w = hound::WavWriter::new(&mut file, spec).map_err(fail)?;
     for s in samples {
         w.write_sample((s.clamp(-1.0, 1.0) * 32767.0).round() as i16).map_err(fail)?;
     }
-    w.finalize().map_err(fail)
+    w.finalize().map_err(fail)?;
+    file.commit().map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -79,10 +79,13 @@ impl Journal {
         })?;
         line.push(b'\n');
         if self.file.is_none() {
+            // Appended in place, not through `io::atomic`: each line is fsynced on its own and
+            // replay stops at a torn last line, so rewriting the whole journal per edit would
+            // only cost time.
             let f = OpenOptions::new().create(true).append(true).open(&self.path).map_err(io)?;
             // The new name must survive a crash too: sync the folder once.
             if let Some(dir) = self.path.parent() {
-                let _ = File::open(dir).and_then(|d| d.sync_all());
+                let _ = crate::io::atomic::sync_dir(dir);
             }
             self.file = Some(f);
             self.present = true;

@@ -1,12 +1,13 @@
 //! Putting a session on disk safely: atomic replace with rotating backups, the lock file that
 //! keeps a second editor out, the JSON layout, and relative <-> absolute path conversion.
 //!
-//! Save = write `.NAME.tmp.PID` beside the target, fsync it, rotate the backups (hard links,
-//! so the target never disappears), rename the temp file over the target, fsync the folder.
+//! Save = write `.NAME.tmp.PID.N` beside the target through [`crate::io::atomic`] (fsynced),
+//! rotate the backups (hard links, so the target never disappears), rename the temp file over
+//! the target, fsync the folder.
 //! A crash at any point leaves either the old or the new file whole, never a mix.
 
 use super::SessionError;
-use crate::io::atomic::sync_dir;
+use crate::io::atomic::{self, AtomicFile};
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
 use std::fs::{self, OpenOptions};
@@ -243,15 +244,9 @@ pub fn backup_path(target: &Path, k: usize) -> PathBuf {
     target.with_file_name(name)
 }
 
-/// The temp file a save in progress writes (left behind only by a crash; harmless).
-pub fn temp_path(target: &Path) -> PathBuf {
-    let mut name = std::ffi::OsString::from(".");
-    name.push(target.file_name().unwrap_or_default());
-    name.push(format!(".tmp.{}", std::process::id()));
-    target.with_file_name(name)
-}
-
-/// Replaces `target` with `bytes` atomically, keeping `BACKUPS_KEPT` older versions.
+/// Replaces `target` with `bytes` atomically through [`crate::io::atomic`], keeping
+/// `BACKUPS_KEPT` older versions (rotated once the new contents are on disk, so a failed
+/// write never shifts them).
 ///
 /// # Errors
 /// `SessionError::Io` naming the file that could not be written, linked or renamed; the
@@ -261,29 +256,13 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<(), SessionError>
         let path = path.to_path_buf();
         move |source| SessionError::Io { path, source }
     };
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    fs::create_dir_all(&dir).map_err(io_err(&dir))?;
-    let tmp = temp_path(target);
-    let written = (|| {
-        let mut f = OpenOptions::new().write(true).create(true).truncate(true).open(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()
-    })();
-    if let Err(e) = written {
-        let _ = fs::remove_file(&tmp);
-        return Err(SessionError::Io { path: tmp, source: e });
+    if let Some(dir) = target.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir).map_err(io_err(dir))?;
     }
-    if target.exists() {
-        rotate_backups(target).map_err(io_err(target))?;
-    }
-    if let Err(e) = fs::rename(&tmp, target) {
-        let _ = fs::remove_file(&tmp);
-        return Err(SessionError::Io { path: target.to_path_buf(), source: e });
-    }
-    sync_dir(&dir).map_err(io_err(&dir))?;
+    let mut file = AtomicFile::create(target).map_err(io_err(target))?;
+    file.write_all(bytes).map_err(io_err(target))?;
+    file.commit_after(|t| if t.exists() { rotate_backups(t) } else { Ok(()) })
+        .map_err(io_err(target))?;
     remove_dead_temp_files(target);
     Ok(())
 }
@@ -291,16 +270,13 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<(), SessionError>
 /// Deletes temp files left by saves of `target` whose process has died (a crash mid-save);
 /// a live process's temp file is never touched.
 fn remove_dead_temp_files(target: &Path) {
-    let (Some(dir), Some(name)) = (target.parent(), target.file_name().and_then(|n| n.to_str()))
+    let Some(dir) = target.parent() else { return };
+    let Ok(entries) = fs::read_dir(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
     else {
         return;
     };
-    let prefix = format!(".{name}.tmp.");
-    let Ok(entries) = fs::read_dir(dir) else { return };
     for entry in entries.flatten() {
-        let file = entry.file_name();
-        let Some(pid) =
-            file.to_str().and_then(|f| f.strip_prefix(&prefix)).and_then(|p| p.parse::<u32>().ok())
+        let Some(pid) = entry.file_name().to_str().and_then(|f| atomic::temp_owner(target, f))
         else {
             continue;
         };
@@ -446,6 +422,8 @@ impl SessionLock {
         }
         let info = LockInfo::current();
         for attempt in 0..2 {
+            // Not through `io::atomic`: creating the lock file in place with `create_new` is
+            // what makes taking it exclusive (a rename would silently replace a rival's lock).
             match OpenOptions::new().write(true).create_new(true).open(&path) {
                 Ok(mut f) => {
                     let text = serde_json::to_string(&info).unwrap_or_default();

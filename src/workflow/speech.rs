@@ -138,31 +138,15 @@ pub fn load_speech_model(path: &Path) -> Result<SpeechModelFile> {
     Ok(file)
 }
 
-/// Writes a speech model file (through a temporary file, so a failed write leaves the old).
+/// Writes a speech model file atomically (a failed write leaves the old one).
 ///
 /// # Errors
 /// The file cannot be written.
 pub fn save_speech_model(path: &Path, file: &SpeechModelFile) -> Result<()> {
     let text = serde_json::to_string(file)
         .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
-    write_via_temp(path, |tmp| {
-        std::fs::write(tmp, text.as_bytes())
-            .map_err(|e| Error::Io { path: tmp.to_path_buf(), source: e })
-    })
-}
-
-/// Writes `path` by letting `write` fill a temporary file beside it, then renaming it over.
-///
-/// # Errors
-/// `write`'s error, or the rename's.
-pub fn write_via_temp(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("out");
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    if let Err(e) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
-    }
-    std::fs::rename(&tmp, path).map_err(|e| Error::Io { path: path.to_path_buf(), source: e })
+    crate::io::atomic::write_atomic_bytes(path, text.as_bytes())
+        .map_err(|e| Error::Io { path: path.to_path_buf(), source: e })
 }
 
 /// Training settings from the command line.

@@ -13,6 +13,7 @@ use super::resources::Resources;
 use super::{Progress, ProgressFn};
 use crate::eval::Utterance;
 use crate::fit::{FrameFit, fitted_shape};
+use crate::io::atomic::write_atomic_bytes;
 use crate::io::{landmark_map_toml, npy_model, obj};
 use crate::math::DVector;
 use crate::measure::MeshMeasureOptions;
@@ -222,36 +223,22 @@ fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) 
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let n3 = 3 * mesh.vertices.len();
     let data: Vec<f32> = shapes.iter().flat_map(|(_, s)| s.iter().map(|&x| x as f32)).collect();
-    write_atomic(&dir.join("shapes.npy"), |tmp| {
-        npy_model::write_npy_f32(tmp, &[shapes.len() as u64, n3 as u64], &data).map_err(Into::into)
-    })?;
+    npy_model::write_npy_f32(&dir.join("shapes.npy"), &[shapes.len() as u64, n3 as u64], &data)?;
     let csv: String = std::iter::once("frame\n".to_string())
         .chain(shapes.iter().map(|(f, _)| format!("{f}\n")))
         .collect();
-    write_atomic(&dir.join("frames.csv"), |tmp| {
-        std::fs::write(tmp, csv.as_bytes()).map_err(|e| Error::io(tmp, e))
-    })?;
+    let frames_csv = dir.join("frames.csv");
+    write_atomic_bytes(&frames_csv, csv.as_bytes()).map_err(|e| Error::io(&frames_csv, e))?;
     if objs {
         for (frame, shape) in shapes {
             let mut moved = mesh.clone();
             for (p, c) in moved.vertices.iter_mut().zip(shape.as_slice().chunks_exact(3)) {
                 *p = crate::math::Point3::new(c[0], c[1], c[2]);
             }
-            write_atomic(&dir.join(format!("frame_{frame:05}.obj")), |tmp| {
-                obj::write_obj(tmp, &moved).map_err(Into::into)
-            })?;
+            obj::write_obj(&dir.join(format!("frame_{frame:05}.obj")), &moved)?;
         }
     }
     Ok(())
-}
-
-/// Writes `path` through `write` on a temporary file beside it, then renames it into place,
-/// so a reader never sees half a file.
-fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    write(&tmp)?;
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
 }
 
 /// Records (or updates) the head in the session's transferred heads; returns its name.

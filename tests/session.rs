@@ -4,11 +4,11 @@
 
 use lipmap::alignment::{Alignment, Phone};
 use lipmap::fit::{FitSettings, FrameFit};
+use lipmap::io::atomic::temp_path;
 use lipmap::io::frames::{FrameError, FrameOptions, FrameSource};
 use lipmap::landmarks::{
     FrameLandmarks, LandmarkPoint, LandmarkSet, N_LANDMARKS, PointSource, Track,
 };
-use lipmap::io::atomic::temp_path;
 use lipmap::session::store::{backup_path, lock_path};
 use lipmap::session::{
     CURRENT_SCHEMA, Clip, FramesRef, LockInfo, MapRef, ModelRef, Session, SessionError,

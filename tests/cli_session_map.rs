@@ -342,3 +342,18 @@ fn validate_recognises_a_video_and_a_frames_folder() {
     assert!(stdout.contains("ok (video, 120 frames at 29.97 fps, 176x144)"), "{stdout}");
     assert!(stdout.contains("ok (image folder, 120 frames at 25 fps assumed"), "{stdout}");
 }
+
+#[test]
+fn a_bad_session_file_is_named_once_on_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("broken.lipmap.json");
+    std::fs::write(&path, "{\"schema_version\": 1, \"name\": ").unwrap();
+    for cmd in ["eval", "indices", "fit"] {
+        let out = lipmap(&[cmd, path.to_str().unwrap()]);
+        assert!(!out.status.success(), "{cmd}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{cmd}: {err}");
+        assert_eq!(lines[0].matches("broken.lipmap.json").count(), 1, "{cmd}: {err}");
+    }
+}

@@ -14,12 +14,13 @@ pub fn session_path(s: &str) -> PathBuf {
     }
 }
 
-/// Loads the session at `path`, the error naming it.
+/// Loads the session at `path`; every error of `Session::load` names the file already
+/// (as an absolute path), so no context is added here.
 ///
 /// # Errors
 /// An unreadable or invalid session file.
 pub fn load_session(path: &Path) -> Result<Session> {
-    Session::load(path).with_context(|| path.display().to_string())
+    Ok(Session::load(path)?)
 }
 
 /// A session opened for a use case that changes it: locked first, then loaded.

@@ -3,6 +3,9 @@
 
 pub mod edit;
 pub mod flags;
+mod flags_lips;
+mod flags_motion;
+mod flags_procrustes;
 pub mod ibug;
 pub mod track;
 

@@ -8,7 +8,7 @@ pub use super::save_state::SaveState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::edit::PointChange;
-use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries, flag_frames};
+use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries};
 use crate::landmarks::{N_LANDMARKS, Track};
 use crate::math::Point2;
 use crate::measure::profile::{ProfileSetup, ProfileTrack};
@@ -398,18 +398,7 @@ pub enum Effect {
     Quit,
 }
 
-/// The video's W and H per frame as flaggable series.
-pub fn video_measures(track: &Track) -> Vec<MeasureSeries> {
-    use crate::measure::Measure;
-    let t = crate::measure::mouth::trajectory_from_track(track, None);
-    [Measure::W, Measure::H]
-        .into_iter()
-        .map(|m| MeasureSeries {
-            name: format!("video {}", m.as_str()),
-            values: t.series(m).iter().enumerate().filter_map(|(f, v)| v.map(|v| (f, v))).collect(),
-        })
-        .collect()
-}
+pub use crate::workflow::flags::video_measures;
 
 /// Everything the TUI shows and edits.
 pub struct App {
@@ -596,10 +585,12 @@ impl App {
     /// and in any extra series in `measures` (e.g. the fitted head's).
     pub fn recompute_flags(&mut self) {
         let fits: Vec<FrameFit> = self.fit.fits.values().cloned().collect();
-        let fits = (!fits.is_empty()).then_some(fits);
-        let mut measures = video_measures(&self.track);
-        measures.extend(self.measures.iter().cloned());
-        self.flags = flag_frames(&self.track, fits.as_deref(), &measures, &self.flag_thresholds);
+        self.flags = crate::workflow::flags::clip_flags(
+            &self.track,
+            &fits,
+            &self.measures,
+            &self.flag_thresholds,
+        );
     }
 
     /// The decoded image of the current frame, when cached.

@@ -10,6 +10,7 @@ pub mod demo;
 pub mod error;
 pub mod evaluate;
 pub mod fit;
+pub mod flags;
 pub mod heads;
 pub mod indices;
 pub mod measure_fits;

@@ -45,6 +45,9 @@ pub struct EvalArgs {
     /// head's ear-to-ear axis): set it to match the real side camera's pitch.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub render_pitch: f64,
+    /// How sealed lips are measured (becomes the session's setting when it is saved).
+    #[arg(long, value_enum)]
+    pub closure: Option<crate::cli::fit_cmd::ClosureArg>,
     #[command(flatten)]
     pub output: FormatArgs,
 }
@@ -93,6 +96,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
             "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
         );
     }
+    if let Some(c) = a.closure {
+        opened.session.closure = c.into();
+    }
     let base = opened.session.fit_settings.clone();
     let head_p = a.head_p()?;
     let bar = frames_bar(0, "fitting");
@@ -103,6 +109,13 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         print_warnings(&done.warnings);
         opened.save_if_locked()?;
         crate::cli::output::require_some_fit(&done.fits)?;
+        for (&c, (name, fits)) in clips.iter().zip(&done.fits) {
+            let track = opened.session.effective_track(c)?;
+            let flags = workflow::flags::clip_flags(&track, fits, &[], &Default::default());
+            for line in workflow::flags::flag_lines(name, &flags, track.len()) {
+                eprintln!("{line}");
+            }
+        }
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
         write_tables(&report.tables(), a.output.format(), out)?;
         return Ok(());

@@ -41,6 +41,26 @@ pub struct FitArgs {
     /// Session mode: only this clip.
     #[arg(long)]
     pub only: Option<String>,
+    /// Session mode: how sealed lips are measured (becomes the session's setting).
+    #[arg(long, value_enum)]
+    pub closure: Option<ClosureArg>,
+}
+
+/// `--closure`: `snap` sets H = 0 on frames in the clip's sealed mode of the tracked inner
+/// gap (docs/closure.md); `off` measures H as tracked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClosureArg {
+    Snap,
+    Off,
+}
+
+impl From<ClosureArg> for crate::measure::closure::Closure {
+    fn from(a: ClosureArg) -> Self {
+        match a {
+            ClosureArg::Snap => Self::Snap,
+            ClosureArg::Off => Self::Off,
+        }
+    }
 }
 
 /// The fit-setting flags of both modes; in session mode they become the session's settings.
@@ -144,6 +164,9 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(s)?;
     let settings = a.settings.apply(&session.fit_settings)?;
     session.fit_settings = settings.clone();
+    if let Some(c) = a.closure {
+        session.closure = c.into();
+    }
     let (res, warnings) = workflow::load_resources(&session, &path)?;
     crate::cli::progress::print_warnings(&warnings);
     let clips = select_clips(&session, a.only.as_deref())?;
@@ -169,6 +192,15 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         )?;
         for line in failure_lines(&name, &fits.fits) {
             eprintln!("{line}");
+        }
+        let track = session.effective_track(c)?;
+        let flags = workflow::flags::clip_flags(&track, &fits.fits, &[], &Default::default());
+        let lines = workflow::flags::flag_lines(&name, &flags, track.len());
+        if let Some((count, frames)) = lines.split_first() {
+            writeln!(out, "{count}")?;
+            for line in frames {
+                eprintln!("{line}");
+            }
         }
     }
     session.save(&path)?;

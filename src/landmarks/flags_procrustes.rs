@@ -46,7 +46,7 @@ pub fn estimate_similarity_2d(from: &[Point2], to: &[Point2]) -> Option<Similari
         d += a.x * b.y - a.y * b.x;
         var += a.norm_squared();
     }
-    if !(var > 1e-12) {
+    if var.is_nan() || var <= 1e-12 {
         return None;
     }
     let (c, d) = (c / var, d / var);

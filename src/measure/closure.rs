@@ -39,7 +39,7 @@ pub enum ClosureError {
 pub const MIN_FRAMES: usize = 10;
 
 /// Robust sigmas above the sealed mode's median that still count as sealed.
-pub const SEALED_SIGMAS: f64 = 3.0;
+pub const SEALED_SIGMAS: f64 = 1.0;
 
 /// The clip's sealed mode of the tracked inner-lip gap (in H units).
 #[derive(Clone, Copy, Debug, PartialEq)]

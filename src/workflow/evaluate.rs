@@ -49,6 +49,8 @@ pub fn utterance_from_parts(
 /// landmarks, plus the side view's protrusion when the clip has one; and what was worked
 /// around (a side view whose P cannot be measured, a model without a lip band).
 ///
+/// Sealed lips are measured as the session's `closure` setting says (`measure::closure`).
+///
 /// A side view sees the whole upper lip, so for a clip with one the head's P is measured the
 /// same way ([`head_p_options`]). Other upper-lip choices in `options` are kept as given.
 ///
@@ -75,6 +77,10 @@ pub fn utterance_of_clip(
         fits,
         &options,
     );
+    if let Err(e) = crate::measure::closure::apply_closure(session.closure, &mut u.video, &mut u.head)
+    {
+        warnings.push(Warning(format!("lipmap: clip `{}`: lips measured as tracked: {e}", c.name)));
+    }
     match side_view_protrusion(session, clip, u.video.len()) {
         Ok(Some(p)) => u.video.p = p,
         Ok(None) => {}

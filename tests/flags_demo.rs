@@ -28,7 +28,9 @@ fn flags_find_the_injected_errors_with_few_false_flags() {
         let all = clip_flags(&track, &[], &[], &FlagThresholds::default());
         if std::env::var("FLAGS_DEBUG").is_ok() {
             eprintln!("{} errors {:?}", clip.name, clip.injected_errors);
-            for f in &all { eprintln!("  {} {:?}", f.frame, f.reasons); }
+            for f in &all {
+                eprintln!("  {} {:?}", f.frame, f.reasons);
+            }
         }
         let got: BTreeSet<usize> = all.into_iter().map(|f| f.frame).collect();
         let truth: BTreeSet<usize> = clip.injected_errors.iter().map(|e| e.frame).collect();

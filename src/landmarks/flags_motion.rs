@@ -29,8 +29,9 @@ pub fn jump_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)
     let into = |from: usize, to: usize| head_motion(track, from, to);
     let from_prev: Vec<Option<Similarity2>> =
         (0..n).map(|k| if consecutive(k) { into(k - 1, k) } else { None }).collect();
-    let from_next: Vec<Option<Similarity2>> =
-        (0..n).map(|k| if k + 1 < n && consecutive(k + 1) { into(k + 1, k) } else { None }).collect();
+    let from_next: Vec<Option<Similarity2>> = (0..n)
+        .map(|k| if k + 1 < n && consecutive(k + 1) { into(k + 1, k) } else { None })
+        .collect();
     let map = |s: &Option<Similarity2>, p: Point2| s.map_or(p, |s| s.apply(&p));
 
     let mut worst: BTreeMap<usize, (usize, f64, f64)> = BTreeMap::new();

@@ -144,7 +144,11 @@ mod tests {
     fn gaps() -> Vec<Option<f64>> {
         (0..40)
             .map(|f| {
-                Some(if f % 4 == 0 { 0.3 + 0.3 * (f as f64 / 40.0) } else { 0.05 + 0.005 * (f % 3) as f64 })
+                Some(if f % 4 == 0 {
+                    0.3 + 0.3 * (f as f64 / 40.0)
+                } else {
+                    0.05 + 0.005 * (f % 3) as f64
+                })
             })
             .collect()
     }

@@ -77,7 +77,8 @@ pub fn utterance_of_clip(
         fits,
         &options,
     );
-    if let Err(e) = crate::measure::closure::apply_closure(session.closure, &mut u.video, &mut u.head)
+    if let Err(e) =
+        crate::measure::closure::apply_closure(session.closure, &mut u.video, &mut u.head)
     {
         warnings.push(Warning(format!("lipmap: clip `{}`: lips measured as tracked: {e}", c.name)));
     }

@@ -37,7 +37,8 @@ pub fn clip_flags(
 /// per flagged frame with its reasons.
 pub fn flag_lines(name: &str, flags: &[FrameFlags], n_frames: usize) -> Vec<String> {
     let pct = if n_frames == 0 { 0.0 } else { 100.0 * flags.len() as f64 / n_frames as f64 };
-    let mut lines = vec![format!("{name}: {} of {n_frames} frames flagged ({pct:.1} %)", flags.len())];
+    let mut lines =
+        vec![format!("{name}: {} of {n_frames} frames flagged ({pct:.1} %)", flags.len())];
     for f in flags {
         let reasons: Vec<String> = f.reasons.iter().map(ToString::to_string).collect();
         lines.push(format!("{name}: frame {}: {}", f.frame, reasons.join("; ")));

@@ -398,8 +398,6 @@ pub enum Effect {
     Quit,
 }
 
-pub use crate::workflow::flags::video_measures;
-
 /// Everything the TUI shows and edits.
 pub struct App {
     pub title: String,

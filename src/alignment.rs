@@ -17,6 +17,41 @@ pub struct Alignment {
     pub phones: Vec<Phone>,
 }
 
+/// Longest span a phone may end at, in seconds: [`MAX_FRAME`](crate::landmarks::MAX_FRAME)
+/// frames at 1 fps, the slowest rate lipmap accepts. Frame tables are sized by the last
+/// phone's end × fps, so an end past this is a corrupt file, not a recording.
+pub const MAX_PHONE_END_S: f64 = crate::landmarks::MAX_FRAME as f64;
+
+impl Alignment {
+    /// Checks every phone's times: finite, `0 ≤ start ≤ end ≤ max_end_s`.
+    ///
+    /// # Errors
+    /// A message naming the first phone at fault (1-based) and its label.
+    pub fn check_times(&self, max_end_s: f64) -> Result<(), String> {
+        for (i, p) in self.phones.iter().enumerate() {
+            let fault = if !(p.start.is_finite() && p.end.is_finite()) {
+                "non-finite times"
+            } else if p.start < 0.0 {
+                "a negative start"
+            } else if p.end < p.start {
+                "an end before its start"
+            } else if p.end > max_end_s {
+                "an end past the longest clip lipmap accepts"
+            } else {
+                continue;
+            };
+            return Err(format!(
+                "phone {} ({:?}, {}–{} s) has {fault}",
+                i + 1,
+                p.label,
+                p.start,
+                p.end
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Labels aligners use for silence and pauses; grouped together as `sil`.
 pub const SILENCE_LABELS: [&str; 8] = ["", "sil", "sp", "spn", "pau", "#", "<sil>", "h#"];
 

@@ -16,6 +16,7 @@ pub mod math;
 pub mod measure;
 pub mod model;
 pub mod plot;
+pub mod reference;
 pub mod render;
 pub mod saqp;
 pub mod session;

@@ -36,15 +36,9 @@ fn open_tui(open: &OpenTui) -> anyhow::Result<()> {
     lipmap::tui::run::run_with(&open.session, &options)
 }
 
-/// The error and its causes on one line, without repeating a cause already in the message.
+/// The error and its causes on one line, without repeating a cause already in the message,
+/// control characters escaped.
 fn one_line(err: &anyhow::Error) -> String {
-    let mut msg = err.to_string();
-    for cause in err.chain().skip(1) {
-        let c = cause.to_string();
-        if !msg.contains(&c) {
-            msg.push_str(": ");
-            msg.push_str(&c);
-        }
-    }
-    msg.replace('\n', " ")
+    let msg = lipmap::workflow::error_chain(&**err).replace('\n', " ");
+    lipmap::cli::output::terminal_safe(&msg).into_owned()
 }

@@ -1,18 +1,21 @@
-//! `lipmap export` end to end on real data: a session of the carphone clip (first frames),
-//! the SFM model and a Praat alignment, exported as landmarks, CSV tables, PNGs and (when
-//! asked for) OBJs.
+//! Exporting end to end on real data: a session of the carphone clip (first frames), the SFM
+//! model and a Praat alignment (made by `workflow::create`), exported through the
+//! workflow as landmarks, CSV tables, PNGs and (when asked for) OBJs; hostile clip names and
+//! symlinks inside the output folder; and the `lipmap export` binary's printed counts.
 
 mod common;
 
-use lipmap::cli::Outcome;
-use lipmap::cli::export::{self, ExportArgs, TABLE_FILES};
-use lipmap::cli::new::{ClipArgs, NewArgs, run_new};
-use lipmap::cli::output::NormaliseArg;
 use lipmap::io::landmark_format::{LandmarkFormat, read_track};
 use lipmap::io::{model_source, obj};
 use lipmap::landmarks::{LandmarkPoint, LandmarkSet, PointSource};
 use lipmap::session::Session;
+use lipmap::workflow::create::{ClipInputs, NewSession, create_session};
+use lipmap::workflow::export::{
+    self as export, ExportPlan, ExportReport, ExportRequest, TABLE_FILES,
+};
+use lipmap::workflow::{Normalisation, no_progress, open_for_read};
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 /// Frames of the clip in the session: enough for a sequence, few enough for a fast fit.
 const FRAMES: usize = 6;
@@ -35,18 +38,16 @@ fn fixture() -> Option<Fixture> {
     let session = root.join("s.lipmap.json");
     let (model, blendshapes) =
         (eos.join("sfm_shape_3448.bin"), eos.join("expression_blendshapes_3448.bin"));
-    let args = NewArgs {
-        session: session.to_string_lossy().into_owned(),
-        clip: ClipArgs {
-            frames: Some(frames),
+    let args = NewSession {
+        path: session.clone(),
+        clip: ClipInputs {
+            frames,
             fps: Some(25.0),
-            landmarks: Some(landmarks),
-            alignment: Some(textgrid),
-            tier: None,
-            side_frames: None,
-            side_fps: None,
-            side_offset: None,
-            clip: Some("carphone".into()),
+            landmarks,
+            alignment: Some((textgrid, None)),
+            side: None,
+            name: Some("carphone".into()),
+            audio: None,
         },
         head: None,
         model: model.clone(),
@@ -55,7 +56,7 @@ fn fixture() -> Option<Fixture> {
         set: LandmarkSet::F4,
         force: false,
     };
-    run_new(&args).unwrap();
+    create_session(&args).unwrap();
     // One correction, so effective landmarks differ from the tracked ones; its x carries the
     // float noise a drag in the TUI leaves, which the export must not spell out.
     let mut s = Session::load(&session).unwrap();
@@ -67,20 +68,29 @@ fn fixture() -> Option<Fixture> {
     Some(Fixture { _carphone: c, root, session, model, blendshapes })
 }
 
-fn args(f: &Fixture, out: &Path) -> ExportArgs {
-    ExportArgs {
-        session: f.session.to_string_lossy().into_owned(),
+fn args(out: &Path) -> ExportRequest {
+    ExportRequest {
         out: out.to_path_buf(),
-        landmarks: None,
-        meshes: false,
-        tables: false,
-        plots: false,
-        all: false,
+        plan: ExportPlan::of(None, false, false, false, false),
         clip: None,
-        normalise: NormaliseArg::MinMax,
+        normalisation: Normalisation::MinMax,
         worst: 10,
         plot_width: 1200,
     }
+}
+
+fn plan(landmarks: Option<LandmarkFormat>, meshes: bool, all: bool) -> ExportPlan {
+    ExportPlan::of(landmarks, meshes, false, false, all)
+}
+
+/// Runs an export of the session at `session` as `lipmap export` does.
+fn run(session: &Path, req: &ExportRequest) -> lipmap::workflow::Result<ExportReport> {
+    let mut opened = open_for_read(&session.to_string_lossy())?;
+    export::export(&mut opened, req, &no_progress)
+}
+
+fn files_of(w: &Option<export::Written>) -> usize {
+    w.as_ref().map_or(0, |w| w.files)
 }
 
 fn files_in(dir: &Path, ext: &str) -> Vec<PathBuf> {
@@ -97,10 +107,8 @@ fn files_in(dir: &Path, ext: &str) -> Vec<PathBuf> {
 fn exports_all_but_meshes_by_default_and_leaves_an_up_to_date_session_alone() {
     let Some(f) = fixture() else { return };
     let out_dir = f.root.join("export");
-    let mut stdout = Vec::new();
-    let outcome = export::run(&args(&f, &out_dir), &mut stdout).unwrap();
-    let stdout = String::from_utf8_lossy(&stdout).into_owned();
-    assert_eq!(outcome, Outcome::Ok, "{stdout}");
+    let report = run(&f.session, &args(&out_dir)).unwrap();
+    assert!(report.failed_fits.is_empty() && report.warnings.is_empty(), "{report:?}");
     let session = Session::load(&f.session).unwrap();
 
     // Landmarks (csv by default) read back as the effective landmarks, correction included,
@@ -128,13 +136,14 @@ fn exports_all_but_meshes_by_default_and_leaves_an_up_to_date_session_alone() {
     }
 
     // No meshes unless asked for: an OBJ of the whole model per frame is huge.
-    assert!(!out_dir.join("meshes").exists(), "{stdout}");
-    assert!(!stdout.contains("meshes"), "{stdout}");
-    assert!(stdout.contains("landmarks (csv): 1 file in"), "{stdout}");
-    assert!(stdout.contains("plots: 1 PNG file in"), "{stdout}");
+    assert!(!out_dir.join("meshes").exists() && report.meshes.is_none());
+    assert_eq!((files_of(&report.landmarks), files_of(&report.plots)), (1, 1));
+    assert_eq!(files_of(&report.tables), TABLE_FILES.len());
     let meshes_dir = f.root.join("meshes-export");
-    let a = ExportArgs { meshes: true, ..args(&f, &meshes_dir) };
-    assert_eq!(export::run(&a, &mut Vec::new()).unwrap(), Outcome::Ok);
+    let a = ExportRequest { plan: plan(None, true, false), ..args(&meshes_dir) };
+    let report = run(&f.session, &a).unwrap();
+    assert_eq!(files_of(&report.meshes), FRAMES);
+    assert!(report.failed_fits.is_empty());
     assert!(!meshes_dir.join("tables").exists() && !meshes_dir.join("landmarks").exists());
 
     // With --meshes: one OBJ per frame, in the model's vertex order and with its triangles.
@@ -169,8 +178,8 @@ fn exports_all_but_meshes_by_default_and_leaves_an_up_to_date_session_alone() {
     assert_eq!(session.cached_fits(0, &session.fit_settings).len(), FRAMES);
     let before = std::fs::read(&f.session).unwrap();
     let again = f.root.join("again");
-    let a = ExportArgs { all: true, ..args(&f, &again) };
-    assert_eq!(export::run(&a, &mut Vec::new()).unwrap(), Outcome::Ok);
+    let a = ExportRequest { plan: plan(None, false, true), ..args(&again) };
+    run(&f.session, &a).unwrap();
     assert_eq!(std::fs::read(&f.session).unwrap(), before);
     // --all is landmarks, tables and plots; still no meshes.
     assert!(again.join("tables").is_dir() && !again.join("meshes").exists());
@@ -191,12 +200,14 @@ fn landmarks_only_in_each_track_format_needs_no_model() {
         LandmarkFormat::LipmapCsv,
     ] {
         let out_dir = f.root.join(format!("lm-{format}"));
-        let a = ExportArgs {
-            landmarks: Some(format),
+        let a = ExportRequest {
+            plan: plan(Some(format), false, false),
             clip: Some("carphone".into()),
-            ..args(&f, &out_dir)
+            ..args(&out_dir)
         };
-        assert_eq!(export::run(&a, &mut Vec::new()).unwrap(), Outcome::Ok);
+        let report = run(&f.session, &a).unwrap();
+        let want = if format == LandmarkFormat::PtsFolder { FRAMES } else { 1 };
+        assert_eq!(files_of(&report.landmarks), want, "{format}");
         let path = export::landmarks_path(&out_dir, "carphone", format);
         if format == LandmarkFormat::PtsFolder {
             assert_eq!(files_in(&path, "pts").len(), FRAMES);
@@ -215,8 +226,8 @@ fn landmarks_only_in_each_track_format_needs_no_model() {
     }
     // Asking for meshes now fails with the reason, before writing any.
     let out_dir = f.root.join("no-model");
-    let a = ExportArgs { meshes: true, ..args(&f, &out_dir) };
-    let err = export::run(&a, &mut Vec::new()).unwrap_err().to_string();
+    let a = ExportRequest { plan: plan(None, true, false), ..args(&out_dir) };
+    let err = run(&f.session, &a).unwrap_err().to_string();
     assert!(err.contains("no model"), "{err}");
     assert!(!out_dir.join("meshes").exists());
 }
@@ -225,22 +236,18 @@ fn landmarks_only_in_each_track_format_needs_no_model() {
 fn unknown_clip_and_single_pts_are_refused() {
     let Some(f) = fixture() else { return };
     let out_dir = f.root.join("x");
-    let a = ExportArgs { clip: Some("nope".into()), ..args(&f, &out_dir) };
-    let err = export::run(&a, &mut Vec::new()).unwrap_err().to_string();
+    let a = ExportRequest { clip: Some("nope".into()), ..args(&out_dir) };
+    let err = run(&f.session, &a).unwrap_err().to_string();
     assert!(err.contains("no clip `nope`") && err.contains("carphone"), "{err}");
     // `pts` (one frame per file) is not a track format for export.
-    use clap::Parser;
-    #[derive(clap::Parser)]
-    struct Cli {
-        #[command(flatten)]
-        a: ExportArgs,
-    }
-    let bad = Cli::try_parse_from(["x", "s", "--out", "o", "--landmarks", "pts"]);
-    assert!(bad.is_err());
-    let ok =
-        Cli::try_parse_from(["x", "s", "--out", "o", "--landmarks", "pts-dir", "--plots"]).unwrap();
-    assert_eq!(ok.a.landmarks, Some(LandmarkFormat::PtsFolder));
-    assert!(ok.a.plots && !ok.a.meshes);
+    let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .arg("export")
+        .arg(&f.session)
+        .args(["--out", "o", "--landmarks", "pts"])
+        .output()
+        .unwrap();
+    assert_eq!(st.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&st.stderr).contains("pts-dir"));
 }
 
 #[test]
@@ -259,8 +266,8 @@ fn a_failed_fit_is_skipped_and_makes_the_outcome_partial() {
     }
     s.save(&f.session).unwrap();
     let out_dir = f.root.join("partial");
-    let a = ExportArgs { meshes: true, ..args(&f, &out_dir) };
-    let outcome = export::run(&a, &mut Vec::new()).unwrap();
+    let a = ExportRequest { plan: plan(None, true, false), ..args(&out_dir) };
+    let report = run(&f.session, &a).unwrap();
     let s = Session::load(&f.session).unwrap();
     let failed: Vec<usize> = s
         .cached_fits(0, &s.fit_settings)
@@ -271,7 +278,111 @@ fn a_failed_fit_is_skipped_and_makes_the_outcome_partial() {
     let objs = files_in(&out_dir.join("meshes/carphone"), "obj");
     assert_eq!(objs.len() + failed.len(), FRAMES);
     assert_eq!(failed, vec![4]);
-    assert_eq!(outcome, Outcome::Partial);
+    assert_eq!(files_of(&report.meshes), FRAMES - 1);
+    assert_eq!(report.failed_fits.len(), 1);
+    // The binary exits 1 (some frames skipped) and says why once.
+    let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .arg("export")
+        .arg(&f.session)
+        .arg("--out")
+        .arg(f.root.join("partial-bin"))
+        .arg("--meshes")
+        .output()
+        .unwrap();
+    assert_eq!(st.status.code(), Some(1), "{}", String::from_utf8_lossy(&st.stderr));
+    let stdout = String::from_utf8_lossy(&st.stdout);
+    assert!(stdout.contains(&format!("meshes: {} OBJ files in", FRAMES - 1)), "{stdout}");
     assert!(!export::mesh_path(&out_dir, "carphone", 4).exists());
     assert!(export::mesh_path(&out_dir, "carphone", 3).exists());
+}
+
+/// Renames the session's only clip to `name` (as a hand-edited or hostile session would).
+fn rename_clip(session: &Path, name: &str) {
+    let mut s = Session::load(session).unwrap();
+    s.clips[0].name = name.to_string();
+    s.save(session).unwrap();
+}
+
+/// Every file under `dir`, recursively (symlinks not followed).
+fn all_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if std::fs::symlink_metadata(&p).unwrap().is_dir() {
+            out.extend(all_files(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+#[test]
+fn hostile_clip_names_stay_inside_out_and_the_counts_are_what_was_written() {
+    let Some(f) = fixture() else { return };
+    let victim = f.root.join("victim");
+    std::fs::create_dir(&victim).unwrap();
+    for (i, name) in ["../../evil", "/tmp/lipmap-abs-evil", "x/../../../evil2"].iter().enumerate() {
+        rename_clip(&f.session, name);
+        let out_dir = f.root.join(format!("deep/out{i}"));
+        let a = ExportRequest {
+            plan: plan(Some(LandmarkFormat::PtsFolder), true, true),
+            ..args(&out_dir)
+        };
+        let report = run(&f.session, &a).unwrap();
+        let files = all_files(&out_dir);
+        // Landmarks (a .pts per frame), an OBJ per frame, 5 tables, 1 plot: all inside.
+        assert_eq!(files.len(), FRAMES + FRAMES + TABLE_FILES.len() + 1, "{name}: {files:?}");
+        assert_eq!(
+            files_of(&report.landmarks)
+                + files_of(&report.meshes)
+                + files_of(&report.tables)
+                + files_of(&report.plots),
+            files.len()
+        );
+        assert!(files.iter().all(|p| p.starts_with(&out_dir)), "{files:?}");
+    }
+    assert!(!f.root.join("evil").exists() && !f.root.join("evil.csv").exists());
+    assert!(!Path::new("/tmp/lipmap-abs-evil.csv").exists());
+    assert!(!Path::new("/tmp/lipmap-abs-evil").exists());
+    assert_eq!(std::fs::read_dir(&victim).unwrap().count(), 0);
+}
+
+#[cfg(unix)]
+#[test]
+fn symlinks_inside_out_are_replaced_not_written_through() {
+    let Some(f) = fixture() else { return };
+    let precious = f.root.join("precious.csv");
+    std::fs::write(&precious, "keep me").unwrap();
+    let elsewhere = f.root.join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    let out_dir = f.root.join("out");
+    std::fs::create_dir_all(out_dir.join("landmarks")).unwrap();
+    std::os::unix::fs::symlink(&precious, out_dir.join("landmarks/carphone.csv")).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, out_dir.join("plots")).unwrap();
+    let report = run(&f.session, &args(&out_dir)).unwrap();
+    assert_eq!(files_of(&report.landmarks), 1);
+    assert_eq!(std::fs::read_to_string(&precious).unwrap(), "keep me");
+    assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
+    let lm = out_dir.join("landmarks/carphone.csv");
+    assert!(std::fs::symlink_metadata(&lm).unwrap().is_file());
+    assert!(std::fs::symlink_metadata(out_dir.join("plots")).unwrap().is_dir());
+    assert!(out_dir.join("plots/carphone.png").is_file());
+}
+
+#[test]
+fn an_escape_sequence_in_a_clip_name_reaches_the_terminal_escaped() {
+    let Some(f) = fixture() else { return };
+    rename_clip(&f.session, "evil\x1b[2J\x1b]0;owned\x07");
+    for args in [vec!["eval"], vec!["fit"]] {
+        let st = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+            .args(&args)
+            .arg(&f.session)
+            .output()
+            .unwrap();
+        let (out, err) = (st.stdout, st.stderr);
+        assert!(!out.contains(&0x1b) && !err.contains(&0x1b) && !out.contains(&0x07), "{args:?}");
+        let text = String::from_utf8_lossy(&out);
+        assert!(text.contains("evil\\x1b[2J"), "{args:?}: {text}");
+    }
 }

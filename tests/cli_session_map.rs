@@ -183,6 +183,40 @@ fn import_mapping_sets_the_map_and_a_differing_labelled_map_is_warned_about() {
 }
 
 #[test]
+fn import_head_adds_the_users_head_and_says_how_to_label_it() {
+    let (Some(i), Some(mh)) = (inputs(), lipmap::testdata::shared("data/makehuman")) else {
+        return;
+    };
+    let head = mh.join("base.obj");
+    // Without a map: the head is set and the hint names `map suggest`.
+    let (session, _) = new_session(&i, "addhead", &["--fps", "25"]);
+    let out = lipmap(&["import", s(&session), "--head", s(&head)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains("head mesh set to") && stdout.contains("(19158 vertices)"), "{stdout}");
+    assert!(stdout.contains("no landmark map yet") && stdout.contains("lipmap map suggest"));
+    // The SFM model is another mesh: said once, as a warning.
+    let warnings: Vec<String> =
+        err_lines(&out).into_iter().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{}", text(&out.stderr));
+    assert!(warnings[0].contains("19158 vertices but the model has 3448"), "{}", warnings[0]);
+    let loaded = Session::load(&session).unwrap();
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap();
+    assert_eq!(loaded.head_mesh.as_deref().map(canonical), Some(canonical(&head)));
+
+    // A map labelled on the SFM mesh names the wrong vertices on MakeHuman: the check says so,
+    // and a second import reports the head it replaces.
+    let out = lipmap(&["import", s(&session), "--mapping", s(&i.mapping), "--head", s(&head)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.contains("does not fit this head") && stdout.contains("map problem"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("replaces"), "the same head replaces nothing: {stdout}");
+}
+
+#[test]
 fn too_small_a_map_fails_once_before_fitting() {
     let Some(i) = inputs() else { return };
     let small = i.root.join("small.toml");

@@ -355,7 +355,7 @@ const CASES: &[(&str, Reader, &str)] = &[
     (
         "session_zero_fps.lipmap.json",
         session,
-        ": clip \"c1\": front view needs a positive fps and a finite offset",
+        ": clip \"c1\": front: fps: frame rate 0 is outside 1–1000 fps",
     ),
 ];
 

@@ -33,6 +33,10 @@ fn head() -> Option<Head> {
 }
 
 fn setup(h: &Head, interpolation: Interpolation) -> Transfer {
+    setup_with(h, TransferOptions { interpolation, ..TransferOptions::default() })
+}
+
+fn setup_with(h: &Head, options: TransferOptions) -> Transfer {
     let reference = h.mesh.to_flat();
     let source = SourceFace {
         reference: &reference,
@@ -42,7 +46,6 @@ fn setup(h: &Head, interpolation: Interpolation) -> Transfer {
         face: Some(&h.face),
     };
     let target = TargetHead { mesh: &h.mesh, skin: &h.skin, landmarks: &h.map };
-    let options = TransferOptions { interpolation, ..TransferOptions::default() };
     Transfer::new(source, target, &options).unwrap()
 }
 
@@ -114,15 +117,13 @@ fn face_units_are_reproduced_from_their_controls() {
     let get = |mode: Interpolation, unit: &str| {
         results.iter().find(|r| r.0 == mode && r.1 == unit).unwrap().2
     };
-    // The issue asks ≤ 0.15 for smile and stretch; measured 0.168–0.173 (docs/transfer.md),
-    // so these guard the level reached, not the target.
     let limits = [
         ("jawOpen", 0.10),
         ("mouthPucker", 0.20),
-        ("mouthSmileLeft", 0.18),
-        ("mouthSmileRight", 0.18),
-        ("mouthStretchLeft", 0.18),
-        ("mouthStretchRight", 0.18),
+        ("mouthSmileLeft", 0.15),
+        ("mouthSmileRight", 0.15),
+        ("mouthStretchLeft", 0.15),
+        ("mouthStretchRight", 0.15),
         ("mouthFunnel", 0.45),
         ("jawOpen inner lip", 0.25),
     ];
@@ -174,41 +175,5 @@ fn rigid_motion_of_the_controls_moves_the_head_rigidly() {
                 "{mode:?}: worst rigid error {worst:e} (head size {size})"
             );
         }
-    }
-}
-
-/// Renders the head from the front and the side with the fixture's landmarks as red dots
-/// (odd iBUG ids) and blue dots (even ids), to check the fixture by eye:
-/// `cargo test --test transfer_makehuman -- --ignored` writes
-/// `makehuman_ibug68_front.png` / `_side.png` into the system's temporary folder.
-#[test]
-#[ignore]
-fn render_landmark_fixture() {
-    use lipmap::render::{Camera, RenderOptions, View, render_mesh};
-    let Some(h) = head() else { return };
-    let points: Vec<Point3> = h.face.iter().map(|&v| h.mesh.vertices[v]).collect();
-    for (view, name) in [(View::Front, "front"), (View::Side, "side")] {
-        let camera = Camera::fit_to_points(view, 0.0, &points, 0.08, 900, 900).unwrap();
-        let mut img = render_mesh(
-            &h.mesh.vertices,
-            &h.triangles,
-            &[[200, 190, 180]],
-            &camera,
-            &RenderOptions::default(),
-        )
-        .unwrap();
-        for (l, v) in h.map.pairs() {
-            let p = camera.project(&h.mesh.vertices[v]);
-            let colour = if l % 2 == 0 { [220, 0, 0] } else { [0, 0, 220] };
-            for dx in -2i64..=2 {
-                for dy in -2i64..=2 {
-                    let (x, y) = (p.x.round() as i64 + dx, p.y.round() as i64 + dy);
-                    if (0..900).contains(&x) && (0..900).contains(&y) {
-                        img.put_pixel(x as u32, y as u32, image::Rgb(colour));
-                    }
-                }
-            }
-        }
-        img.save(std::env::temp_dir().join(format!("makehuman_ibug68_{name}.png"))).unwrap();
     }
 }

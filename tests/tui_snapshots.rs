@@ -179,3 +179,40 @@ fn a_long_title_gives_way_to_the_view_tabs() {
     assert!(top.contains("4 analysis") && top.contains("5 side"), "{top}");
     assert!(top.contains("a_session_with_a_long_name") && top.contains('…'), "{top}");
 }
+
+#[test]
+fn analysis_view_with_the_speech_driven_head() {
+    use lipmap::tui::fixtures::synthetic_speech;
+    check(
+        "analysis_speech",
+        &[Action::SpeechReady { series: synthetic_speech(24) }, Action::ShowAnalysis],
+    );
+}
+
+#[test]
+fn head_view_showing_a_transferred_head() {
+    use lipmap::tui::app::TransferredHeads;
+    use lipmap::tui::fixtures::{synthetic_model, synthetic_prepared_head};
+    use lipmap::tui::widgets::worker::{HeadFrameJob, transfer_frame_for_tui};
+    use std::sync::Arc;
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.heads = TransferredHeads::named(vec!["sphere".into()]);
+        let prepared = Arc::new(synthetic_prepared_head());
+        apply(
+            &mut app,
+            &[
+                Action::ShowHead,
+                Action::CycleHead,
+                Action::HeadPrepared { index: 0, head: Ok(prepared.clone()) },
+            ],
+        );
+        // The jaw of the source opened all the way at frame 0.
+        let mut fit = app.fit.fits[&0].clone();
+        fit.expression = vec![1.0];
+        let job = HeadFrameJob { head: 0, prepared, model: Arc::new(synthetic_model()), fit };
+        apply(&mut app, &[Action::HeadFrameReady(transfer_frame_for_tui(&job))]);
+        let t = render(&app);
+        insta::assert_snapshot!(format!("head_transferred_{}x{}", size.0, size.1), t.backend());
+    }
+}

@@ -68,7 +68,7 @@ pub fn is_alignment_path(path: &std::path::Path) -> bool {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     match ext.as_deref() {
         Some("textgrid" | "lab" | "rec" | "seg") => true,
-        Some("csv") => std::fs::read(path)
+        Some("csv") => crate::io::input::read_input(path)
             .ok()
             .and_then(|b| {
                 let text = String::from_utf8_lossy(&b[..b.len().min(4096)]).into_owned();

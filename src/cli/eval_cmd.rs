@@ -1,9 +1,11 @@
 //! `lipmap eval SESSION`: per-sentence, per-phoneme and per-viseme W/H/P RMSE tables and the
 //! worst frames; `--compare F1,F2,…` for the landmark-set table with paired t-tests;
-//! `--head-p render --render-pitch DEG` measures the head's P on side renders.
+//! `--head-p render --render-pitch DEG` measures the head's P on side renders; `--heads`
+//! compares several heads, plain OBJ heads through transfer.
 
 use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
+use crate::cli::transfer_cmd::ModeArg;
 use crate::eval::{Configuration, RowKey, compare_configurations};
 use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
@@ -31,11 +33,20 @@ pub struct EvalArgs {
     pub clip: Option<String>,
     /// Fit the clips onto several heads and compare them (the first is the t-tests'
     /// baseline), with each head's speaker-head index match. Each head is a session file
-    /// (its model, map and head mesh) or a folder with a model (lipmap model file such as
+    /// (its model, map and head mesh), a folder with a model (lipmap model file such as
     /// model.lmm, eos .bin, .npz, mean.npy or poses/ of OBJs), a landmark map (its .toml, or
-    /// ibug_to_*.txt) and optionally head.obj: what `lipmap demo` writes is one.
+    /// ibug_to_*.txt) and optionally head.obj (what `lipmap demo` writes is one), or a plain
+    /// OBJ head with a landmark map: the session's fitted motion is transferred onto it, as
+    /// `lipmap transfer` does.
     #[arg(long, value_delimiter = ',', conflicts_with = "compare")]
     pub heads: Vec<std::path::PathBuf>,
+    /// Landmark maps of the OBJ heads of `--heads`, in their order (eos TOML, 1-based iBUG
+    /// ids); an OBJ head without one takes HEAD.toml or HEAD_map.toml beside it.
+    #[arg(long, value_delimiter = ',', requires = "heads")]
+    pub mapping: Vec<std::path::PathBuf>,
+    /// How the OBJ heads of `--heads` follow the transferred control points.
+    #[arg(long, value_enum, default_value_t = ModeArg::Biharmonic, requires = "heads")]
+    pub transfer_mode: ModeArg,
     /// How the fitted head's P is measured: on the mesh (the foremost upper-lip vertex; the
     /// whole upper lip for clips with a side view) or on side renders of the fitted head,
     /// measured like the side video.
@@ -82,7 +93,8 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     if !a.heads.is_empty() {
         let path = session_path(&a.session);
         let clip = a.clip.as_deref();
-        return run_heads(&path, &a.heads, clip, normalise, &a.output, out);
+        let heads = workflow::heads::load_heads(&a.heads, &a.mapping, a.transfer_mode.into())?;
+        return run_heads(&path, &heads, clip, normalise, &a.output, out);
     }
     // Evaluation fits what the cache lacks and stores it, under the lock; beside an open
     // editor it runs read-only (fits in memory, nothing saved).
@@ -117,7 +129,18 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
             }
         }
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
-        write_tables(&report.tables(), a.output.format(), out)?;
+        // Heads the motion was transferred onto, measured on their own maps, beside the model.
+        let (transferred, warnings) = workflow::transfer::transferred_head_tables(
+            &opened.session,
+            &res,
+            &done,
+            normalise,
+            a.worst,
+        );
+        print_warnings(&warnings);
+        let mut tables: Vec<&crate::eval::Table> = report.tables().to_vec();
+        tables.extend(&transferred);
+        write_tables(&tables, a.output.format(), out)?;
         return Ok(());
     }
     let mut configs = Vec::new();
@@ -145,7 +168,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
 /// the comparison ([`workflow::heads::compare_heads`]).
 fn run_heads(
     session_path: &std::path::Path,
-    heads: &[std::path::PathBuf],
+    heads: &[workflow::heads::Head],
     clip: Option<&str>,
     normalise: workflow::Normalisation,
     output: &FormatArgs,
@@ -153,16 +176,14 @@ fn run_heads(
 ) -> Result<()> {
     let session = workflow::load_session(session_path)?;
     let clips = workflow::select_clips(&session, clip)?;
-    let heads = workflow::heads::load_heads(heads)?;
     let bar = frames_bar(0, "fitting");
-    let report =
-        workflow::heads::compare_heads(&session, &heads, &clips, normalise, &show_on(&bar))
-            .map_err(|e| match e {
-                workflow::Error::NoClips => {
-                    anyhow::Error::new(e).context(session_path.display().to_string())
-                }
-                e => e.into(),
-            })?;
+    let report = workflow::heads::compare_heads(&session, heads, &clips, normalise, &show_on(&bar))
+        .map_err(|e| match e {
+            workflow::Error::NoClips => {
+                anyhow::Error::new(e).context(session_path.display().to_string())
+            }
+            e => e.into(),
+        })?;
     print_warnings(&report.warnings);
     let refs: Vec<&crate::eval::Table> = report.tables.iter().collect();
     write_tables(&refs, output.format(), out)

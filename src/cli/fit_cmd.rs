@@ -191,7 +191,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             fits.failed()
         )?;
         for line in failure_lines(&name, &fits.fits) {
-            eprintln!("{line}");
+            eprintln!("{}", crate::cli::output::terminal_safe(&line));
         }
         let track = session.effective_track(c)?;
         let flags = workflow::flags::clip_flags(&track, &fits.fits, &[], &Default::default());

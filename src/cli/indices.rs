@@ -103,7 +103,7 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
     };
     let bounds = match &a.bounds {
         Some(p) => load_bounds(p)?,
-        None => BoundsTable::default(),
+        None => crate::reference::current().bounds.clone(),
     };
     let tables = match classify_input(input) {
         IndicesInput::Landmarks(p) => {

@@ -9,12 +9,16 @@ pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
 pub mod indices;
+pub mod map_cmd;
 pub mod model_cmd;
 pub mod new;
 pub mod output;
 pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
+pub mod speech_cmd;
+pub mod tables_cmd;
+pub mod transfer_cmd;
 pub mod tui_cmd;
 pub mod validate;
 
@@ -29,6 +33,11 @@ use std::io::Write;
 #[derive(Parser, Debug)]
 #[command(name = "lipmap", version, about, long_about = None)]
 pub struct Cli {
+    /// A folder of reference tables replacing the built-in ones: any of visemes.toml,
+    /// facial_index_bounds.csv, ibug68.csv, keymap.toml (`lipmap tables --out DIR` writes them
+    /// to edit). Default: $LIPMAP_DATA.
+    #[arg(long, global = true, value_name = "DIR")]
+    pub data: Option<std::path::PathBuf>,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -62,9 +71,19 @@ pub enum Command {
     Phones(phones::PhonesArgs),
     /// Check that files parse; prints `ok` or the error for each.
     Validate(validate::ValidateArgs),
+    /// Drive another head (OBJ + landmark map) with a session's fitted motion.
+    Transfer(transfer_cmd::TransferArgs),
     /// Build a 3DMM from pose OBJs, or describe a model.
     #[command(subcommand)]
     Model(model_cmd::ModelCommand),
+    /// Write the built-in reference tables (visemes, index bounds, point names, keys) to edit.
+    Tables(tables_cmd::TablesArgs),
+    /// Suggest a session's landmark map from a few labels, or check it against anatomy.
+    #[command(subcommand)]
+    Map(map_cmd::MapCommand),
+    /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
+    #[command(subcommand)]
+    Speech(speech_cmd::SpeechCommand),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -78,20 +97,30 @@ pub enum Next {
 
 /// Runs one parsed command.
 pub fn run(cli: Cli) -> Result<Next> {
+    let data_keymap = tables_cmd::install_data_folder(cli.data.as_deref())?;
     let command = cli.command;
-    if let Command::Tui(args) = &command {
-        return Ok(Next::OpenTui(OpenTui::of(args), Outcome::Ok));
-    }
-    if let Command::Demo(args) = &command {
-        let stdout = std::io::stdout();
-        return demo_cmd::run(args, &mut stdout.lock());
-    }
-    run_command(command).map(Next::Exit)
+    let next = match &command {
+        Command::Tui(args) => Next::OpenTui(OpenTui::of(args), Outcome::Ok),
+        Command::Demo(args) => {
+            let stdout = std::io::stdout();
+            demo_cmd::run(args, &mut output::TerminalSafe::new(stdout.lock()))?
+        }
+        _ => return run_command(command).map(Next::Exit),
+    };
+    Ok(match next {
+        // `--keymap` names the keys to change for this run; the data folder's are the default.
+        Next::OpenTui(mut open, outcome) => {
+            open.keymap = open.keymap.or(data_keymap);
+            Next::OpenTui(open, outcome)
+        }
+        exit => exit,
+    })
 }
 
 fn run_command(command: Command) -> Result<Outcome> {
     let stdout = std::io::stdout();
-    let mut out = stdout.lock();
+    // Names from files (clips, phones, paths) reach the terminal with control characters escaped.
+    let mut out = output::TerminalSafe::new(stdout.lock());
     match command {
         Command::Convert(args) => {
             let msg = convert::run(&args)?;
@@ -125,8 +154,24 @@ fn run_command(command: Command) -> Result<Outcome> {
             phones::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
+        Command::Transfer(args) => {
+            transfer_cmd::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
         Command::Model(cmd) => {
             model_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Map(cmd) => match map_cmd::run(&cmd, &mut out)? {
+            true => Ok(Outcome::Ok),
+            false => anyhow::bail!("the landmark map has problems"),
+        },
+        Command::Speech(cmd) => {
+            speech_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Tables(args) => {
+            tables_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Validate(args) => {

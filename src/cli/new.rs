@@ -1,16 +1,16 @@
-//! `lipmap new` and `lipmap import`: create a session from frames, tracked landmarks, a phone
-//! alignment, a head mesh, a model and (optionally) a landmark map; add clips or set the map
-//! later.
+//! `lipmap new` and `lipmap import`: the flags that describe a session's inputs, and the
+//! messages; the use cases are `workflow::create`.
 
 use crate::cli::output::plural;
 use crate::cli::phones::tier_choice;
-use crate::fit::FitSettings;
-use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
-use crate::io::{alignment_format, landmark_format, landmark_map_toml, model_source, obj};
+use crate::cli::progress::print_warnings;
 use crate::landmarks::LandmarkSet;
-use crate::model::LandmarkMap;
-use crate::session::{Clip, FramesRef, ModelRef, Session, SessionLock, View};
-use crate::workflow::{check_map_for_fit, check_map_vertices, load_session, session_path};
+use crate::workflow::audio::{AudioInput, AudioSource};
+use crate::workflow::create::{
+    ClipInputs, HeadSet, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs,
+    create_session, import_into_session, map_hint,
+};
+use crate::workflow::session_path;
 use anyhow::{Result, bail};
 use std::path::{Path, PathBuf};
 
@@ -45,9 +45,17 @@ pub struct ClipArgs {
     #[arg(long, allow_hyphen_values = true, requires = "side_frames")]
     pub side_offset: Option<f64>,
     /// Clip name (default: the video's file name, or the frames folder's name; the folder
-    /// above it when the folder is called e.g. `frames` or `images`).
-    #[arg(long, requires = "frames")]
+    /// above it when the folder is called e.g. `frames` or `images`). With `import --audio`
+    /// and no --frames: the existing clip to give the audio to (default: the first).
+    #[arg(long)]
     pub clip: Option<String>,
+    /// The clip's speech as a WAV file (for `lipmap speech`); `video` takes the audio track
+    /// of the clip's video (needs ffmpeg; written beside the session as SESSION.CLIP.wav).
+    #[arg(long, value_name = "FILE.wav|video")]
+    pub audio: Option<PathBuf>,
+    /// Seconds from the front view's frame 0 to the audio's first sample (default 0).
+    #[arg(long, allow_hyphen_values = true, requires = "audio")]
+    pub audio_offset: Option<f64>,
 }
 
 impl ClipArgs {
@@ -56,15 +64,46 @@ impl ClipArgs {
         self.frames.is_some() || self.landmarks.is_some()
     }
 
-    /// The front frames and landmarks paths, which every clip needs.
+    /// The audio flags (`None` without --audio). A file literally named `video` is given as
+    /// `./video`.
+    pub fn audio(&self) -> Option<AudioInput> {
+        self.audio.as_ref().map(|a| AudioInput {
+            source: if a.as_os_str() == "video" {
+                AudioSource::VideoTrack
+            } else {
+                AudioSource::Wav(a.clone())
+            },
+            offset_s: self.audio_offset.unwrap_or(0.0),
+        })
+    }
+
+    /// The clip's inputs for the workflow (`None` when no clip was given).
     ///
     /// # Errors
-    /// Either is missing.
-    pub fn inputs(&self) -> Result<(&Path, &Path)> {
-        match (&self.frames, &self.landmarks) {
-            (Some(f), Some(l)) => Ok((f, l)),
-            _ => bail!("a clip needs --frames and --landmarks"),
+    /// Only one of the frames and the landmarks was given.
+    pub fn inputs(&self) -> Result<Option<ClipInputs>> {
+        if !self.is_given() {
+            return Ok(None);
         }
+        let (Some(frames), Some(landmarks)) = (&self.frames, &self.landmarks) else {
+            bail!("a clip needs --frames and --landmarks");
+        };
+        Ok(Some(ClipInputs {
+            frames: frames.clone(),
+            fps: self.fps,
+            landmarks: landmarks.clone(),
+            alignment: self
+                .alignment
+                .clone()
+                .map(|file| (file, self.tier.as_deref().map(tier_choice))),
+            side: self.side_frames.clone().map(|frames| SideInputs {
+                frames,
+                fps: self.side_fps,
+                offset_s: self.side_offset.unwrap_or(0.0),
+            }),
+            name: self.clip.clone(),
+            audio: self.audio(),
+        }))
     }
 }
 
@@ -96,7 +135,7 @@ pub struct NewArgs {
     pub force: bool,
 }
 
-/// Add a clip to an existing session, and/or set or replace its landmark map.
+/// Add a clip to an existing session, and/or set or replace its landmark map or head mesh.
 #[derive(clap::Args, Debug)]
 pub struct ImportArgs {
     /// Session file or name.
@@ -108,250 +147,134 @@ pub struct ImportArgs {
     /// and any map labelled in the TUI.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
+    /// Make this OBJ the session's head mesh (the one labelled in the TUI's view 2), replacing
+    /// the head it named; the session's map is checked on it.
+    #[arg(long, value_name = "HEAD.obj")]
+    pub head: Option<PathBuf>,
 }
 
-/// Reads one clip's files into a `Clip`, checking them before anything is written.
-///
-/// # Errors
-/// Any unreadable input, naming the file.
-pub fn read_clip(a: &ClipArgs) -> Result<Clip> {
-    let (frames_path, landmarks) = a.inputs()?;
-    let opts = FrameOptions { fps: a.fps, ..FrameOptions::default() };
-    let frames = FrameSource::open(frames_path, &opts)?;
-    if frames_path.is_dir() && a.fps.is_none() {
-        eprintln!("{}", assumed_fps_notice(frames_path));
-    }
-    let source = if frames_path.is_dir() {
-        FramesRef::Images { dir: crate::session::absolute(frames_path) }
-    } else {
-        FramesRef::Video { file: crate::session::absolute(frames_path) }
-    };
-    let mut front = View::new(source, frames.fps());
-    front.size = Some(frames.size());
-    let tracked = landmark_format::read_track(landmarks)?;
-    if tracked.is_empty() {
-        bail!("{}: no frames of landmarks", landmarks.display());
-    }
-    if let Some(last) = tracked.frames.last()
-        && last.frame >= frames.len()
-    {
-        eprintln!(
-            "lipmap: warning: {} has landmarks up to frame {} but {} has {} frames",
-            landmarks.display(),
-            last.frame,
-            frames_path.display(),
-            frames.len()
-        );
-    }
-    let name = a.clip.clone().unwrap_or_else(|| default_clip_name(frames_path));
-    let mut clip = Clip::new(name, front);
-    clip.tracked = tracked;
-    clip.landmarks_file = Some(crate::session::absolute(landmarks));
-    if let Some(al) = &a.alignment {
-        let tier = a.tier.as_deref().map(tier_choice);
-        clip.alignment = Some(alignment_format::read_alignment(al, tier.as_ref())?);
-        clip.alignment_file = Some(crate::session::absolute(al));
-    }
-    if let Some(side) = &a.side_frames {
-        let fps = a.side_fps.unwrap_or(frames.fps());
-        let sopts = FrameOptions { fps: Some(fps), ..FrameOptions::default() };
-        let sf = FrameSource::open(side, &sopts)?;
-        let source = if side.is_dir() {
-            FramesRef::Images { dir: crate::session::absolute(side) }
-        } else {
-            FramesRef::Video { file: crate::session::absolute(side) }
-        };
-        let mut view = View::new(source, sf.fps());
-        view.size = Some(sf.size());
-        view.offset_s = a.side_offset.unwrap_or(0.0);
-        clip.side = Some(view);
-    }
-    Ok(clip)
-}
-
-/// The notice printed when an image folder's frame rate is assumed.
-pub fn assumed_fps_notice(dir: &Path) -> String {
-    format!(
-        "lipmap: note: {} is a folder of images: assuming {DEFAULT_FOLDER_FPS} fps (set it with --fps)",
-        dir.display()
-    )
-}
-
-/// Folder names that say nothing about the clip; the folder above them names it instead.
-const GENERIC_FRAME_DIRS: [&str; 8] =
-    ["frames", "images", "imgs", "img", "png", "jpg", "front", "video"];
-
-/// A clip's default name: a video's file stem, an image folder's name (its parent's when the
-/// folder has a generic name such as `frames`).
-pub fn default_clip_name(frames: &Path) -> String {
-    let abs = crate::session::absolute(frames);
-    let name_of = |p: &Path| p.file_name().map(|s| s.to_string_lossy().into_owned());
-    let name = if abs.is_dir() {
-        match name_of(&abs) {
-            Some(n) if GENERIC_FRAME_DIRS.contains(&n.to_ascii_lowercase().as_str()) => {
-                abs.parent().and_then(name_of).unwrap_or(n)
-            }
-            other => other.unwrap_or_default(),
-        }
-    } else {
-        abs.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
-    };
-    if name.is_empty() { "clip".into() } else { name }
-}
-
+/// Creates the session and says what it holds (warnings go to stderr first).
 pub fn run_new(a: &NewArgs) -> Result<String> {
-    let path = session_path(&a.session);
-    if path.exists() && !a.force {
-        bail!("{}: already exists (use --force to replace it)", path.display());
-    }
-    // Read and check every input before writing anything.
-    let clip = read_clip(&a.clip)?;
-    let model = model_source::load_model(&a.model, a.blendshapes.as_deref())?;
-    let map = a.mapping.as_deref().map(landmark_map_toml::read_landmark_map).transpose()?;
-    if let (Some(map), Some(file)) = (&map, &a.mapping) {
-        check_map_vertices(map, model.num_vertices(), Some(file))?;
-    }
-    let settings = FitSettings { set: a.set, ..FitSettings::default() };
-    if let Some(head) = &a.head {
-        let mesh = obj::read_obj(head)?;
-        if mesh.vertices.len() != model.num_vertices() {
-            eprintln!(
-                "lipmap: warning: {} has {} vertices but the model has {}",
-                head.display(),
-                mesh.vertices.len(),
-                model.num_vertices()
-            );
-        }
-    }
-    let _lock = SessionLock::acquire(&path)?;
-    let mut session = Session::new(&path);
-    session.head_mesh = a.head.as_deref().map(crate::session::absolute);
-    session.model = Some(ModelRef {
-        path: crate::session::absolute(&a.model),
-        blendshapes: a.blendshapes.as_deref().map(crate::session::absolute),
-    });
-    session.landmark_map.file = a.mapping.as_deref().map(crate::session::absolute);
-    session.fit_settings = settings.clone();
-    let frames = clip.tracked.len();
-    let name = clip.name.clone();
-    session.add_clip(clip)?;
-    session.save(&path)?;
+    let Some(clip) = a.clip.inputs()? else { bail!("a clip needs --frames and --landmarks") };
+    let created = create_session(&NewSession {
+        path: session_path(&a.session),
+        clip,
+        head: a.head.clone(),
+        model: a.model.clone(),
+        blendshapes: a.blendshapes.clone(),
+        mapping: a.mapping.clone(),
+        set: a.set,
+        force: a.force,
+    })?;
+    print_warnings(&created.warnings);
+    let path = &created.path;
     let mut msg = format!(
-        "{}: new session, clip `{name}` with {} of landmarks",
+        "{}: new session, clip `{}` with {} of landmarks",
         path.display(),
-        plural(frames, "frame")
+        created.clip.name,
+        plural(created.clip.frames, "frame")
     );
-    match &map {
-        None => msg.push_str(&format!("\nno landmark map yet: {}", map_hint(&path))),
-        Some(m) => match map_problem(m, model.num_vertices(), &settings, &path) {
-            None => msg.push_str(&format!(", {} mapped", plural(m.len(), "landmark"))),
-            Some(problem) => msg.push_str(&format!("\n{problem}")),
-        },
+    match &created.map {
+        MapState::Missing => msg.push_str(&format!("\nno landmark map yet: {}", map_hint(path))),
+        MapState::Usable(n) => msg.push_str(&format!(", {} mapped", plural(*n, "landmark"))),
+        MapState::Problem(problem) => msg.push_str(&format!("\n{problem}")),
     }
     Ok(msg)
 }
 
-/// How to give a session at `path` a map, for messages.
-fn map_hint(path: &Path) -> String {
-    format!(
-        "label the head in the TUI (view 2) or `lipmap import {} --mapping FILE`",
-        path.display()
-    )
-}
-
-/// Why a fit with `settings` cannot use `map` yet, as a message line (`None` when it can).
-fn map_problem(
-    map: &LandmarkMap,
-    n_vertices: usize,
-    settings: &FitSettings,
-    path: &Path,
-) -> Option<String> {
-    match check_map_for_fit(map, n_vertices, settings) {
-        Ok(_) => None,
-        Err(_) if map.is_empty() => {
-            Some(format!("the landmark map maps no landmarks yet: {}", map_hint(path)))
-        }
-        Err(e) => Some(format!("warning: {e}")),
-    }
-}
-
+/// Adds to the session and says what changed.
 pub fn run_import(a: &ImportArgs) -> Result<String> {
-    if !a.clip.is_given() && a.mapping.is_none() {
-        bail!("give a clip to add (--frames and --landmarks) or a landmark map (--mapping FILE)");
+    let clip = a.clip.inputs()?;
+    if clip.is_none() && a.clip.clip.is_some() && a.clip.audio.is_none() {
+        bail!("--clip without --frames names the clip to give --audio to; add --audio FILE.wav");
     }
-    let path = session_path(&a.session);
-    let _lock = SessionLock::acquire(&path)?;
-    let mut session = load_session(&path)?;
-    // Read everything before changing the session, so a bad input changes nothing.
-    let clip = a.clip.is_given().then(|| read_clip(&a.clip)).transpose()?;
+    let imported = import_into_session(&Import {
+        path: session_path(&a.session),
+        audio: if clip.is_none() { a.clip.audio().map(|i| (i, a.clip.clip.clone())) } else { None },
+        clip,
+        mapping: a.mapping.clone(),
+        head: a.head.clone(),
+    })?;
+    print_warnings(&imported.warnings);
+    let path = &imported.path;
     let mut lines = Vec::new();
-    if let Some(file) = &a.mapping {
-        lines.push(set_map_from_file(&mut session, file, &path)?);
+    if let Some(clip) = &imported.clip {
+        lines.push(format!(
+            "{}: added clip `{}` with {} of landmarks",
+            path.display(),
+            clip.name,
+            plural(clip.frames, "frame")
+        ));
     }
-    if let Some(clip) = clip {
-        let frames = clip.tracked.len();
-        let name = clip.name.clone();
-        session.add_clip(clip)?;
-        lines.insert(
-            0,
-            format!(
-                "{}: added clip `{name}` with {} of landmarks",
-                path.display(),
-                plural(frames, "frame")
-            ),
-        );
+    if let Some(map) = &imported.map {
+        lines.push(map_set_message(map, path));
     }
-    session.save(&path)?;
+    if let Some(head) = &imported.head {
+        lines.push(head_set_message(head, path));
+    }
+    if let Some((clip, file)) = &imported.audio {
+        lines.push(format!("{}: clip `{clip}` has audio {}", path.display(), file.display()));
+    }
     Ok(lines.join("\n"))
 }
 
-/// Points the session's map at `file` (checked against the model when the session has one),
-/// dropping any inline map labelled in the TUI and the cached fits made with another map.
-/// Returns the message saying what was replaced.
-fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<String> {
-    let map = landmark_map_toml::read_landmark_map(file)?;
-    let n_vertices = match &session.model {
-        Some(m) => {
-            let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
-            check_map_vertices(&map, n, Some(file))?;
-            Some(n)
+/// What setting a head did, as `import` prints it, and how to label the head next.
+fn head_set_message(head: &HeadSet, path: &Path) -> String {
+    let mut msg = format!(
+        "{}: head mesh set to {} ({} vertices)",
+        path.display(),
+        head.file.display(),
+        head.vertices
+    );
+    if let Some(old) = &head.replaced {
+        msg.push_str(&format!("; replaces {}", old.display()));
+    }
+    let suggest = format!(
+        "label 4-6 landmarks in the TUI (view 2), then `lipmap map suggest {} --out MAP.toml` labels the rest",
+        path.display()
+    );
+    match &head.map_check {
+        None => msg.push_str(&format!("\nno landmark map yet: {suggest}")),
+        Some(check) if check.is_plausible() => {
+            msg.push_str(&format!("\nthe session's map on this head: {}", check.summary()));
         }
-        None => None,
-    };
-    let old = session.landmark_map.clone();
-    let previous = old.resolve().ok().flatten();
-    let file_abs = crate::session::absolute(file);
+        Some(check) => msg.push_str(&format!(
+            "\nthe session's map does not fit this head (labelled on another mesh?): {}\n\
+             relabel: {suggest}",
+            check.summary()
+        )),
+    }
+    msg
+}
+
+/// What setting a map file did, as `import` prints it.
+fn map_set_message(map: &MapSet, path: &Path) -> String {
     let mut msg = format!(
         "{}: landmark map set to {} ({})",
         path.display(),
-        file.display(),
-        plural(map.len(), "landmark")
+        map.file.display(),
+        plural(map.landmarks, "landmark")
     );
-    let mut replaced = Vec::new();
-    if let Some(inline) = old.inline_map() {
-        replaced
-            .push(format!("the map labelled in the TUI ({})", plural(inline.len(), "landmark")));
-    }
-    if let Some(f) = old.file.as_ref().filter(|f| **f != file_abs) {
-        replaced.push(format!("the map file {}", f.display()));
-    }
+    let replaced: Vec<String> = map
+        .replaced
+        .iter()
+        .map(|r| match r {
+            ReplacedMap::Labelled(n) => {
+                format!("the map labelled in the TUI ({})", plural(*n, "landmark"))
+            }
+            ReplacedMap::File(f) => format!("the map file {}", f.display()),
+        })
+        .collect();
     if !replaced.is_empty() {
         msg.push_str(&format!("; replaces {}", replaced.join(" and ")));
     }
-    session.landmark_map.file = Some(file_abs);
-    session.landmark_map.inline = None;
-    // The cache is keyed by the map's file name, not its content: drop fits made with a
-    // different map so a map edited in place is not mistaken for the old one.
-    if previous.is_some_and(|p| p.to_vertex != map.to_vertex) && !session.fit_cache.is_empty() {
-        session.fit_cache.clear();
+    if map.fits_dropped {
         msg.push_str("; cached fits dropped");
     }
-    if let Some(problem) =
-        n_vertices.and_then(|n| map_problem(&map, n, &session.fit_settings, path))
-    {
+    if let Some(problem) = &map.problem {
         msg.push_str(&format!("\n{problem}"));
     }
-    Ok(msg)
+    msg
 }
 
 #[cfg(test)]
@@ -359,18 +282,6 @@ mod tests {
     use super::*;
     use crate::cli::{Cli, Command};
     use clap::Parser;
-
-    #[test]
-    fn clips_are_named_after_the_video_or_the_frames_folder() {
-        let dir = tempfile::tempdir().unwrap();
-        let frames = dir.path().join("carphone").join("frames");
-        std::fs::create_dir_all(&frames).unwrap();
-        let takes = dir.path().join("take_03");
-        std::fs::create_dir_all(&takes).unwrap();
-        assert_eq!(default_clip_name(&frames), "carphone");
-        assert_eq!(default_clip_name(&takes), "take_03");
-        assert_eq!(default_clip_name(Path::new("clips/s2_front.mp4")), "s2_front");
-    }
 
     #[test]
     fn import_takes_a_map_alone_and_new_still_needs_a_clip() {
@@ -386,5 +297,9 @@ mod tests {
         let Command::New(a) = Cli::try_parse_from(new).unwrap().command else { panic!() };
         assert!(a.mapping.is_none() && a.clip.is_given());
         assert!(Cli::try_parse_from(["lipmap", "new", "s", "--model", "m"]).is_err());
+        // A head alone is an import too.
+        let cli = Cli::try_parse_from(["lipmap", "import", "s", "--head", "h.obj"]).unwrap();
+        let Command::Import(a) = cli.command else { panic!("not import") };
+        assert_eq!(a.head.as_deref(), Some(Path::new("h.obj")));
     }
 }

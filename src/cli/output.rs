@@ -64,6 +64,93 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
     Ok(())
 }
 
+/// `text` with every control character (C0, DEL, C1) spelt as an escape (`\x1b`, `\n`,
+/// `\u{9b}`), so a clip name, phone label or path from a file cannot move the cursor, clear
+/// the screen or forge a line on the terminal. Every name the command line prints goes
+/// through here (directly, or through [`TerminalSafe`] on stdout).
+pub fn terminal_safe(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(char::is_control) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        push_escaped(&mut out, c);
+    }
+    std::borrow::Cow::Owned(out)
+}
+
+fn push_escaped(out: &mut String, c: char) {
+    match c {
+        '\n' => out.push_str("\\n"),
+        '\t' => out.push_str("\\t"),
+        '\r' => out.push_str("\\r"),
+        c if (c as u32) < 0x80 && c.is_control() => out.push_str(&format!("\\x{:02x}", c as u32)),
+        c if c.is_control() => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+        c => out.push(c),
+    }
+}
+
+/// A writer that passes text through [`terminal_safe`] line by line, keeping the line breaks
+/// and tabs the command itself writes: every command's stdout goes through one.
+pub struct TerminalSafe<W: Write> {
+    inner: W,
+    /// Bytes of an unfinished UTF-8 character (a write may split one).
+    pending: Vec<u8>,
+}
+
+impl<W: Write> TerminalSafe<W> {
+    pub fn new(inner: W) -> Self {
+        Self { inner, pending: Vec::new() }
+    }
+
+    fn write_text(&mut self, text: &str) -> std::io::Result<()> {
+        let mut out = String::with_capacity(text.len());
+        for c in text.chars() {
+            if c == '\n' || c == '\t' {
+                out.push(c);
+            } else {
+                push_escaped(&mut out, c);
+            }
+        }
+        self.inner.write_all(out.as_bytes())
+    }
+}
+
+impl<W: Write> Drop for TerminalSafe<W> {
+    fn drop(&mut self) {
+        let _ = self.flush();
+    }
+}
+
+impl<W: Write> Write for TerminalSafe<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.pending.extend_from_slice(buf);
+        let bytes = std::mem::take(&mut self.pending);
+        match std::str::from_utf8(&bytes) {
+            Ok(text) => self.write_text(text)?,
+            Err(e) => {
+                let (good, rest) = bytes.split_at(e.valid_up_to());
+                self.write_text(std::str::from_utf8(good).unwrap_or_default())?;
+                if e.error_len().is_some() {
+                    // Not UTF-8 at all: shown lossily rather than sent raw.
+                    self.write_text(&String::from_utf8_lossy(rest))?;
+                } else {
+                    self.pending = rest.to_vec();
+                }
+            }
+        }
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if !self.pending.is_empty() {
+            let rest = std::mem::take(&mut self.pending);
+            self.write_text(&String::from_utf8_lossy(&rest))?;
+        }
+        self.inner.flush()
+    }
+}
+
 /// `n` and the noun, plural when `n` is not 1: "1 frame", "2 frames", "0 landmarks".
 pub fn plural(n: usize, noun: &str) -> String {
     if n == 1 { format!("{n} {noun}") } else { format!("{n} {noun}s") }
@@ -164,6 +251,21 @@ pub fn require_some_fit(fits: &[(String, Vec<crate::fit::FrameFit>)]) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn control_characters_in_names_are_escaped() {
+        assert_eq!(terminal_safe("s1 ok"), "s1 ok");
+        assert_eq!(terminal_safe("evil\x1b[2J\nfake\u{9b}"), "evil\\x1b[2J\\nfake\\u{9b}");
+        let mut buf = Vec::new();
+        {
+            let mut w = TerminalSafe::new(&mut buf);
+            w.write_all(b"clip \x1b[2J\tok\n").unwrap();
+            // A C1 control split across two writes is still caught.
+            w.write_all(&[0xc2]).unwrap();
+            w.write_all(&[0x9b, b'\n']).unwrap();
+        }
+        assert_eq!(String::from_utf8(buf).unwrap(), "clip \\x1b[2J\tok\n\\u{9b}\n");
+    }
     use crate::fit::FrameFit;
 
     fn fit(frame: usize, failed: Option<&str>, rms: f64) -> FrameFit {

@@ -4,11 +4,15 @@
 //! point's source (the values `eval` compares with the head's P).
 
 use crate::cli::output::{FormatArgs, write_tables};
+use crate::cli::progress::print_warnings;
 use crate::eval::{Cell, Table};
 use crate::landmarks::PointSource;
 use crate::math::Point2;
-use crate::measure::profile::{Facing, NoseLength, ProfileSetup, Rect, ReferenceLine, Threshold};
-use crate::workflow::{self, PROFILE_SETUP_KEY, open_for_edit, select_clips};
+use crate::measure::profile::Facing;
+use crate::workflow::profile_edit::{
+    ClipProfile, ProfileCorrections, ProfileOverrides, all_failed_reason, edit_profiles,
+};
+use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::{Result, bail};
 use std::io::Write;
 
@@ -72,146 +76,102 @@ fn parse_correction(s: &str) -> Result<(usize, Point2), String> {
     Ok((frame, Point2::new(x, y)))
 }
 
+/// Runs `profile`: the edit (`workflow::profile_edit`), the session saved, one table per clip.
+///
+/// # Errors
+/// Bad overrides or corrections, session errors, and every front frame without a P value
+/// (one line with the reasons).
 pub fn run(a: &ProfileArgs, out: &mut dyn Write) -> Result<()> {
     let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(&a.session)?;
     let clips = select_clips(&session, a.clip.as_deref())?;
-    let editing = !a.correct.is_empty() || !a.uncorrect.is_empty();
-    if editing {
-        check_corrections(&session, &clips, a)?;
-    }
-    let mut tables = Vec::new();
-    for c in clips {
-        if session.clips[c].side.is_none() {
-            eprintln!("lipmap: clip `{}` has no side view; skipped", session.clips[c].name);
-            continue;
-        }
-        if a.reset {
-            session.clips[c].extensions.remove(PROFILE_SETUP_KEY);
-        }
-        let mut setup = workflow::profile_setup(&session, c)?;
-        apply_overrides(&mut setup, a)?;
-        session.clips[c].extensions.insert(PROFILE_SETUP_KEY.into(), serde_json::to_value(&setup)?);
-        if editing {
-            let n_side = session.open_side_frames(c, 1)?.map_or(0, |f| f.len());
-            for &f in &a.uncorrect {
-                if session.clear_profile_correction(c, f)?.is_none() {
-                    eprintln!("lipmap: side-view frame {f} had no correction");
-                }
-            }
-            for &(f, p) in &a.correct {
-                if f >= n_side {
-                    bail!("--correct: side-view frame {f} does not exist ({n_side} frames)");
-                }
-                session.set_profile_correction(c, f, p)?;
-            }
-        }
-        let n = workflow::clip_length(&session, c)?;
-        let Some((_, points)) = workflow::side_view_points(&session, c, n)? else { continue };
-        let p: Vec<Option<f64>> = points.iter().map(workflow::SidePoint::p).collect();
-        let p = if a.min_max { crate::measure::min_max_normalise(&p).unwrap_or(p) } else { p };
-        let name = session.clips[c].name.clone();
-        let failed = p.iter().filter(|v| v.is_none()).count();
-        let corrected = session.clips[c].profile_corrections.len();
-        let mut t = Table::new(
-            format!("side-view protrusion: {name}"),
-            ["frame", "side frame", "x", "y", "P", "source"].map(String::from).to_vec(),
-        );
-        let mut reasons = std::collections::BTreeMap::<String, usize>::new();
-        for (f, (v, sp)) in p.iter().zip(&points).enumerate() {
-            let xy = sp.point.as_ref().and_then(|q| q.upper_lip_px);
-            let source = match &sp.point {
-                None => "none".to_string(),
-                Some(q) => match &q.failed {
-                    Some(why) => {
-                        *reasons.entry(why.clone()).or_default() += 1;
-                        "failed".to_string()
-                    }
-                    None if q.source == PointSource::Corrected => "corrected".to_string(),
-                    None => "automatic".to_string(),
-                },
-            };
-            t.push_row(vec![
-                Cell::Int(f as i64),
-                sp.side_frame.map_or(Cell::Empty, |k| Cell::Int(k as i64)),
-                Cell::num(xy.map(|q| q.x)),
-                Cell::num(xy.map(|q| q.y)),
-                Cell::num(*v),
-                Cell::Text(source),
-            ]);
-        }
-        for (why, count) in reasons {
-            t.notes.push(format!("{count} frames failed: {why}"));
-        }
-        t.notes.push(format!("{corrected} side-view frames corrected by hand"));
-        t.notes.push(format!(
-            "crop {},{},{},{}; line {:.1},{:.1} to {:.1},{:.1}; facing {:?}; {failed} of {n} frames without a value",
-            setup.crop.x,
-            setup.crop.y,
-            setup.crop.width,
-            setup.crop.height,
-            setup.reference_line.a.x,
-            setup.reference_line.a.y,
-            setup.reference_line.b.x,
-            setup.reference_line.b.y,
-            setup.facing
-        ));
-        tables.push(t);
-    }
+    let overrides = overrides_of(a)?;
+    let corrections =
+        ProfileCorrections { correct: a.correct.clone(), uncorrect: a.uncorrect.clone() };
+    let edit = edit_profiles(&mut session, &clips, &overrides, &corrections)?;
+    print_warnings(&edit.warnings);
+    let tables: Vec<Table> = edit.clips.iter().map(|c| clip_table(c, a.min_max)).collect();
     session.save(&path)?;
-    write_tables(&tables.iter().collect::<Vec<_>>(), a.output.format(), out)
-}
-
-/// Refuses corrections that could land on the wrong clip or contradict each other, before
-/// anything is changed.
-fn check_corrections(
-    session: &crate::session::Session,
-    clips: &[usize],
-    a: &ProfileArgs,
-) -> Result<()> {
-    let with_side = clips.iter().filter(|&&c| session.clips[c].side.is_some()).count();
-    if with_side == 0 {
-        bail!("--correct/--uncorrect: no selected clip has a side view");
-    }
-    if with_side > 1 {
-        bail!("--correct/--uncorrect: {with_side} clips have a side view; choose one with --clip");
-    }
-    if let Some(&(f, _)) = a.correct.iter().find(|(f, _)| a.uncorrect.contains(f)) {
-        bail!("side-view frame {f} is both corrected and uncorrected");
+    write_tables(&tables.iter().collect::<Vec<_>>(), a.output.format(), out)?;
+    if let Some(reason) = all_failed_reason(&edit) {
+        bail!("{reason}");
     }
     Ok(())
 }
 
-fn apply_overrides(setup: &mut ProfileSetup, a: &ProfileArgs) -> Result<()> {
-    if let Some(c) = &a.crop {
-        if c.len() != 4 || c[2] == 0 || c[3] == 0 {
-            bail!("--crop needs a positive width and height, got {c:?}");
-        }
-        setup.crop = Rect::new(c[0], c[1], c[2], c[3]);
+/// The table of one clip's side-view points.
+fn clip_table(c: &ClipProfile, min_max: bool) -> Table {
+    let p: Vec<Option<f64>> = c.points.iter().map(workflow::SidePoint::p).collect();
+    let p = if min_max { crate::measure::min_max_normalise(&p).unwrap_or(p) } else { p };
+    let failed = p.iter().filter(|v| v.is_none()).count();
+    let mut t = Table::new(
+        format!("side-view protrusion: {}", c.name),
+        ["frame", "side frame", "x", "y", "P", "source"].map(String::from).to_vec(),
+    );
+    let mut reasons = std::collections::BTreeMap::<String, usize>::new();
+    for (f, (v, sp)) in p.iter().zip(&c.points).enumerate() {
+        let xy = sp.point.as_ref().and_then(|q| q.upper_lip_px);
+        let source = match &sp.point {
+            None => "none".to_string(),
+            Some(q) => match &q.failed {
+                Some(why) => {
+                    *reasons.entry(why.clone()).or_default() += 1;
+                    "failed".to_string()
+                }
+                None if q.source == PointSource::Corrected => "corrected".to_string(),
+                None => "automatic".to_string(),
+            },
+        };
+        t.push_row(vec![
+            Cell::Int(f as i64),
+            sp.side_frame.map_or(Cell::Empty, |k| Cell::Int(k as i64)),
+            Cell::num(xy.map(|q| q.x)),
+            Cell::num(xy.map(|q| q.y)),
+            Cell::num(*v),
+            Cell::Text(source),
+        ]);
     }
-    if let Some(l) = &a.line {
-        if l.len() != 4 {
-            bail!("--line needs x1,y1,x2,y2, got {l:?}");
-        }
-        let (p, q) = (Point2::new(l[0], l[1]), Point2::new(l[2], l[3]));
-        if (p - q).norm() < 1e-9 {
-            bail!("--line needs two distinct points, got {l:?}");
-        }
-        setup.reference_line = ReferenceLine { a: p, b: q };
+    for (why, count) in reasons {
+        t.notes.push(format!("{count} frames failed: {why}"));
     }
-    if let Some(f) = a.facing {
-        setup.facing = match f {
+    t.notes.push(format!("{} side-view frames corrected by hand", c.corrected));
+    let s = &c.setup;
+    t.notes.push(format!(
+        "crop {},{},{},{}; line {:.1},{:.1} to {:.1},{:.1}; facing {:?}; {failed} of {} frames without a value",
+        s.crop.x,
+        s.crop.y,
+        s.crop.width,
+        s.crop.height,
+        s.reference_line.a.x,
+        s.reference_line.a.y,
+        s.reference_line.b.x,
+        s.reference_line.b.y,
+        s.facing,
+        p.len()
+    ));
+    t
+}
+
+/// The override flags as the use case takes them (shapes checked here, values there).
+fn overrides_of(a: &ProfileArgs) -> Result<ProfileOverrides> {
+    let crop = match &a.crop {
+        None => None,
+        Some(c) if c.len() == 4 => Some([c[0], c[1], c[2], c[3]]),
+        Some(c) => bail!("--crop needs x,y,width,height, got {c:?}"),
+    };
+    let line = match &a.line {
+        None => None,
+        Some(l) if l.len() == 4 => Some((Point2::new(l[0], l[1]), Point2::new(l[2], l[3]))),
+        Some(l) => bail!("--line needs x1,y1,x2,y2, got {l:?}"),
+    };
+    Ok(ProfileOverrides {
+        reset: a.reset,
+        crop,
+        line,
+        facing: a.facing.map(|f| match f {
             FacingArg::Left => Facing::Left,
             FacingArg::Right => Facing::Right,
-        };
-    }
-    if let Some(t) = a.threshold {
-        setup.threshold = Threshold::Manual(t);
-    }
-    if let Some(n) = a.nose_px {
-        if !(n.is_finite() && n > 0.0) {
-            bail!("--nose-px must be a positive length, got {n}");
-        }
-        setup.nose = NoseLength::Px(n);
-    }
-    Ok(())
+        }),
+        threshold: a.threshold,
+        nose_px: a.nose_px,
+    })
 }

@@ -50,6 +50,10 @@ pub fn classify(path: &Path) -> FileKind {
     if name.ends_with(".lipmap.json") {
         return FileKind::Session;
     }
+    // A lipmap model file is known by its magic, whatever its name.
+    if crate::io::model_file::is_model_file(path) {
+        return FileKind::Model;
+    }
     if makehuman_target::is_target_file(path) {
         return FileKind::Target;
     }
@@ -62,7 +66,7 @@ pub fn classify(path: &Path) -> FileKind {
         Some("bin" | "npz" | "npy" | "lipmodel") => FileKind::Model,
         Some("toml") => FileKind::LandmarkMap,
         Some("txt") => {
-            let head = std::fs::read(path)
+            let head = crate::io::input::read_input(path)
                 .map(|b| String::from_utf8_lossy(&b[..b.len().min(4096)]).into_owned());
             if head.is_ok_and(|t| t.contains("[landmark_mappings]")) {
                 FileKind::LandmarkMap
@@ -95,7 +99,12 @@ pub fn validate_file(path: &Path) -> Result<String> {
     Ok(match classify(path) {
         FileKind::Session => {
             let s = Session::load(path)?;
-            format!("session, {}", plural(s.clips.len(), "clip"))
+            let map = match crate::workflow::map::check_session_map(&s) {
+                Ok(Some(check)) => format!("; {}", check.summary()),
+                Ok(None) => String::new(),
+                Err(e) => format!("; map not checked: {e}"),
+            };
+            format!("session, {}{map}", plural(s.clips.len(), "clip"))
         }
         FileKind::Landmarks => {
             let t = landmark_format::read_track(path)?;
@@ -107,6 +116,9 @@ pub fn validate_file(path: &Path) -> Result<String> {
         }
         FileKind::Mesh => {
             let m = obj::read_obj(path)?;
+            if m.faces.is_empty() {
+                anyhow::bail!("{}: a mesh with no faces", path.display());
+            }
             format!(
                 "mesh, {}, {}",
                 plural_vertices(m.vertices.len()),
@@ -114,7 +126,11 @@ pub fn validate_file(path: &Path) -> Result<String> {
             )
         }
         FileKind::Model => {
-            let m = model_source::load_model(path, None)?;
+            let m = match model_source::load_model(path, None) {
+                Ok(m) => m,
+                // Blendshapes share the model files' names (.bin, .npy, folders).
+                Err(e) => return validate_blendshapes(path).ok_or(e)?,
+            };
             format!(
                 "model, {}, {}, {}",
                 plural_vertices(m.num_vertices()),
@@ -145,6 +161,42 @@ pub fn validate_file(path: &Path) -> Result<String> {
             format!("{what}, {} at {fps}, {w}x{h}", plural(f.len(), "frame"))
         }
     })
+}
+
+/// Checks `path` as expression blendshapes (an eos `.bin`, or a folder of MakeHuman
+/// targets); `None` when it is neither, so the model error stands.
+fn validate_blendshapes(path: &Path) -> Option<Result<String>> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if path.is_file() && ext.as_deref() == Some("bin") {
+        let parsed = crate::io::eos_bin::read_eos_blendshapes(path);
+        // Neither a model nor blendshapes: the model's error is the one to show.
+        let e = parsed.ok()?;
+        let described = format!(
+            "blendshapes, {}, {}",
+            plural(e.deltas.ncols(), "expression"),
+            plural_vertices(e.deltas.nrows() / 3)
+        );
+        return Some(Ok(described));
+    }
+    if !path.is_dir() {
+        return None;
+    }
+    let mut targets: Vec<PathBuf> = std::fs::read_dir(path)
+        .ok()?
+        .flatten()
+        .map(|d| d.path())
+        .filter(|p| makehuman_target::is_target_file(p))
+        .collect();
+    if targets.is_empty() {
+        return None;
+    }
+    targets.sort();
+    let checked = targets.iter().try_for_each(|t| makehuman_target::read_target(t).map(drop));
+    Some(
+        checked
+            .map(|()| format!("blendshape folder, {}", plural(targets.len(), "target")))
+            .map_err(Into::into),
+    )
 }
 
 fn plural_vertices(n: usize) -> String {

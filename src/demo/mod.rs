@@ -30,27 +30,35 @@
 //!   landmark-only P. Between landmark vertices the lip can be further forward, so `p` moves
 //!   a few per cent differently from `p_lip`.
 
+mod camera_motion;
 pub mod coart;
 pub mod corpus;
 pub mod head;
 pub mod lexicon;
 pub mod speakers;
+mod tracker;
+mod truth;
 pub mod visemes;
 pub mod voice;
 
+pub use camera_motion::SIDE_BACKGROUND;
+use camera_motion::{frame_cameras, head_motion};
+pub use tracker::InjectedError;
+use tracker::{points_to_track, simulate_tracker};
+use truth::{TruthRow, format_errors, format_truth};
+
 use crate::io::model_file::{Precision, write_model_file};
-use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, Track};
+use crate::landmarks::N_LANDMARKS;
 use crate::math::{Point2, Point3, Vector3};
 use crate::measure::{MeshMeasureOptions, measure_points, measure_shape};
 use crate::model::pca::{Keep, build_pca_from_shapes};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
-use crate::render::{Camera, RenderOptions, View, render_mesh};
+use crate::render::{Camera, RenderOptions, render_mesh};
 use anyhow::{Context, Result};
 use head::Head;
 use image::codecs::png::{CompressionType, FilterType, PngEncoder};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
-use rand_distr::{Distribution, Normal};
 use rayon::prelude::*;
 use serde::Serialize;
 use speakers::{MouthWarp, Speaker, SpeakerSpec};
@@ -117,20 +125,6 @@ impl Default for DemoOptions {
     }
 }
 
-/// One injected tracker error.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct InjectedError {
-    pub frame: usize,
-    /// `swap` (two points exchanged) or `jump` (one point displaced).
-    pub kind: String,
-    pub point: usize,
-    /// The other point of a swap.
-    pub other: Option<usize>,
-    /// Displacement of a jump, pixels.
-    pub dx: f64,
-    pub dy: f64,
-}
-
 /// Files of one sentence.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ClipOutput {
@@ -182,79 +176,6 @@ pub struct DemoOutput {
     pub speakers: Vec<SpeakerOutput>,
 }
 
-/// The pose of the head in one frame: rotation angles (degrees) and translation (mm).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct HeadMotion {
-    yaw: f64,
-    pitch: f64,
-    roll: f64,
-    t: Vector3,
-}
-
-/// Smooth head motion: a few degrees and about a millimetre, as a seated reader moves.
-fn head_motion(rng: &mut StdRng, n_frames: usize, fps: f64) -> Vec<HeadMotion> {
-    let mut wave = |amp: f64, freq: f64| {
-        let a = amp * rng.random_range(0.6..1.0);
-        let f = freq * rng.random_range(0.8..1.25);
-        let phase = rng.random_range(0.0..std::f64::consts::TAU);
-        move |t: f64| a * (std::f64::consts::TAU * f * t + phase).sin()
-    };
-    // Pitch and forward motion (z) are kept smaller than the rest: in the side view they
-    // shift the lips relative to a reference line set once per clip, and a real profile
-    // recording would be rejected if the head moved that much.
-    let (yaw, pitch, roll) = (wave(2.5, 0.35), wave(0.8, 0.5), wave(1.5, 0.27));
-    let (tx, ty, tz) = (wave(1.0, 0.3), wave(0.8, 0.45), wave(0.4, 0.25));
-    (0..n_frames)
-        .map(|f| {
-            let t = f as f64 / fps;
-            HeadMotion {
-                yaw: yaw(t),
-                pitch: pitch(t),
-                roll: roll(t),
-                t: Vector3::new(tx(t), ty(t), tz(t)),
-            }
-        })
-        .collect()
-}
-
-/// Model point (mm) put at the image centre, and pixels per mm at 480 rows.
-const FRONT_CENTRE: [f64; 3] = [0.0, -5.0, 70.0];
-const SIDE_CENTRE: [f64; 3] = [0.0, 0.0, 60.0];
-const FRONT_PX_PER_MM_AT_480: f64 = 1.75;
-const SIDE_PX_PER_MM_AT_480: f64 = 2.0;
-/// Side frames: a dark plain background so a threshold separates the face's silhouette.
-pub const SIDE_BACKGROUND: [u8; 3] = [22, 26, 34];
-
-/// The front and side cameras of a frame.
-fn frame_cameras(m: &HeadMotion, width: u32, height: u32) -> (Camera, Camera) {
-    let r = crate::fit::camera::rotation_from_yaw_pitch_roll_deg(m.yaw, m.pitch, m.roll);
-    let k = height as f64 / 480.0;
-    let mut front = Camera::looking_at(
-        View::Front,
-        &r,
-        0.0,
-        &Point3::from(FRONT_CENTRE),
-        FRONT_PX_PER_MM_AT_480 * k,
-        width,
-        height,
-    );
-    front.pose.tx += m.t.x;
-    front.pose.ty += m.t.y;
-    let mut side = Camera::looking_at(
-        View::Side,
-        &r,
-        0.0,
-        &Point3::from(SIDE_CENTRE),
-        SIDE_PX_PER_MM_AT_480 * k,
-        width,
-        height,
-    );
-    let ts = View::Side.rotation() * m.t;
-    side.pose.tx += ts.x;
-    side.pose.ty += ts.y;
-    (front, side)
-}
-
 /// A speaker's articulated mesh vertices for one mouth shape.
 fn speaker_vertices(
     head: &Head,
@@ -276,166 +197,16 @@ fn write_landmark_map_toml(map: &LandmarkMap, path: &Path) -> Result<()> {
     for (l, v) in map.pairs() {
         let _ = writeln!(s, "{} = {} # {}", l + 1, v, crate::landmarks::landmark_name(l));
     }
-    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+    crate::io::atomic::write_atomic_bytes(path, s.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 fn write_png(img: &image::RgbImage, path: &Path) -> Result<()> {
-    let file =
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?;
-    let w = std::io::BufWriter::new(file);
-    let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
-    img.write_with_encoder(enc).with_context(|| format!("encoding {}", path.display()))
-}
-
-/// Adds tracker noise and gross errors to the true landmarks of a clip; returns the tracked
-/// track and the errors injected.
-fn simulate_tracker(
-    truth: &[Vec<Point2>],
-    fps: f64,
-    noise_px: f64,
-    error_rate: f64,
-    rng: &mut StdRng,
-) -> (Track, Vec<InjectedError>) {
-    let n = truth.len();
-    let normal = Normal::new(0.0, noise_px.max(0.0))
-        .unwrap_or_else(|_| Normal::new(0.0, 0.0).expect("σ = 0"));
-    let mut frames: Vec<Vec<Point2>> = truth
-        .iter()
-        .map(|pts| {
-            pts.iter()
-                .map(|p| Point2::new(p.x + normal.sample(rng), p.y + normal.sample(rng)))
-                .collect()
-        })
-        .collect();
-    let mut errors = Vec::new();
-    if n >= 5 && error_rate > 0.0 {
-        let count = ((error_rate * n as f64).round() as usize).max(1);
-        let mut candidates: Vec<usize> = (2..n - 2).collect();
-        for _ in 0..count.min(candidates.len()) {
-            let frame = candidates.swap_remove(rng.random_range(0..candidates.len()));
-            let pts = &mut frames[frame];
-            const PAIRS: [(usize, usize); 8] =
-                [(61, 67), (62, 66), (63, 65), (51, 57), (50, 58), (52, 56), (48, 54), (60, 64)];
-            let (a, b) = PAIRS[rng.random_range(0..PAIRS.len())];
-            // A swap of two points that nearly coincide (a closed mouth) is no error at all:
-            // jump a point instead.
-            let err = if rng.random_bool(0.5) && (pts[a] - pts[b]).norm() > 4.0 {
-                pts.swap(a, b);
-                InjectedError {
-                    frame,
-                    kind: "swap".into(),
-                    point: a,
-                    other: Some(b),
-                    dx: 0.0,
-                    dy: 0.0,
-                }
-            } else {
-                let point = rng.random_range(48..68);
-                let dist = rng.random_range(10.0..25.0);
-                let angle = rng.random_range(0.0..std::f64::consts::TAU);
-                let (dx, dy) = (dist * angle.cos(), dist * angle.sin());
-                pts[point] += crate::math::Vector2::new(dx, dy);
-                InjectedError { frame, kind: "jump".into(), point, other: None, dx, dy }
-            };
-            errors.push(err);
-        }
-        errors.sort_by_key(|e| e.frame);
-    }
-    (points_to_track(&frames, fps), errors)
-}
-
-fn points_to_track(frames: &[Vec<Point2>], fps: f64) -> Track {
-    let round = |v: f64| (v * 1000.0).round() / 1000.0;
-    Track::new(
-        frames
-            .iter()
-            .enumerate()
-            .map(|(f, pts)| {
-                let points =
-                    pts.iter().map(|p| LandmarkPoint::tracked(round(p.x), round(p.y))).collect();
-                let mut fl = FrameLandmarks::new(f, points);
-                fl.timestamp = Some(f as f64 / fps);
-                fl
-            })
-            .collect(),
-    )
-}
-
-/// One frame's truth row.
-struct TruthRow {
-    time: f64,
-    phone: String,
-    viseme: String,
-    w: f64,
-    h: f64,
-    /// P of the foremost mapped upper-lip landmark vertex.
-    p: f64,
-    /// P of the whole upper lip's foremost point: the side view's truth.
-    p_lip: f64,
-    w_img: f64,
-    h_img: f64,
-    motion: HeadMotion,
-    front: Camera,
-    side: Camera,
-    lip_side_u: f64,
-    ref_side_u: f64,
-    articulation: Articulation,
-}
-
-const TRUTH_HEADER: &str = "frame,time,phone,viseme,w,h,p,p_lip,w_img,h_img,yaw,pitch,roll,scale,tx,ty,\
-side_scale,side_tx,side_ty,lip_side_u,ref_side_u,head_tx_mm,head_ty_mm,head_tz_mm";
-
-fn format_truth(rows: &[TruthRow]) -> String {
-    let mut s = String::from(TRUTH_HEADER);
-    for name in visemes::PARAM_NAMES {
-        s.push(',');
-        s.push_str(name);
-    }
-    s.push('\n');
-    for (f, r) in rows.iter().enumerate() {
-        let (fp, sp) = (&r.front.pose, &r.side.pose);
-        let _ = write!(
-            s,
-            "{f},{:.6},{},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.4},{:.4},{:.4},{:.6},{:.4},{:.4},{:.6},{:.4},{:.4},{:.3},{:.3},{:.4},{:.4},{:.4}",
-            r.time,
-            r.phone,
-            r.viseme,
-            r.w,
-            r.h,
-            r.p,
-            r.p_lip,
-            r.w_img,
-            r.h_img,
-            r.motion.yaw,
-            r.motion.pitch,
-            r.motion.roll,
-            fp.s,
-            fp.tx,
-            fp.ty,
-            sp.s,
-            sp.tx,
-            sp.ty,
-            r.lip_side_u,
-            r.ref_side_u,
-            r.motion.t.x,
-            r.motion.t.y,
-            r.motion.t.z
-        );
-        for v in r.articulation.to_array() {
-            let _ = write!(s, ",{v:.5}");
-        }
-        s.push('\n');
-    }
-    s
-}
-
-fn format_errors(errors: &[InjectedError]) -> String {
-    let mut s = String::from("frame,kind,point,other,dx,dy\n");
-    for e in errors {
-        let other = e.other.map_or(String::new(), |o| o.to_string());
-        let _ = writeln!(s, "{},{},{},{},{:.3},{:.3}", e.frame, e.kind, e.point, other, e.dx, e.dy);
-    }
-    s
+    crate::io::atomic::write_atomic(path, |w| {
+        let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
+        img.write_with_encoder(enc).map_err(std::io::Error::other)
+    })
+    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// A frame to render: which clip, which frame, the mouth shape and the cameras.
@@ -620,10 +391,10 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
                 &true_csv,
             )?;
             let truth_csv = dir.join("truth.csv");
-            std::fs::write(&truth_csv, format_truth(&rows))
+            crate::io::atomic::write_atomic_bytes(&truth_csv, format_truth(&rows).as_bytes())
                 .with_context(|| format!("writing {}", truth_csv.display()))?;
             let errors_csv = dir.join("errors.csv");
-            std::fs::write(&errors_csv, format_errors(&errors))
+            crate::io::atomic::write_atomic_bytes(&errors_csv, format_errors(&errors).as_bytes())
                 .with_context(|| format!("writing {}", errors_csv.display()))?;
             let (front_dir, side_dir) = if opts.write_frames {
                 let fd = dir.join("front");
@@ -714,7 +485,8 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         speakers: speaker_outputs,
     };
     let json = serde_json::to_string_pretty(&output)?;
-    std::fs::write(&manifest, json).with_context(|| format!("writing {}", manifest.display()))?;
+    crate::io::atomic::write_atomic_bytes(&manifest, json.as_bytes())
+        .with_context(|| format!("writing {}", manifest.display()))?;
     Ok(output)
 }
 

@@ -6,15 +6,18 @@
 //! the defaults and how they were chosen.
 
 mod alternating;
+pub mod assignment;
 pub mod camera;
 pub mod clip;
 mod flags;
 mod joint;
+pub mod map_suggest;
 pub mod pipeline;
 pub mod result;
 pub mod shape;
 mod shapes;
 pub mod suggest;
+pub mod thin_plate;
 
 pub use camera::OrthoPose;
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};

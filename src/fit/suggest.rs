@@ -54,6 +54,15 @@ pub enum SuggestError {
     NoVertices,
 }
 
+/// The triangles whose corners are all `kept` (when given): the head's surface for drawing
+/// (its labelable vertices) or what hides a vertex from suggestions (see
+/// [`crate::io::obj::occluding_vertices`]). A figure's helper shells (hair, clothing proxies)
+/// sit in front of the skin; they must hide nothing.
+pub fn surface_triangles(triangles: &[[u32; 3]], kept: Option<&[bool]>) -> Vec<[u32; 3]> {
+    let ok = |v: u32| kept.is_none_or(|e| e.get(v as usize) == Some(&true));
+    triangles.iter().copied().filter(|t| t.iter().all(|&v| ok(v))).collect()
+}
+
 /// Estimates the frame's camera from the mapped landmarks (visible ones only) of `vertices`.
 ///
 /// # Errors
@@ -184,6 +193,37 @@ fn vertex_at(
         .max_by(|a, b| projected[a.0].1.total_cmp(&projected[b.0].1))
 }
 
+/// The head seen through a frame's camera: every vertex's image position and depth, which
+/// vertices are visible (and eligible), and the face's size in the image (px, at least 100).
+pub(super) struct SeenHead {
+    pub projected: Vec<(Point2, Real)>,
+    pub visible: Vec<bool>,
+    pub face_px: Real,
+}
+
+/// Sees `head` through `pose`: only the face's surroundings matter, and a tenth of a model
+/// unit's worth of pixels in depth separates a surface from what lies behind it.
+pub(super) fn see_head(
+    head: &SuggestHead,
+    frame: &FrameLandmarks,
+    pose: &OrthoPose,
+    image_height: Real,
+) -> SeenHead {
+    let face_px = face_size_px(frame).max(100.0);
+    let projected = project_all(head.vertices, pose, image_height);
+    let (lo, hi) = landmark_box(frame);
+    let margin = 0.25 * face_px;
+    let region = (lo - Vector2::repeat(margin), hi + Vector2::repeat(margin));
+    let mut visible =
+        visible_in_region(&projected, head.triangles, region, 0.1 / pose.s.max(1e-12));
+    if let Some(eligible) = head.eligible {
+        for (v, e) in visible.iter_mut().zip(eligible.iter().chain(std::iter::repeat(&false))) {
+            *v &= *e;
+        }
+    }
+    SeenHead { projected, visible, face_px }
+}
+
 /// Suggests a vertex for each landmark in `landmarks` that is visible in `frame`, seeing
 /// `vertices` (with their `triangles`, which hide what lies behind the surface: teeth,
 /// tongue, helper and joint geometry inside a figure) through `pose` (a fitted frame's;
@@ -208,30 +248,18 @@ pub fn suggest_labels(
         Some(p) => p,
         None => pose_from_labels(vertices, map, frame, image_height)?,
     };
+    let seen = see_head(head, frame, &pose, image_height);
     // Half a percent of the face's size in the image: below the landmarks' own noise, above
     // the spacing of lip vertices that overlap in projection.
-    let face = face_size_px(frame).max(100.0);
-    let tolerance = 0.005 * face;
-    let projected = project_all(vertices, &pose, image_height);
-    // Only the face's surroundings matter; a tenth of a pixel's worth of depth separates a
-    // surface from what lies behind it.
-    let (lo, hi) = landmark_box(frame);
-    let margin = 0.25 * face;
-    let region = (lo - Vector2::repeat(margin), hi + Vector2::repeat(margin));
-    let mut visible =
-        visible_in_region(&projected, head.triangles, region, 0.1 / pose.s.max(1e-12));
-    if let Some(eligible) = head.eligible {
-        for (v, e) in visible.iter_mut().zip(eligible.iter().chain(std::iter::repeat(&false))) {
-            *v &= *e;
-        }
-    }
+    let tolerance = 0.005 * seen.face_px;
+    let (projected, visible) = (&seen.projected, &seen.visible);
     Ok(landmarks
         .into_iter()
         .filter(|&l| l < N_LANDMARKS)
         .filter_map(|l| {
             let p = frame.points.get(l).filter(|p| p.visible)?;
             let (vertex, distance_px) =
-                vertex_at(&projected, &visible, Point2::new(p.x, p.y), tolerance)?;
+                vertex_at(projected, visible, Point2::new(p.x, p.y), tolerance)?;
             Some(LabelSuggestion { landmark: l, vertex, distance_px })
         })
         .collect())
@@ -267,7 +295,7 @@ fn landmark_box(frame: &FrameLandmarks) -> (Point2, Point2) {
     )
 }
 
-fn face_size_px(frame: &FrameLandmarks) -> Real {
+pub(super) fn face_size_px(frame: &FrameLandmarks) -> Real {
     let pts: Vec<&crate::landmarks::LandmarkPoint> =
         frame.points.iter().filter(|p| p.visible).collect();
     let span = |f: fn(&crate::landmarks::LandmarkPoint) -> Real| {

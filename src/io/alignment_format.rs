@@ -105,7 +105,7 @@ pub fn parse_alignment_as(
     format: AlignmentFormat,
     tier: Option<&TierChoice>,
 ) -> Result<Alignment> {
-    match format {
+    let alignment = match format {
         AlignmentFormat::TextGrid => {
             textgrid::parse_textgrid_str(text, path)?.alignment(tier, path)
         }
@@ -114,7 +114,11 @@ pub fn parse_alignment_as(
         }
         AlignmentFormat::Xlabel => htk_lab::parse_xlabel(text, path),
         AlignmentFormat::PhonesCsv => phones_csv::parse_phones_csv(text, path),
-    }
+    }?;
+    alignment
+        .check_times(crate::alignment::MAX_PHONE_END_S)
+        .map_err(|m| FormatError::at_field(path, "phones", m))?;
+    Ok(alignment)
 }
 
 /// Reads a phone alignment from any supported file; `tier` picks the TextGrid tier (default:
@@ -130,7 +134,7 @@ pub fn parse_alignment_as(
 /// println!("{} phones", a.phones.len());
 /// ```
 pub fn read_alignment(path: &Path, tier: Option<&TierChoice>) -> Result<Alignment> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_alignment(&bytes, path, tier)
 }
 
@@ -149,7 +153,8 @@ pub fn format_alignment(alignment: &Alignment, format: AlignmentFormat) -> Strin
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_alignment(alignment: &Alignment, path: &Path, format: AlignmentFormat) -> Result<()> {
-    std::fs::write(path, format_alignment(alignment, format)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_alignment(alignment, format).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -38,7 +38,7 @@ pub fn parse_bounds_table(path: &Path, text: &str) -> Result<BoundsTable> {
 /// # Errors
 /// The file unreadable, or a parse error naming the file and the line or field.
 pub fn read_bounds_table(path: &Path) -> Result<BoundsTable> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     parse_bounds_table(path, &text)
 }
 
@@ -48,7 +48,7 @@ pub fn read_bounds_table(path: &Path) -> Result<BoundsTable> {
 /// The write failing.
 pub fn write_bounds_table(table: &BoundsTable, path: &Path) -> Result<()> {
     let text = if is_toml(path) { table.to_toml_string() } else { table.to_csv_string() };
-    std::fs::write(path, text).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, text.as_bytes()).map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -191,7 +191,7 @@ fn parse_part(
 /// # Errors
 /// I/O failures and everything `parse_dlib_xml` rejects.
 pub fn read_dlib_xml(path: &Path) -> Result<Track> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     parse_dlib_xml(&text, path)
 }
 
@@ -265,7 +265,8 @@ pub fn format_dlib_xml(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_dlib_xml(track: &Track, path: &Path) -> Result<()> {
-    std::fs::write(path, format_dlib_xml(track)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_dlib_xml(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

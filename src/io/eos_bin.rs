@@ -25,7 +25,7 @@ use std::path::Path;
 /// Unreadable file, truncation (with the byte offset), inconsistent sizes, or a model that
 /// fails [`MorphableModel::validate`].
 pub fn read_eos_model(path: &Path) -> Result<MorphableModel> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_eos_model(&bytes, path)
 }
 
@@ -54,7 +54,7 @@ pub fn parse_eos_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
 /// Unreadable file, truncation (with the byte offset), a blendshape that is not a
 /// column vector, or blendshapes of different lengths.
 pub fn read_eos_blendshapes(path: &Path) -> Result<Expressions> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_eos_blendshapes(&bytes, path)
 }
 

@@ -133,15 +133,13 @@ impl FrameSource {
         }
         names.sort_by(|a, b| natural_cmp(a, b));
         let files: Vec<PathBuf> = names.iter().map(|n| dir.join(n)).collect();
-        let size = match opts.size {
-            Some(s) => s,
-            None => {
-                let (w, h) = image::image_dimensions(&files[0]).map_err(|e| {
-                    FrameError::Decode { path: files[0].clone(), frame: 0, message: e.to_string() }
-                })?;
-                [w, h]
-            }
-        };
+        check_frame_file(&files[0])?;
+        let (w, h) = image::image_dimensions(&files[0]).map_err(|e| FrameError::Decode {
+            path: files[0].clone(),
+            frame: 0,
+            message: e.to_string(),
+        })?;
+        let size = agreed_size(&files[0], opts.size, Some([w, h]))?;
         let fps = opts.fps.unwrap_or(DEFAULT_FOLDER_FPS);
         check_fps(dir, fps)?;
         Ok(Self {
@@ -160,12 +158,7 @@ impl FrameSource {
     /// # Errors
     /// `ProgramMissing` when ffmpeg is not installed, `Program` when it cannot read the file.
     pub fn open_video(file: &Path, opts: &FrameOptions) -> Result<Self, FrameError> {
-        if !file.is_file() {
-            return Err(FrameError::Io {
-                path: file.to_path_buf(),
-                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such video file"),
-            });
-        }
+        check_frame_file(file)?;
         let info = match probe_with_ffprobe(file) {
             Err(FrameError::ProgramMissing { .. }) => probe_with_ffmpeg(file)?,
             other => other?,
@@ -175,10 +168,7 @@ impl FrameSource {
             message: "the video does not state its frame rate; give one".into(),
         })?;
         check_fps(file, fps)?;
-        let size = opts.size.or(info.size).ok_or_else(|| FrameError::Invalid {
-            path: file.to_path_buf(),
-            message: "cannot tell the video's frame size".into(),
-        })?;
+        let size = agreed_size(file, opts.size, info.size)?;
         let len = match (info.frames, info.duration) {
             (Some(n), _) => n,
             (None, Some(d)) => (d * fps).round().max(0.0) as usize,
@@ -307,6 +297,7 @@ impl FrameSource {
     }
 
     fn decode_image(&self, path: &Path, frame: usize) -> Result<RgbImage, FrameError> {
+        check_frame_file(path)?;
         let img = image::open(path)
             .map_err(|e| FrameError::Decode {
                 path: path.to_path_buf(),
@@ -342,7 +333,7 @@ impl FrameSource {
             .args(["-nostdin", "-v", "error", "-ss"])
             .arg(format!("{t:.6}"))
             .arg("-i")
-            .arg(file)
+            .arg(child_path_arg(file))
             .args(["-frames:v", &count.to_string(), "-an", "-sn"])
             .args(["-vf", &format!("scale={w}:{h}")])
             .args(["-f", "rawvideo", "-pix_fmt", "rgb24", "-"])
@@ -368,15 +359,65 @@ impl FrameSource {
     }
 }
 
-fn check_fps(path: &Path, fps: f64) -> Result<(), FrameError> {
-    if fps.is_finite() && fps > 0.0 {
+/// Refuses a frame or video path that is not a regular file (a FIFO would hang the decoder).
+fn check_frame_file(path: &Path) -> Result<(), FrameError> {
+    super::input::check_regular_file(path)
+        .map(drop)
+        .map_err(|e| FrameError::Invalid { path: path.to_path_buf(), message: e.message })
+}
+
+/// `path` as a child program's argument: a relative path gets a `./` prefix, so a name such as
+/// `-y.mp4` is not read as an option and `concat:x.mp4` not as an ffmpeg protocol.
+fn child_path_arg(path: &Path) -> PathBuf {
+    if path.is_relative() { Path::new(".").join(path) } else { path.to_path_buf() }
+}
+
+/// Frame rates lipmap accepts (frames per second): a camera's range, no more. Frame counts
+/// are derived from durations × fps, so a rate outside it (1e20, 1e-300) is an error, not
+/// an allocation or a loop of that size.
+pub const FPS_RANGE: std::ops::RangeInclusive<f64> = 1.0..=1000.0;
+
+/// The one frame-rate rule: `fps` within [`FPS_RANGE`].
+///
+/// # Errors
+/// A message giving the value and the range.
+pub fn check_fps_value(fps: f64) -> Result<(), String> {
+    if FPS_RANGE.contains(&fps) {
         Ok(())
     } else {
-        Err(FrameError::Invalid {
-            path: path.to_path_buf(),
-            message: format!("frame rate {fps} is not positive"),
-        })
+        Err(format!("frame rate {fps} is outside {}–{} fps", FPS_RANGE.start(), FPS_RANGE.end()))
     }
+}
+
+/// Longest image side lipmap accepts (px). Buffers are sized width × height, so a size from
+/// a file is bounded before anything is allocated for it.
+pub const MAX_IMAGE_SIDE: u32 = 1 << 15;
+
+/// The frame size to use: the one given (a session's record) when the frames agree with it,
+/// else the frames' own; each side within 1..=[`MAX_IMAGE_SIDE`].
+fn agreed_size(
+    path: &Path,
+    given: Option<[u32; 2]>,
+    found: Option<[u32; 2]>,
+) -> Result<[u32; 2], FrameError> {
+    let invalid = |message: String| FrameError::Invalid { path: path.to_path_buf(), message };
+    if let (Some([gw, gh]), Some([fw, fh])) = (given, found)
+        && [gw, gh] != [fw, fh]
+    {
+        return Err(invalid(format!(
+            "the recorded frame size {gw}×{gh} disagrees with the frames' {fw}×{fh}"
+        )));
+    }
+    let [w, h] = given.or(found).ok_or_else(|| invalid("cannot tell the frame size".into()))?;
+    if !(1..=MAX_IMAGE_SIDE).contains(&w) || !(1..=MAX_IMAGE_SIDE).contains(&h) {
+        return Err(invalid(format!("frame size {w}×{h} is outside 1–{MAX_IMAGE_SIDE} px")));
+    }
+    Ok([w, h])
+}
+
+fn check_fps(path: &Path, fps: f64) -> Result<(), FrameError> {
+    check_fps_value(fps)
+        .map_err(|message| FrameError::Invalid { path: path.to_path_buf(), message })
 }
 
 fn has_image_extension(name: &str) -> bool {
@@ -451,7 +492,7 @@ fn probe_with_ffprobe(file: &Path) -> Result<VideoInfo, FrameError> {
         .args(["-v", "error", "-select_streams", "v:0", "-show_entries"])
         .arg("stream=width,height,avg_frame_rate,r_frame_rate,nb_frames,duration:format=duration")
         .args(["-of", "default=noprint_wrappers=1"])
-        .arg(file)
+        .arg(child_path_arg(file))
         .stdin(Stdio::null())
         .output()
         .map_err(|e| program_error(file, "ffprobe", e))?;
@@ -507,7 +548,7 @@ fn parse_rate(v: &str) -> Option<f64> {
 fn probe_with_ffmpeg(file: &Path) -> Result<VideoInfo, FrameError> {
     let mut child = Command::new("ffmpeg")
         .args(["-nostdin", "-hide_banner", "-i"])
-        .arg(file)
+        .arg(child_path_arg(file))
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -620,6 +661,25 @@ impl FrameCache {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn child_programs_never_see_a_path_as_an_option() {
+        assert_eq!(child_path_arg(Path::new("-y.mp4")), PathBuf::from("./-y.mp4"));
+        assert_eq!(child_path_arg(Path::new("a/b.mp4")), PathBuf::from("./a/b.mp4"));
+        assert_eq!(child_path_arg(Path::new("/v/-y.mp4")), PathBuf::from("/v/-y.mp4"));
+    }
+
+    #[test]
+    fn a_device_or_folder_is_not_a_video() {
+        let opts = FrameOptions::default();
+        if Path::new("/dev/zero").exists() {
+            let e = FrameSource::open_video(Path::new("/dev/zero"), &opts).err().unwrap();
+            assert_eq!(e.to_string(), "/dev/zero: not a regular file (a device)");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let e = FrameSource::open_video(dir.path(), &opts).err().unwrap().to_string();
+        assert!(e.ends_with("not a regular file (a folder)"), "{e}");
+    }
     use super::*;
 
     #[test]

@@ -209,7 +209,7 @@ pub fn parse_xlabel(text: &str, path: &Path) -> Result<Alignment> {
 /// # Errors
 /// I/O failures and everything `parse_lab` rejects.
 pub fn read_lab(path: &Path) -> Result<Alignment> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_lab(&super::textgrid::decode_text(&bytes, path)?, path)
 }
 
@@ -244,7 +244,8 @@ pub fn format_xlabel(alignment: &Alignment) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_htk_lab(alignment: &Alignment, path: &Path) -> Result<()> {
-    std::fs::write(path, format_htk_lab(alignment)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_htk_lab(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Writes an alignment as a Festival xlabel file.
@@ -252,7 +253,8 @@ pub fn write_htk_lab(alignment: &Alignment, path: &Path) -> Result<()> {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_xlabel(alignment: &Alignment, path: &Path) -> Result<()> {
-    std::fs::write(path, format_xlabel(alignment)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_xlabel(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -114,7 +114,7 @@ pub fn detect(path: &Path) -> Result<LandmarkFormat> {
         Some("xml") => return Ok(LandmarkFormat::DlibXml),
         _ => {}
     }
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(64 * 1024)]);
     detect_text(&head).ok_or_else(|| {
         FormatError::at_line(
@@ -130,7 +130,7 @@ pub fn detect(path: &Path) -> Result<LandmarkFormat> {
 /// # Errors
 /// Whatever the format's parser rejects, naming `path` and the line.
 pub fn parse_track(text: &str, path: &Path, format: LandmarkFormat) -> Result<Track> {
-    match format {
+    let track = match format {
         LandmarkFormat::Pts => Ok(Track::new(vec![crate::landmarks::track::FrameLandmarks::new(
             0,
             pts::parse_pts(text, path)?,
@@ -141,6 +141,25 @@ pub fn parse_track(text: &str, path: &Path, format: LandmarkFormat) -> Result<Tr
         LandmarkFormat::OpenFace => openface::parse_openface_csv(text, path),
         LandmarkFormat::DlibXml => dlib_xml::parse_dlib_xml(text, path),
         LandmarkFormat::LipmapCsv => track_csv::parse_track_csv(text, path),
+    }?;
+    check_frame_numbers(track, path)
+}
+
+/// Refuses a track whose frame numbers exceed [`MAX_FRAME`](crate::landmarks::MAX_FRAME):
+/// such a number is a typo or a corrupt file, and per-frame tables sized by it would
+/// exhaust memory later.
+///
+/// # Errors
+/// The first frame past the bound, naming `path`.
+pub fn check_frame_numbers(track: Track, path: &Path) -> Result<Track> {
+    use crate::landmarks::MAX_FRAME;
+    match track.frames.iter().find(|f| f.frame > MAX_FRAME) {
+        Some(f) => Err(FormatError::at_field(
+            path,
+            "frame",
+            format!("frame {} is past the largest frame lipmap accepts ({MAX_FRAME})", f.frame),
+        )),
+        None => Ok(track),
     }
 }
 
@@ -156,9 +175,9 @@ pub fn parse_track(text: &str, path: &Path, format: LandmarkFormat) -> Result<Tr
 /// ```
 pub fn read_track(path: &Path) -> Result<Track> {
     match detect(path)? {
-        LandmarkFormat::PtsFolder => pts::read_pts_folder(path),
+        LandmarkFormat::PtsFolder => check_frame_numbers(pts::read_pts_folder(path)?, path),
         format => {
-            let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+            let text = super::input::read_input_string(path)?;
             parse_track(&text, path, format)
         }
     }

@@ -20,7 +20,7 @@ pub const SECTION: &str = "landmark_mappings";
 /// Unreadable file, TOML syntax errors, a missing `[landmark_mappings]` table, an id outside
 /// 1..=68 or a vertex that is not a non-negative integer: each names the line.
 pub fn read_landmark_map(path: &Path) -> Result<LandmarkMap> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     parse_landmark_map(&text, path)
 }
 
@@ -119,7 +119,8 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap) -> Result<()> {
     if let Some(&l) = map.to_vertex.keys().find(|&&l| l >= N_LANDMARKS) {
         return Err(FormatError::whole(path, format!("point {l} is not an iBUG-68 point")));
     }
-    std::fs::write(path, format_landmark_map(map)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_landmark_map(map).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Reads eos's exported `landmarks_and_contours.json`: the object `ibug_to_sfm_vertex`
@@ -129,7 +130,7 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap) -> Result<()> {
 /// Unreadable or invalid JSON (with serde_json's line), ids outside 1..=68, non-integer
 /// vertices (naming the field).
 pub fn read_landmark_map_json(path: &Path) -> Result<LandmarkMap> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
         FormatError::new(
             path,

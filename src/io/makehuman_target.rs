@@ -37,7 +37,7 @@ pub fn target_name(path: &Path) -> String {
 /// # Errors
 /// Unreadable file or corrupt gzip data.
 pub fn read_target_text(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     let bytes = if path.extension().is_some_and(|e| e == "gz") {
         let mut out = Vec::new();
         flate2::read::GzDecoder::new(bytes.as_slice())

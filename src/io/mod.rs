@@ -3,9 +3,12 @@
 
 pub mod error;
 pub mod frames;
+pub mod input;
 
 pub use error::FormatError;
 pub mod alignment_format;
+pub mod atomic;
+pub mod audio_track;
 pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;
@@ -15,6 +18,7 @@ pub mod landmark_map_toml;
 pub mod makehuman_target;
 pub mod model_file;
 pub mod model_source;
+pub mod names_table;
 pub mod npy_model;
 pub mod obj;
 pub mod openface;

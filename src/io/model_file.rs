@@ -8,7 +8,6 @@
 use crate::io::error::{FormatError, Location, Result};
 use crate::math::{DMatrix, DVector};
 use crate::model::{Expressions, MorphableModel, PcaModel};
-use std::io::Write;
 use std::path::Path;
 
 /// The 8 bytes every lipmap model file starts with.
@@ -33,7 +32,9 @@ pub enum Precision {
 pub fn is_model_file(path: &Path) -> bool {
     use std::io::Read;
     let mut buf = [0u8; 8];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut buf)).is_ok() && &buf == MAGIC
+    super::input::open_input(path, super::input::MAX_INPUT_BYTES)
+        .is_ok_and(|mut f| f.read_exact(&mut buf).is_ok())
+        && &buf == MAGIC
 }
 
 /// Serialises a model into bytes (see `docs/model-format.md`).
@@ -95,8 +96,7 @@ pub fn encode_model(model: &MorphableModel, precision: Precision) -> Vec<u8> {
 pub fn write_model_file(path: &Path, model: &MorphableModel, precision: Precision) -> Result<()> {
     model.validate().map_err(|e| FormatError::whole(path, format!("not saved: {e}")))?;
     let bytes = encode_model(model, precision);
-    let mut f = std::fs::File::create(path).map_err(|e| FormatError::io(path, e))?;
-    f.write_all(&bytes).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, &bytes).map_err(|e| FormatError::io(path, e))
 }
 
 /// Reads a model file.
@@ -105,7 +105,7 @@ pub fn write_model_file(path: &Path, model: &MorphableModel, precision: Precisio
 /// Unreadable file, wrong magic or version, truncation (with the byte offset), trailing
 /// bytes, or a model failing [`MorphableModel::validate`].
 pub fn read_model_file(path: &Path) -> Result<MorphableModel> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     decode_model(&bytes, path)
 }
 

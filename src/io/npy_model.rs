@@ -39,7 +39,7 @@ impl NpyArray {
 /// # Errors
 /// Unreadable file, a bad header, or a non-numeric dtype.
 pub fn read_npy(path: &Path) -> Result<NpyArray> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_npy(&bytes, path)
 }
 
@@ -420,10 +420,11 @@ pub fn write_npy_f32(path: &Path, shape: &[u64], data: &[f32]) -> Result<()> {
 
 /// An f32 `.npy` file written row by row (e.g. one mesh per frame), so a large array never
 /// has to be held whole. Values go out as whole byte blocks: writing them one by one through
-/// a generic element writer cost more than fitting the frames.
+/// a generic element writer cost more than fitting the frames. The file appears under its name
+/// only when [`NpyF32Writer::finish`] succeeds (written atomically).
 pub struct NpyF32Writer {
     path: std::path::PathBuf,
-    file: std::fs::File,
+    file: super::atomic::AtomicFile,
     expected: u64,
     written: u64,
     bytes: Vec<u8>,
@@ -436,7 +437,7 @@ impl NpyF32Writer {
     /// I/O errors, naming the file.
     pub fn create(path: &Path, shape: &[u64]) -> Result<Self> {
         let io = |e: std::io::Error| FormatError::io(path, e);
-        let mut file = std::fs::File::create(path).map_err(io)?;
+        let mut file = super::atomic::AtomicFile::create(path).map_err(io)?;
         std::io::Write::write_all(&mut file, &npy_header_f32(shape)).map_err(io)?;
         Ok(Self {
             path: path.to_path_buf(),
@@ -467,10 +468,10 @@ impl NpyF32Writer {
             .map_err(|e| FormatError::io(&self.path, e))
     }
 
-    /// Checks that every value the shape holds was written.
+    /// Checks that every value the shape holds was written, then puts the file in place.
     ///
     /// # Errors
-    /// Fewer values than the shape holds, naming the file.
+    /// Fewer values than the shape holds (nothing is written), or I/O errors, naming the file.
     pub fn finish(self) -> Result<()> {
         if self.written != self.expected {
             return Err(FormatError::whole(
@@ -478,7 +479,8 @@ impl NpyF32Writer {
                 format!("{} values written, its shape holds {}", self.written, self.expected),
             ));
         }
-        Ok(())
+        let path = self.path;
+        self.file.commit().map_err(|e| FormatError::io(&path, e))
     }
 }
 

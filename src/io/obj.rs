@@ -19,9 +19,14 @@ use std::path::Path;
 /// Unreadable file, a malformed `v` or `f` line, an index of 0, or a face pointing past the
 /// last vertex (or before the first, for a negative index): each names the line.
 pub fn read_obj(path: &Path) -> Result<Mesh> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     let text = String::from_utf8_lossy(&bytes);
-    parse_obj(&text, path)
+    let mesh = parse_obj(&text, path)?;
+    if mesh.vertices.is_empty() {
+        // A binary file or another format named .obj parses to nothing; say so.
+        return Err(FormatError::whole(path, "no vertices (`v` lines): not an OBJ mesh"));
+    }
+    Ok(mesh)
 }
 
 /// Parses OBJ text; `path` is used only in error messages.
@@ -132,13 +137,40 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh> {
 /// # Errors
 /// When the file cannot be read.
 pub fn labelable_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     Ok(labelable_vertices_in(&text))
 }
 
 /// [`labelable_vertices`] on the text of an OBJ.
 pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
-    let is_aux = |g: &str| g.starts_with("helper-") || g.starts_with("joint-");
+    vertices_outside_groups(text, |g| g.starts_with("helper-") || g.starts_with("joint-"))
+}
+
+/// Which vertices of an OBJ hide what lies behind them: the skin and the solid parts inside
+/// it (MakeHuman's `helper-*-eye` eyeballs, teeth and tongue), not the see-through shells
+/// (hair, clothing proxies, eyelashes) or joint markers. Without the eyeballs an eye socket's
+/// back shows through the lids and takes the eye's landmarks. `None` when the file has no
+/// such shell (every vertex occludes).
+///
+/// # Errors
+/// When the file cannot be read.
+pub fn occluding_vertices(path: &Path) -> Result<Option<Vec<bool>>> {
+    let text = super::input::read_input_string(path)?;
+    Ok(occluding_vertices_in(&text))
+}
+
+/// [`occluding_vertices`] on the text of an OBJ.
+pub fn occluding_vertices_in(text: &str) -> Option<Vec<bool>> {
+    let solid = |g: &str| g.ends_with("-eye") || g.ends_with("-teeth") || g.ends_with("-tongue");
+    vertices_outside_groups(text, |g| {
+        g.starts_with("joint-") || (g.starts_with("helper-") && !solid(g))
+    })
+}
+
+/// Vertices used by a face of a group/object that `skip` does not name (`None` when no
+/// group is skipped).
+fn vertices_outside_groups(text: &str, skip: impl Fn(&str) -> bool) -> Option<Vec<bool>> {
+    let is_aux = &skip;
     let (mut n_vertices, mut aux_seen, mut in_aux) = (0usize, false, false);
     let mut surface: Vec<bool> = Vec::new();
     for raw in text.lines() {
@@ -176,16 +208,15 @@ pub fn labelable_vertices_in(text: &str) -> Option<Vec<bool>> {
 /// # Errors
 /// I/O errors, naming the file.
 pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
-    let file = std::fs::File::create(path).map_err(|e| FormatError::io(path, e))?;
-    let mut w = std::io::BufWriter::new(file);
-    write_obj_to(&mut w, mesh).and_then(|_| w.flush()).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic(path, |w| write_obj_to(w, mesh))
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// Writes OBJ text to any writer (see [`write_obj`]).
 ///
 /// # Errors
 /// Errors of the writer.
-pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
+pub fn write_obj_to<W: Write + ?Sized>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
     writeln!(w, "# lipmap mesh: {} vertices, {} faces", mesh.vertices.len(), mesh.faces.len())?;
     for p in &mesh.vertices {
         writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
@@ -202,6 +233,15 @@ pub fn write_obj_to<W: Write>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_binary_file_named_obj_is_not_a_mesh() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("head.obj");
+        std::fs::write(&p, [0u8, 159, 146, 150, 7, 0, 255]).unwrap();
+        let e = read_obj(&p).unwrap_err().to_string();
+        assert_eq!(e, format!("{}: no vertices (`v` lines): not an OBJ mesh", p.display()));
+    }
     use super::*;
 
     #[test]
@@ -214,6 +254,11 @@ mod tests {
             "vertex 2 is shared with the body and stays"
         );
         assert_eq!(labelable_vertices_in("v 0 0 0\nv 1 0 0\nv 0 1 0\ng head\nf 1 2 3\n"), None);
+        // Eyeballs hide the socket behind them; hair does not hide the skin.
+        let eyes = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 0\nv 3 3 0\n\
+                    g body\nf 1 2 3\ng helper-l-eye\nf 2 4 5\ng helper-hair\nf 6 6 6\n";
+        assert_eq!(occluding_vertices_in(eyes), Some(vec![true, true, true, true, true, false]));
+        assert_eq!(labelable_vertices_in(eyes), Some(vec![true, true, true, false, false, false]));
     }
     use crate::io::error::Location;
 

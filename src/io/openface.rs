@@ -142,7 +142,7 @@ pub fn parse_openface_csv(text: &str, path: &Path) -> Result<Track> {
 /// # Errors
 /// I/O failures and everything `parse_openface_csv` rejects.
 pub fn read_openface_csv(path: &Path) -> Result<Track> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     parse_openface_csv(&text, path)
 }
 
@@ -184,7 +184,8 @@ pub fn format_openface_csv(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_openface_csv(track: &Track, path: &Path) -> Result<()> {
-    std::fs::write(path, format_openface_csv(track)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_openface_csv(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

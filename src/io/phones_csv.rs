@@ -68,7 +68,7 @@ pub fn parse_phones_csv(text: &str, path: &Path) -> Result<Alignment> {
 /// # Errors
 /// I/O failures and everything `parse_phones_csv` rejects.
 pub fn read_phones_csv(path: &Path) -> Result<Alignment> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_phones_csv(&super::textgrid::decode_text(&bytes, path)?, path)
 }
 
@@ -89,7 +89,8 @@ pub fn format_phones_csv(alignment: &Alignment) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_phones_csv(alignment: &Alignment, path: &Path) -> Result<()> {
-    std::fs::write(path, format_phones_csv(alignment)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_phones_csv(alignment).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -211,7 +211,7 @@ pub(crate) fn shorten(s: &str) -> String {
 /// # Errors
 /// I/O failures and everything `parse_pts` rejects, naming `path`.
 pub fn read_pts(path: &Path, frame: usize) -> Result<FrameLandmarks> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     Ok(FrameLandmarks::new(frame, parse_pts(&text, path)?))
 }
 
@@ -261,7 +261,8 @@ pub fn format_pts(frame: &FrameLandmarks) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_pts(frame: &FrameLandmarks, path: &Path) -> Result<()> {
-    std::fs::write(path, format_pts(frame)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_pts(frame).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 /// File name used for frame `frame` in a `.pts` folder; zero-padded so every tool's sort

@@ -522,7 +522,7 @@ fn read_intervals(p: &mut Parser<'_>, name: &str, n: usize) -> Result<Vec<Phone>
 /// # Errors
 /// I/O failures, parse errors, or no matching tier.
 pub fn read_textgrid(path: &Path, tier: Option<&TierChoice>) -> Result<Alignment> {
-    let bytes = std::fs::read(path).map_err(|e| FormatError::io(path, e))?;
+    let bytes = super::input::read_input(path)?;
     parse_textgrid(&bytes, path)?.alignment(tier, path)
 }
 
@@ -564,7 +564,8 @@ pub fn format_textgrid(alignment: &Alignment, tier_name: &str) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_textgrid(alignment: &Alignment, path: &Path) -> Result<()> {
-    std::fs::write(path, format_textgrid(alignment, "phones")).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_textgrid(alignment, "phones").as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

@@ -307,8 +307,8 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
 /// # Errors
 /// I/O failures and everything `parse_track_csv` rejects.
 pub fn read_track_csv(path: &Path) -> Result<Track> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
-    parse_track_csv(&text, path)
+    let text = super::input::read_input_string(path)?;
+    super::landmark_format::check_frame_numbers(parse_track_csv(&text, path)?, path)
 }
 
 /// The lipmap CSV text of a track: every point of every frame, one row each; the
@@ -353,7 +353,8 @@ pub fn format_track_csv(track: &Track) -> String {
 /// # Errors
 /// I/O failures, naming `path`.
 pub fn write_track_csv(track: &Track, path: &Path) -> Result<()> {
-    std::fs::write(path, format_track_csv(track)).map_err(|e| FormatError::io(path, e))
+    super::atomic::write_atomic_bytes(path, format_track_csv(track).as_bytes())
+        .map_err(|e| FormatError::io(path, e))
 }
 
 #[cfg(test)]

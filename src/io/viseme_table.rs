@@ -11,7 +11,7 @@ use std::path::Path;
 /// # Errors
 /// The file unreadable, or a parse error naming the file (and the line when TOML gives one).
 pub fn read_viseme_table(path: &Path) -> Result<VisemeTable> {
-    let text = std::fs::read_to_string(path).map_err(|e| FormatError::io(path, e))?;
+    let text = super::input::read_input_string(path)?;
     VisemeTable::from_toml_str(&text).map_err(|e| match e.line {
         Some(l) => FormatError::at_line(path, l, e.message),
         None => FormatError::whole(path, e.message),

@@ -23,7 +23,7 @@ pub struct Audio {
 /// An unreadable file, a malformed or truncated header or data chunk, an unsupported sample
 /// format, or no samples: one line naming the file.
 pub fn read_wav(path: &Path) -> Result<Audio> {
-    let file = std::fs::File::open(path).map_err(|e| FormatError::io(path, e))?;
+    let file = super::input::open_input(path, super::input::MAX_INPUT_BYTES)?;
     parse_wav(std::io::BufReader::new(file), path)
 }
 

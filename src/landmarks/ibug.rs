@@ -9,7 +9,6 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::Range;
 use std::str::FromStr;
-use std::sync::LazyLock;
 
 /// Number of points in the iBUG-68 markup.
 pub const N_LANDMARKS: usize = 68;
@@ -53,25 +52,18 @@ pub struct Group<'a> {
 }
 
 /// Point names and groups as shipped in `data/` (a user's file in the same format, e.g. in
-/// another language, replaces it through [`LandmarkNames::from_csv_str`]).
+/// another language, replaces it through [`crate::reference::install`]).
 pub const DEFAULT_NAMES_CSV: &str = include_str!("../../data/ibug68.csv");
 
-/// [`DEFAULT_NAMES_CSV`] parsed once.
-static DEFAULT_NAMES: LazyLock<LandmarkNames<'static>> = LazyLock::new(|| {
-    LandmarkNames::from_csv_str(DEFAULT_NAMES_CSV).expect("the embedded table parses (tested)")
-});
-
-/// The default groups: [`JAW`] … [`INNER_LIP`] with their names.
-pub static GROUPS: LazyLock<Vec<Group<'static>>> = LazyLock::new(|| DEFAULT_NAMES.groups.clone());
-
-/// The group a point belongs to.
+/// The display group a point belongs to, in the reference names ([`crate::reference`]).
 pub fn group_of(index: usize) -> Option<&'static Group<'static>> {
-    GROUPS.iter().find(|g| g.range.contains(&index))
+    crate::reference::current().names.groups.iter().find(|g| g.range.contains(&index))
 }
 
-/// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62.
+/// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62, in the
+/// reference names ([`crate::reference`]).
 pub fn landmark_name(index: usize) -> String {
-    DEFAULT_NAMES.name(index)
+    crate::reference::current().names.name(index)
 }
 
 /// The names and groups of the 68 points, borrowed from the CSV text they were parsed from.
@@ -240,7 +232,7 @@ mod tests {
         ]
         .map(|(name, range)| Group { name, range });
         assert_eq!(names.groups, expected);
-        assert_eq!(*GROUPS, expected);
+        assert_eq!(crate::reference::current().names.groups, expected);
         use point::*;
         let named = [
             (GNATHION, "chin (gnathion)"),

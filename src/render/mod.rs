@@ -6,10 +6,12 @@
 //! projected with [`Camera::project`] fall on the rendered vertices.
 
 pub mod camera;
+pub mod head_view;
 pub mod raster;
 pub mod side;
 
 pub use camera::{Camera, View, project_points};
+pub use head_view::{HeadShot, HeadViewport};
 pub use raster::{
     RenderError, RenderOptions, Rendered, render_mesh, render_mesh_with_depth, vertex_normals,
 };

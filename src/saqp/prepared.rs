@@ -29,7 +29,7 @@ impl PhoneSet {
         if let Some(i) = self.labels.iter().position(|l| *l == g) {
             return i as u16;
         }
-        let table = self.table.get_or_insert_with(VisemeTable::default);
+        let table = self.table.get_or_insert_with(|| crate::reference::current().visemes.clone());
         let vis = table.class_of(&g).and_then(|id| table.classes.iter().position(|c| c.id == id));
         self.labels.push(g);
         self.visemes.push(vis.map(|v| v as u16));

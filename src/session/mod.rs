@@ -6,17 +6,21 @@
 //! a fit should use come from `effective_frame`, and fits are cached with `store_fits` and
 //! checked with `stale_frames`. The file format is described in docs/session-format.md.
 
+pub mod bounds;
 pub mod cache;
 pub mod corrections;
+pub mod journal;
 pub mod migrate;
 pub mod model;
 pub mod store;
+pub mod transferred;
 
 pub use cache::{CachedFrame, FitCacheEntry};
 pub use corrections::Corrections;
 pub use migrate::CURRENT_SCHEMA;
-pub use model::{Clip, FramesRef, MapRef, ModelRef, Session, View};
+pub use model::{Clip, ClipAudio, FramesRef, MapRef, ModelRef, Session, View};
 pub use store::{LockInfo, SessionLock};
+pub use transferred::TransferredHead;
 
 use crate::fit::{FitSettings, FrameFit};
 use crate::io::frames::{FrameError, FrameOptions, FrameSource};
@@ -67,6 +71,21 @@ pub enum SessionError {
 pub fn absolute(path: &Path) -> PathBuf {
     let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     store::normalize_lexically(&abs)
+}
+
+/// The file a save of `abs` must replace: `abs` itself, or the file a symbolic link there
+/// points to (followed to its end), so saving through a link keeps the link. Paths in the
+/// session stay relative to `abs`'s folder, where it is loaded from.
+fn link_target(abs: &Path) -> PathBuf {
+    let mut target = abs.to_path_buf();
+    // A bounded walk: a cycle of links is left to the write to report.
+    for _ in 0..40 {
+        match std::fs::read_link(&target) {
+            Ok(next) => target = absolute(&parent_dir(&target).join(next)),
+            Err(_) => break,
+        }
+    }
+    target
 }
 
 fn parent_dir(abs_file: &Path) -> PathBuf {
@@ -147,7 +166,7 @@ impl Session {
     pub fn save(&self, path: &Path) -> Result<(), SessionError> {
         let abs = absolute(path);
         let bytes = self.to_json(&abs)?;
-        store::write_atomically(&abs, &bytes)
+        store::write_atomically(&link_target(&abs), &bytes)
     }
 
     /// The exact bytes `save` writes for a file at `path`.
@@ -167,8 +186,8 @@ impl Session {
         Ok(out)
     }
 
-    /// Checks the rules serde cannot: unique clip names, positive frame rates, and finite
-    /// numbers everywhere (JSON has no NaN; serde_json would write `null` and the file would
+    /// Checks the rules serde cannot: unique clip names, values within what the data can
+    /// mean (`bounds`), and finite numbers everywhere (JSON has no NaN; serde_json would write `null` and the file would
     /// not load again).
     ///
     /// # Errors
@@ -185,15 +204,6 @@ impl Session {
             let c = &clip.name;
             if !names.insert(c.as_str()) {
                 return Err(format!("two clips are named {c:?}"));
-            }
-            for (label, v) in std::iter::once(("front", &clip.front))
-                .chain(clip.side.as_ref().map(|s| ("side", s)))
-            {
-                if !(v.fps.is_finite() && v.fps > 0.0 && v.offset_s.is_finite()) {
-                    return Err(format!(
-                        "clip {c:?}: {label} view needs a positive fps and a finite offset"
-                    ));
-                }
             }
             let bad_point = |p: &LandmarkPoint| {
                 !(p.x.is_finite() && p.y.is_finite())
@@ -231,12 +241,6 @@ impl Session {
                     ));
                 }
             }
-            if let Some(a) = &clip.alignment
-                && let Some(p) =
-                    a.phones.iter().find(|p| !(p.start.is_finite() && p.end.is_finite()))
-            {
-                return Err(format!("clip {c:?}: phone {:?} has non-finite times", p.label));
-            }
         }
         for e in &self.fit_cache {
             if let Some(f) = e.frames.iter().find(|f| cache::storable_fit(f.fit.clone()) != f.fit) {
@@ -246,7 +250,7 @@ impl Session {
                 ));
             }
         }
-        Ok(())
+        bounds::check_values(self)
     }
 
     // -- clips ------------------------------------------------------------------------
@@ -601,5 +605,26 @@ pub fn open_view(view: &View, cache_mb: usize) -> Result<FrameSource, FrameError
     match &view.source {
         FramesRef::Images { dir } => FrameSource::open_folder(dir, &opts),
         FramesRef::Video { file } => FrameSource::open_video(file, &opts),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn saving_through_a_symlink_writes_its_target_and_keeps_the_link() {
+        let dir = tempfile::tempdir().unwrap();
+        let real_dir = dir.path().join("real");
+        std::fs::create_dir(&real_dir).unwrap();
+        let real = real_dir.join("s.lipmap.json");
+        let mut s = Session::new(&real);
+        s.save(&real).unwrap();
+        let link = dir.path().join("link.lipmap.json");
+        std::os::unix::fs::symlink("real/s.lipmap.json", &link).unwrap();
+        s.name = "renamed".into();
+        s.save(&link).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(Session::load(&real).unwrap().name, "renamed");
     }
 }

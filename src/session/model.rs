@@ -46,6 +46,13 @@ pub struct Session {
     /// Data owned by other parts of lipmap (TUI layout, ...), kept verbatim.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub extensions: BTreeMap<String, Value>,
+    /// Heads the motion was transferred onto (`lipmap transfer`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transferred_heads: Vec<super::transferred::TransferredHead>,
+    /// The speech model last trained or evaluated on this session (`lipmap speech train`,
+    /// `speech eval`): the TUI drives the clip's head from its audio with it.
+    #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
+    pub speech_model: Option<PathBuf>,
     /// Folder the session's relative paths were resolved against (the file's folder).
     #[serde(skip)]
     pub(crate) base_dir: PathBuf,
@@ -79,6 +86,9 @@ pub struct Clip {
     /// The file the alignment was imported from (TextGrid, .lab, CSV).
     #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
     pub alignment_file: Option<PathBuf>,
+    /// The speech recorded with the clip (speech-driven animation trains on clips that have it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub audio: Option<ClipAudio>,
     /// Per-clip data owned by other parts of lipmap (side-view protrusion setup and values,
     /// ...), kept verbatim.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
@@ -95,6 +105,19 @@ pub struct View {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub size: Option<[u32; 2]>,
     /// Seconds from the front view's frame 0 to this view's frame 0 (0 for the front view).
+    #[serde(default)]
+    pub offset_s: f64,
+}
+
+/// A clip's audio: a WAV file, as found when it was added (rate and channels are checked
+/// again when it is read).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ClipAudio {
+    #[serde(with = "rel_path")]
+    pub file: PathBuf,
+    pub sample_rate: u32,
+    pub channels: u16,
+    /// Seconds from the front view's frame 0 to the audio's first sample.
     #[serde(default)]
     pub offset_s: f64,
 }
@@ -188,6 +211,8 @@ impl Session {
             closure: Default::default(),
             fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
+            transferred_heads: Vec::new(),
+            speech_model: None,
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
         }
     }
@@ -217,6 +242,7 @@ impl Clip {
             profile_corrections: BTreeMap::new(),
             alignment: None,
             alignment_file: None,
+            audio: None,
             extensions: BTreeMap::new(),
         }
     }

@@ -6,9 +6,10 @@
 //! A crash at any point leaves either the old or the new file whole, never a mix.
 
 use super::SessionError;
+use crate::io::atomic::sync_dir;
 use serde::{Deserialize, Serialize};
 use std::cell::RefCell;
-use std::fs::{self, File, OpenOptions};
+use std::fs::{self, OpenOptions};
 use std::io::{self, Write};
 use std::path::{Component, Path, PathBuf};
 
@@ -332,19 +333,6 @@ fn rotate_backups(target: &Path) -> io::Result<()> {
         fs::copy(target, &newest)?;
     }
     Ok(())
-}
-
-/// Makes a rename durable: the folder entry must reach the disk too (POSIX).
-fn sync_dir(dir: &Path) -> io::Result<()> {
-    #[cfg(unix)]
-    {
-        File::open(dir)?.sync_all()
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = dir;
-        Ok(())
-    }
 }
 
 // ---------------------------------------------------------------------------------------

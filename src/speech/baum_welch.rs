@@ -44,7 +44,9 @@ pub struct TrainOptions {
 
 impl Default for TrainOptions {
     /// N 16, M 2 (a middle ground of the paper's ranges [8, 40] × [2, 7] for a small corpus);
-    /// 40 iterations at most; 10⁻³ nats per frame; floor 0.05 (in the speech tests it keeps
+    /// 40 iterations at most; stop below 0.03 nats per frame (on 120 Festival sentences the
+    /// gain falls to that by iteration 12; the 10 more iterations to 10⁻³ add < 0.3 nats per
+    /// frame and double the training time); floor 0.05 (in the speech tests it keeps
     /// generalisation to held-out sentences, lower floors fit the training set better and the
     /// test set worse).
     fn default() -> Self {
@@ -52,7 +54,7 @@ impl Default for TrainOptions {
             n_states: 16,
             n_mixtures: 2,
             max_iterations: 40,
-            tolerance: 1e-3,
+            tolerance: 0.03,
             covariance_floor: 0.05,
             seed: 1,
         }
@@ -181,6 +183,9 @@ fn column_variances(data: &DMatrix) -> DVector {
     )
 }
 
+/// Posterior weight below which a frame is left out of a component's re-estimation.
+const NEGLIGIBLE_WEIGHT: f64 = 1e-12;
+
 /// Weighted mean and covariance (plus floor) of the rows of `data`, weights `w`.
 fn weighted_gaussian(
     data: &DMatrix,
@@ -191,13 +196,24 @@ fn weighted_gaussian(
     if total.is_nan() || total <= 1e-10 {
         return Err(SpeechError::Degenerate("mixture component (no frames)".into()));
     }
-    let mean = data.tr_mul(&DVector::from_column_slice(w)) / total;
-    let mut scaled = data.clone();
-    for (i, mut row) in scaled.row_iter_mut().enumerate() {
-        row -= mean.transpose();
-        row *= w[i].sqrt();
+    // Frames the component does not explain carry posteriors of e⁻³⁰ and less in 81
+    // dimensions; leaving out those under NEGLIGIBLE_WEIGHT changes the sums by less than
+    // T · 10⁻¹² frames and shrinks the products below to the component's own frames.
+    let kept: Vec<usize> = (0..w.len()).filter(|&t| w[t] > NEGLIGIBLE_WEIGHT).collect();
+    let own = data.select_rows(&kept);
+    let w_kept = DVector::from_iterator(kept.len(), kept.iter().map(|&t| w[t]));
+    let total_kept = w_kept.sum();
+    let mean = own.tr_mul(&w_kept) / total_kept;
+    // Σ = Σ_t w_t (o_t − μ)(o_t − μ)ᵀ / Σ_t w_t as one blocked product Xᵀ X with X's rows
+    // √w_t (o_t − μ)ᵀ, built column by column (column-major storage). `tr_mul` would take
+    // d² unblocked dot products over the frames, which is memory-bound.
+    let sqrt_w = w_kept.map(f64::sqrt);
+    let mut scaled = own;
+    for (mut col, m) in scaled.column_iter_mut().zip(mean.iter()) {
+        col.add_scalar_mut(-m);
+        col.component_mul_assign(&sqrt_w);
     }
-    let cov = scaled.tr_mul(&scaled) / total + floor;
+    let cov = scaled.transpose() * &scaled / total_kept + floor;
     let cov = (&cov + cov.transpose()) * 0.5;
     Ok((total, Gaussian::new(mean, cov)?))
 }

@@ -83,18 +83,18 @@ impl Gaussian {
     /// `ln N(o_t; μ, Σ)` for every row o_t of `obs` (T × d).
     pub fn log_density_rows(&self, obs: &DMatrix) -> DVector {
         let cache = self.cache();
+        // Column by column: the matrices are column-major, so a row walk would touch a cache
+        // line per element, which on a whole corpus costs more than the product itself.
         let mut centred = obs.clone();
-        for mut row in centred.row_iter_mut() {
-            row -= self.mean.transpose();
+        for (mut col, m) in centred.column_iter_mut().zip(self.mean.iter()) {
+            col.add_scalar_mut(-m);
         }
         let weighted = &centred * &cache.precision;
-        DVector::from_iterator(
-            obs.nrows(),
-            centred
-                .row_iter()
-                .zip(weighted.row_iter())
-                .map(|(c, w)| cache.log_norm - 0.5 * c.dot(&w)),
-        )
+        let mut quad = DVector::zeros(obs.nrows());
+        for (c, w) in centred.column_iter().zip(weighted.column_iter()) {
+            quad += c.component_mul(&w);
+        }
+        quad.map(|q| cache.log_norm - 0.5 * q)
     }
 }
 

@@ -9,10 +9,12 @@
 //! the steps are one file each: [`mfcc`] → [`context`] (audio), [`visual`] (mouth PCA),
 //! [`kmeans`] → [`baum_welch`] (with [`forward_backward`]) (the AV-HMM), [`inversion`],
 //! [`regression`] (baseline), [`measures`] (AMSE, ACC); [`resample`] brings audio to the
-//! model's rate. `docs/speech.md` describes the method and its departures from the paper.
+//! model's rate; [`drive`] turns estimated mouth motion into a morphable model's
+//! coefficients. `docs/speech.md` describes the method and its departures from the paper.
 
 pub mod baum_welch;
 pub mod context;
+pub mod drive;
 pub mod error;
 pub mod forward_backward;
 pub mod gaussian;
@@ -28,6 +30,7 @@ pub mod visual;
 
 pub use baum_welch::{TrainOptions, TrainReport, train_hmm};
 pub use context::stack_context;
+pub use drive::{Coefficients, MouthDriver, mouth_points, neutral_coefficients};
 pub use error::SpeechError;
 pub use forward_backward::{Posteriors, forward_backward};
 pub use gaussian::Gaussian;

@@ -147,6 +147,27 @@ pub fn project_controls(
             assigned[c] = Some(v);
         }
     }
+    // Where controls crowd (a dense source), all of a control's nearest candidates can go to
+    // closer pairs: it then takes the nearest vertex still free, however far.
+    for c in 0..assigned.len() {
+        if assigned[c].is_some() {
+            continue;
+        }
+        let (p, n) = (positions[c], normals[c]);
+        let nearest = skin
+            .iter()
+            .filter(|&&v| !taken.contains(&v))
+            .filter(|&&v| n.norm_squared() == 0.0 || surface.normals[v].dot(&n) >= min_cos)
+            .min_by(|&&a, &&b| {
+                (surface.vertices[a] - p)
+                    .norm_squared()
+                    .total_cmp(&(surface.vertices[b] - p).norm_squared())
+            });
+        if let Some(&v) = nearest {
+            taken.insert(v);
+            assigned[c] = Some(v);
+        }
+    }
     assigned
         .iter()
         .enumerate()

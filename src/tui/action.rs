@@ -4,7 +4,7 @@
 //! Keys become actions in `keymap`; only `update::update` turns actions into state changes.
 //! `Action::describe` gives the one-line text the help overlay and hints show.
 
-use super::app::{AnalysisData, FrameImage};
+use super::app::{AnalysisData, FrameImage, HeadFrame, PreparedHead};
 use crate::fit::FrameFit;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -34,6 +34,8 @@ pub enum Action {
     NextFlagged,
     PrevFlagged,
     NextUnreviewed,
+    /// Play the clip at its frame rate, or stop.
+    TogglePlay,
     /// Ask for a frame number and jump there.
     GotoFramePrompt,
     ZoomIn,
@@ -98,9 +100,13 @@ pub enum Action {
     SuggestLabel,
     /// Assign every unmapped landmark its suggested vertex (one undo step).
     SuggestAllLabels,
+    /// Switch the head view between shaded and wireframe.
+    ToggleWireframe,
     SaveMap,
     /// Replace the labels with the session's map file (undoable).
     LoadMap,
+    /// Show the next head: the model (labelling) → each transferred head → the model.
+    CycleHead,
 
     // ---- side view: the upper lip's foremost point ----
     /// Move the side frame's upper-lip point by `dx, dy` display pixels (a correction).
@@ -119,6 +125,8 @@ pub enum Action {
     SortReverse,
     /// Jump to the frame of the selected row in the frames view.
     OpenRow,
+    /// Draw the speech-driven head's series in the charts, or hide it.
+    ToggleSpeech,
 
     // ---- help overlay ----
     ScrollDown,
@@ -224,6 +232,28 @@ pub enum Action {
     },
     #[serde(skip)]
     Status(String),
+    /// Playback's clock: the next frame is due.
+    #[serde(skip)]
+    PlayTick,
+    /// The speech-driven head's series, driven on a worker from the clip's audio.
+    #[serde(skip)]
+    SpeechReady {
+        series: Vec<(String, Vec<(f64, f64)>)>,
+    },
+    /// Why the clip has no speech-driven head.
+    #[serde(skip)]
+    SpeechAbsent {
+        why: String,
+    },
+    /// Transferred head `index` set up on a worker, or why not.
+    #[serde(skip)]
+    HeadPrepared {
+        index: usize,
+        head: Result<Arc<PreparedHead>, String>,
+    },
+    /// A frame of a transferred head, computed on a worker.
+    #[serde(skip)]
+    HeadFrameReady(HeadFrame),
 }
 
 impl Action {
@@ -255,6 +285,7 @@ impl Action {
             Self::NextFlagged => "next flagged frame",
             Self::PrevFlagged => "previous flagged frame",
             Self::NextUnreviewed => "next frame not yet reviewed",
+            Self::TogglePlay => "play the clip / stop",
             Self::GotoFramePrompt => "go to frame number…",
             Self::ZoomIn => "zoom in",
             Self::ZoomOut => "zoom out",
@@ -287,7 +318,9 @@ impl Action {
             Self::SuggestLabel => "suggest a vertex from the current frame",
             Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
             Self::SaveMap => "save the landmark map (eos format)",
+            Self::ToggleWireframe => "shaded or wireframe head",
             Self::LoadMap => "load the session's map file over the labels",
+            Self::CycleHead => "show the model / each transferred head",
             Self::NudgeLipPoint { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => {
                 "move the lip point 10 screen pixels"
             }
@@ -299,6 +332,7 @@ impl Action {
             Self::SortNextColumn => "sort by the next column",
             Self::SortReverse => "reverse the sort order",
             Self::OpenRow => "open the row's frame in the frames view",
+            Self::ToggleSpeech => "show / hide the speech-driven head in the charts",
             Self::ScrollDown => "scroll down",
             Self::ScrollUp => "scroll up",
             Self::PromptChar(_)
@@ -324,7 +358,12 @@ impl Action {
             | Self::Idle
             | Self::Saved { .. }
             | Self::SaveFailed { .. }
-            | Self::Status(_) => "internal",
+            | Self::Status(_)
+            | Self::PlayTick
+            | Self::SpeechReady { .. }
+            | Self::SpeechAbsent { .. }
+            | Self::HeadPrepared { .. }
+            | Self::HeadFrameReady(_) => "internal",
         };
         match self {
             Self::Pan { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),

@@ -4,6 +4,9 @@
 //! Only `update::update` changes an `App`; views read it. Side effects (decode a frame, run
 //! a fit, save) are queued in `App::effects` and carried out by the run loop's workers.
 
+pub use super::head_state::{
+    HeadFrame, HeadFraming, HeadSetup, HeadView, PreparedHead, TransferredHeads,
+};
 pub use super::save_state::SaveState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
@@ -221,82 +224,6 @@ pub struct LabelChange {
     pub after: Option<usize>,
 }
 
-/// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
-/// smaller side) and the landmark being labelled.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HeadView {
-    pub yaw: f64,
-    pub pitch: f64,
-    pub zoom: f64,
-    pub cursor: (f64, f64),
-    pub label: usize,
-    /// (landmark, vertex) the cursor was put on by a suggestion; Enter assigns the vertex
-    /// even when it is hidden from this angle. Moving the cursor or the label drops it.
-    pub suggested: Option<(usize, usize)>,
-}
-
-impl Default for HeadView {
-    fn default() -> Self {
-        Self { yaw: 0.0, pitch: 0.0, zoom: 1.0, cursor: (0.0, 0.0), label: 48, suggested: None }
-    }
-}
-
-/// The sphere the head views frame (model units): the face, not the whole body of a
-/// full-figure mesh, so labelling starts where the landmarks are.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HeadFraming {
-    pub centre: crate::math::Point3,
-    pub radius: f64,
-}
-
-impl Default for HeadFraming {
-    fn default() -> Self {
-        Self { centre: crate::math::Point3::origin(), radius: 1.0 }
-    }
-}
-
-impl HeadFraming {
-    /// The bounding box's centre and half diagonal of `points`; `None` when empty.
-    pub fn around<'a>(points: impl IntoIterator<Item = &'a crate::math::Point3>) -> Option<Self> {
-        let mut it = points.into_iter();
-        let first = it.next()?.coords;
-        let (lo, hi) =
-            it.fold((first, first), |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)));
-        Some(Self {
-            centre: crate::math::Point3::from((lo + hi) / 2.0),
-            radius: ((hi - lo).norm() / 2.0).max(1e-12),
-        })
-    }
-
-    /// The face of `mesh`: the mapped landmarks' box enlarged by half, once five or more are
-    /// mapped (the face itself); else the vertices the model's expressions move, when they
-    /// are a part of the mesh (the head of a full figure with facial blendshapes); else the
-    /// whole mesh.
-    pub fn of_face(mesh: &Mesh, model: Option<&MorphableModel>, map: Option<&LandmarkMap>) -> Self {
-        let n = mesh.vertices.len();
-        let pick =
-            |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
-        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
-        let mapped: Vec<usize> =
-            map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
-        if mapped.len() >= 5
-            && let Some(f) = pick(&mapped)
-        {
-            return Self { radius: (f.radius * 1.5).min(whole.radius), ..f };
-        }
-        let moved: Vec<usize> = model
-            .and_then(|m| m.expressions.as_ref().filter(|_| m.num_vertices() == n))
-            .map(|e| {
-                (0..n).filter(|&v| e.deltas.rows(3 * v, 3).iter().any(|d| d.abs() > 1e-9)).collect()
-            })
-            .unwrap_or_default();
-        match pick(&moved) {
-            Some(f) if moved.len() * 5 < n * 4 => Self { radius: f.radius * 1.15, ..f },
-            _ => whole,
-        }
-    }
-}
-
 /// One analysis table: named columns (the first is the row label), rows of display text with
 /// numeric sort keys, rows optionally tied to a frame.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -335,11 +262,34 @@ pub struct Trajectory {
     pub model: Vec<(f64, f64)>,
 }
 
+/// The speech-driven head's trajectories for the analysis charts: being driven from the
+/// clip's audio (on a worker), ready (min–max normalised as the others, by measure name), or
+/// absent, with the reason the status line gives.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum SpeechSeries {
+    #[default]
+    Pending,
+    Ready(Vec<(String, Vec<(f64, f64)>)>),
+    Absent(String),
+}
+
+impl SpeechSeries {
+    /// The series of measure `name`, when ready.
+    pub fn of(&self, name: &str) -> Option<&[(f64, f64)]> {
+        match self {
+            Self::Ready(all) => all.iter().find(|(n, _)| n == name).map(|(_, s)| s.as_slice()),
+            _ => None,
+        }
+    }
+}
+
 /// What the analysis view shows; filled by the session bridge from `eval`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AnalysisData {
     pub tables: Vec<AnalysisTable>,
     pub trajectories: Vec<Trajectory>,
+    /// What the analysis worked around (shown in the status line).
+    pub warnings: Vec<String>,
 }
 
 /// Analysis view cursor and sorting.
@@ -395,6 +345,13 @@ pub enum Effect {
     },
     /// Decode this side-view frame.
     LoadSideFrame(usize),
+    /// Set up the transfer onto the session's transferred head number `.0`.
+    PrepareHead(usize),
+    /// Transfer the current fit of `frame` onto the (set-up) head `head`.
+    TransferFrame {
+        head: usize,
+        frame: usize,
+    },
     Quit,
 }
 
@@ -442,6 +399,9 @@ pub struct App {
     /// Vertices landmarks may be labelled on (`None`: all): not a figure's helper or joint
     /// geometry (see `io::obj::labelable_vertices`).
     pub label_candidates: Option<Arc<Vec<bool>>>,
+    /// Vertices whose triangles hide what is behind them from suggestions (`None`: all): the
+    /// skin, eyeballs and teeth, not see-through shells (see `io::obj::occluding_vertices`).
+    pub occluders: Option<Arc<Vec<bool>>>,
     pub model: Option<Arc<MorphableModel>>,
     pub map: Option<LandmarkMap>,
     pub head: HeadView,
@@ -451,6 +411,13 @@ pub struct App {
     pub analysis_view: AnalysisView,
     /// Generation of the newest requested analysis; older replies are dropped.
     pub analysis_generation: u64,
+    /// The speech-driven head's series for the charts, and whether they are drawn.
+    pub speech: SpeechSeries,
+    pub show_speech: bool,
+    /// The session's transferred heads the head view can show.
+    pub heads: TransferredHeads,
+    /// Playback: frames advance at the clip's rate.
+    pub playing: bool,
     /// The side view (protrusion), when the clip has one.
     pub side: SideState,
     /// The session's clips by name, and which one this is.
@@ -497,6 +464,7 @@ impl App {
             mesh_edges: Arc::new(Vec::new()),
             head_framing: HeadFraming::default(),
             label_candidates: None,
+            occluders: None,
             model: None,
             map: None,
             head: HeadView::default(),
@@ -505,6 +473,10 @@ impl App {
             analysis: AnalysisData::default(),
             analysis_view: AnalysisView::default(),
             analysis_generation: 0,
+            speech: SpeechSeries::Pending,
+            show_speech: true,
+            heads: TransferredHeads::default(),
+            playing: false,
             side: SideState::None,
             clip_names: Vec::new(),
             clip: 0,
@@ -518,14 +490,7 @@ impl App {
 
     /// Sets the head mesh and precomputes its unique edges for the wireframe.
     pub fn set_mesh(&mut self, mesh: Arc<Mesh>) {
-        let mut edges = BTreeSet::new();
-        for f in &mesh.faces {
-            for k in 0..f.len() {
-                let (a, b) = (f[k], f[(k + 1) % f.len()]);
-                edges.insert(if a < b { [a, b] } else { [b, a] });
-            }
-        }
-        self.mesh_edges = Arc::new(edges.into_iter().collect());
+        self.mesh_edges = Arc::new(super::head_state::wire_edges(&mesh, None));
         self.mesh = Some(mesh);
         self.frame_head();
     }
@@ -627,6 +592,11 @@ impl App {
         self.view = previous.view;
         self.image_view = previous.image_view;
         self.head = HeadView { suggested: None, ..previous.head };
+        // The heads are the session's, set up once whatever the clip.
+        if self.heads.names == previous.heads.names {
+            self.heads = TransferredHeads { current: None, ..previous.heads.clone() };
+        }
+        self.show_speech = previous.show_speech;
         self.status = format!("clip {} of {}: {clip_name}", self.clip + 1, self.clip_names.len());
     }
 
@@ -641,48 +611,5 @@ impl App {
         let f = self.track.frames.get(self.frame_pos)?;
         let t = f.timestamp.unwrap_or(f.frame as f64 / self.fps);
         a.phone_at(t).map(|p| p.label.clone())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::math::{DMatrix, DVector, Point3};
-    use crate::model::{Expressions, PcaModel};
-
-    /// A tall "body" of 100 vertices with a small "face" of 10 at the top, which only the
-    /// expressions move.
-    fn figure() -> (Mesh, MorphableModel) {
-        let mut vertices: Vec<Point3> =
-            (0..100).map(|i| Point3::new((i % 10) as f64, -(i as f64) * 2.0, 0.0)).collect();
-        vertices.extend((0..10).map(|i| Point3::new(4.0 + 0.1 * i as f64, 10.0, 1.0)));
-        let mesh = Mesh { vertices, faces: Vec::new() };
-        let flat = DVector::from_iterator(330, mesh.vertices.iter().flat_map(|p| [p.x, p.y, p.z]));
-        let mut deltas = DMatrix::zeros(330, 1);
-        for v in 100..110 {
-            deltas[(3 * v + 1, 0)] = 0.5;
-        }
-        let model = MorphableModel {
-            shape: PcaModel::mean_only(flat),
-            expressions: Some(Expressions { names: vec!["jawOpen".into()], deltas }),
-            triangles: Vec::new(),
-        };
-        (mesh, model)
-    }
-
-    #[test]
-    fn head_framing_finds_the_face_of_a_full_figure() {
-        let (mesh, model) = figure();
-        let whole = HeadFraming::of_face(&mesh, None, None);
-        assert!(whole.radius > 90.0, "no model, no map: the whole mesh ({whole:?})");
-        let face = HeadFraming::of_face(&mesh, Some(&model), None);
-        assert!((face.centre.y - 10.0).abs() < 1e-9 && face.radius < 1.0, "{face:?}");
-        // Without expressions, five mapped vertices frame the view instead.
-        let mut map = LandmarkMap::default();
-        for (l, v) in [(0, 100), (8, 103), (16, 109), (30, 105), (48, 107)] {
-            map.to_vertex.insert(l, v);
-        }
-        let mapped = HeadFraming::of_face(&mesh, None, Some(&map));
-        assert!((mapped.centre.y - 10.0).abs() < 1e-9 && mapped.radius < 1.0, "{mapped:?}");
     }
 }

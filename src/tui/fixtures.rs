@@ -210,6 +210,7 @@ pub fn synthetic_analysis(n_frames: usize) -> AnalysisData {
     let w = |f: usize| 0.6 + 0.1 * mouth_open(f);
     let h = |f: usize| 0.1 + 0.3 * mouth_open(f);
     AnalysisData {
+        warnings: Vec::new(),
         tables: vec![
             AnalysisTable {
                 title: "RMSE per phoneme".into(),
@@ -365,4 +366,77 @@ pub fn synthetic_side(n_frames: usize, width: u32, height: u32) -> super::app::S
         images: images.into_iter().enumerate().map(|(f, i)| (f, Arc::new(i))).collect(),
         image_errors: Default::default(),
     }
+}
+
+/// A transferred head set up from `synthetic_mesh` onto itself (ten front vertices as
+/// landmarks on both sides), so moving the source moves the head.
+pub fn synthetic_prepared_head() -> super::app::PreparedHead {
+    use crate::transfer::{SourceFace, TargetHead, Transfer, TransferOptions};
+    let mesh = synthetic_mesh();
+    // (iBUG point, ring, meridian): eyes and nose above the equator (the transfer's stable
+    // points), mouth and chin below it, all on the front (meridian 0, z > 0).
+    let front = [
+        (27, 2, 0),
+        (36, 2, 14),
+        (45, 2, 2),
+        (29, 4, 0),
+        (39, 4, 15),
+        (42, 4, 1),
+        (48, 6, 14),
+        (51, 6, 0),
+        (54, 6, 2),
+        (8, 8, 0),
+    ];
+    let map = LandmarkMap {
+        to_vertex: front.iter().map(|&(l, i, j)| (l, 1 + (i - 1) * 16 + j)).collect(),
+    };
+    let reference = mesh.to_flat();
+    let triangles = mesh.triangles();
+    let source = SourceFace {
+        reference: &reference,
+        triangles: &triangles,
+        landmarks: &map,
+        identity: None,
+        face: None,
+    };
+    let target = TargetHead { mesh: &mesh, skin: &[], landmarks: &map };
+    let options = TransferOptions { controls: 40, ..TransferOptions::default() };
+    let transfer = match Transfer::new(source, target, &options) {
+        Ok(t) => t,
+        Err(e) => panic!("the synthetic transfer sets up: {e}"),
+    };
+    super::app::PreparedHead::new("sphere".into(), "biharmonic".into(), transfer, mesh, &[], &map)
+}
+
+/// A morphable model of `synthetic_mesh` (its mean) with one expression, `jawOpen`, that
+/// lowers every vertex below the equator by 20 units at β = 1.
+pub fn synthetic_model() -> crate::model::MorphableModel {
+    use crate::math::{DMatrix, DVector};
+    use crate::model::{Expressions, MorphableModel, PcaModel};
+    let mesh = synthetic_mesh();
+    let n = mesh.vertices.len();
+    let mut deltas = DMatrix::zeros(3 * n, 1);
+    for (v, p) in mesh.vertices.iter().enumerate() {
+        if p.y < 0.0 {
+            deltas[(3 * v + 1, 0)] = -20.0;
+        }
+    }
+    MorphableModel {
+        shape: PcaModel::mean_only(DVector::from_column_slice(mesh.to_flat().as_slice())),
+        expressions: Some(Expressions { names: vec!["jawOpen".into()], deltas }),
+        triangles: mesh.triangles(),
+    }
+}
+
+/// A speech-driven series per trajectory of `synthetic_analysis`: the 3D one a frame late
+/// and a little flatter, as a head driven from audio follows the video.
+pub fn synthetic_speech(n_frames: usize) -> Vec<(String, Vec<(f64, f64)>)> {
+    synthetic_analysis(n_frames)
+        .trajectories
+        .iter()
+        .map(|t| {
+            let late = t.model.windows(2).map(|w| (w[1].0, 0.15 + 0.7 * w[0].1)).collect();
+            (t.name.clone(), late)
+        })
+        .collect()
 }

@@ -191,7 +191,21 @@ pub enum KeymapError {
     Key { path: String, table: String, key: String },
     #[error("{path}: [{table}] `{key}`: {message}")]
     Action { path: String, table: String, key: String, message: String },
+    #[error(
+        "{path}: no key quits in the {view} view (every `Quit` is unbound or shadowed there); keep one, e.g. [global] \"q\" = \"Quit\""
+    )]
+    NoWayOut { path: String, view: &'static str },
 }
+
+/// The mode chains keys are looked up along in each view (`update::input::mode_chain`
+/// without overlays), for the check that every view keeps a way out.
+const VIEW_CHAINS: [&[KeyMode]; 5] = [
+    &[KeyMode::Frames, KeyMode::Global],
+    &[KeyMode::Head, KeyMode::Global],
+    &[KeyMode::Fit, KeyMode::Frames, KeyMode::Global],
+    &[KeyMode::Analysis, KeyMode::Global],
+    &[KeyMode::Side, KeyMode::Global],
+];
 
 /// The active bindings.
 #[derive(Clone, Debug, PartialEq)]
@@ -274,7 +288,29 @@ impl Keymap {
             .map_err(|source| KeymapError::Read { path: p.clone(), source })?;
         let mut km = Self::builtin()?;
         km.apply_toml(&text, &p)?;
+        km.check_way_out(&p)?;
         Ok(km)
+    }
+
+    /// Refuses bindings that leave a view with no key bound to `Quit` along its chain: a
+    /// keymap must never lock the user inside the TUI.
+    ///
+    /// # Errors
+    /// `NoWayOut` naming the first such view.
+    pub fn check_way_out(&self, path: &str) -> Result<(), KeymapError> {
+        for chain in VIEW_CHAINS {
+            let quits = chain
+                .iter()
+                .flat_map(|&m| self.of_mode(m))
+                .any(|b| self.lookup(chain, b.key) == Some(&Action::Quit));
+            if !quits {
+                return Err(KeymapError::NoWayOut {
+                    path: path.to_string(),
+                    view: chain[0].name(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Applies bindings from TOML text in its order: each replaces the key's binding in its
@@ -332,6 +368,27 @@ mod tests {
                 assert_eq!(KeyChord::parse(&k.to_string()), Some(k));
             }
         }
+    }
+
+    #[test]
+    fn a_keymap_cannot_unbind_every_way_out() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("keys.toml");
+        std::fs::write(&file, "[global]\n\"q\" = \"none\"\n\"ctrl-c\" = \"none\"\n").unwrap();
+        let e = Keymap::load(&file).unwrap_err().to_string();
+        assert!(e.starts_with(&file.display().to_string()) && e.contains("no key quits"), "{e}");
+        // Shadowed in one view is as bad as unbound.
+        std::fs::write(&file, "[head]\n\"q\" = \"Save\"\n\"ctrl-c\" = \"Save\"\n").unwrap();
+        let e = Keymap::load(&file).unwrap_err().to_string();
+        assert!(e.contains("head view"), "{e}");
+        // Moving Quit to another key is fine.
+        std::fs::write(
+            &file,
+            "[global]\n\"q\" = \"none\"\n\"ctrl-c\" = \"none\"\n\"Q\" = \"Quit\"\n",
+        )
+        .unwrap();
+        assert!(Keymap::load(&file).is_ok());
+        assert!(Keymap::builtin().unwrap().check_way_out("builtin").is_ok());
     }
 
     #[test]

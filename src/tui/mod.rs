@@ -9,6 +9,7 @@ pub mod action;
 pub mod app;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod fixtures;
+pub mod head_state;
 pub mod keymap;
 pub mod save_state;
 pub mod update;

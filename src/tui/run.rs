@@ -5,7 +5,10 @@
 //! encoding) is owned here, not by the `App`, and drawn over the half-block image.
 //!
 //! Autosave: edits are saved once the user pauses (`AUTOSAVE_IDLE`) and never mid-drag; `q`
-//! saves what is left before quitting. The terminal is restored on return, error and panic.
+//! saves what is left before quitting. Until then every edit is in the session's journal
+//! (`session::journal`), on disk before the next key is read, so a crash loses at most the
+//! edit being made. TERM, INT and HUP leave like `q` (saving, unlocking, restoring the
+//! terminal). The terminal is restored on return, error, signal and panic.
 
 use super::action::Action;
 use super::app::{App, Effect};
@@ -16,11 +19,13 @@ use super::views::draw;
 use super::views::frames::draw_graphics;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
-use super::widgets::worker::{AnalysisJob, FitJob, Workers};
+use super::widgets::worker::{AnalysisJob, FitJob, HeadFrameJob, Workers};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
 use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, channel};
 use std::time::{Duration, Instant};
 
@@ -76,6 +81,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let (mut app, mut bridge, mut provider) = SessionBridge::open(session_path, clip)?;
     let env = TermEnv::from_process();
     let graphics = options.graphics;
+    let signals = Signals::register(session_path)?;
     let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
     if app.status.is_empty() && !gfx.note.is_empty() {
         app.status = gfx.note.clone();
@@ -89,6 +95,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         }
         bridge.start_saver(tx.clone());
         let workers = Workers::start(provider, tx.clone());
+        workers.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
             workers.start_side_frames(side, tx);
         }
@@ -96,15 +103,12 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         app.term_size = (size.width, size.height);
         request_images(&mut app);
         app.request_analysis();
-        let result = event_loop(
-            &mut guard.terminal,
-            &mut app,
-            &keymap,
-            &mut bridge,
-            &workers,
-            &rx,
-            &mut gfx,
-        );
+        let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
+        let result =
+            event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
+        if signals.caught().is_some() {
+            signals.loop_left();
+        }
         drop(workers);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
@@ -115,9 +119,18 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             drop(guard);
             return Err(e);
         }
-        let next = app.switch_clip.filter(|_| result.is_ok());
+        if app.save.is_clean() {
+            // Everything is in the session file: the journal has nothing more to give.
+            let _ = bridge.clear_journal();
+        }
+        let next = app.switch_clip.filter(|_| result.is_ok() && signals.caught().is_none());
         let Some(next) = next else {
             drop(guard);
+            drop(bridge);
+            if let Some(name) = signals.caught() {
+                // The edits are saved and the lock is released; say why lipmap stopped.
+                anyhow::bail!("stopped by {name}; the session was saved");
+            }
             return result;
         };
         drop(bridge);
@@ -133,6 +146,100 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     }
 }
 
+/// The signals that stop the editor (TERM, INT, HUP), caught so that leaving saves the
+/// edits, releases the lock and restores the terminal instead of dying on the spot.
+///
+/// A watchdog backs this up. When the terminal goes away (an SSH connection dropped, a tmux
+/// session killed) the HUP arrives while crossterm's reader spins on the dead terminal
+/// without returning, so the event loop never sees the signal. If the loop has not come back
+/// within [`SIGNAL_GRACE`], the watchdog releases this process's lock and exits; every
+/// finished edit is already in the fsynced journal, which the next open replays.
+struct Signals {
+    caught: Arc<AtomicUsize>,
+    /// Set once the event loop has returned (saving may then take its time).
+    loop_left: Arc<AtomicBool>,
+    ids: Vec<signal_hook::SigId>,
+}
+
+/// How long the event loop has to notice a stopping signal before the watchdog steps in.
+const SIGNAL_GRACE: Duration = Duration::from_secs(3);
+
+impl Signals {
+    fn register(session: &Path) -> anyhow::Result<Self> {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        let caught = Arc::new(AtomicUsize::new(0));
+        let loop_left = Arc::new(AtomicBool::new(false));
+        let ids = [SIGTERM, SIGINT, SIGHUP]
+            .into_iter()
+            .map(|sig| signal_hook::flag::register_usize(sig, caught.clone(), sig as usize))
+            .collect::<Result<Vec<_>, _>>()?;
+        let (c, left) = (caught.clone(), loop_left.clone());
+        let lock = crate::session::store::lock_path(session);
+        std::thread::Builder::new()
+            .name("signal watchdog".into())
+            .spawn(move || stop_when_loop_is_stuck(&c, &left, &lock))?;
+        Ok(Self { caught, loop_left, ids })
+    }
+
+    /// The name of the signal caught, if any.
+    fn caught(&self) -> Option<&'static str> {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        match self.caught.load(Ordering::SeqCst) as i32 {
+            0 => None,
+            SIGTERM => Some("SIGTERM"),
+            SIGINT => Some("SIGINT"),
+            SIGHUP => Some("SIGHUP"),
+            _ => Some("a signal"),
+        }
+    }
+
+    /// The event loop has returned: the watchdog stands down.
+    fn loop_left(&self) {
+        self.loop_left.store(true, Ordering::SeqCst);
+    }
+}
+
+/// The watchdog's body: waits for a stopping signal, gives the event loop [`SIGNAL_GRACE`] to
+/// return, and otherwise releases the lock (when it is still this process's) and exits with
+/// the shell's code for the signal.
+fn stop_when_loop_is_stuck(caught: &AtomicUsize, loop_left: &AtomicBool, lock: &Path) {
+    let step = Duration::from_millis(100);
+    let sig = loop {
+        if loop_left.load(Ordering::SeqCst) {
+            return;
+        }
+        match caught.load(Ordering::SeqCst) {
+            0 => std::thread::sleep(step),
+            sig => break sig,
+        }
+    };
+    let deadline = Instant::now() + SIGNAL_GRACE;
+    while Instant::now() < deadline {
+        if loop_left.load(Ordering::SeqCst) {
+            return;
+        }
+        std::thread::sleep(step);
+    }
+    let ours = std::fs::read_to_string(lock)
+        .ok()
+        .and_then(|t| serde_json::from_str::<crate::session::LockInfo>(&t).ok())
+        .is_some_and(|info| info.pid == std::process::id());
+    if ours {
+        let _ = std::fs::remove_file(lock);
+    }
+    std::process::exit(128 + sig as i32);
+}
+
+impl Drop for Signals {
+    fn drop(&mut self) {
+        self.loop_left();
+        // Back to the default actions once the editor is gone.
+        for id in self.ids.drain(..) {
+            signal_hook::low_level::unregister(id);
+        }
+    }
+}
+
 /// Applies an action and its follow-ups.
 pub fn apply(app: &mut App, action: Action) {
     let mut next = Some(action);
@@ -141,25 +248,50 @@ pub fn apply(app: &mut App, action: Action) {
     }
 }
 
+/// Where the event loop's actions come from: keys (through the keymap), worker replies and
+/// the stopping signals.
+struct LoopInputs<'a> {
+    keymap: &'a Keymap,
+    rx: &'a Receiver<Action>,
+    signals: &'a Signals,
+}
+
 fn event_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
-    keymap: &Keymap,
     bridge: &mut SessionBridge,
     workers: &Workers,
-    rx: &Receiver<Action>,
     gfx: &mut GraphicsState,
+    inputs: LoopInputs<'_>,
 ) -> anyhow::Result<()>
 where
     B::Error: Send + Sync + 'static,
 {
+    let LoopInputs { keymap, rx, signals } = inputs;
     let mut redraw = true;
     let mut seen_edits = app.save.unsaved();
     let mut last_edit = Instant::now();
+    let mut journaled = app.save.changes();
+    // Playback's next frame is due then.
+    let mut next_tick: Option<Instant> = None;
     loop {
         run_effects(app, bridge, workers);
-        if app.save.should_quit() {
+        if app.save.should_quit() || signals.caught().is_some() {
             return Ok(());
+        }
+        // Every finished edit goes to the journal before the next input is read (a drag is
+        // written when it ends: it is one edit).
+        if app.save.changes() != journaled && !app.dragging {
+            journaled = app.save.changes();
+            if let Err(e) = bridge.journal(app) {
+                app.status = format!("edits not journaled: {e:#}");
+                redraw = true;
+            }
+        }
+        if app.save.is_clean()
+            && let Err(e) = bridge.clear_journal()
+        {
+            app.status = format!("journal not removed: {e:#}");
         }
         if app.save.unsaved() != seen_edits {
             seen_edits = app.save.unsaved();
@@ -185,15 +317,49 @@ where
             })?;
             redraw = false;
         }
-        if event::poll(POLL)? {
-            let action = match event::read()? {
-                Event::Key(k) => key_to_action(app, keymap, &k),
-                Event::Mouse(m) => mouse_to_action(&m),
-                Event::Resize(w, h) => Some(Action::Resize { width: w, height: h }),
-                _ => None,
-            };
-            if let Some(a) = action {
-                apply(app, a);
+        let wait = match (app.playing, next_tick) {
+            (false, _) => {
+                next_tick = None;
+                POLL
+            }
+            (true, None) => {
+                next_tick = Some(Instant::now() + frame_interval(app.fps));
+                POLL
+            }
+            (true, Some(due)) => {
+                let now = Instant::now();
+                if now >= due {
+                    apply(app, Action::PlayTick);
+                    // A tick more than a frame late is not caught up with a burst of frames:
+                    // playback slows down instead (a slow draw must not starve the keys,
+                    // which are still read below, without waiting).
+                    let interval = frame_interval(app.fps);
+                    let floor = now.checked_sub(interval).unwrap_or(due);
+                    next_tick = Some(due.max(floor) + interval);
+                    redraw = true;
+                    Duration::ZERO
+                } else {
+                    POLL.min(due - now)
+                }
+            }
+        };
+        if event::poll(wait)? {
+            // Take every event already waiting before drawing again: a burst of keys is
+            // applied (and journaled) at once rather than one frame each.
+            loop {
+                let action = match event::read()? {
+                    Event::Key(k) => key_to_action(app, keymap, &k),
+                    Event::Mouse(m) => mouse_to_action(&m),
+                    Event::Resize(w, h) => Some(Action::Resize { width: w, height: h }),
+                    _ => None,
+                };
+                if let Some(a) = action {
+                    apply(app, a);
+                }
+                run_effects(app, bridge, workers);
+                if app.save.should_quit() || !event::poll(Duration::ZERO)? {
+                    break;
+                }
             }
             redraw = true;
         }
@@ -202,6 +368,12 @@ where
             redraw = true;
         }
     }
+}
+
+/// One frame's time at `fps` (25 fps when the rate is unusable).
+fn frame_interval(fps: f64) -> Duration {
+    let fps = if fps.is_finite() && fps > 0.0 { fps } else { 25.0 };
+    Duration::from_secs_f64(1.0 / fps)
 }
 
 /// Carries out queued effects.
@@ -272,6 +444,22 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     head: app.mesh.clone(),
                     side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
+            }
+            Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
+                Some(job) => workers.run_once("the transferred head's set-up", job),
+                None => {
+                    apply(app, Action::HeadPrepared { index, head: Err("no such head".into()) })
+                }
+            },
+            Effect::TransferFrame { head, frame } => {
+                let prepared = match app.heads.setups.get(head) {
+                    Some(super::app::HeadSetup::Ready(p)) => p.clone(),
+                    _ => continue,
+                };
+                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
+                if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
+                    workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
+                }
             }
             Effect::Quit => {}
         }

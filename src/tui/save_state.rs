@@ -21,6 +21,10 @@ pub struct SaveState {
     failed: bool,
     /// The user asked to leave; the save in flight decides when.
     quit_requested: bool,
+    /// After a failed save the user was told that `q` once more leaves without saving.
+    force_quit_armed: bool,
+    /// Every change ever made (never cleared): the journal records one line per step.
+    changes: u64,
     /// Everything is saved (or the user gave up on saving): the run loop may leave.
     should_quit: bool,
 }
@@ -50,13 +54,16 @@ impl SaveState {
     /// attempt after a failed save.
     pub fn edit_made(&mut self) {
         self.unsaved += 1;
+        self.changes += 1;
         self.failed = false;
+        self.force_quit_armed = false;
     }
 
     /// A change to save that starts no new edit batch (an undo or redo, a drag extending its
     /// edit, fits written to the session's cache): after a failed save it waits for an edit.
     pub fn change_made(&mut self) {
         self.unsaved += 1;
+        self.changes += 1;
     }
 
     /// A save of everything so far is requested; returns the generation its reply will name.
@@ -93,20 +100,38 @@ impl SaveState {
     /// The save failed: the user stays (a pending quit or clip switch is called off).
     pub fn save_failed(&mut self) {
         self.in_flight = false;
+        if self.quit_requested {
+            // The user asked to leave and the save failed: the next request may force it.
+            self.force_quit_armed = true;
+        }
         self.quit_requested = false;
         self.failed = true;
     }
 
-    /// The user asks to leave: at once when nothing is unsaved or saving already failed
-    /// (a failing disk must not trap the user), else after a save.
+    /// The user asks to leave: at once when nothing is unsaved, else after a save. After a
+    /// failed save one key never discards edits: the first request tries the save again,
+    /// and only a request after that one failed too leaves without saving (a failing disk
+    /// must not trap the user either).
     pub fn quit_requested(&mut self) -> QuitStep {
-        if self.unsaved == 0 || self.failed {
+        if self.unsaved == 0 || (self.failed && self.force_quit_armed) {
             self.should_quit = true;
             QuitStep::Leave
         } else {
+            self.force_quit_armed = self.failed;
             self.quit_requested = true;
             QuitStep::SaveFirst
         }
+    }
+
+    /// Whether the next quit request leaves without saving (the last save failed and the
+    /// user was warned).
+    pub fn force_quit_armed(&self) -> bool {
+        self.force_quit_armed
+    }
+
+    /// Every change made since the editor opened, never reset by a save.
+    pub fn changes(&self) -> u64 {
+        self.changes
     }
 
     /// Whether an idle moment should start a save: something is unsaved, no save is on its
@@ -194,6 +219,27 @@ mod tests {
         s.save_failed();
         assert!(!s.should_quit() && s.failed() && !s.autosave_due());
         assert_eq!(s.quit_requested(), QuitStep::Leave);
+    }
+
+    #[test]
+    fn after_a_failed_autosave_one_quit_only_retries() {
+        let mut s = SaveState::default();
+        s.edit_made();
+        s.save_requested();
+        s.save_failed();
+        assert_eq!(s.quit_requested(), QuitStep::SaveFirst, "one q must not discard edits");
+        assert!(!s.should_quit());
+        s.save_requested();
+        s.save_failed();
+        assert!(s.force_quit_armed());
+        assert_eq!(s.quit_requested(), QuitStep::Leave, "q after the warning forces");
+        let mut s = SaveState::default();
+        s.edit_made();
+        s.save_requested();
+        s.save_failed();
+        s.quit_requested();
+        let g = s.save_requested();
+        assert_eq!(s.saved(g), (true, AfterSave::Leave), "a retry that works leaves");
     }
 
     #[test]

@@ -12,6 +12,7 @@ use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
+use crate::session::journal::{self, Journal, JournalEntry};
 use crate::session::{Session, SessionLock};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -70,6 +71,8 @@ pub struct SessionBridge {
     written_map: Option<PathBuf>,
     /// The thread writing session snapshots, once started.
     saver: Option<Saver>,
+    /// Every edit, on disk before the next (see `session::journal`).
+    journal: Journal,
     _lock: SessionLock,
 }
 
@@ -82,7 +85,19 @@ impl SessionBridge {
     /// When the session cannot be locked or read, or has no clip `clip`.
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
         let lock = SessionLock::acquire(path)?;
-        let session = Session::load(path)?;
+        let mut session = Session::load(path)?;
+        let mut problems: Vec<String> = Vec::new();
+        // Edits a crashed editor left in the journal come back first; a journal that cannot
+        // be replayed is set aside (kept for the user) so new edits start a clean one.
+        let restored = match journal::replay(&mut session, path) {
+            Ok(n) => n > 0,
+            Err(e) => {
+                let aside = journal::set_aside(path);
+                problems.push(format!("journal not replayed: {e} (moved to {})", aside.display()));
+                false
+            }
+        };
+        let journal = Journal::new(path);
         let c = session.clip(clip)?;
         let tracked = c.tracked.clone();
         let track = c.corrections.effective_track(&c.tracked);
@@ -92,7 +107,14 @@ impl SessionBridge {
         app.fps = c.front.fps;
         app.image_size = c.front.size.map(|[w, h]| (w, h));
         app.fit_settings = session.fit_settings.clone();
-        let mut problems: Vec<String> = Vec::new();
+        if restored {
+            // Not on disk in the session file yet: autosave writes them.
+            app.save.edit_made();
+            problems.push(format!(
+                "restored the edits of an editor that stopped without saving (from {})",
+                journal.path().display()
+            ));
+        }
 
         let provider: Arc<dyn FrameProvider> = match session.open_frames(clip, FRAME_CACHE_MB) {
             Ok(src) => {
@@ -120,6 +142,7 @@ impl SessionBridge {
         if let Some(p) = head_obj.or(model_obj) {
             app.label_candidates =
                 crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
+            app.occluders = crate::io::obj::occluding_vertices(&p).ok().flatten().map(Arc::new);
         }
         // Nor drawn: the proxy shells and joint markers would hide the face's own edges.
         if let Some(keep) = app.label_candidates.clone() {
@@ -154,6 +177,9 @@ impl SessionBridge {
             app.side = super::app::SideState::Measuring;
         }
         app.clip_names = session.clips.iter().map(|c| c.name.clone()).collect();
+        app.heads = super::app::TransferredHeads::named(
+            session.transferred_heads.iter().map(|h| h.name.clone()).collect(),
+        );
         app.clip = clip;
         if !problems.is_empty() {
             app.status = problems.join("; ");
@@ -165,6 +191,7 @@ impl SessionBridge {
             loaded_map: map,
             written_map: None,
             saver: None,
+            journal,
             _lock: lock,
         };
         Ok((app, bridge, provider))
@@ -176,7 +203,23 @@ impl SessionBridge {
     /// # Errors
     /// When a correction is rejected by the session (non-finite, bad index).
     pub fn write_back(&mut self, app: &App) -> anyhow::Result<()> {
+        let layer = self.edit_layer(app)?;
         let c = self.session.clips.get_mut(self.clip).context("the clip disappeared")?;
+        c.corrections = layer.corrections;
+        if app.side.view().is_some() {
+            c.profile_corrections = layer.profile_corrections;
+        }
+        if let Some(map) = layer.landmark_map {
+            self.session.landmark_map.inline = Some(map);
+        }
+        Ok(())
+    }
+
+    /// The App's edits of this clip as the session stores them: corrections, reviewed
+    /// frames, side-view corrections (the session's own when the side view is not loaded)
+    /// and the map when it was changed.
+    fn edit_layer(&self, app: &App) -> anyhow::Result<JournalEntry> {
+        let c = self.session.clips.get(self.clip).context("the clip disappeared")?;
         let mut fresh = crate::session::Corrections::default();
         for (frame, index, p) in corrections(&app.tracked, &app.track) {
             // Placeholders of frames the tracker missed are not corrections.
@@ -186,14 +229,40 @@ impl SessionBridge {
             fresh.set(frame, index, p).map_err(|m| anyhow::anyhow!(m))?;
         }
         fresh.reviewed = app.reviewed.clone();
-        c.corrections = fresh;
-        if let Some(side) = app.side.view() {
-            c.profile_corrections = side.track.corrected.clone();
-        }
-        if let Some(map) = &app.map
-            && self.loaded_map.as_ref() != Some(map)
-        {
-            self.session.landmark_map.set_inline(map);
+        let profile_corrections = match app.side.view() {
+            Some(side) => side.track.corrected.clone(),
+            None => c.profile_corrections.clone(),
+        };
+        let landmark_map = app
+            .map
+            .as_ref()
+            .filter(|m| self.loaded_map.as_ref() != Some(*m))
+            .map(|m| m.to_vertex.clone());
+        Ok(JournalEntry {
+            clip: c.name.clone(),
+            corrections: fresh,
+            profile_corrections,
+            landmark_map,
+        })
+    }
+
+    /// Appends the App's edit layer to the journal, on disk when this returns.
+    ///
+    /// # Errors
+    /// As `write_back`; the journal cannot be written.
+    pub fn journal(&mut self, app: &App) -> anyhow::Result<()> {
+        let entry = self.edit_layer(app)?;
+        self.journal.record(&entry)?;
+        Ok(())
+    }
+
+    /// Removes the journal: call when the session file holds every edit.
+    ///
+    /// # Errors
+    /// The journal exists and cannot be removed.
+    pub fn clear_journal(&mut self) -> anyhow::Result<()> {
+        if self.journal.is_present() {
+            self.journal.clear()?;
         }
         Ok(())
     }
@@ -222,6 +291,24 @@ impl SessionBridge {
                 },
                 Err(e) => Action::SideFailed { error: format!("{e:#}") },
             }
+        })
+    }
+
+    /// The speech-driven head of this clip for a worker thread (it may fit what the cache
+    /// lacks and inverts the whole clip's audio): replies `SpeechReady` or `SpeechAbsent`.
+    pub fn speech_job(&self) -> impl FnOnce() -> Action + Send + 'static {
+        let (mut session, clip) = (self.session.clone(), self.clip);
+        move || super::widgets::worker::speech_for_tui(&mut session, clip)
+    }
+
+    /// The set-up of the session's transferred head number `index` for a worker thread:
+    /// replies `HeadPrepared`. `None` when the session has no such head.
+    pub fn head_setup_job(&self, index: usize) -> Option<impl FnOnce() -> Action + Send + 'static> {
+        let entry = self.session.transferred_heads.get(index)?.clone();
+        let session = self.session.clone();
+        Some(move || {
+            let head = super::widgets::worker::prepare_head_for_tui(&session, &entry);
+            Action::HeadPrepared { index, head: head.map(Arc::new) }
         })
     }
 
@@ -259,7 +346,7 @@ impl SessionBridge {
     pub fn save(&mut self, app: &App) -> anyhow::Result<()> {
         self.write_back(app)?;
         self.session.save(&self.path)?;
-        Ok(())
+        self.clear_journal()
     }
 
     /// Starts the saver thread: `save_in_background` then replies `Saved`/`SaveFailed` on

@@ -1,12 +1,15 @@
 //! Demo sessions: one session per generated demo speaker (frames, tracked landmarks, phones,
-//! side view, the demo head, its PCA model and landmark map), as `lipmap demo` and the tests
+//! the voice, side view, the demo head, its PCA model and landmark map), as `lipmap demo` and the tests
 //! make them.
 
 use super::error::{Error, Result};
+use crate::alignment::Alignment;
+use crate::demo::voice::{VOICE_SAMPLE_RATE, speak};
 use crate::demo::{DemoOutput, SpeakerOutput};
 use crate::io::alignment_format::read_alignment;
 use crate::io::landmark_format::read_track;
-use crate::session::{Clip, FramesRef, ModelRef, Session, View};
+use crate::io::wav::write_wav;
+use crate::session::{Clip, ClipAudio, FramesRef, ModelRef, Session, View};
 use std::path::{Path, PathBuf};
 
 /// Session file of speaker `k` in the demo folder.
@@ -43,7 +46,7 @@ fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Ses
         .ok_or_else(|| Error::Invalid("the demo was generated without its model".into()))?;
     session.model = Some(ModelRef { path: abs(&model), blendshapes: None });
     session.landmark_map.file = Some(abs(&out.landmark_map));
-    for c in &sp.clips {
+    for (k, c) in sp.clips.iter().enumerate() {
         let front_dir = c.front_dir.clone().unwrap_or_else(|| c.dir.join("front"));
         let mut front = View::new(FramesRef::Images { dir: abs(&front_dir) }, c.fps);
         front.size = Some([c.width, c.height]);
@@ -55,11 +58,27 @@ fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Ses
         }
         clip.tracked = read_track(&c.tracked_csv)?;
         clip.landmarks_file = Some(abs(&c.tracked_csv));
-        clip.alignment = Some(read_alignment(&c.phones_csv, None)?);
+        let alignment = read_alignment(&c.phones_csv, None)?;
+        clip.audio = Some(write_demo_voice(&alignment, &c.dir, voice_seed(sp.index, k))?);
+        clip.alignment = Some(alignment);
         clip.alignment_file = Some(abs(&c.phones_csv));
         session.add_clip(clip)?;
     }
     Ok(session)
+}
+
+/// The demo speaker's voice for one clip (from the same phone timings as its lips), written
+/// as `voice.wav` in the clip's folder.
+fn write_demo_voice(alignment: &Alignment, clip_dir: &Path, seed: u64) -> Result<ClipAudio> {
+    let file = abs(&clip_dir.join("voice.wav"));
+    let samples = speak(alignment, VOICE_SAMPLE_RATE, seed);
+    write_wav(&file, &samples, VOICE_SAMPLE_RATE)?;
+    Ok(ClipAudio { file, sample_rate: VOICE_SAMPLE_RATE, channels: 1, offset_s: 0.0 })
+}
+
+/// One voice seed per speaker and clip, so no two clips share their noise.
+fn voice_seed(speaker: usize, clip: usize) -> u64 {
+    (speaker as u64) << 20 | clip as u64
 }
 
 fn abs(p: &Path) -> PathBuf {

@@ -112,14 +112,18 @@ impl std::fmt::Display for Warning {
     }
 }
 
-/// `e` and its causes on one line, `outer: cause: cause` (a cause already in the message
-/// is not repeated).
+/// `e` and its causes on one line, `outer: cause: cause`. Text already said is not said
+/// again: a cause already in the message is dropped, and a cause that repeats the message
+/// (a path given as context to an error that names the path) replaces it, so no line reads
+/// `/x: /x: No such file`.
 pub fn error_chain(e: &dyn std::error::Error) -> String {
     let mut msg = e.to_string();
     let mut source = e.source();
     while let Some(cause) = source {
         let c = cause.to_string();
-        if !msg.contains(&c) {
+        if c.strip_prefix(&msg).is_some_and(|rest| rest.is_empty() || rest.starts_with(':')) {
+            msg = c;
+        } else if !msg.contains(&c) {
             msg.push_str(": ");
             msg.push_str(&c);
         }
@@ -144,3 +148,19 @@ pub type ProgressFn<'a> = &'a (dyn Fn(Progress) + Sync);
 
 /// A callback that ignores progress.
 pub fn no_progress(_: Progress) {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_path_given_as_context_to_an_error_naming_it_is_said_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let e = Error::io("/x", io).context("/x");
+        assert_eq!(error_chain(&e), "/x: No such file");
+        let e = Error::Invalid("bad value".into()).context("clip `a`");
+        assert_eq!(error_chain(&e), "clip `a`: bad value");
+        let e = Error::io("/x.csv", std::io::Error::other("gone")).context("/x");
+        assert_eq!(error_chain(&e), "/x: /x.csv: gone");
+    }
+}

@@ -8,7 +8,7 @@ use super::resources::Resources;
 use super::side_view::{HeadP, head_p_of_clip_by_render, head_p_options, side_view_protrusion};
 use super::{Progress, ProgressFn};
 use crate::eval::report::{group_table, sentence_table, worst_error_table, worst_fit_table};
-use crate::eval::{Table, Utterance, VisemeTable, phoneme_rmse, viseme_rmse};
+use crate::eval::{Table, Utterance, phoneme_rmse, viseme_rmse};
 use crate::eval::{worst_frames_by_error, worst_frames_by_residual};
 use crate::fit::{FitSettings, FrameFit};
 use crate::measure::mouth::trajectory_from_track;
@@ -200,7 +200,7 @@ pub fn evaluate(
     n_worst: usize,
 ) -> EvalReport {
     let compared = normalisation.apply(utterances);
-    let visemes = VisemeTable::default();
+    let visemes = &crate::reference::current().visemes;
     let mut worst: Vec<_> =
         Measure::ALL.iter().flat_map(|&m| worst_frames_by_error(&compared, m, n_worst)).collect();
     worst.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
@@ -210,8 +210,8 @@ pub fn evaluate(
         phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared), None),
         visemes: group_table(
             "RMSE per viseme class",
-            &viseme_rmse(&compared, &visemes),
-            Some(&visemes),
+            &viseme_rmse(&compared, visemes),
+            Some(visemes),
         ),
         worst_frames: worst_error_table(&worst),
         worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)),

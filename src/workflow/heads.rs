@@ -3,34 +3,56 @@
 //! non-corresponding heads.
 //!
 //! A head is named on the command line by a path: a session file (`.json`) whose model,
-//! landmark map and head mesh are used, or a folder holding a model and a landmark map (what
-//! `lipmap demo` writes: `model.lmm`, `head_map.toml`, `head.obj`, `poses/`).
+//! landmark map and head mesh are used, a folder holding a model and a landmark map (what
+//! `lipmap demo` writes: `model.lmm`, `head_map.toml`, `head.obj`, `poses/`), or a plain OBJ
+//! with a landmark map and neither model nor blendshapes: the session's own model is fitted
+//! and its motion transferred onto that head ([`super::transfer`]), as `lipmap transfer` does.
+//!
+//! Start at [`load_heads`] and [`compare_heads`].
 
 use super::error::{Context, Error, Result, Warning};
 use super::evaluate::{Normalisation, utterance_of_clip};
 use super::indices::{NeutralChoice, SpeakerNeutral, resources_head_indices, speaker_neutral};
 use super::resources::{Resources, check_map_vertices};
 use super::session::{image_height, load_session};
+use super::transfer::transferred_utterance;
+use super::transfer::{TargetFiles, default_mapping, load_target, mode_name, set_up_for_head};
 use super::{Progress, ProgressFn};
 use crate::eval::stats::paired_t_test;
 use crate::eval::{Cell, Comparison, Configuration, RowKey, Table, Utterance};
 use crate::eval::{compare_configurations, mean_of};
-use crate::fit::fit_clip;
+use crate::fit::{FrameFit, fit_clip};
 use crate::io::model_source::{ModelSourceKind, detect_model_source, load_model};
 use crate::io::{landmark_map_toml, obj};
+use crate::measure::indices::shape_indices_partial;
 use crate::measure::{
-    BoundsTable, FacialIndex, IndexClass, MatchVerdict, Measure, MeshMeasureOptions,
+    FacialIndex, FacialIndices, IndexClass, MatchVerdict, Measure, MeshMeasureOptions,
     match_speaker_head,
 };
 use crate::session::Session;
+use crate::transfer::{Interpolation, Transfer};
 use std::path::{Path, PathBuf};
 
-/// A head to map the speaker onto: its display name and what fitting it needs.
+/// A head to map the speaker onto: its display name and what driving it needs.
 #[derive(Clone, Debug)]
 pub struct Head {
     pub name: String,
     pub path: PathBuf,
-    pub resources: Resources,
+    pub kind: HeadKind,
+}
+
+/// How a head follows the speaker.
+#[derive(Clone, Debug)]
+pub enum HeadKind {
+    /// Fitted directly: the head has a model and a landmark map of its own.
+    Fitted(Resources),
+    /// A plain OBJ: the session's model is fitted and its motion transferred onto the head.
+    Transferred {
+        target: TargetFiles,
+        /// The head's landmark map file.
+        mapping: PathBuf,
+        mode: Interpolation,
+    },
 }
 
 fn sorted_files(dir: &Path) -> Result<Vec<PathBuf>> {
@@ -110,15 +132,40 @@ fn head_map_path(dir: &Path, files: &[PathBuf]) -> Result<PathBuf> {
     })
 }
 
-/// Loads the head named by `path`: a session file (its model, map and head mesh) or a
-/// folder with a model, a landmark map and optionally `head.obj` (its neutral pose).
+fn is_obj(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+}
+
+/// Loads the head named by `path`: a session file (its model, map and head mesh), a folder
+/// with a model, a landmark map and optionally `head.obj` (its neutral pose), or an OBJ
+/// file, driven through transfer with `mode` and its landmark map `mapping` (`None`: the
+/// map beside it, [`default_mapping`]). `mapping` is refused for any other kind of head.
 ///
 /// # Errors
-/// A path that is neither; a folder lacking a model or map; any file's format error; a map
-/// naming vertices the model lacks.
-pub fn load_head(path: &Path) -> Result<Head> {
+/// A path that is none of these; a folder lacking a model or map; an OBJ without a map;
+/// any file's format error; a map naming vertices the model lacks.
+pub fn load_head(path: &Path, mapping: Option<&Path>, mode: Interpolation) -> Result<Head> {
     let name = file_name(path).trim_end_matches(".lipmap.json").to_string();
-    let resources = if path.is_dir() {
+    if let Some(m) = mapping.filter(|_| !is_obj(path)) {
+        return Err(Error::Invalid(format!(
+            "{}: a landmark map ({}) is only taken by an OBJ head; this head brings its own",
+            path.display(),
+            m.display()
+        )));
+    }
+    let resources = if is_obj(path) {
+        if !path.is_file() {
+            return Err(Error::io(path, std::io::ErrorKind::NotFound.into()));
+        }
+        let name = path.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let mapping = match mapping {
+            Some(m) => m.to_path_buf(),
+            None => default_mapping(path)?,
+        };
+        let target = load_target(path, &mapping)?;
+        let kind = HeadKind::Transferred { target, mapping, mode };
+        return Ok(Head { name, path: path.to_path_buf(), kind });
+    } else if path.is_dir() {
         let files = sorted_files(path)?;
         let (model_path, blend) = head_model_paths(path, &files)?;
         let map_path = head_map_path(path, &files)?;
@@ -133,21 +180,36 @@ pub fn load_head(path: &Path) -> Result<Head> {
         Resources::load(&session).with_context(|| path.display().to_string())?
     } else {
         return Err(Error::Invalid(format!(
-            "{}: a head is a folder with a model and a landmark map, or a session file",
+            "{}: a head is a folder with a model and a landmark map, a session file, or an OBJ \
+             with a landmark map",
             path.display()
         )));
     };
-    Ok(Head { name, path: path.to_path_buf(), resources })
+    Ok(Head { name, path: path.to_path_buf(), kind: HeadKind::Fitted(resources) })
 }
 
-/// Loads every head, making repeated names unique (`b`, `b#2`).
+/// Loads every head, making repeated names unique (`b`, `b#2`). The OBJ heads take the
+/// landmark maps of `mappings` in order; those beyond its end take the map beside them.
 ///
 /// # Errors
-/// As [`load_head`], naming the head.
-pub fn load_heads(paths: &[PathBuf]) -> Result<Vec<Head>> {
+/// More maps than OBJ heads; as [`load_head`], naming the head.
+pub fn load_heads(
+    paths: &[PathBuf],
+    mappings: &[PathBuf],
+    mode: Interpolation,
+) -> Result<Vec<Head>> {
+    let objs = paths.iter().filter(|p| is_obj(p)).count();
+    if mappings.len() > objs {
+        return Err(Error::Invalid(format!(
+            "{} landmark maps given for {objs} OBJ heads (each map goes with an OBJ head, in order)",
+            mappings.len()
+        )));
+    }
+    let mut maps = mappings.iter();
     let mut heads: Vec<Head> = Vec::new();
     for p in paths {
-        let mut h = load_head(p).with_context(|| format!("head {}", p.display()))?;
+        let mapping = if is_obj(p) { maps.next().map(PathBuf::as_path) } else { None };
+        let mut h = load_head(p, mapping, mode).with_context(|| format!("head {}", p.display()))?;
         let base = if h.name.is_empty() { "head".to_string() } else { h.name.clone() };
         h.name = base.clone();
         let mut k = 1;
@@ -160,36 +222,107 @@ pub fn load_heads(paths: &[PathBuf]) -> Result<Vec<Head>> {
     Ok(heads)
 }
 
-/// The session's clips fitted onto `head` with the session's fit settings, and what was
-/// worked around. The fits are not cached: the session's cache is keyed to its own model and
-/// map. Progress: one stage per clip.
+/// What drives one head in a comparison, ready to run: its own model, or the session's
+/// model with the transfer onto the head set up.
+#[derive(Debug)]
+pub enum Driver<'a> {
+    Fitted(&'a Resources),
+    /// The set-up is boxed: it is large, and most heads in a comparison are fitted.
+    Transferred {
+        source: &'a Resources,
+        transfer: Box<Transfer>,
+        target: &'a TargetFiles,
+    },
+}
+
+impl<'a> Driver<'a> {
+    /// Sets up what `head` needs; `source` (the session's resources) drives OBJ heads.
+    ///
+    /// # Errors
+    /// An OBJ head without `source`; the transfer's setup errors, naming the head file.
+    pub fn new(head: &'a Head, source: Option<&'a Resources>) -> Result<Self> {
+        match &head.kind {
+            HeadKind::Fitted(res) => Ok(Self::Fitted(res)),
+            HeadKind::Transferred { target, mode, .. } => {
+                let source = source.ok_or(Error::NoModel)?;
+                let transfer = Box::new(set_up_for_head(source, target, *mode, &head.path)?);
+                Ok(Self::Transferred { source, transfer, target })
+            }
+        }
+    }
+
+    /// The resources the clips are fitted with.
+    fn fitted(&self) -> &Resources {
+        match self {
+            Self::Fitted(res) | Self::Transferred { source: res, .. } => res,
+        }
+    }
+
+    /// The clip measured on the driven head: the fitted model's own measures, or those of
+    /// the transferred head.
+    fn measure(&self, u: Utterance, fits: &[FrameFit]) -> Result<Utterance> {
+        match self {
+            Self::Fitted(_) => Ok(u),
+            Self::Transferred { source, transfer, target } => {
+                transferred_utterance(source, transfer, &target.map, &u, fits)
+            }
+        }
+    }
+}
+
+/// The session's clips fitted with `driver`'s model and the session's fit settings and
+/// measured on the head it drives, and what was worked around. The fits are not cached: the
+/// session's cache is keyed to its own model and map. Progress: one stage per clip.
 ///
 /// # Errors
-/// Unknown clip; unreadable frames when the clip's image size is not recorded.
+/// Unknown clip; unreadable frames when the clip's image size is not recorded; a fitted
+/// shape the transfer refuses.
 pub fn head_utterances(
     session: &Session,
-    head: &Head,
+    name: &str,
+    driver: &Driver<'_>,
     clips: &[usize],
     progress: ProgressFn<'_>,
 ) -> Result<(Vec<Utterance>, Vec<Warning>)> {
     let settings = &session.fit_settings;
-    let res = &head.resources;
+    let res = driver.fitted();
     let mut utterances = Vec::new();
     let mut warnings = Vec::new();
     for &c in clips {
         let track = session.effective_track(c)?;
         let height = image_height(session, c)?;
         let total = track.frames.len();
-        let what = format!("{} onto {}", session.clip(c)?.name, head.name);
+        let what = format!("{} onto {name}", session.clip(c)?.name);
         progress(Progress::Stage { what, total });
         let report = |done: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip(&res.model, &res.map, &track.frames, height, settings, Some(&report));
         let (u, w) = utterance_of_clip(session, res, c, &fits, &MeshMeasureOptions::default())?;
-        utterances.push(u);
+        utterances.push(driver.measure(u, &fits)?);
         warnings.extend(w);
     }
     progress(Progress::Finished);
     Ok((utterances, warnings))
+}
+
+/// The facial indices of a head on its neutral pose: the model's (see
+/// [`resources_head_indices`]) or, for an OBJ head, the mesh as it is.
+///
+/// # Errors
+/// No index can be computed from the head's map.
+fn head_neutral_indices(head: &Head) -> Result<FacialIndices> {
+    match &head.kind {
+        HeadKind::Fitted(res) => Ok(resources_head_indices(res)?.indices),
+        HeadKind::Transferred { target, .. } => {
+            let ix = shape_indices_partial(&target.mesh.to_flat(), &target.map);
+            if ix.values.iter().all(|v| v.is_nan()) {
+                return Err(Error::Invalid(format!(
+                    "{}: none of the 12 indices can be computed (index points unmapped)",
+                    head.path.display()
+                )));
+            }
+            Ok(ix)
+        }
+    }
 }
 
 /// A head's match with the speaker: the verdict when both sides' indices could be taken.
@@ -358,16 +491,35 @@ pub fn compare_heads(
                 .into(),
         ));
     }
-    let bounds = BoundsTable::default();
+    // The session's own model drives the OBJ heads; every transfer is set up before any
+    // fitting, so a bad head or map fails at once.
+    let transferred = heads.iter().any(|h| matches!(h.kind, HeadKind::Transferred { .. }));
+    let source = transferred
+        .then(|| Resources::load(session))
+        .transpose()
+        .context("the session's model, which drives the OBJ heads")?;
+    let drivers: Vec<Driver<'_>> =
+        heads.iter().map(|h| Driver::new(h, source.as_ref())).collect::<Result<_>>()?;
+    let bounds = &crate::reference::current().bounds;
     let mut configs = Vec::new();
     let mut matches = Vec::new();
-    for h in heads {
-        let (utterances, w) = head_utterances(session, h, clips, progress)?;
+    let mut notes = Vec::new();
+    for (h, driver) in heads.iter().zip(&drivers) {
+        let (utterances, w) = head_utterances(session, &h.name, driver, clips, progress)?;
         warnings.extend(w);
         configs
             .push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
-        let verdict = match (&speaker, resources_head_indices(&h.resources)) {
-            (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi.indices, &bounds)),
+        if let HeadKind::Transferred { mapping, mode, .. } = &h.kind {
+            notes.push(format!(
+                "{}: the session's fitted model transferred onto {} ({}, map {})",
+                h.name,
+                h.path.display(),
+                mode_name(*mode),
+                mapping.display()
+            ));
+        }
+        let verdict = match (&speaker, head_neutral_indices(h)) {
+            (Some(s), Ok(hi)) => Ok(match_speaker_head(&s.indices, &hi, bounds)),
             (None, _) => Err("no speaker indices".to_string()),
             (_, Err(e)) => Err(super::error_chain(&e)),
         };
@@ -376,6 +528,7 @@ pub fn compare_heads(
     let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
     let mut rmse = comparison.to_table();
     rmse.title = "RMSE by head".into();
+    rmse.notes.extend(notes);
     let mut tables = vec![rmse, match_table(&matches, speaker.as_ref())];
     tables.extend(correspondence_table(&comparison, &matches));
     Ok(HeadsReport { tables, warnings })
@@ -426,7 +579,38 @@ mod tests {
     #[test]
     fn a_head_is_a_folder_or_a_session_file() {
         let d = tempfile::tempdir().unwrap();
-        let f = touch(d.path(), "model.obj", "");
-        assert!(load_head(&f).unwrap_err().to_string().contains("a head is a folder"));
+        let f = touch(d.path(), "model.ply", "");
+        let bih = Interpolation::Biharmonic;
+        assert!(load_head(&f, None, bih).unwrap_err().to_string().contains("a head is a folder"));
+    }
+
+    #[test]
+    fn an_obj_head_is_transferred_with_its_map_given_or_beside_it() {
+        let d = tempfile::tempdir().unwrap();
+        let obj = touch(d.path(), "scan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        let bih = Interpolation::Barycentric;
+        let err = load_head(&obj, None, bih).unwrap_err().to_string();
+        assert!(err.contains("scan.obj") && err.contains("--mapping"), "{err}");
+        let given = touch(d.path(), "given.toml", "[landmark_mappings]\n31 = 1\n");
+        let head = load_head(&obj, Some(&given), bih).unwrap();
+        assert_eq!(head.name, "scan");
+        let HeadKind::Transferred { target, mapping, mode } = &head.kind else {
+            panic!("{:?}", head.kind)
+        };
+        assert_eq!((target.mesh.vertices.len(), mapping, *mode), (3, &given, bih));
+        assert_eq!(target.map.vertex(30), Some(1));
+        touch(d.path(), "scan_map.toml", "[landmark_mappings]\n31 = 2\n");
+        let beside = load_head(&obj, None, bih).unwrap();
+        let HeadKind::Transferred { target, .. } = &beside.kind else { panic!() };
+        assert_eq!(target.map.vertex(30), Some(2));
+        // A map goes with an OBJ head only, and no more maps than OBJ heads.
+        let dir = d.path().to_path_buf();
+        assert!(load_head(&dir, Some(&given), bih).unwrap_err().to_string().contains("only"));
+        let two = [given.clone(), given.clone()];
+        let err = load_heads(std::slice::from_ref(&obj), &two, bih).unwrap_err().to_string();
+        assert!(err.contains("2 landmark maps given for 1 OBJ heads"), "{err}");
+        let missing = d.path().join("gone.obj");
+        let err = load_head(&missing, Some(&given), bih).unwrap_err().to_string();
+        assert!(err.contains("gone.obj"), "{err}");
     }
 }

@@ -17,7 +17,7 @@ use crate::measure::{
     BoundsTable, FacialIndex, FacialIndices, IndexClass, MatchVerdict, choose_neutral_frame,
     match_speaker_head,
 };
-use crate::model::{LandmarkMap, Mesh, MorphableModel};
+use crate::model::{LandmarkMap, MapCheck, MapProblem, Mesh, MorphableModel, check_map};
 use crate::session::Session;
 use std::path::Path;
 
@@ -172,6 +172,27 @@ pub fn speaker_neutral_of(
 pub struct HeadNeutral {
     pub indices: FacialIndices,
     pub source: String,
+    /// The map checked on the head's neutral pose: the verdict is withheld when it makes
+    /// the head's own indices untrustworthy ([`withholds_verdict`]).
+    pub check: MapCheck,
+}
+
+/// Whether a map check makes the head's indices untrustworthy: eye/mouth proportions
+/// outside the human range, landmarks sharing a vertex, or left and right swapped.
+pub fn withholds_verdict(check: &MapCheck) -> bool {
+    check.problems.iter().any(|p| {
+        matches!(
+            p,
+            MapProblem::Proportion { .. }
+                | MapProblem::SharedVertex { .. }
+                | MapProblem::PairSwapped { .. }
+        )
+    })
+}
+
+/// The head's vertices of a flat shape, for the map check.
+fn shape_points(shape: &DVector) -> Vec<crate::math::Point3> {
+    shape.as_slice().chunks_exact(3).map(|c| crate::math::Point3::new(c[0], c[1], c[2])).collect()
 }
 
 /// The neutral pose of a head, flat `x0 y0 z0 …`: the head mesh when it has the model's
@@ -195,7 +216,12 @@ pub fn head_indices(
     let (shape, what) = neutral_shape(model, head);
     let indices = nonempty(shape_indices_partial(&shape, map))
         .with_context(|| format!("head indices on the {what}"))?;
-    Ok(HeadNeutral { indices, source: format!("head: {what}, frontal projection of the map") })
+    let check = check_map(map, &shape_points(&shape));
+    Ok(HeadNeutral {
+        indices,
+        source: format!("head: {what}, frontal projection of the map"),
+        check,
+    })
 }
 
 /// [`head_indices`] of loaded resources.
@@ -225,7 +251,12 @@ pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
     let mesh = obj::read_obj(head)?;
     let indices = nonempty(shape_indices_partial(&mesh.to_flat(), &map))
         .with_context(|| format!("head indices on {}", head.display()))?;
-    Ok(HeadNeutral { indices, source: format!("head: {}, frontal projection", head.display()) })
+    let check = check_map(&map, &mesh.vertices);
+    Ok(HeadNeutral {
+        indices,
+        source: format!("head: {}, frontal projection", head.display()),
+        check,
+    })
 }
 
 /// The verdict's two checks as a table (so CSV and JSON carry them too, not only the
@@ -323,6 +354,19 @@ fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTabl
     let mut ht = indices_table("head indices", &head.indices, bounds);
     ht.notes.push(head.source);
     ht.notes.extend(missing_note(&head.indices, "landmarks not mapped to vertices"));
+    if !head.check.is_plausible() {
+        ht.notes.push(head.check.summary());
+    }
+    if withholds_verdict(&head.check) {
+        let mut t = Table::new("verdict", vec!["verdict".to_string()]);
+        t.push_row(vec![Cell::text("withheld")]);
+        t.notes.push(format!(
+            "verdict withheld: the head's own indices are implausible ({}); fix the map \
+             (lipmap map check SESSION) first",
+            head.check.summary()
+        ));
+        return vec![st, ht, t];
+    }
     vec![st, ht, verdict_table(&verdict), checks_table(&verdict)]
 }
 

@@ -6,17 +6,28 @@
 //! Start with [`open_for_read`] / [`open_for_edit`] and [`load_resources`], then
 //! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
 
+pub mod audio;
+pub mod create;
 pub mod demo;
 pub mod error;
 pub mod evaluate;
+pub mod export;
 pub mod fit;
+pub mod fit_files;
 pub mod flags;
 pub mod heads;
 pub mod indices;
+pub mod map;
 pub mod measure_fits;
+pub mod profile_edit;
+pub mod reference;
 pub mod resources;
 pub mod session;
 pub mod side_view;
+pub mod speech;
+pub mod speech_session;
+pub mod transfer;
+pub mod untrusted;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
@@ -35,7 +46,7 @@ pub use session::{
     open_for_edit, open_for_read, read_only_notice, select_clips, session_path,
 };
 pub use side_view::{
-    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, head_p_by_render, head_p_of_clip_by_render,
-    head_p_options, profile_setup, resample_to_front, side_view_points, side_view_protrusion,
-    side_view_track,
+    HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, check_setup_in_frame, head_p_by_render,
+    head_p_of_clip_by_render, head_p_options, profile_setup, resample_to_front, side_view_points,
+    side_view_protrusion, side_view_track,
 };

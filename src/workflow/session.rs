@@ -72,15 +72,45 @@ impl ReadSession {
 /// Unreadable session or lock file.
 pub fn open_for_read(s: &str) -> Result<ReadSession> {
     let path = session_path(s);
+    let read_only = |why: &str| {
+        Warning(format!(
+            "lipmap: note: {} {why}; reading it without saving (fits missing from its cache \
+             are computed now and not stored)",
+            path.display()
+        ))
+    };
+    if is_read_only(&path) {
+        // No lock file is created where nothing will be written.
+        let session = load_session(&path)?;
+        let notice = Some(read_only("is read-only"));
+        return Ok(ReadSession { path, lock: None, session, notice });
+    }
     let (lock, notice) = match SessionLock::acquire(&path) {
         Ok(lock) => (Some(lock), None),
         Err(SessionError::Locked { holder, .. }) => {
             (None, Some(Warning(read_only_notice(&path, &holder))))
         }
+        Err(SessionError::Io { source, .. })
+            if matches!(
+                source.kind(),
+                std::io::ErrorKind::PermissionDenied | std::io::ErrorKind::ReadOnlyFilesystem
+            ) =>
+        {
+            (None, Some(read_only("cannot be locked (its folder is not writable)")))
+        }
         Err(e) => return Err(e.into()),
     };
     let session = load_session(&path)?;
     Ok(ReadSession { path, lock, session, notice })
+}
+
+/// Whether the session file or its folder is marked read-only (no write bit), so a save
+/// could not replace it: reading then takes no lock. Mode bits are looked at rather than
+/// trying a write, which would create the very file this avoids.
+fn is_read_only(path: &Path) -> bool {
+    let abs = crate::session::absolute(path);
+    let ro = |p: &Path| std::fs::metadata(p).is_ok_and(|m| m.permissions().readonly());
+    ro(&abs) || abs.parent().is_some_and(ro)
 }
 
 /// The notice of a read-only run beside another editor.
@@ -146,4 +176,28 @@ pub fn image_height(session: &Session, clip: usize) -> Result<f64> {
 pub fn clip_length(session: &Session, clip: usize) -> Result<usize> {
     let c = session.clip(clip)?;
     Ok(c.tracked.frames.last().map_or(0, |f| f.frame + 1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    #[test]
+    fn a_read_only_session_is_read_without_a_lock_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let folder = dir.path().join("ro");
+        std::fs::create_dir(&folder).unwrap();
+        let path = folder.join("s.lipmap.json");
+        Session::new(&path).save(&path).unwrap();
+        std::fs::set_permissions(&folder, std::fs::Permissions::from_mode(0o555)).unwrap();
+        let opened = open_for_read(path.to_str().unwrap());
+        // Writable again before asserting, so the temp folder can be removed.
+        std::fs::set_permissions(&folder, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let opened = opened.unwrap();
+        assert!(opened.lock.is_none());
+        assert!(opened.notice.as_ref().is_some_and(|w| w.0.contains("read-only")));
+        assert!(!crate::session::store::lock_path(&path).exists(), "a lock file was created");
+        opened.save_if_locked().unwrap();
+    }
 }

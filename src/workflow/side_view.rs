@@ -25,10 +25,12 @@ pub const PROFILE_SETUP_KEY: &str = "profile_setup";
 pub fn profile_setup(session: &Session, clip: usize) -> Result<ProfileSetup> {
     let c = session.clip(clip)?;
     if let Some(v) = c.extensions.get(PROFILE_SETUP_KEY) {
-        return serde_json::from_value(v.clone()).map_err(|e| {
+        let setup: ProfileSetup = serde_json::from_value(v.clone()).map_err(|e| {
             Error::Invalid(e.to_string())
                 .context(format!("clip `{}`: stored `{PROFILE_SETUP_KEY}`", c.name))
-        });
+        })?;
+        check_setup_in_frame(session, clip, &setup)?;
+        return Ok(setup);
     }
     let frames = session
         .open_side_frames(clip, 64)?
@@ -37,6 +39,38 @@ pub fn profile_setup(session: &Session, clip: usize) -> Result<ProfileSetup> {
     let gray = image::DynamicImage::ImageRgb8((*first).clone()).to_luma8();
     propose_setup(&gray, Facing::Right)
         .map_err(|e| Error::Invalid(format!("clip `{}`: side view frame 0: {e}", c.name)))
+}
+
+/// Checks that a setup's crop (and anchor region) lie inside the clip's side frames: a
+/// crop is allocated and scanned width × height, so one from a file or a flag is bounded
+/// by the image before it is used.
+///
+/// # Errors
+/// A region outside the side frame (naming the clip and field); no side view.
+pub fn check_setup_in_frame(session: &Session, clip: usize, setup: &ProfileSetup) -> Result<()> {
+    let c = session.clip(clip)?;
+    let [w, h] = match c.side.as_ref().and_then(|s| s.size) {
+        Some(size) => size,
+        None => session
+            .open_side_frames(clip, 1)?
+            .ok_or_else(|| Error::Invalid(format!("clip `{}` has no side view", c.name)))?
+            .size(),
+    };
+    let regions = std::iter::once(("crop", &setup.crop))
+        .chain(setup.anchor.as_ref().map(|a| ("anchor region", &a.region)));
+    for (field, r) in regions {
+        let inside = r.width > 0
+            && r.height > 0
+            && u64::from(r.x) + u64::from(r.width) <= u64::from(w)
+            && u64::from(r.y) + u64::from(r.height) <= u64::from(h);
+        if !inside {
+            return Err(Error::Invalid(format!(
+                "clip `{}`: profile {field} {},{},{},{} is not inside the {w}×{h} side frame",
+                c.name, r.x, r.y, r.width, r.height
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The side view's setup and profile points of a clip: the automatic extraction over every

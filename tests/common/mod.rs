@@ -6,6 +6,8 @@
 // Each test binary that includes this module uses only part of it.
 #![allow(dead_code)]
 
+pub mod tmux;
+
 use lipmap::io::landmark_format::{LandmarkFormat, read_track, write_track};
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -45,9 +45,17 @@ pub(super) fn update(app: &mut App, action: Action) {
         A::Undo => undo_redo(app, true),
         A::Redo => undo_redo(app, false),
         A::ShowFrames => app.view = View::Frames,
-        A::ShowHead => app.view = View::Head,
+        A::ShowHead => {
+            app.view = View::Head;
+            super::transferred::request_head_frame(app);
+        }
         A::ShowFit => app.view = View::Fit,
-        A::ShowAnalysis => app.view = View::Analysis,
+        A::ShowAnalysis => {
+            app.view = View::Analysis;
+            if let Some(why) = super::analysis::speech_absent(app) {
+                app.status = why;
+            }
+        }
         A::ShowSide => match &app.side {
             SideState::None => app.status = "this clip has no side view".into(),
             _ => {
@@ -82,6 +90,24 @@ pub(super) fn update(app: &mut App, action: Action) {
             match app.flags.iter().rev().find(|f| f.frame < cur).map(|f| f.frame) {
                 Some(f) => go_to_frame(app, f),
                 None => app.status = "no flagged frame before this one".into(),
+            }
+        }
+        A::TogglePlay => {
+            app.playing = !app.playing && app.n_frames() > 1;
+            if app.playing {
+                if app.frame_pos + 1 >= app.n_frames() {
+                    go_to_pos(app, 0);
+                }
+                app.status = format!("playing at {:.0} fps", app.fps);
+            }
+        }
+        // The end of the clip stops playback where it is.
+        A::PlayTick if app.playing => {
+            if app.frame_pos + 1 >= app.n_frames() {
+                app.playing = false;
+                app.status = "end of the clip".into();
+            } else {
+                go_to_pos(app, app.frame_pos + 1);
             }
         }
         A::NextUnreviewed => {
@@ -196,4 +222,5 @@ pub fn request_images(app: &mut App) {
     {
         app.effects.push(Effect::LoadSideFrame(k));
     }
+    super::transferred::request_head_frame(app);
 }

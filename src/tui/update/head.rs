@@ -4,6 +4,7 @@
 use super::edits::relabel;
 use super::global::request_save;
 use crate::fit::OrthoPose;
+use crate::fit::map_suggest::LeftOut;
 use crate::fit::suggest::SuggestHead;
 use crate::landmarks::N_LANDMARKS;
 use crate::tui::action::Action;
@@ -13,6 +14,21 @@ use crate::tui::views::head;
 /// Applies an action of this file (routed here by `update`).
 pub(super) fn update(app: &mut App, action: Action) {
     use Action as A;
+    // A transferred head is looked at, turned and zoomed; labels go on the model.
+    let looking = matches!(
+        action,
+        A::ZoomIn
+            | A::ZoomOut
+            | A::ZoomReset
+            | A::Rotate { .. }
+            | A::ResetView
+            | A::LoadMap
+            | A::SaveMap
+    );
+    if app.heads.shown.is_some() && !looking {
+        app.status = "labels are set on the model: t until the model is shown".into();
+        return;
+    }
     match action {
         A::ZoomIn | A::ZoomOut | A::ZoomReset => {
             app.head.zoom = match action {
@@ -25,7 +41,10 @@ pub(super) fn update(app: &mut App, action: Action) {
             app.head.yaw = (app.head.yaw + f64::from(yaw)).rem_euclid(360.0);
             app.head.pitch = (app.head.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
         }
-        A::ResetView => app.head = HeadView { label: app.head.label, ..Default::default() },
+        A::ResetView => {
+            let (label, wireframe) = (app.head.label, app.head.wireframe);
+            app.head = HeadView { label, wireframe, ..Default::default() };
+        }
         A::MoveCursor { dx, dy } => {
             app.head.suggested = None;
             let k = 0.01 / app.head.zoom;
@@ -43,6 +62,7 @@ pub(super) fn update(app: &mut App, action: Action) {
         }
         A::SuggestLabel => suggest_label(app),
         A::SuggestAllLabels => suggest_all_labels(app),
+        A::ToggleWireframe => app.head.wireframe = !app.head.wireframe,
         // The session then records the map file it now refers to.
         A::LoadMap => app.effects.push(Effect::LoadMap),
         A::SaveMap => {
@@ -85,12 +105,10 @@ fn confirm_label(app: &mut App) {
 type SuggestionBasis = (Vec<crate::math::Point3>, Vec<[u32; 3]>, Option<OrthoPose>);
 
 fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
-    // The head mesh's faces hide what is behind the surface; fan-triangulated polygons.
+    // The head's skin, eyes and teeth hide what is behind them; helper shells do not.
+    let occluders = app.occluders.as_deref().map(Vec::as_slice);
     let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
-        mesh.faces
-            .iter()
-            .flat_map(|f| (1..f.len().saturating_sub(1)).map(move |k| [f[0], f[k], f[k + 1]]))
-            .collect()
+        crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
     };
     let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
     if let (Some(model), Some(fit)) = (&app.model, fit) {
@@ -118,11 +136,17 @@ fn suggest_label(app: &mut App) {
     let l = app.head.label;
     let how = if pose.is_some() { "fitted pose" } else { "pose from the labels" };
     let h = f64::from(app.frame_dims().1);
-    let head = SuggestHead {
-        vertices: &vertices,
-        triangles: &tris,
-        eligible: app.label_candidates.as_deref().map(Vec::as_slice),
+    // A vertex another landmark holds is not offered again: one vertex per landmark.
+    let mut eligible = match app.label_candidates.as_deref() {
+        Some(e) => e.clone(),
+        None => vec![true; vertices.len()],
     };
+    for (_, v) in map.pairs().filter(|(other, _)| *other != l) {
+        if let Some(e) = eligible.get_mut(v) {
+            *e = false;
+        }
+    }
+    let head = SuggestHead { vertices: &vertices, triangles: &tris, eligible: Some(&eligible) };
     match crate::fit::suggest::suggest_label(&head, &map, frame, h, pose, l) {
         Ok(s) => {
             if let Some(mesh) = &app.mesh {
@@ -150,20 +174,23 @@ fn suggest_all_labels(app: &mut App) {
     };
     let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
     let map = app.map.clone().unwrap_or_default();
-    let unmapped: Vec<usize> = (0..N_LANDMARKS).filter(|l| map.vertex(*l).is_none()).collect();
     let h = f64::from(app.frame_dims().1);
     let head = SuggestHead {
         vertices: &vertices,
         triangles: &tris,
         eligible: app.label_candidates.as_deref().map(Vec::as_slice),
     };
-    match crate::fit::suggest::suggest_labels(&head, &map, frame, h, pose, unmapped) {
-        Ok(list) => {
-            let worst = list.iter().map(|s| s.distance_px).fold(0.0, f64::max);
-            let n = relabel(app, list.iter().map(|s| (s.landmark, Some(s.vertex))).collect());
-            app.status = format!(
-                "labelled {n} landmarks from suggestions (worst {worst:.1} px off); u undoes"
-            );
+    match crate::fit::map_suggest::suggest_map(&head, &map, frame, h, pose) {
+        Ok(proposal) => {
+            let list: Vec<(usize, Option<usize>)> =
+                proposal.accepted.iter().map(|s| (s.landmark, Some(s.vertex))).collect();
+            relabel(app, list);
+            let first_left = proposal
+                .left
+                .iter()
+                .find(|(_, why)| !matches!(why, LeftOut::NotVisible))
+                .map_or(String::new(), |(l, why)| format!("; e.g. {} {why}", l + 1));
+            app.status = format!("{}{first_left}; u undoes", proposal.summary());
         }
         Err(e) => app.status = format!("no suggestions: {e}"),
     }

@@ -17,6 +17,7 @@ mod head;
 mod input;
 mod replies;
 mod side;
+mod transferred;
 
 pub use global::request_images;
 pub use input::{key_to_action, mode_chain, mouse_to_action};
@@ -69,11 +70,21 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         | A::ClearLabel
         | A::SuggestLabel
         | A::SuggestAllLabels
+        | A::ToggleWireframe
         | A::LoadMap
         | A::SaveMap => head::update(app, action),
         A::RunFit => fit::run_fit(app),
-        A::RowDown | A::RowUp | A::NextTable | A::SortNextColumn | A::SortReverse | A::OpenRow => {
-            analysis::update(app, action)
+        A::RowDown
+        | A::RowUp
+        | A::NextTable
+        | A::SortNextColumn
+        | A::SortReverse
+        | A::OpenRow
+        | A::ToggleSpeech
+        | A::SpeechReady { .. }
+        | A::SpeechAbsent { .. } => analysis::update(app, action),
+        A::CycleHead | A::HeadPrepared { .. } | A::HeadFrameReady(_) => {
+            transferred::update(app, action)
         }
         A::NudgeLipPoint { .. } | A::RevertLipPoint => side::update(app, action),
         A::FrameLoaded { .. }
@@ -114,6 +125,8 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         | A::NextFlagged
         | A::PrevFlagged
         | A::NextUnreviewed
+        | A::TogglePlay
+        | A::PlayTick
         | A::GotoFramePrompt
         | A::GotoPointPrompt
         | A::PropagatePrompt

@@ -35,6 +35,9 @@ pub(super) fn update(app: &mut App, action: Action) {
         A::FitsStored => app.save.change_made(),
         A::FitsNotStored { error } => app.status = format!("fit cache not updated: {error}"),
         A::AnalysisReady { generation, data } if generation == app.analysis_generation => {
+            if let Some(w) = data.warnings.first() {
+                app.status.clone_from(w);
+            }
             app.analysis = data;
             let n = app.analysis.tables.len().max(1);
             app.analysis_view.table = app.analysis_view.table.min(n - 1);
@@ -100,7 +103,14 @@ pub(super) fn update(app: &mut App, action: Action) {
         A::SaveFailed { error } => {
             app.save.save_failed();
             app.switch_clip = None;
-            app.status = format!("save failed: {error} (q again quits without saving)");
+            app.status = if app.save.force_quit_armed() {
+                format!(
+                    "save failed: {error} (q again quits without saving; the edits stay in the \
+                     session's journal and are restored when it is opened again)"
+                )
+            } else {
+                format!("save failed: {error} (s retries; q retries, then quits)")
+            };
         }
         A::Status(s) => app.status = s,
         _ => {}
@@ -122,5 +132,24 @@ fn fit_done(app: &mut App, fits: Vec<crate::fit::FrameFit>) {
     }
     app.recompute_flags();
     app.request_analysis();
+    // A transferred head follows the new fit.
+    app.heads.current = None;
+    super::transferred::request_head_frame(app);
     app.status = format!("fitted {n} frames ({failed} failed)");
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::tui::action::Action;
+    use crate::tui::fixtures::{synthetic_analysis, synthetic_app};
+
+    #[test]
+    fn an_analysis_warning_reaches_the_status_line() {
+        let mut app = synthetic_app(10, 320, 240, true);
+        let mut data = synthetic_analysis(10);
+        data.warnings.push("warning: the model's upper-lip region: no lip band".into());
+        let generation = app.analysis_generation;
+        super::super::update(&mut app, Action::AnalysisReady { generation, data });
+        assert_eq!(app.status, "warning: the model's upper-lip region: no lip band");
+    }
 }

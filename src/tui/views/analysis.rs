@@ -1,5 +1,6 @@
 //! Analysis view: the selected error table (sortable by any column; Enter opens a row's frame)
-//! over the W/H/P trajectories of video vs 3D, with phoneme boundaries and labels.
+//! over the W/H/P trajectories of video vs 3D (and vs the head driven from the clip's audio,
+//! when the session names a speech model), with phoneme boundaries and labels.
 //!
 //! `sorted_rows` is shared with `update` so Enter opens the row the user sees.
 
@@ -125,8 +126,13 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
     }
 }
 
+/// The speech-driven head's colour in the charts and their legend.
+const SPEECH: Color = Color::LightGreen;
+
 fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame, area: Rect) {
-    let all = t.video.iter().chain(&t.model);
+    let speech: &[(f64, f64)] =
+        if app.show_speech { app.speech.of(&t.name).unwrap_or_default() } else { &[] };
+    let all = t.video.iter().chain(&t.model).chain(speech);
     let (mut x0, mut x1, mut y0, mut y1) =
         (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
     for &(x, y) in all.filter(|p| p.0.is_finite() && p.1.is_finite()) {
@@ -146,12 +152,16 @@ fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame
         })
         .unwrap_or_default();
     let cur = app.frame() as f64;
-    let title = Line::from(vec![
+    let mut legend = vec![
         format!(" {} ", t.name).bold(),
         "video".fg(Color::LightCyan),
         " vs ".into(),
         "3D ".fg(Color::LightMagenta),
-    ]);
+    ];
+    if !speech.is_empty() {
+        legend.extend(["vs ".into(), "speech ".fg(SPEECH)]);
+    }
+    let title = Line::from(legend);
     let canvas = Canvas::default()
         .block(Block::bordered().title(title).border_style(Color::DarkGray))
         .marker(ratatui::symbols::Marker::Braille)
@@ -173,14 +183,10 @@ fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame
                     color: Color::LightCyan,
                 });
             }
-            for w in t.model.windows(2) {
-                ctx.draw(&CLine {
-                    x1: w[0].0,
-                    y1: w[0].1,
-                    x2: w[1].0,
-                    y2: w[1].1,
-                    color: Color::LightMagenta,
-                });
+            for (series, color) in [(t.model.as_slice(), Color::LightMagenta), (speech, SPEECH)] {
+                for w in series.windows(2) {
+                    ctx.draw(&CLine { x1: w[0].0, y1: w[0].1, x2: w[1].0, y2: w[1].1, color });
+                }
             }
             ctx.draw(&CLine { x1: cur, y1: y0, x2: cur, y2: y1, color: Color::Yellow });
         });

@@ -5,10 +5,12 @@
 //! Editing keys work here as in the frames view (mode chain fit → frames → global).
 
 use super::frames::{draw_image, landmark_markers};
-use super::head::{WireView, draw_wireframe, rotation};
+use super::head::{Overlay, draw_shaded_mesh, label_triangles, rotation};
 use super::image_and_side;
 use crate::math::Matrix3;
-use crate::tui::app::App;
+use crate::model::Mesh;
+use crate::render::HeadViewport;
+use crate::tui::app::{App, HeadFraming};
 use crate::tui::widgets::halfblock::Marker;
 use ratatui::Frame;
 use ratatui::layout::Rect;
@@ -117,29 +119,50 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
     frame.render_widget(Paragraph::new(lines), Rect::new(content.x, y, content.width, text_h));
     y += text_h;
-    // Front and side wireframes of the fitted head in the fitted pose, when there is room.
+    // Front and side views of the fitted mesh in the fitted pose, shaded, when there is room.
     let room = bottom.saturating_sub(y);
-    if let (Some(mesh), Some(fit)) = (&app.mesh, fit)
+    if let Some(fit) = fit.filter(|f| f.failed.is_none())
         && room >= 6
+        && let Some((shown, framing)) = fitted_mesh(app, fit)
     {
         let half = content.width / 2;
         let r = fit_rotation(fit.yaw, fit.pitch, fit.roll);
         let side_r = rotation(90.0, 0.0) * r;
         let front_area = Rect::new(content.x, y, half, room);
         let side_area = Rect::new(content.x + half, y, content.width - half, room);
-        // The fitted shape itself when the model shares the head's topology (computing it
-        // from the coefficients is a few hundred thousand multiply-adds, well inside a draw).
-        let fitted = app
-            .model
-            .as_ref()
-            .filter(|m| m.num_vertices() == mesh.vertices.len() && fit.failed.is_none())
-            .map(|m| {
-                let shape = crate::fit::fitted_shape(m, fit);
-                crate::model::Mesh::from_flat(shape.as_slice(), Vec::new())
-            });
-        let shown = fitted.as_ref().unwrap_or(mesh);
-        let view = WireView::framed(app.head_framing);
-        draw_wireframe(frame, front_area, shown, &app.mesh_edges, &r, &view, |_, _, _| {});
-        draw_wireframe(frame, side_area, shown, &app.mesh_edges, &side_r, &view, |_, _, _| {});
+        let eligible = app
+            .label_candidates
+            .as_deref()
+            .filter(|e| e.len() == shown.vertices.len())
+            .map(Vec::as_slice);
+        let triangles = label_triangles(&shown, eligible);
+        let vp = |rotation| HeadViewport {
+            rotation,
+            centre: framing.centre,
+            radius: framing.radius,
+            half_height: 1.05,
+            look_at: (0.0, 0.0),
+        };
+        let bare = Overlay { vertices: Vec::new(), cursor: None };
+        draw_shaded_mesh(frame, front_area, &shown, &triangles, &vp(r), &bare);
+        draw_shaded_mesh(frame, side_area, &shown, &triangles, &vp(side_r), &bare);
     }
+}
+
+/// The fitted mesh and the sphere framing its face: the model's fitted shape with the head
+/// mesh's faces when they share a topology (a figure that is its own model), else with the
+/// model's triangles (a model fitted apart from the head). `None` without a model.
+fn fitted_mesh(app: &App, fit: &crate::fit::FrameFit) -> Option<(Mesh, HeadFraming)> {
+    let model = app.model.as_ref()?;
+    let shape = crate::fit::fitted_shape(model, fit);
+    let same = app.mesh.as_ref().filter(|m| m.vertices.len() == model.num_vertices());
+    // A few hundred thousand multiply-adds for the shape and a face list: well inside a draw.
+    Some(match same {
+        Some(head) => (Mesh::from_flat(shape.as_slice(), head.faces.clone()), app.head_framing),
+        None => {
+            let mesh = model.to_mesh(&shape);
+            let framing = HeadFraming::of_face(&mesh, Some(model), app.map.as_ref());
+            (mesh, framing)
+        }
+    })
 }

@@ -1,13 +1,18 @@
-//! Head view: the head mesh as a braille wireframe, rotatable, with the landmark map's
-//! vertices, the 2D labelling cursor and the vertex it picks (the 3D cursor).
+//! Head view: the head mesh shaded in half-blocks (or as a braille wireframe, `W`),
+//! rotatable and zoomable, with the landmark map's vertices, the 2D labelling cursor and the
+//! vertex it picks through the depth buffer (the 3D cursor); or, cycled to with `CycleHead`,
+//! a transferred head at the current frame, front and side (`draw_transferred`).
 //!
-//! Projection: R = Ry(yaw)·Rx(pitch) about the mesh's bounding-box centre, orthographic
-//! along −z, scaled so the bounding sphere has radius 1 ("head units"; y up on screen).
+//! Projection: R = Ry(yaw)·Rx(pitch) about the framing sphere's centre (the face),
+//! orthographic along −z, scaled so the sphere has radius 1 ("head units"; y up on screen).
+//! The drawing is in functions ([`draw_shaded_mesh`], [`draw_wireframe`]) that take the
+//! mesh and the viewport, so another head (a transferred one) draws the same way.
 
 use crate::landmarks::landmark_name;
 use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
-use crate::tui::app::{App, HeadFraming, HeadView};
+use crate::render::{HeadShot, HeadViewport};
+use crate::tui::app::{App, HeadFraming, HeadSetup, HeadView};
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Stylize};
@@ -88,35 +93,49 @@ pub fn visible_vertices(mesh: &Mesh, pts: &[(f64, f64, f64)]) -> Vec<bool> {
         .collect()
 }
 
-/// The 3D cursor: the visible vertex nearest the 2D cursor, within the pick radius.
-/// `None` when no visible vertex is near.
-/// Only `eligible` vertices (when given) can be picked.
+/// The triangles a head is drawn and picked with: its faces fan-triangulated, without those
+/// touching a vertex that is not `eligible` (a figure's helper and joint geometry).
+pub fn label_triangles(mesh: &Mesh, eligible: Option<&[bool]>) -> Vec<[u32; 3]> {
+    crate::fit::suggest::surface_triangles(&mesh.triangles(), eligible)
+}
+
+/// The viewport of the head view: its turn and framing, `half_height` head units above and
+/// below `look_at`.
+pub fn viewport(
+    view: &HeadView,
+    framing: &HeadFraming,
+    half_height: f64,
+    look_at: (f64, f64),
+) -> HeadViewport {
+    HeadViewport {
+        rotation: rotation(view.yaw, view.pitch),
+        centre: framing.centre,
+        radius: framing.radius,
+        half_height,
+        look_at,
+    }
+}
+
+/// Side of the square image picking renders around the cursor, px.
+const PICK_PX: u32 = 400;
+
+/// The 3D cursor: the vertex of the surface under the 2D cursor (through a depth buffer
+/// rendered around the cursor, finer the more the view is zoomed), or off the surface the
+/// visible vertex nearest it within the pick radius. Only `eligible` vertices (when given)
+/// can be picked. `None` when no vertex is near.
 pub fn pick_vertex(
     mesh: &Mesh,
     framing: &HeadFraming,
     view: &HeadView,
     eligible: Option<&[bool]>,
 ) -> Option<usize> {
-    let pts = project(mesh, &rotation(view.yaw, view.pitch), framing);
-    let mut visible = visible_vertices(mesh, &pts);
-    if let Some(e) = eligible {
-        for (v, ok) in visible.iter_mut().zip(e.iter().chain(std::iter::repeat(&false))) {
-            *v &= *ok;
-        }
-    }
-    pick_from(&pts, &visible, view)
-}
-
-fn pick_from(pts: &[(f64, f64, f64)], visible: &[bool], view: &HeadView) -> Option<usize> {
-    let (cx, cy) = (view.cursor.0, -view.cursor.1);
+    let triangles = label_triangles(mesh, eligible);
+    let cursor = (view.cursor.0, -view.cursor.1);
     let radius = PICK_RADIUS / view.zoom;
-    pts.iter()
-        .enumerate()
-        .filter(|(i, _)| visible[*i])
-        .map(|(i, p)| (i, (p.0 - cx).hypot(p.1 - cy)))
-        .filter(|c| c.1 <= radius)
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|c| c.0)
+    let vp = viewport(view, framing, 2.0 * radius, cursor);
+    let shot = HeadShot::render(&mesh.vertices, &triangles, &vp, PICK_PX, PICK_PX).ok()?;
+    let reach_px = f64::from(PICK_PX) / 4.0;
+    shot.pick(&mesh.vertices, eligible, shot.pixel_of(&vp, cursor), reach_px)
 }
 
 /// Fraction of the braille dots the wireframe may light before edges are thinned.
@@ -214,10 +233,94 @@ pub fn head_wire_view(app: &App) -> WireView {
     WireView { framing: app.head_framing, zoom: h.zoom, centre }
 }
 
-pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+/// What a shaded head view draws over the head: markers on vertices (vertex, symbol,
+/// colour), and the cursor (head units) if any.
+pub struct Overlay {
+    pub vertices: Vec<(usize, &'static str, Color)>,
+    pub cursor: Option<(f64, f64)>,
+}
+
+/// Draws `mesh` shaded in half-blocks into `area` as the head view sees it, with the
+/// overlay's markers on the visible vertices and the cursor on top.
+fn draw_shaded(app: &App, frame: &mut Frame, area: Rect, mesh: &Mesh, picked: Option<usize>) {
+    let h = &app.head;
+    let map = app.map.clone().unwrap_or_default();
+    let mut vertices: Vec<(usize, &'static str, Color)> = map
+        .pairs()
+        .filter(|(l, _)| *l != h.label)
+        .map(|(_, v)| (v, "•", Color::LightGreen))
+        .collect();
+    vertices.extend(map.vertex(h.label).map(|v| (v, "◆", Color::Yellow)));
+    vertices.extend(picked.map(|v| (v, "◆", Color::LightRed)));
+    let overlay = Overlay { vertices, cursor: Some((h.cursor.0, -h.cursor.1)) };
+    let eligible = app.label_candidates.as_deref().map(Vec::as_slice);
+    let vp = viewport(h, &app.head_framing, 1.05 / h.zoom, head_wire_view(app).centre);
+    draw_shaded_mesh(frame, area, mesh, &label_triangles(mesh, eligible), &vp, &overlay);
+}
+
+/// The shaded drawing itself: one image pixel per half cell, markers as cell symbols.
+pub fn draw_shaded_mesh(
+    frame: &mut Frame,
+    area: Rect,
+    mesh: &Mesh,
+    triangles: &[[u32; 3]],
+    vp: &HeadViewport,
+    overlay: &Overlay,
+) {
+    if area.width == 0 || area.height == 0 {
+        return;
+    }
+    let (w, hpx) = (u32::from(area.width), 2 * u32::from(area.height));
+    let Ok(shot) = HeadShot::render(&mesh.vertices, triangles, vp, w, hpx) else { return };
+    let buf = frame.buffer_mut();
+    let rgb = |x: u32, y: u32| {
+        let p = shot.rendered.image.get_pixel(x, y).0;
+        Color::Rgb(p[0], p[1], p[2])
+    };
+    for row in 0..area.height {
+        for col in 0..area.width {
+            let (x, y) = (u32::from(col), 2 * u32::from(row));
+            if let Some(cell) = buf.cell_mut((area.x + col, area.y + row)) {
+                cell.set_symbol("▀").set_fg(rgb(x, y)).set_bg(rgb(x, y + 1));
+            }
+        }
+    }
+    let mut mark = |p: crate::math::Point2, symbol: &str, colour: Color| {
+        let (col, row) = (p.x.round(), (p.y / 2.0).floor());
+        if col < 0.0 || row < 0.0 || col >= f64::from(area.width) || row >= f64::from(area.height) {
+            return;
+        }
+        if let Some(cell) = buf.cell_mut((area.x + col as u16, area.y + row as u16)) {
+            cell.set_symbol(symbol).set_fg(colour);
+        }
+    };
+    // Five hundredths of the framing radius (about 6 mm on a head): a landmark in a crease
+    // (the mouth corners) is marked, one behind the nose or the cheek is not.
+    let tolerance = 0.05 * vp.radius;
+    for &(v, symbol, colour) in &overlay.vertices {
+        if let Some(p) = mesh.vertices.get(v).filter(|p| shot.sees(p, tolerance)) {
+            mark(shot.camera.project(p), symbol, colour);
+        }
+    }
+    if let Some(c) = overlay.cursor {
+        mark(shot.pixel_of(vp, c), "+", Color::LightMagenta);
+    }
+}
+
+/// The wireframe's area and the side panel's (absent below 50 columns).
+fn split(area: Rect) -> (Rect, Rect) {
     let side_w = if area.width >= 50 { 26.min(area.width / 3) } else { 0 };
     let canvas_area = Rect::new(area.x, area.y, area.width - side_w, area.height);
     let side = Rect::new(area.x + canvas_area.width, area.y, side_w, area.height);
+    (canvas_area, side)
+}
+
+pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
+    if let Some(index) = app.heads.shown {
+        draw_transferred(app, index, frame, area);
+        return;
+    }
+    let (canvas_area, side) = split(area);
     let h = &app.head;
     let picked = match h.suggested {
         Some((l, v)) if l == h.label => Some(v),
@@ -226,6 +329,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         }),
     };
     match &app.mesh {
+        Some(mesh) if !h.wireframe => draw_shaded(app, frame, canvas_area, mesh, picked),
         Some(mesh) => {
             let map = app.map.clone().unwrap_or_default();
             let label = h.label;
@@ -272,7 +376,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             );
         }
         None => frame.render_widget(
-            Paragraph::new("No head mesh in this session (lipmap import --mesh …).")
+            Paragraph::new("No head mesh in this session (lipmap import SESSION --head HEAD.obj).")
                 .fg(Color::Gray),
             canvas_area,
         ),
@@ -308,6 +412,79 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             .block(Block::new().borders(Borders::LEFT).border_style(Color::DarkGray)),
         side,
     );
+}
+
+/// The shown transferred head at the current frame, front and side (the side turned 90° from
+/// the front): the frame's shape when the worker has it, the last frame's meanwhile, the
+/// head at rest where the frame has no fit.
+fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
+    let (canvas_area, side) = split(area);
+    let h = &app.head;
+    let f = app.frame();
+    let name = app.heads.names.get(index).cloned().unwrap_or_default();
+    let mut lines =
+        vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
+    match app.heads.setups.get(index) {
+        Some(HeadSetup::Ready(p)) => {
+            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());
+            let current = app.heads.current.as_ref().filter(|c| c.head == index);
+            let (shape, note) = match current.map(|c| (&c.shape, c.frame)) {
+                Some((Err(e), _)) => (p.mesh.clone(), format!("frame {f}: {e}")),
+                Some((Ok(m), cf)) if fitted && cf == f => (m.clone(), format!("frame {f}")),
+                Some((Ok(m), cf)) if fitted => (m.clone(), format!("frame {cf} ({f} next)")),
+                _ if fitted => (p.mesh.clone(), format!("frame {f}: transferring…")),
+                _ => (p.mesh.clone(), format!("frame {f}: not fitted, at rest")),
+            };
+            let half = canvas_area.width / 2;
+            let rot = rotation(h.yaw, h.pitch);
+            let views = [
+                (Rect::new(canvas_area.x, canvas_area.y, half, canvas_area.height), rot, "front"),
+                (
+                    Rect::new(
+                        canvas_area.x + half,
+                        canvas_area.y,
+                        canvas_area.width - half,
+                        canvas_area.height,
+                    ),
+                    rotation(90.0, 0.0) * rot,
+                    "side",
+                ),
+            ];
+            let view = WireView { framing: p.framing, zoom: h.zoom, centre: (0.0, 0.0) };
+            for (r, rot, label) in views {
+                let below = Rect::new(r.x, r.y + 1, r.width, r.height.saturating_sub(1));
+                frame.render_widget(Paragraph::new(label).fg(Color::Gray), r);
+                draw_wireframe(frame, below, &shape, &p.edges, &rot, &view, |_, _, _| {});
+            }
+            lines.extend([
+                Line::from(format!("{} transfer", p.mode)),
+                Line::from(note).fg(Color::Yellow),
+                Line::from(""),
+                Line::from(format!("yaw {:.0}° pitch {:.0}°", h.yaw, h.pitch)),
+                Line::from(format!("zoom {:.1}×", h.zoom)),
+                Line::from(format!("{} vertices", p.mesh.vertices.len())).fg(Color::DarkGray),
+            ]);
+        }
+        Some(HeadSetup::Failed(e)) => {
+            frame.render_widget(
+                Paragraph::new(format!("This head cannot be shown: {e}"))
+                    .wrap(ratatui::widgets::Wrap { trim: true })
+                    .fg(Color::LightRed),
+                canvas_area,
+            );
+        }
+        _ => frame.render_widget(
+            Paragraph::new("Setting up the transfer onto this head…").fg(Color::Gray),
+            canvas_area,
+        ),
+    }
+    if side.width > 0 {
+        frame.render_widget(
+            Paragraph::new(lines)
+                .block(Block::new().borders(Borders::LEFT).border_style(Color::DarkGray)),
+            side,
+        );
+    }
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
-//! Worker threads for the slow work (frame decoding, fitting) that replies with `Action`s
-//! over a channel, so the UI thread never blocks.
+//! Worker threads for the slow work (frame decoding, fitting, the analysis, the
+//! speech-driven head, transferred heads) that replies with `Action`s over a channel, so the
+//! UI thread never blocks.
 //!
 //! Each worker has a one-request slot: a new request replaces the pending one (flipping
 //! through 50 frames decodes the newest, a drag does not queue 50 fits). Replies carry the
@@ -11,7 +12,9 @@ use crate::landmarks::{FrameLandmarks, Track};
 use crate::model::{LandmarkMap, MorphableModel};
 use crate::tui::action::Action;
 use crate::tui::app::FrameProvider;
-use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
+use crate::tui::app::{
+    AnalysisData, AnalysisRow, AnalysisTable, HeadFrame, PreparedHead, Trajectory,
+};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Condvar, Mutex};
@@ -113,7 +116,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
     // With a side view, the head's P is its whole upper lip's foremost point, as a profile
     // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
     // landmark vertices there too).
-    let (options, _) =
+    let (options, warning) =
         head_p_options(&job.model, &job.map, job.side_p.is_some(), &MeshMeasureOptions::default());
     let mut u = utterance_from_parts(
         &job.name,
@@ -153,7 +156,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         &job.track,
         &job.alignment,
         job.fps,
-        &crate::measure::BoundsTable::default(),
+        &crate::reference::current().bounds,
     )
     .unwrap_or_default();
     let tables = [
@@ -174,18 +177,93 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
             normalised.video.series(*m).iter().any(Option::is_some)
                 || normalised.head.series(*m).iter().any(Option::is_some)
         })
-        .map(|m| {
-            let pts = |s: &[Option<f64>]| -> Vec<(f64, f64)> {
-                s.iter().enumerate().filter_map(|(f, v)| v.map(|v| (f as f64, v))).collect()
-            };
-            Trajectory {
-                name: m.as_str().to_string(),
-                video: pts(normalised.video.series(m)),
-                model: pts(normalised.head.series(m)),
-            }
+        .map(|m| Trajectory {
+            name: m.as_str().to_string(),
+            video: frame_points(normalised.video.series(m)),
+            model: frame_points(normalised.head.series(m)),
         })
         .collect();
-    AnalysisData { tables, trajectories }
+    // The status line has no room for the command line's `lipmap: ` prefix.
+    let warnings = warning
+        .into_iter()
+        .map(|w| w.0.strip_prefix("lipmap: ").unwrap_or(&w.0).to_string())
+        .collect();
+    AnalysisData { tables, trajectories, warnings }
+}
+
+/// A per-frame series as chart points (frame, value), gaps left out.
+fn frame_points(s: &[Option<f64>]) -> Vec<(f64, f64)> {
+    s.iter().enumerate().filter_map(|(f, v)| v.map(|v| (f as f64, v))).collect()
+}
+
+/// Drives clip `clip`'s head from its audio with the session's speech model (the one call
+/// into `workflow::speech_session`) and replies with its series, min–max normalised as the
+/// analysis' trajectories are, or with why there are none. `session` is the worker's copy:
+/// fits its cache lacks are made in it.
+pub fn speech_for_tui(session: &mut crate::session::Session, clip: usize) -> Action {
+    use crate::measure::Measure;
+    match crate::workflow::speech_session::drive_clip_with_session_model(session, clip) {
+        Ok(u) => {
+            let normalised = u.min_max_normalised();
+            let series = Measure::ALL
+                .into_iter()
+                .map(|m| (m.as_str().to_string(), frame_points(normalised.head.series(m))))
+                .filter(|(_, pts)| !pts.is_empty())
+                .collect();
+            Action::SpeechReady { series }
+        }
+        Err(e) => Action::SpeechAbsent { why: crate::workflow::error_chain(&e) },
+    }
+}
+
+/// Sets up the transfer onto a session's transferred head for the head view (the one call
+/// into `workflow::transfer`, on a worker: it takes a good part of a second).
+///
+/// # Errors
+/// One line: the session's model or map, the head or its map cannot be read, or the
+/// transfer cannot be set up.
+pub fn prepare_head_for_tui(
+    session: &crate::session::Session,
+    entry: &crate::session::TransferredHead,
+) -> Result<PreparedHead, String> {
+    use crate::workflow::transfer::{load_target, parse_mode, set_up_for_head};
+    let prepare = || -> crate::workflow::Result<PreparedHead> {
+        let res = crate::workflow::Resources::load(session)?;
+        let target = load_target(&entry.mesh, &entry.mapping)?;
+        let transfer = set_up_for_head(&res, &target, parse_mode(&entry.mode)?, &entry.mesh)?;
+        Ok(PreparedHead::new(
+            entry.name.clone(),
+            entry.mode.clone(),
+            transfer,
+            target.mesh,
+            &target.skin,
+            &target.map,
+        ))
+    };
+    prepare().map_err(|e| crate::workflow::error_chain(&e))
+}
+
+/// One frame of a transferred head to compute: the set-up head and the frame's fit.
+pub struct HeadFrameJob {
+    pub head: usize,
+    pub prepared: Arc<PreparedHead>,
+    pub model: Arc<MorphableModel>,
+    pub fit: FrameFit,
+}
+
+/// The transferred head's shape for the job's fit, as `workflow::transfer::transfer_fits`
+/// computes it, with the head's faces (the view hides what they cover).
+pub fn transfer_frame_for_tui(job: &HeadFrameJob) -> HeadFrame {
+    let source = crate::fit::fitted_shape(&job.model, &job.fit);
+    let shape = job
+        .prepared
+        .transfer
+        .apply(&source)
+        .map(|s| {
+            Arc::new(crate::model::Mesh::from_flat(s.as_slice(), job.prepared.mesh.faces.clone()))
+        })
+        .map_err(|e| e.to_string());
+    HeadFrame { head: job.head, frame: job.fit.frame, shape }
 }
 
 /// An eval `Table` as an analysis table: a `frame` column gives the row's jump target; in the
@@ -222,12 +300,14 @@ fn table_for_tui(
     AnalysisTable { title: t.title.clone(), columns: t.headers.clone(), rows }
 }
 
-/// The decoding, fitting and analysis threads.
+/// The decoding, fitting, analysis and transferred-head threads.
 pub struct Workers {
     frames: Arc<Slot<Vec<usize>>>,
     fits: Arc<Slot<FitJob>>,
     analyses: Arc<Slot<AnalysisJob>>,
     side_frames: Arc<Slot<usize>>,
+    head_frames: Arc<Slot<HeadFrameJob>>,
+    tx: Sender<Action>,
 }
 
 impl Workers {
@@ -236,6 +316,7 @@ impl Workers {
         let frames: Arc<Slot<Vec<usize>>> = Arc::new(Slot::new());
         let fits: Arc<Slot<FitJob>> = Arc::new(Slot::new());
         let atx = tx.clone();
+        let own_tx = tx.clone();
         {
             let slot = frames.clone();
             let tx = tx.clone();
@@ -285,6 +366,24 @@ impl Workers {
                 }
             });
         }
+        let head_frames: Arc<Slot<HeadFrameJob>> = Arc::new(Slot::new());
+        {
+            let slot = head_frames.clone();
+            let tx = atx.clone();
+            std::thread::spawn(move || {
+                while let Some(job) = slot.take() {
+                    let (head, frame) = (job.head, job.fit.frame);
+                    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        transfer_frame_for_tui(&job)
+                    }));
+                    let shape = Err("the transfer panicked".to_string());
+                    let reply = result.unwrap_or(HeadFrame { head, frame, shape });
+                    if tx.send(Action::HeadFrameReady(reply)).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
         let analyses: Arc<Slot<AnalysisJob>> = Arc::new(Slot::new());
         {
             let slot = analyses.clone();
@@ -304,7 +403,23 @@ impl Workers {
                 }
             });
         }
-        Self { frames, fits, analyses, side_frames: Arc::new(Slot::new()) }
+        Self { frames, fits, analyses, side_frames: Arc::new(Slot::new()), head_frames, tx: own_tx }
+    }
+
+    /// Runs a one-off job (a transferred head's set-up, the speech-driven head) on a thread
+    /// of its own and sends its reply; a panic replies `panicked` instead.
+    pub fn run_once(&self, what: &'static str, job: impl FnOnce() -> Action + Send + 'static) {
+        let tx = self.tx.clone();
+        std::thread::spawn(move || {
+            let reply = std::panic::catch_unwind(std::panic::AssertUnwindSafe(job))
+                .unwrap_or_else(|_| Action::Status(format!("{what} failed (panic)")));
+            let _ = tx.send(reply);
+        });
+    }
+
+    /// Asks for a transferred head's frame, replacing any pending request.
+    pub fn request_head_frame(&self, job: HeadFrameJob) {
+        self.head_frames.put(job);
     }
 
     /// Starts the side view's decoding thread over `provider` (clips with a side view).
@@ -351,6 +466,7 @@ impl Drop for Workers {
         self.fits.close();
         self.analyses.close();
         self.side_frames.close();
+        self.head_frames.close();
     }
 }
 
@@ -396,5 +512,35 @@ mod tests {
         // Frame 1 was being decoded when 99 arrived; the rest of the prefetch was dropped.
         assert_eq!(frames, vec![1]);
         assert!(matches!(got.last(), Some(Action::FrameFailed { frame: 99, .. })));
+    }
+
+    #[test]
+    fn a_transferred_head_follows_the_fitted_jaw() {
+        use crate::tui::fixtures::{synthetic_model, synthetic_prepared_head, synthetic_track};
+        let prepared = Arc::new(synthetic_prepared_head());
+        let model = Arc::new(synthetic_model());
+        let track = synthetic_track(1, 100, 100);
+        let rest = prepared.mesh.vertices.clone();
+        let shape_at = |jaw: f64| {
+            let mut fit = crate::tui::fixtures::synthetic_fits(&track)[0].clone();
+            fit.expression = vec![jaw];
+            let job =
+                HeadFrameJob { head: 0, prepared: prepared.clone(), model: model.clone(), fit };
+            let f = transfer_frame_for_tui(&job);
+            assert_eq!((f.head, f.frame), (0, 0));
+            f.shape.unwrap()
+        };
+        // Closed: the head at rest (source and target are one mesh).
+        let closed = shape_at(0.0);
+        for (p, q) in closed.vertices.iter().zip(&rest) {
+            assert!((p - q).norm() < 1e-6, "{p} vs {q}");
+        }
+        // Open: the lower front follows the 20-unit drop, the crown stays.
+        let open = shape_at(1.0);
+        let dy = |v: usize| open.vertices[v].y - rest[v].y;
+        let chin = 1 + 7 * 16; // iBUG 8's vertex: ring 8, front meridian
+        assert!((dy(chin) + 20.0).abs() < 2.0, "chin moved {}", dy(chin));
+        assert!(dy(0).abs() < 2.0, "crown moved {}", dy(0));
+        assert_eq!(open.faces, prepared.mesh.faces, "faces kept for hidden lines");
     }
 }

@@ -1,0 +1,108 @@
+//! `lipmap map suggest|check`: suggest a session's whole landmark map from the labels made so
+//! far (for batch use and scripting, as the TUI's `O`), and check a session's map against
+//! anatomy.
+
+use crate::io::landmark_map_toml::write_landmark_map;
+use crate::workflow::map::{check_session_map, suggest_session_map};
+use crate::workflow::{load_session, session_path};
+use anyhow::Result;
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(clap::Subcommand, Debug)]
+pub enum MapCommand {
+    /// Suggest a vertex for every unlabelled landmark from the session's labels (at least 4
+    /// visible in the frame): one vertex per landmark, left/right and order checked, with a
+    /// confidence each; what fails is left out and listed.
+    Suggest(SuggestArgs),
+    /// Check the session's map: shared vertices, left/right crossings, contours out of
+    /// order, implausible eye/mouth proportions.
+    Check(CheckArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct SuggestArgs {
+    /// Session (`NAME` for sessions/NAME.lipmap.json, or a `.lipmap.json` path).
+    pub session: String,
+    /// Frame whose tracked landmarks the head is matched to (default: the first frame with
+    /// the most visible landmarks).
+    #[arg(long)]
+    pub frame: Option<usize>,
+    /// Session clip (default: the first).
+    #[arg(long)]
+    pub clip: Option<String>,
+    /// Where to write the map (eos TOML: 1-based iBUG ids, 0-based vertices).
+    #[arg(long, value_name = "MAP.toml")]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    /// Session (`NAME` or a `.lipmap.json` path).
+    pub session: String,
+}
+
+/// Runs a `map` subcommand; `Ok(false)` when `check` found problems.
+pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
+    match cmd {
+        MapCommand::Suggest(a) => {
+            let session = load_session(&session_path(&a.session))?;
+            let s = suggest_session_map(&session, a.clip.as_deref(), a.frame)?;
+            writeln!(
+                out,
+                "frame {}: {} labels; {}",
+                s.frame,
+                s.labels.len(),
+                s.proposal.summary()
+            )?;
+            writeln!(out, "landmark  vertex  px off  confidence")?;
+            for x in &s.proposal.accepted {
+                writeln!(
+                    out,
+                    "{:>8}  {:>6}  {:>6.2}  {:>10.2}",
+                    x.landmark + 1,
+                    x.vertex,
+                    x.distance_px,
+                    x.confidence
+                )?;
+            }
+            for (l, why) in &s.proposal.left {
+                writeln!(out, "left {}: {why}", l + 1)?;
+            }
+            writeln!(out, "{}", s.check.summary())?;
+            write_landmark_map(&a.out, &s.map)?;
+            writeln!(
+                out,
+                "wrote {} ({} landmarks); use it with: lipmap import {} --mapping {}",
+                a.out.display(),
+                s.map.len(),
+                a.session,
+                a.out.display()
+            )?;
+            Ok(true)
+        }
+        MapCommand::Check(a) => {
+            let session = load_session(&session_path(&a.session))?;
+            match check_session_map(&session)? {
+                None => {
+                    writeln!(out, "the session has no landmark map")?;
+                    Ok(true)
+                }
+                Some(check) => {
+                    for p in &check.problems {
+                        writeln!(out, "{p}")?;
+                    }
+                    writeln!(out, "{}", check.summary())?;
+                    if !check.is_plausible() {
+                        writeln!(
+                            out,
+                            "fix the labels in the TUI (view 2), or label 4-6 good ones and run `lipmap map suggest {} --out MAP.toml`",
+                            a.session
+                        )?;
+                    }
+                    Ok(check.is_plausible())
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,221 @@
+//! `lipmap speech train|eval|animate`: speech-driven mouth motion (the AV-HMM of
+//! `crate::speech`) trained on sessions with audio, scored on a session, and animating the
+//! session's model (and optionally another head) from a WAV file.
+
+use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
+use crate::cli::progress::print_warnings;
+use crate::eval::{Cell, Table};
+use crate::workflow::speech::{
+    SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech, evaluate_speech,
+    load_speech_model, save_speech_model, train_speech, write_via_temp,
+};
+use crate::workflow::speech_session::record_speech_model;
+use anyhow::Result;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Subcommand, Debug)]
+pub enum SpeechCommand {
+    /// Train a speech model on every clip with audio of the sessions (fits what is not cached).
+    Train(TrainArgs),
+    /// AMSE and ACC of a speech model on a session's clips with audio, against the linear
+    /// baseline, and the W/H/P tables of the speech-driven head against the video.
+    Eval(EvalArgs),
+    /// Per-frame shapes of the model's head (and of another head) driven by a WAV file.
+    Animate(AnimateArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct TrainArgs {
+    /// Session files or names.
+    #[arg(required = true)]
+    pub sessions: Vec<String>,
+    /// N, ergodic HMM states.
+    #[arg(long, default_value_t = SpeechTrainSettings::default().states)]
+    pub states: usize,
+    /// M, full-covariance Gaussians per state.
+    #[arg(long, default_value_t = SpeechTrainSettings::default().mixtures)]
+    pub mixtures: usize,
+    /// t_c, audio frames of context on each side.
+    #[arg(long, default_value_t = SpeechTrainSettings::default().context)]
+    pub context: usize,
+    /// The model file to write.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct EvalArgs {
+    /// A model from `lipmap speech train`.
+    pub model: PathBuf,
+    /// Session file or name (its clips with audio are scored).
+    pub session: String,
+    /// How video and head trajectories are put on one scale before comparing.
+    #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
+    pub normalise: NormaliseArg,
+    /// Also print the per-sentence tables.
+    #[arg(long)]
+    pub sentences: bool,
+    #[command(flatten)]
+    pub output: FormatArgs,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct AnimateArgs {
+    /// A model from `lipmap speech train`.
+    pub model: PathBuf,
+    /// The speech to animate (WAV, at the model's sample rate or faster).
+    #[arg(long)]
+    pub audio: PathBuf,
+    /// Output folder: shapes.npy (frames × 3N, the model's vertices x y z), and
+    /// head_shapes.npy with --head.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Another head (OBJ) to carry the motion to; needs --mapping.
+    #[arg(long, requires = "mapping")]
+    pub head: Option<PathBuf>,
+    /// The head's landmark map (eos TOML).
+    #[arg(long, requires = "head")]
+    pub mapping: Option<PathBuf>,
+}
+
+pub fn run(cmd: &SpeechCommand, out: &mut dyn Write) -> Result<()> {
+    match cmd {
+        SpeechCommand::Train(a) => train(a, out),
+        SpeechCommand::Eval(a) => eval(a, out),
+        SpeechCommand::Animate(a) => animate(a, out),
+    }
+}
+
+/// A bar of steps whose unit the stage message names, on stderr when it is a terminal.
+fn steps_bar() -> ProgressBar {
+    let bar = ProgressBar::new(0);
+    if !std::io::stderr().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template("{msg:48} [{bar:30}] {pos}/{len} eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
+    let settings =
+        SpeechTrainSettings { states: a.states, mixtures: a.mixtures, context: a.context };
+    let bar = steps_bar();
+    let progress = crate::cli::progress::show_on(&bar);
+    let start = std::time::Instant::now();
+    let trained = train_speech(&a.sessions, &settings, &progress)?;
+    bar.finish_and_clear();
+    print_warnings(&trained.warnings);
+    save_speech_model(&a.out, &trained.file)?;
+    print_warnings(&record_speech_model(&a.sessions, &a.out));
+    let report = &trained.file.speech.report;
+    let ll = report.log_likelihood_per_frame.last().copied().unwrap_or(f64::NAN);
+    writeln!(
+        out,
+        "trained on {} clips ({} frames) in {:.1} s: {} Baum-Welch iterations{}, log-likelihood {ll:.3} nats/frame; wrote {}",
+        trained.clips,
+        trained.frames,
+        start.elapsed().as_secs_f64(),
+        report.log_likelihood_per_frame.len().saturating_sub(1),
+        if report.converged { " (converged)" } else { " (iteration cap)" },
+        a.out.display()
+    )?;
+    Ok(())
+}
+
+fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
+    let model = load_speech_model(&a.model)?;
+    let bar = crate::cli::progress::frames_bar(0, "fitting");
+    let progress = crate::cli::progress::show_on(&bar);
+    let e = evaluate_speech(&model, &a.session, a.normalise.into(), &progress)?;
+    bar.finish_and_clear();
+    print_warnings(&e.warnings);
+    print_warnings(&record_speech_model(std::slice::from_ref(&a.session), &a.model));
+    let scores = scores_table(&e);
+    let mut tables = vec![&scores];
+    let titled = |t: &Table, who: &str| {
+        let mut t = t.clone();
+        t.title = format!("{} — {who}", t.title);
+        t
+    };
+    let phonemes = [
+        titled(&e.report_hmm.phonemes, "head driven by the AV-HMM"),
+        titled(&e.report_linear.phonemes, "head driven by the linear baseline"),
+        titled(&e.report_fitted.phonemes, "fitted head (from the video)"),
+    ];
+    let sentences = [
+        titled(&e.report_hmm.sentences, "head driven by the AV-HMM"),
+        titled(&e.report_linear.sentences, "head driven by the linear baseline"),
+    ];
+    if a.sentences {
+        tables.extend(sentences.iter());
+    }
+    tables.extend(phonemes.iter());
+    write_tables(&tables, a.output.format(), out)
+}
+
+fn scores_table(e: &SpeechEvaluation) -> Table {
+    let headers = ["estimator", "AMSE", "ACC", "frames"].map(String::from).to_vec();
+    let mut t = Table::new(
+        format!("Visual parameters estimated from the audio of {} clips", e.clips),
+        headers,
+    );
+    for (name, s) in [("AV-HMM", e.hmm), ("linear baseline", e.linear)] {
+        t.rows.push(vec![
+            Cell::Text(name.into()),
+            Cell::Num(s.amse),
+            Cell::Num(s.acc),
+            Cell::Int(e.frames as i64),
+        ]);
+    }
+    t.notes.push(
+        "AMSE: mean square error over each parameter's variance (Terissi et al. eq. 6, lower is better); ACC: mean correlation (eq. 7, higher is better)"
+            .into(),
+    );
+    t
+}
+
+fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
+    let model = load_speech_model(&a.model)?;
+    let head =
+        a.head.as_deref().zip(a.mapping.as_deref()).map(|(obj, map)| TransferHead { obj, map });
+    let bar = steps_bar();
+    let progress = crate::cli::progress::show_on(&bar);
+    let anim = animate_speech(&model, &a.audio, head, &progress)?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", a.out.display()))?;
+    let shapes = a.out.join("shapes.npy");
+    write_shapes(&shapes, &anim.shapes)?;
+    writeln!(
+        out,
+        "{} frames at {} fps from {}: wrote {}",
+        anim.shapes.nrows(),
+        anim.fps,
+        a.audio.display(),
+        shapes.display()
+    )?;
+    if let Some(h) = &anim.head_shapes {
+        let path = a.out.join("head_shapes.npy");
+        write_shapes(&path, h)?;
+        writeln!(out, "transferred to {}: wrote {}", display(a.head.as_deref()), path.display())?;
+    }
+    Ok(())
+}
+
+fn display(p: Option<&Path>) -> String {
+    p.map_or_else(String::new, |p| p.display().to_string())
+}
+
+/// Rows of `m` as a frames × width float32 .npy.
+fn write_shapes(path: &Path, m: &crate::math::DMatrix) -> Result<()> {
+    let data: Vec<f32> = m.transpose().iter().map(|&v| v as f32).collect();
+    let shape = [m.nrows() as u64, m.ncols() as u64];
+    write_via_temp(path, |tmp| Ok(crate::io::npy_model::write_npy_f32(tmp, &shape, &data)?))?;
+    Ok(())
+}

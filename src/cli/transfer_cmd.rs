@@ -1,0 +1,87 @@
+//! `lipmap transfer SESSION --head HEAD.obj`: the session's fitted motion onto another head
+//! (`shapes.npy` per clip, OBJs with `--objs`); the head is recorded in the session so
+//! `eval` prints its tables too.
+
+use crate::cli::progress::{frames_bar, print_warnings, show_on};
+use crate::transfer::Interpolation;
+use crate::workflow::{self, open_for_edit, select_clips};
+use anyhow::Result;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Drive another head (an OBJ with a landmark map) with the session's fitted motion.
+#[derive(clap::Args, Debug)]
+pub struct TransferArgs {
+    /// Session file or name.
+    pub session: String,
+    /// The head to animate (OBJ; MakeHuman's helper-*/joint-* groups are never moved as skin).
+    #[arg(long)]
+    pub head: PathBuf,
+    /// The head's landmark map (eos TOML, 1-based iBUG ids); default HEAD.toml or
+    /// HEAD_map.toml beside the head.
+    #[arg(long)]
+    pub mapping: Option<PathBuf>,
+    /// How the head follows the control points.
+    #[arg(long, value_enum, default_value_t = ModeArg::Biharmonic)]
+    pub mode: ModeArg,
+    /// Only this clip.
+    #[arg(long)]
+    pub clip: Option<String>,
+    /// Also write one OBJ per frame.
+    #[arg(long)]
+    pub objs: bool,
+    /// Output folder (one subfolder per clip).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// `--mode` (and `eval --transfer-mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    Biharmonic,
+    Barycentric,
+}
+
+impl From<ModeArg> for Interpolation {
+    fn from(mode: ModeArg) -> Self {
+        match mode {
+            ModeArg::Biharmonic => Interpolation::Biharmonic,
+            ModeArg::Barycentric => Interpolation::Barycentric,
+        }
+    }
+}
+
+pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
+    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(&a.session)?;
+    let (res, warnings) = workflow::load_resources(&session, &path)?;
+    print_warnings(&warnings);
+    let clips = select_clips(&session, a.clip.as_deref())?;
+    let request = workflow::transfer::TransferRequest {
+        head: a.head.clone(),
+        mapping: a.mapping.clone(),
+        mode: a.mode.into(),
+        clips,
+        out_dir: a.out.clone(),
+        objs: a.objs,
+    };
+    let bar = frames_bar(0, "fitting");
+    let report =
+        workflow::transfer::transfer_session(&mut session, &res, &request, &show_on(&bar))?;
+    session.save(&path)?;
+    writeln!(
+        out,
+        "placement residual {:.4} (rigid {:.4}), {} controls, {} control triangles dropped",
+        report.residual, report.residual_rigid, report.controls, report.triangles_dropped
+    )?;
+    writeln!(
+        out,
+        "setup {:.2} s, {:.2} ms per frame",
+        report.setup.as_secs_f64(),
+        1e3 * report.per_frame.as_secs_f64()
+    )?;
+    for (clip, frames, dir) in &report.clips {
+        writeln!(out, "{clip}: {frames} frames -> {}", dir.join("shapes.npy").display())?;
+    }
+    writeln!(out, "recorded head `{}` in {}", report.head_name, path.display())?;
+    Ok(())
+}

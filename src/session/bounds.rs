@@ -1,0 +1,201 @@
+//! Bounds on the values a session file carries: frame numbers, frame rates, sizes, phone
+//! times and fit settings. A session is passed between people and edited by hand, so it is
+//! untrusted input; every number that later sizes a table or a loop is checked here, once,
+//! when the file is loaded (and before it is saved), with a message naming the field.
+//!
+//! The rules themselves live with the values they bound: `landmarks::MAX_FRAME`,
+//! `io::frames::{FPS_RANGE, MAX_IMAGE_SIDE}`, `Alignment::check_times`.
+
+use super::model::{Clip, Session, View};
+use crate::fit::FitSettings;
+use crate::io::frames::{MAX_IMAGE_SIDE, check_fps_value};
+use crate::landmarks::{MAX_FRAME, N_LANDMARKS};
+
+/// Most camera/shape alternations a session may ask for; each is a full solve per frame.
+pub const MAX_ITERATIONS: usize = 1000;
+
+/// Checks every bounded value of `session`.
+///
+/// # Errors
+/// A message naming the clip and field at fault.
+pub fn check_values(session: &Session) -> Result<(), String> {
+    check_fit_settings(&session.fit_settings).map_err(|m| format!("fit_settings: {m}"))?;
+    for e in &session.fit_cache {
+        check_settings_frames(e)?;
+    }
+    for clip in &session.clips {
+        check_clip(clip).map_err(|m| format!("clip {:?}: {m}", clip.name))?;
+    }
+    Ok(())
+}
+
+fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
+    check_fit_settings(&e.settings)
+        .map_err(|m| format!("clip {:?}: cached fit settings: {m}", e.clip))?;
+    match e.frames.iter().find(|f| f.fit.frame > MAX_FRAME) {
+        Some(f) => Err(format!("clip {:?}: cached fit of frame {} {}", e.clip, f.fit.frame, PAST)),
+        None => Ok(()),
+    }
+}
+
+const PAST: &str = "is past the largest frame lipmap accepts";
+
+fn check_frame(what: &str, frame: Option<usize>) -> Result<(), String> {
+    match frame {
+        Some(f) if f > MAX_FRAME => Err(format!("{what} {f} {PAST} ({MAX_FRAME})")),
+        _ => Ok(()),
+    }
+}
+
+fn check_clip(clip: &Clip) -> Result<(), String> {
+    check_view(&clip.front).map_err(|m| format!("front: {m}"))?;
+    if let Some(side) = &clip.side {
+        check_view(side).map_err(|m| format!("side: {m}"))?;
+    }
+    // Frame keys are sorted: the last is the largest.
+    check_frame("tracked frame", clip.tracked.frames.last().map(|f| f.frame))?;
+    check_frame("correction of frame", clip.corrections.points.keys().next_back().copied())?;
+    check_frame("reviewed frame", clip.corrections.reviewed.iter().next_back().copied())?;
+    check_frame(
+        "profile correction of frame",
+        clip.profile_corrections.keys().next_back().copied(),
+    )?;
+    if let Some(a) = &clip.alignment {
+        // A phone past the last frame lipmap accepts at this clip's rate would size the
+        // per-frame phone table beyond it.
+        let max_end = (MAX_FRAME + 1) as f64 / clip.front.fps;
+        a.check_times(max_end).map_err(|m| format!("alignment: {m}"))?;
+    }
+    Ok(())
+}
+
+fn check_view(v: &View) -> Result<(), String> {
+    check_fps_value(v.fps).map_err(|m| format!("fps: {m}"))?;
+    // Front and side views are cut from one recording session: an offset longer than the
+    // longest clip is a corrupt file.
+    let max_offset = MAX_FRAME as f64;
+    if !(v.offset_s.is_finite() && v.offset_s.abs() <= max_offset) {
+        return Err(format!("offset_s {} is not within ±{max_offset} s", v.offset_s));
+    }
+    if let Some([w, h]) = v.size
+        && !((1..=MAX_IMAGE_SIDE).contains(&w) && (1..=MAX_IMAGE_SIDE).contains(&h))
+    {
+        return Err(format!("size {w}×{h} is outside 1–{MAX_IMAGE_SIDE} px"));
+    }
+    Ok(())
+}
+
+/// The one rule for fit settings, wherever they come from (a session, flags): prior weights
+/// and the smoothness weight finite and ≥ 0, a positive failure threshold, a tolerance in
+/// [0, 1), at most [`MAX_ITERATIONS`] alternations and one weight per iBUG landmark.
+///
+/// # Errors
+/// A message naming the field.
+pub fn check_fit_settings(s: &FitSettings) -> Result<(), String> {
+    let non_negative = [
+        ("lambda", s.lambda),
+        ("lambda_expression", s.lambda_expression),
+        ("temporal_smoothness", s.temporal_smoothness),
+    ];
+    for (name, v) in non_negative {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(format!("{name} {v} must be finite and ≥ 0"));
+        }
+    }
+    if !(s.max_reproj_rms_px.is_finite() && s.max_reproj_rms_px > 0.0) {
+        return Err(format!("max_reproj_rms_px {} must be finite and > 0", s.max_reproj_rms_px));
+    }
+    if !(s.convergence_tolerance.is_finite() && (0.0..1.0).contains(&s.convergence_tolerance)) {
+        return Err(format!("convergence_tolerance {} must be in [0, 1)", s.convergence_tolerance));
+    }
+    if s.iterations > MAX_ITERATIONS {
+        return Err(format!("iterations {} is more than {MAX_ITERATIONS}", s.iterations));
+    }
+    if s.solver.pose_refinement_steps() > MAX_ITERATIONS {
+        return Err(format!(
+            "pose_refinement_steps {} is more than {MAX_ITERATIONS}",
+            s.solver.pose_refinement_steps()
+        ));
+    }
+    let w = &s.landmark_weights;
+    if w.len() > N_LANDMARKS {
+        return Err(format!(
+            "landmark_weights has {} entries; there are {N_LANDMARKS} landmarks",
+            w.len()
+        ));
+    }
+    if let Some((i, v)) = w.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
+        return Err(format!("landmark_weights[{i}] {v} must be finite and ≥ 0"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::session::{FramesRef, Session};
+
+    fn session_with_clip() -> Session {
+        let mut s = Session::new(std::path::Path::new("/tmp/x.lipmap.json"));
+        let view = View::new(FramesRef::Images { dir: "/tmp/frames".into() }, 25.0);
+        s.clips.push(Clip::new("a", view));
+        s
+    }
+
+    #[test]
+    fn a_plain_session_passes() {
+        assert_eq!(check_values(&session_with_clip()), Ok(()));
+    }
+
+    fn refused(field: &str, edit: impl Fn(&mut Session)) {
+        let mut s = session_with_clip();
+        edit(&mut s);
+        let err = check_values(&s).expect_err(field);
+        assert!(err.contains(field), "{field}: {err}");
+        assert!(!err.contains('\n'), "one line: {err}");
+    }
+
+    fn phones(s: &mut Session, start: f64, end: f64) {
+        let phone = crate::alignment::Phone { start, end, label: "AA".into() };
+        s.clips[0].alignment = Some(crate::alignment::Alignment { phones: vec![phone] });
+    }
+
+    #[test]
+    fn each_bound_names_its_field() {
+        refused("fps", |s| s.clips[0].front.fps = 1e20);
+        refused("fps", |s| s.clips[0].front.fps = 1e-300);
+        refused("size", |s| s.clips[0].front.size = Some([4_000_000_000, 10]));
+        refused("offset_s", |s| s.clips[0].front.offset_s = 1e300);
+        refused("lambda", |s| s.fit_settings.lambda = -1.0);
+        refused("lambda_expression", |s| s.fit_settings.lambda_expression = f64::NAN);
+        refused("iterations", |s| s.fit_settings.iterations = 1 << 40);
+        refused("landmark_weights has 70", |s| s.fit_settings.landmark_weights = vec![1.0; 70]);
+        refused("landmark_weights[3]", |s| {
+            s.fit_settings.landmark_weights = vec![1.0, 1.0, 1.0, -2.0];
+        });
+        refused("max_reproj_rms_px", |s| s.fit_settings.max_reproj_rms_px = 0.0);
+        refused("correction of frame 1000000000000", |s| {
+            let p = crate::landmarks::LandmarkPoint::tracked(1.0, 2.0);
+            s.clips[0].corrections.set(1_000_000_000_000, 3, p).unwrap();
+        });
+        refused("reviewed frame", |s| {
+            s.clips[0].corrections.reviewed.insert(4_000_000_000);
+        });
+        refused("profile correction", |s| {
+            let p = crate::math::Point2::new(1.0, 1.0);
+            s.clips[0].profile_corrections.insert(MAX_FRAME + 1, p);
+        });
+        refused("end before its start", |s| phones(s, 2.0, 1.0));
+        refused("end past", |s| phones(s, 0.0, 1e9));
+        refused("negative start", |s| phones(s, -1.0, 1.0));
+    }
+
+    #[test]
+    fn bounds_are_inclusive_at_the_edges() {
+        let mut s = session_with_clip();
+        s.clips[0].front.fps = 1000.0;
+        s.clips[0].corrections.reviewed.insert(MAX_FRAME);
+        s.fit_settings.landmark_weights = vec![0.0; N_LANDMARKS];
+        assert_eq!(check_values(&s), Ok(()));
+    }
+}

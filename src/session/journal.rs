@@ -1,0 +1,236 @@
+//! The edit journal: an append-only file beside a session being edited
+//! (`NAME.lipmap.json.journal`), one JSON line per edit, each flushed to disk before the
+//! next, so a crash (`kill -9`, power loss) loses at most the edit being written. Opening
+//! the session again replays it; a successful save of everything removes it.
+//!
+//! Each line holds a clip's whole edit layer (corrections, reviewed frames, side-view
+//! corrections, the labelled map) rather than the one change: replaying is then "take the
+//! last whole line per clip", needs no knowledge of the editor's operations, and a torn last
+//! line only costs that edit. The lines are small: the layer holds edits, not the tracker's
+//! landmarks.
+
+use super::{Corrections, Session, SessionError};
+use crate::math::Point2;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fs::{File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// One clip's edit layer at one moment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JournalEntry {
+    pub clip: String,
+    pub corrections: Corrections,
+    #[serde(default)]
+    pub profile_corrections: BTreeMap<usize, Point2>,
+    /// The inline landmark map, when the editor changed it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub landmark_map: Option<BTreeMap<usize, usize>>,
+}
+
+/// The journal of the session at `session`: `NAME.lipmap.json.journal` beside it.
+pub fn journal_path(session: &Path) -> PathBuf {
+    let mut name = session.file_name().unwrap_or_default().to_os_string();
+    name.push(".journal");
+    session.with_file_name(name)
+}
+
+/// Renames the journal of `session` to `….journal.bad` (after a failed [`replay`]), so the
+/// user keeps it and new edits start a new one. Returns the new name.
+pub fn set_aside(session: &Path) -> PathBuf {
+    let path = journal_path(&super::absolute(session));
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".bad");
+    let aside = path.with_file_name(name);
+    let _ = std::fs::rename(&path, &aside);
+    aside
+}
+
+/// An open journal, appended to by one editor (who holds the session's lock).
+pub struct Journal {
+    path: PathBuf,
+    file: Option<File>,
+    /// The file may exist (found at open, or recorded to since the last clear).
+    present: bool,
+}
+
+impl Journal {
+    /// The journal of `session`; nothing is created until the first [`record`](Self::record).
+    pub fn new(session: &Path) -> Self {
+        let path = journal_path(&super::absolute(session));
+        let present = path.exists();
+        Self { path, file: None, present }
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Appends `entry` as one line and waits until it is on disk.
+    ///
+    /// # Errors
+    /// `Io` naming the journal.
+    pub fn record(&mut self, entry: &JournalEntry) -> Result<(), SessionError> {
+        let io = |source| SessionError::Io { path: self.path.clone(), source };
+        let mut line = serde_json::to_vec(entry).map_err(|e| SessionError::Invalid {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
+        line.push(b'\n');
+        if self.file.is_none() {
+            let f = OpenOptions::new().create(true).append(true).open(&self.path).map_err(io)?;
+            // The new name must survive a crash too: sync the folder once.
+            if let Some(dir) = self.path.parent() {
+                let _ = File::open(dir).and_then(|d| d.sync_all());
+            }
+            self.file = Some(f);
+            self.present = true;
+        }
+        let f = self.file.as_mut().expect("opened above");
+        // One write of the whole line: a crash leaves a prefix of it at worst, which replay
+        // ignores.
+        f.write_all(&line).map_err(io)?;
+        f.sync_data().map_err(io)
+    }
+
+    /// Whether the journal file may exist (left by a crash, or recorded to since the last
+    /// clear).
+    pub fn is_present(&self) -> bool {
+        self.present
+    }
+
+    /// Removes the journal once the session file holds everything it recorded.
+    ///
+    /// # Errors
+    /// `Io` when the file exists and cannot be removed.
+    pub fn clear(&mut self) -> Result<(), SessionError> {
+        self.file = None;
+        self.present = false;
+        match std::fs::remove_file(&self.path) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                Err(SessionError::Io { path: self.path.clone(), source: e })
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Applies the journal left beside `session_path` (by an editor that crashed) to `session`:
+/// the last whole line of each clip replaces that clip's edit layer. Returns how many clips
+/// were restored (0 when there is no journal). A torn last line is skipped; the journal
+/// stays until a save clears it.
+///
+/// # Errors
+/// `Io` for an unreadable journal; `Invalid` naming the journal and line when a whole line
+/// is not an entry, or when the restored session breaks a rule (the journal is as untrusted
+/// as the session file).
+pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, SessionError> {
+    let path = journal_path(&super::absolute(session_path));
+    let bytes = match std::fs::read(&path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(source) => return Err(SessionError::Io { path, source }),
+    };
+    let invalid = |line: usize, message: String| SessionError::Invalid {
+        path: path.clone(),
+        message: format!("line {line}: {message}"),
+    };
+    let mut last: BTreeMap<String, JournalEntry> = BTreeMap::new();
+    let mut lines = bytes.split(|&b| b == b'\n').enumerate().peekable();
+    while let Some((i, line)) = lines.next() {
+        let whole = lines.peek().is_some();
+        if line.is_empty() {
+            continue;
+        }
+        match serde_json::from_slice::<JournalEntry>(line) {
+            Ok(e) => {
+                last.insert(e.clip.clone(), e);
+            }
+            // The line being written when the editor died: that edit is the one lost.
+            Err(_) if !whole => break,
+            Err(e) => return Err(invalid(i + 1, e.to_string())),
+        }
+    }
+    // Applied to a copy: a refused journal leaves the session as loaded.
+    let mut next = session.clone();
+    let mut restored = 0;
+    for (name, e) in last {
+        let Some(i) = next.clip_index(&name) else {
+            return Err(invalid(0, format!("no clip {name:?} in the session")));
+        };
+        let clip = &mut next.clips[i];
+        clip.corrections = e.corrections;
+        clip.profile_corrections = e.profile_corrections;
+        if let Some(map) = e.landmark_map {
+            next.landmark_map.inline = Some(map);
+        }
+        restored += 1;
+    }
+    next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
+    *session = next;
+    Ok(restored)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::landmarks::LandmarkPoint;
+    use crate::session::{Clip, FramesRef, View};
+
+    fn session(dir: &Path) -> (Session, PathBuf) {
+        let path = dir.join("s.lipmap.json");
+        let mut s = Session::new(&path);
+        let view = View::new(FramesRef::Images { dir: dir.join("frames") }, 25.0);
+        s.clips.push(Clip::new("a", view));
+        s.save(&path).unwrap();
+        (s, path)
+    }
+
+    fn entry(n: usize) -> JournalEntry {
+        let mut corrections = Corrections::default();
+        for f in 0..n {
+            corrections.set(f, 3, LandmarkPoint::tracked(1.0, f as f64)).unwrap();
+        }
+        JournalEntry {
+            clip: "a".into(),
+            corrections,
+            profile_corrections: BTreeMap::new(),
+            landmark_map: None,
+        }
+    }
+
+    #[test]
+    fn replay_takes_the_last_whole_line_and_skips_a_torn_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, path) = session(dir.path());
+        let mut j = Journal::new(&path);
+        for n in 1..=3 {
+            j.record(&entry(n)).unwrap();
+        }
+        // A crash in the middle of the fourth line.
+        let torn = serde_json::to_string(&entry(4)).unwrap();
+        let mut f = OpenOptions::new().append(true).open(j.path()).unwrap();
+        f.write_all(&torn.as_bytes()[..torn.len() / 2]).unwrap();
+        assert_eq!(replay(&mut s, &path).unwrap(), 1);
+        assert_eq!(s.clips[0].corrections.points.len(), 3);
+        j.clear().unwrap();
+        assert!(!j.path().exists());
+        let (mut fresh, _) = session(dir.path());
+        assert_eq!(replay(&mut fresh, &path).unwrap(), 0);
+    }
+
+    #[test]
+    fn a_hostile_journal_is_refused_with_its_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let (mut s, path) = session(dir.path());
+        let mut bad = entry(1);
+        bad.corrections.reviewed.insert(1 << 40);
+        Journal::new(&path).record(&bad).unwrap();
+        let err = replay(&mut s, &path).unwrap_err().to_string();
+        assert!(err.contains(".journal") && err.contains("reviewed frame"), "{err}");
+        std::fs::write(journal_path(&path), "not json\n{}\n").unwrap();
+        let err = replay(&mut s, &path).unwrap_err().to_string();
+        assert!(err.contains(".journal") && err.contains("line 1"), "{err}");
+    }
+}

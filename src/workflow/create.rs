@@ -1,0 +1,504 @@
+//! Creating a session and adding to one (`lipmap new`, `lipmap import`): read and check every
+//! input first, then write, so a bad file leaves the session as it was.
+//!
+//! Start with [`create_session`] and [`import_into_session`]; [`read_clip`] reads one clip's
+//! files into a [`Clip`].
+
+use super::audio::{AudioInput, read_clip_audio};
+use super::error::{Error, Result, Warning};
+use super::resources::{check_map_for_fit, check_map_vertices};
+use super::session::{clip_or_first, load_session};
+use crate::fit::FitSettings;
+use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
+use crate::io::textgrid::TierChoice;
+use crate::io::{alignment_format, landmark_format, landmark_map_toml, model_source, obj};
+use crate::landmarks::LandmarkSet;
+use crate::model::{LandmarkMap, MapCheck, Mesh, check_map};
+use crate::session::{Clip, FramesRef, ModelRef, Session, SessionLock, View, absolute};
+use std::path::{Path, PathBuf};
+
+/// One clip's input files.
+#[derive(Clone, Debug, Default)]
+pub struct ClipInputs {
+    /// Front-view frames: a folder of images or a video file.
+    pub frames: PathBuf,
+    /// Frames per second (`None`: the video's, or [`DEFAULT_FOLDER_FPS`] for a folder).
+    pub fps: Option<f64>,
+    /// Tracked landmarks in any format lipmap reads.
+    pub landmarks: PathBuf,
+    /// A phone alignment and the TextGrid tier to read from it.
+    pub alignment: Option<(PathBuf, Option<TierChoice>)>,
+    /// Side-view frames, for protrusion.
+    pub side: Option<SideInputs>,
+    /// The clip's name (`None`: from the frames path, see [`default_clip_name`]).
+    pub name: Option<String>,
+    /// The clip's audio (for speech-driven animation).
+    pub audio: Option<AudioInput>,
+}
+
+/// A side view's frames and timing.
+#[derive(Clone, Debug, Default)]
+pub struct SideInputs {
+    pub frames: PathBuf,
+    /// Frames per second (`None`: the front view's).
+    pub fps: Option<f64>,
+    /// Seconds from the front view's frame 0 to the side view's frame 0.
+    pub offset_s: f64,
+}
+
+/// What a new session is made of.
+#[derive(Clone, Debug)]
+pub struct NewSession {
+    /// Where the session file goes.
+    pub path: PathBuf,
+    pub clip: ClipInputs,
+    /// The head mesh the landmark map names vertices of.
+    pub head: Option<PathBuf>,
+    pub model: PathBuf,
+    pub blendshapes: Option<PathBuf>,
+    /// A landmark map file (eos TOML).
+    pub mapping: Option<PathBuf>,
+    /// The landmark set the fit uses.
+    pub set: LandmarkSet,
+    /// Replace an existing session file.
+    pub force: bool,
+}
+
+/// What to add to an existing session.
+#[derive(Clone, Debug)]
+pub struct Import {
+    pub path: PathBuf,
+    pub clip: Option<ClipInputs>,
+    /// A landmark map file that replaces the session's map.
+    pub mapping: Option<PathBuf>,
+    /// Audio for an existing clip (named, or the first) when no clip is added.
+    pub audio: Option<(AudioInput, Option<String>)>,
+    /// A head mesh (OBJ) that becomes the session's head, replacing the one it named.
+    pub head: Option<PathBuf>,
+}
+
+/// Whether a session's map can be fitted with, as far as creating it can tell.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum MapState {
+    /// No map was given.
+    Missing,
+    /// A map the fit can use, with this many landmarks.
+    Usable(usize),
+    /// A map the fit cannot use yet (the message says why and what to do).
+    Problem(String),
+}
+
+/// A clip that was added: its name and how many frames of landmarks it has.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct AddedClip {
+    pub name: String,
+    pub frames: usize,
+}
+
+/// A session just created.
+#[derive(Clone, Debug)]
+pub struct Created {
+    pub path: PathBuf,
+    pub clip: AddedClip,
+    pub map: MapState,
+    pub warnings: Vec<Warning>,
+}
+
+/// A map file set on a session, and what it replaced.
+#[derive(Clone, Debug)]
+pub struct MapSet {
+    pub file: PathBuf,
+    pub landmarks: usize,
+    /// What the new map replaced.
+    pub replaced: Vec<ReplacedMap>,
+    /// Cached fits made with the previous map were dropped.
+    pub fits_dropped: bool,
+    /// Why the fit cannot use the new map yet (`None` when it can, or there is no model).
+    pub problem: Option<String>,
+}
+
+/// A map that a new map file replaced.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ReplacedMap {
+    /// The map labelled in the TUI, with this many landmarks.
+    Labelled(usize),
+    /// The map file the session named before.
+    File(PathBuf),
+}
+
+/// A head mesh set on a session.
+#[derive(Clone, Debug)]
+pub struct HeadSet {
+    pub file: PathBuf,
+    pub vertices: usize,
+    /// The head file the session named before.
+    pub replaced: Option<PathBuf>,
+    /// The session's map checked on the new head (`None`: the session has no map yet). A map
+    /// labelled on another mesh names the wrong vertices here, and this says so.
+    pub map_check: Option<MapCheck>,
+}
+
+/// What an import changed.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    pub path: PathBuf,
+    pub clip: Option<AddedClip>,
+    pub map: Option<MapSet>,
+    pub head: Option<HeadSet>,
+    /// The existing clip given audio, and the audio file.
+    pub audio: Option<(String, PathBuf)>,
+    pub warnings: Vec<Warning>,
+}
+
+/// Creates the session `new` describes, after reading and checking every input.
+///
+/// # Errors
+/// The session exists (and `force` is off), any input that cannot be read (naming the
+/// file), a map naming vertices the model lacks, or the session cannot be written.
+pub fn create_session(new: &NewSession) -> Result<Created> {
+    let path = &new.path;
+    if path.exists() && !new.force {
+        return Err(Error::Invalid(format!(
+            "{}: already exists (use --force to replace it)",
+            path.display()
+        )));
+    }
+    let (mut clip, mut warnings) = read_clip(&new.clip)?;
+    if let Some(audio) = &new.clip.audio {
+        clip.audio = Some(read_clip_audio(&clip, path, audio)?);
+    }
+    let model = model_source::load_model(&new.model, new.blendshapes.as_deref())?;
+    let map = new.mapping.as_deref().map(landmark_map_toml::read_landmark_map).transpose()?;
+    if let (Some(map), Some(file)) = (&map, &new.mapping) {
+        check_map_vertices(map, model.num_vertices(), Some(file))?;
+    }
+    let settings = FitSettings { set: new.set, ..FitSettings::default() };
+    if let Some(head) = &new.head {
+        let mesh = obj::read_obj(head)?;
+        warnings.extend(head_model_mismatch(head, &mesh, model.num_vertices()));
+    }
+    let _lock = SessionLock::acquire(path)?;
+    let mut session = Session::new(path);
+    session.head_mesh = new.head.as_deref().map(absolute);
+    session.model = Some(ModelRef {
+        path: absolute(&new.model),
+        blendshapes: new.blendshapes.as_deref().map(absolute),
+    });
+    session.landmark_map.file = new.mapping.as_deref().map(absolute);
+    session.fit_settings = settings.clone();
+    let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
+    session.add_clip(clip)?;
+    session.save(path)?;
+    let map = match &map {
+        None => MapState::Missing,
+        Some(m) => match map_problem(m, model.num_vertices(), &settings, path) {
+            None => MapState::Usable(m.len()),
+            Some(problem) => MapState::Problem(problem),
+        },
+    };
+    Ok(Created { path: path.clone(), clip: added, map, warnings })
+}
+
+/// A warning when a head mesh and the model differ in vertex count: the fitted shape cannot
+/// then be shown on that head, only its landmarks' map read on it.
+fn head_model_mismatch(head: &Path, mesh: &Mesh, model_vertices: usize) -> Option<Warning> {
+    (mesh.vertices.len() != model_vertices).then(|| {
+        Warning(format!(
+            "lipmap: warning: {} has {} vertices but the model has {}",
+            head.display(),
+            mesh.vertices.len(),
+            model_vertices
+        ))
+    })
+}
+
+/// Adds a clip, sets the landmark map and/or the head mesh of an existing session, under its
+/// lock.
+///
+/// # Errors
+/// Nothing to import, the session cannot be opened or locked, any input that cannot be read;
+/// the session is then unchanged.
+pub fn import_into_session(import: &Import) -> Result<Imported> {
+    if import.clip.is_none()
+        && import.mapping.is_none()
+        && import.audio.is_none()
+        && import.head.is_none()
+    {
+        return Err(Error::Invalid(
+            "give a clip to add (--frames and --landmarks), a landmark map (--mapping FILE), a head mesh (--head HEAD.obj) or a clip's audio (--audio FILE.wav)"
+                .into(),
+        ));
+    }
+    let path = &import.path;
+    let _lock = SessionLock::acquire(path)?;
+    let mut session = load_session(path)?;
+    // Read everything before changing the session, so a bad input changes nothing.
+    let (clip, mut warnings) = match &import.clip {
+        Some(inputs) => {
+            let (mut clip, warnings) = read_clip(inputs)?;
+            if let Some(audio) = &inputs.audio {
+                clip.audio = Some(read_clip_audio(&clip, path, audio)?);
+            }
+            (Some(clip), warnings)
+        }
+        None => (None, Vec::new()),
+    };
+    let audio = match (&import.clip, &import.audio) {
+        (None, Some((input, name))) => {
+            let index = clip_or_first(&session, name.as_deref())?;
+            let clip = session.clip(index)?;
+            Some((index, clip.name.clone(), read_clip_audio(clip, path, input)?))
+        }
+        _ => None,
+    };
+    let head = match &import.head {
+        Some(file) => {
+            let mesh = obj::read_obj(file)?;
+            if let Some(m) = &session.model {
+                let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
+                warnings.extend(head_model_mismatch(file, &mesh, n));
+            }
+            Some((file, mesh))
+        }
+        None => None,
+    };
+    let map = import
+        .mapping
+        .as_deref()
+        .map(|file| set_map_from_file(&mut session, file, path))
+        .transpose()?;
+    // Checked after a map given in the same import is set, so the check is of the pair the
+    // session now holds.
+    let head = match head {
+        Some((file, mesh)) => Some(set_head(&mut session, file, &mesh)?),
+        None => None,
+    };
+    let clip = match clip {
+        Some(clip) => {
+            let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
+            session.add_clip(clip)?;
+            Some(added)
+        }
+        None => None,
+    };
+    let audio = audio.map(|(index, name, a)| {
+        let file = a.file.clone();
+        session.clips[index].audio = Some(a);
+        (name, file)
+    });
+    session.save(path)?;
+    Ok(Imported { path: path.clone(), clip, map, head, audio, warnings })
+}
+
+/// Makes `file` (already read as `mesh`) the session's head and checks the session's map on
+/// it. Fits are of the model, not the head, so the fit cache stays.
+fn set_head(session: &mut Session, file: &Path, mesh: &Mesh) -> Result<HeadSet> {
+    let file_abs = absolute(file);
+    let replaced = session.head_mesh.replace(file_abs).filter(|old| *old != absolute(file));
+    let map = session.landmark_map.resolve()?.filter(|m| !m.is_empty());
+    Ok(HeadSet {
+        file: file.to_path_buf(),
+        vertices: mesh.vertices.len(),
+        replaced,
+        map_check: map.map(|m| check_map(&m, &mesh.vertices)),
+    })
+}
+
+/// Reads one clip's files into a [`Clip`], checking them before anything is written; the
+/// warnings say what was assumed or looks wrong.
+///
+/// # Errors
+/// Any unreadable input, naming the file.
+pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
+    let mut warnings = Vec::new();
+    let frames_path = &inputs.frames;
+    let landmarks = &inputs.landmarks;
+    let frames =
+        FrameSource::open(frames_path, &FrameOptions { fps: inputs.fps, ..Default::default() })?;
+    if frames_path.is_dir() && inputs.fps.is_none() {
+        warnings.push(Warning(assumed_fps_notice(frames_path)));
+    }
+    let mut front = View::new(frames_ref(frames_path), frames.fps());
+    front.size = Some(frames.size());
+    let tracked = landmark_format::read_track(landmarks)?;
+    if tracked.is_empty() {
+        return Err(Error::Invalid(format!("{}: no frames of landmarks", landmarks.display())));
+    }
+    // A probed frame count can be off by a frame or two (container estimates); more than
+    // that past the end is landmarks for another clip, or a corrupt frame number.
+    let slack = (frames.len() / 100).max(2);
+    if let Some(last) = tracked.frames.last()
+        && last.frame >= frames.len() + slack
+    {
+        return Err(Error::Invalid(format!(
+            "{}: field `frame`: frame {} is past the end of {} ({} frames)",
+            landmarks.display(),
+            last.frame,
+            frames_path.display(),
+            frames.len()
+        )));
+    }
+    if let Some(last) = tracked.frames.last()
+        && last.frame >= frames.len()
+    {
+        warnings.push(Warning(format!(
+            "lipmap: warning: {} has landmarks up to frame {} but {} has {} frames",
+            landmarks.display(),
+            last.frame,
+            frames_path.display(),
+            frames.len()
+        )));
+    }
+    let name = inputs.name.clone().unwrap_or_else(|| default_clip_name(frames_path));
+    let mut clip = Clip::new(name, front);
+    clip.tracked = tracked;
+    clip.landmarks_file = Some(absolute(landmarks));
+    if let Some((file, tier)) = &inputs.alignment {
+        clip.alignment = Some(alignment_format::read_alignment(file, tier.as_ref())?);
+        clip.alignment_file = Some(absolute(file));
+    }
+    if let Some(side) = &inputs.side {
+        let fps = side.fps.unwrap_or(frames.fps());
+        let sf = FrameSource::open(
+            &side.frames,
+            &FrameOptions { fps: Some(fps), ..Default::default() },
+        )?;
+        let mut view = View::new(frames_ref(&side.frames), sf.fps());
+        view.size = Some(sf.size());
+        view.offset_s = side.offset_s;
+        clip.side = Some(view);
+    }
+    Ok((clip, warnings))
+}
+
+/// How a session refers to frames at `path`: a folder of images or a video file.
+fn frames_ref(path: &Path) -> FramesRef {
+    if path.is_dir() {
+        FramesRef::Images { dir: absolute(path) }
+    } else {
+        FramesRef::Video { file: absolute(path) }
+    }
+}
+
+/// The notice given when an image folder's frame rate is assumed.
+pub fn assumed_fps_notice(dir: &Path) -> String {
+    format!(
+        "lipmap: note: {} is a folder of images: assuming {DEFAULT_FOLDER_FPS} fps (set it with --fps)",
+        dir.display()
+    )
+}
+
+/// Folder names that say nothing about the clip; the folder above them names it instead.
+const GENERIC_FRAME_DIRS: [&str; 8] =
+    ["frames", "images", "imgs", "img", "png", "jpg", "front", "video"];
+
+/// A clip's default name: a video's file stem, an image folder's name (its parent's when the
+/// folder has a generic name such as `frames`).
+pub fn default_clip_name(frames: &Path) -> String {
+    let abs = absolute(frames);
+    let name_of = |p: &Path| p.file_name().map(|s| s.to_string_lossy().into_owned());
+    let name = if abs.is_dir() {
+        match name_of(&abs) {
+            Some(n) if GENERIC_FRAME_DIRS.contains(&n.to_ascii_lowercase().as_str()) => {
+                abs.parent().and_then(name_of).unwrap_or(n)
+            }
+            other => other.unwrap_or_default(),
+        }
+    } else {
+        abs.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    };
+    if name.is_empty() { "clip".into() } else { name }
+}
+
+/// How to give a session at `path` a map, for messages.
+pub fn map_hint(path: &Path) -> String {
+    format!(
+        "label the head in the TUI (view 2) or `lipmap import {} --mapping FILE`",
+        path.display()
+    )
+}
+
+/// Why a fit with `settings` cannot use `map` yet, as a message line (`None` when it can).
+fn map_problem(
+    map: &LandmarkMap,
+    n_vertices: usize,
+    settings: &FitSettings,
+    path: &Path,
+) -> Option<String> {
+    match check_map_for_fit(map, n_vertices, settings) {
+        Ok(_) => None,
+        Err(_) if map.is_empty() => {
+            Some(format!("the landmark map maps no landmarks yet: {}", map_hint(path)))
+        }
+        Err(e) => Some(format!("warning: {e}")),
+    }
+}
+
+/// Points the session's map at `file` (checked against the model when the session has one),
+/// dropping any inline map labelled in the TUI and the cached fits made with another map.
+fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<MapSet> {
+    let map = landmark_map_toml::read_landmark_map(file)?;
+    let n_vertices = match &session.model {
+        Some(m) => {
+            let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
+            check_map_vertices(&map, n, Some(file))?;
+            Some(n)
+        }
+        None => None,
+    };
+    let old = session.landmark_map.clone();
+    let previous = old.resolve().ok().flatten();
+    let file_abs = absolute(file);
+    let mut replaced = Vec::new();
+    if let Some(inline) = old.inline_map() {
+        replaced.push(ReplacedMap::Labelled(inline.len()));
+    }
+    if let Some(f) = old.file.as_ref().filter(|f| **f != file_abs) {
+        replaced.push(ReplacedMap::File(f.clone()));
+    }
+    session.landmark_map.file = Some(file_abs);
+    session.landmark_map.inline = None;
+    // The cache is keyed by the map's file name, not its content: drop fits made with a
+    // different map so a map edited in place is not mistaken for the old one.
+    let fits_dropped =
+        previous.is_some_and(|p| p.to_vertex != map.to_vertex) && !session.fit_cache.is_empty();
+    if fits_dropped {
+        session.fit_cache.clear();
+    }
+    let problem = n_vertices.and_then(|n| map_problem(&map, n, &session.fit_settings, path));
+    Ok(MapSet { file: file.to_path_buf(), landmarks: map.len(), replaced, fits_dropped, problem })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clips_are_named_after_the_video_or_the_frames_folder() {
+        let dir = tempfile::tempdir().unwrap();
+        let frames = dir.path().join("carphone").join("frames");
+        std::fs::create_dir_all(&frames).unwrap();
+        let takes = dir.path().join("take_03");
+        std::fs::create_dir_all(&takes).unwrap();
+        assert_eq!(default_clip_name(&frames), "carphone");
+        assert_eq!(default_clip_name(&takes), "take_03");
+        assert_eq!(default_clip_name(Path::new("clips/s2_front.mp4")), "s2_front");
+    }
+
+    #[test]
+    fn an_import_with_nothing_to_import_is_refused_before_the_session_is_touched() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.lipmap.json");
+        let e = import_into_session(&Import {
+            path: path.clone(),
+            clip: None,
+            mapping: None,
+            audio: None,
+            head: None,
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("--mapping FILE"), "{e}");
+        assert!(e.to_string().contains("--head HEAD.obj"), "{e}");
+        assert!(!path.exists() && std::fs::read_dir(dir.path()).unwrap().next().is_none());
+    }
+}

@@ -1,0 +1,129 @@
+//! The landmark map's use cases: the head a map is labelled on (the session's head mesh, else
+//! the model's mean), checking the session's map against anatomy, and suggesting a whole map
+//! from the labels made so far (`lipmap map suggest`, the TUI's `O`).
+//!
+//! Start with [`suggest_session_map`] and [`check_session_map`].
+
+use super::error::{Error, Result};
+use super::session::{clip_or_first, image_height};
+use crate::fit::map_suggest::{MapProposal, suggest_map};
+use crate::fit::suggest::{SuggestHead, surface_triangles};
+use crate::io::{model_source, obj};
+use crate::landmarks::FrameLandmarks;
+use crate::math::Point3;
+use crate::model::{LandmarkMap, MapCheck, check_map};
+use crate::session::Session;
+use std::path::Path;
+
+/// The head a session's map is labelled on: its vertices, triangles, and which vertices may
+/// carry a landmark (`None`: all; a MakeHuman figure's helper and joint geometry may not).
+#[derive(Clone, Debug)]
+pub struct LabelHead {
+    pub vertices: Vec<Point3>,
+    pub triangles: Vec<[u32; 3]>,
+    pub eligible: Option<Vec<bool>>,
+}
+
+impl LabelHead {
+    /// As the suggester sees it (`triangles` are already those that hide what is behind).
+    pub fn as_suggest_head(&self) -> SuggestHead<'_> {
+        SuggestHead {
+            vertices: &self.vertices,
+            triangles: &self.triangles,
+            eligible: self.eligible.as_deref(),
+        }
+    }
+}
+
+/// The session's head mesh (OBJ), else its model's mean shape.
+///
+/// # Errors
+/// Neither a head nor a model ([`Error::NoModel`]); a file that does not parse.
+pub fn label_head(session: &Session) -> Result<LabelHead> {
+    let is_obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    let (vertices, triangles, source) = match (&session.head_mesh, &session.model) {
+        (Some(path), _) => {
+            let mesh = obj::read_obj(path)?;
+            let tris = mesh.triangles();
+            (mesh.vertices, tris, path.clone())
+        }
+        (None, Some(m)) => {
+            let model = model_source::load_model(&m.path, m.blendshapes.as_deref())?;
+            (model.mean_mesh().vertices, model.triangles.clone(), m.path.clone())
+        }
+        (None, None) => return Err(Error::NoModel),
+    };
+    let (eligible, occluding) = if is_obj(&source) {
+        (obj::labelable_vertices(&source)?, obj::occluding_vertices(&source)?)
+    } else {
+        (None, None)
+    };
+    let triangles = surface_triangles(&triangles, occluding.as_deref());
+    Ok(LabelHead { vertices, triangles, eligible })
+}
+
+/// The session's map checked on its head; `None` when it has no map (or an empty one).
+///
+/// # Errors
+/// As [`label_head`]; a map file that does not parse.
+pub fn check_session_map(session: &Session) -> Result<Option<MapCheck>> {
+    let Some(map) = session.landmark_map.resolve()?.filter(|m| !m.is_empty()) else {
+        return Ok(None);
+    };
+    let head = label_head(session)?;
+    Ok(Some(check_map(&map, &head.vertices)))
+}
+
+/// What [`suggest_session_map`] made.
+#[derive(Clone, Debug)]
+pub struct SuggestedMap {
+    /// The frame (its number in the clip) the suggestions were made on.
+    pub frame: usize,
+    /// The labels they were made from.
+    pub labels: LandmarkMap,
+    pub proposal: MapProposal,
+    /// The labels with the accepted suggestions.
+    pub map: LandmarkMap,
+    pub check: MapCheck,
+}
+
+/// Suggests the rest of the session's map from its labels on `frame` of `clip` (default:
+/// the clip's first frame with the most visible landmarks), with the pose estimated from the
+/// labels.
+///
+/// # Errors
+/// No map or too few labels for a pose; an unknown clip or a frame without landmarks; a head
+/// or model file that does not parse.
+pub fn suggest_session_map(
+    session: &Session,
+    clip: Option<&str>,
+    frame: Option<usize>,
+) -> Result<SuggestedMap> {
+    let c = clip_or_first(session, clip)?;
+    let labels = session.landmark_map.resolve()?.unwrap_or_default();
+    let landmarks = match frame {
+        Some(n) => session
+            .effective_frame(c, n)
+            .ok_or_else(|| Error::Invalid(format!("frame {n} has no landmarks in the clip")))?,
+        None => best_frame(session, c)
+            .ok_or_else(|| Error::Invalid("the clip has no frame with landmarks".into()))?,
+    };
+    let head = label_head(session)?;
+    let h = image_height(session, c)?;
+    let proposal = suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None)
+        .map_err(|e| Error::Invalid(format!("frame {}: {e}", landmarks.frame)))?;
+    let map = proposal.applied_to(&labels);
+    let check = check_map(&map, &head.vertices);
+    Ok(SuggestedMap { frame: landmarks.frame, labels, proposal, map, check })
+}
+
+/// The first frame with the most visible landmarks.
+fn best_frame(session: &Session, clip: usize) -> Option<FrameLandmarks> {
+    let c = session.clips.get(clip)?;
+    let visible = |f: &FrameLandmarks| f.points.iter().filter(|p| p.visible).count();
+    c.tracked
+        .frames
+        .iter()
+        .filter_map(|f| session.effective_frame(clip, f.frame))
+        .reduce(|best, f| if visible(&f) > visible(&best) { f } else { best })
+}

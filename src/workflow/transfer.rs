@@ -1,0 +1,358 @@
+//! Transferring a session's fitted motion onto another head (`lipmap transfer`, `eval`, the
+//! TUI): load the head and its landmark map, set the transfer up from the session's model,
+//! move the head frame by frame, write `shapes.npy` (and OBJs), and record the head in the
+//! session so `eval` can measure it again.
+//!
+//! Start at [`transfer_session`]; [`set_up_for_head`] and [`transferred_utterances`] serve
+//! `eval` and the TUI.
+
+use super::error::{Error, Result};
+use super::evaluate::ClipsEvaluated;
+use super::fit::fit_clip_cached;
+use super::resources::Resources;
+use super::{Progress, ProgressFn};
+use crate::eval::Utterance;
+use crate::fit::{FrameFit, fitted_shape};
+use crate::io::{landmark_map_toml, npy_model, obj};
+use crate::math::DVector;
+use crate::measure::MeshMeasureOptions;
+use crate::measure::mesh::trajectory_from_shapes;
+use crate::model::{LandmarkMap, Mesh};
+use crate::session::{Session, TransferredHead};
+use crate::transfer::{Interpolation, SourceFace, TargetHead, Transfer, TransferOptions};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// A head to transfer onto, read from its files.
+#[derive(Clone, Debug)]
+pub struct TargetFiles {
+    pub mesh: Mesh,
+    /// Skin mask (helper/joint geometry excluded); empty when the OBJ has no such groups.
+    pub skin: Vec<bool>,
+    /// The head's landmark map, mouth corners completed.
+    pub map: LandmarkMap,
+}
+
+/// Reads a head OBJ and its landmark map.
+///
+/// # Errors
+/// Either file's format error, naming the file and line.
+pub fn load_target(head: &Path, mapping: &Path) -> Result<TargetFiles> {
+    let mesh = obj::read_obj(head)?;
+    let skin = obj::labelable_vertices(head)?.unwrap_or_default();
+    let map = landmark_map_toml::read_landmark_map(mapping)?.with_commissures_completed();
+    Ok(TargetFiles { mesh, skin, map })
+}
+
+/// The map beside a head when none is named: `HEAD.toml`, else `HEAD_map.toml`.
+///
+/// # Errors
+/// Neither exists.
+pub fn default_mapping(head: &Path) -> Result<PathBuf> {
+    let stem = head.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let dir = head.parent().unwrap_or(Path::new(""));
+    [format!("{stem}.toml"), format!("{stem}_map.toml")]
+        .into_iter()
+        .map(|n| dir.join(n))
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            Error::Invalid(format!(
+                "{}: no landmark map for this head (give one with --mapping MAP.toml)",
+                head.display()
+            ))
+        })
+}
+
+/// The interpolation named `biharmonic` or `barycentric`.
+///
+/// # Errors
+/// Any other name.
+pub fn parse_mode(name: &str) -> Result<Interpolation> {
+    match name {
+        "biharmonic" => Ok(Interpolation::Biharmonic),
+        "barycentric" => Ok(Interpolation::Barycentric),
+        other => Err(Error::Invalid(format!(
+            "unknown transfer mode `{other}` (biharmonic or barycentric)"
+        ))),
+    }
+}
+
+/// The name [`parse_mode`] reads.
+pub fn mode_name(mode: Interpolation) -> &'static str {
+    match mode {
+        Interpolation::Biharmonic => "biharmonic",
+        Interpolation::Barycentric => "barycentric",
+    }
+}
+
+/// Sets up the transfer from the session's model onto `target`. The motion's reference is
+/// the session's head mesh when it is the model's neutral (same vertex count), else the
+/// model's mean. Errors of the setup name the head file.
+///
+/// # Errors
+/// [`Error::Invalid`] with the transfer's reason (too few landmarks labelled on both sides,
+/// a map for another mesh, degenerate or non-manifold triangles, …).
+pub fn set_up_for_head(
+    res: &Resources,
+    target: &TargetFiles,
+    mode: Interpolation,
+    head: &Path,
+) -> Result<Transfer> {
+    let reference = match &res.head {
+        Some(mesh) if mesh.vertices.len() == res.model.num_vertices() => mesh.to_flat(),
+        _ => res.model.shape.mean.clone(),
+    };
+    let source_map = res.map.with_commissures_completed();
+    let source = SourceFace {
+        reference: &reference,
+        triangles: &res.model.triangles,
+        landmarks: &source_map,
+        identity: None,
+        face: None,
+    };
+    let head_side = TargetHead { mesh: &target.mesh, skin: &target.skin, landmarks: &target.map };
+    let options = TransferOptions { interpolation: mode, ..TransferOptions::default() };
+    Transfer::new(source, head_side, &options)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", head.display())))
+}
+
+/// The transferred head's vertices for each usable fit, as (frame, flat vertices).
+///
+/// # Errors
+/// A fitted shape the transfer refuses (non-finite values), naming the frame.
+pub fn transfer_fits(
+    res: &Resources,
+    transfer: &Transfer,
+    fits: &[FrameFit],
+) -> Result<Vec<(usize, DVector)>> {
+    fits.iter()
+        .filter(|f| f.failed.is_none())
+        .map(|f| {
+            let shape = transfer
+                .apply(&fitted_shape(&res.model, f))
+                .map_err(|e| Error::Invalid(format!("frame {}: {e}", f.frame)))?;
+            Ok((f.frame, shape))
+        })
+        .collect()
+}
+
+/// What a transfer run asks for.
+#[derive(Clone, Debug)]
+pub struct TransferRequest {
+    pub head: PathBuf,
+    /// `None`: [`default_mapping`].
+    pub mapping: Option<PathBuf>,
+    pub mode: Interpolation,
+    /// Only this clip (default: all).
+    pub clips: Vec<usize>,
+    pub out_dir: PathBuf,
+    /// Also write one OBJ per frame.
+    pub objs: bool,
+}
+
+/// What a transfer run did.
+#[derive(Clone, Debug)]
+pub struct TransferReport {
+    /// The name the head is recorded under in the session.
+    pub head_name: String,
+    pub setup: Duration,
+    /// Mean time of one frame's transfer (the fit and the writing excluded).
+    pub per_frame: Duration,
+    /// RMS landmark residual of the placement before and after adapting the source.
+    pub residual_rigid: f64,
+    pub residual: f64,
+    pub controls: usize,
+    pub triangles_dropped: usize,
+    /// (clip name, frames written, folder).
+    pub clips: Vec<(String, usize, PathBuf)>,
+}
+
+/// Fits the requested clips (cached), transfers every fitted frame onto the head, writes
+/// `OUT/CLIP/shapes.npy` (frames × 3N, f32), `OUT/CLIP/frames.csv` (the frame number of each
+/// row) and with `objs` `OUT/CLIP/frame_NNNNN.obj`, and records the head in the session
+/// (the caller saves it). Progress: one stage per clip.
+///
+/// # Errors
+/// As [`load_target`], [`set_up_for_head`], [`fit_clip_cached`]; an unwritable output.
+pub fn transfer_session(
+    session: &mut Session,
+    res: &Resources,
+    request: &TransferRequest,
+    progress: ProgressFn<'_>,
+) -> Result<TransferReport> {
+    let mapping = match &request.mapping {
+        Some(m) => m.clone(),
+        None => default_mapping(&request.head)?,
+    };
+    let target = load_target(&request.head, &mapping)?;
+    let start = Instant::now();
+    let transfer = set_up_for_head(res, &target, request.mode, &request.head)?;
+    let setup = start.elapsed();
+    let settings = session.fit_settings.clone();
+    let (mut applied, mut frames_done) = (Duration::ZERO, 0usize);
+    let mut clips = Vec::new();
+    for &c in &request.clips {
+        let name = session.clip(c)?.name.clone();
+        progress(Progress::Stage { what: format!("transferring {name}"), total: 0 });
+        let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
+        let fits = fit_clip_cached(session, res, c, &settings, Some(&steps))?.fits;
+        let start = Instant::now();
+        let shapes = transfer_fits(res, &transfer, &fits)?;
+        applied += start.elapsed();
+        frames_done += shapes.len();
+        let dir = request.out_dir.join(&name);
+        write_clip(&dir, &target.mesh, &shapes, request.objs)?;
+        clips.push((name, shapes.len(), dir));
+    }
+    progress(Progress::Finished);
+    let head_name = record_head(session, &request.head, &mapping, request.mode);
+    Ok(TransferReport {
+        head_name,
+        setup,
+        per_frame: applied / frames_done.max(1) as u32,
+        residual_rigid: transfer.placement.residual_rigid,
+        residual: transfer.placement.residual,
+        controls: transfer.target_controls.len(),
+        triangles_dropped: transfer.triangles_dropped,
+        clips,
+    })
+}
+
+fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let n3 = 3 * mesh.vertices.len();
+    let data: Vec<f32> = shapes.iter().flat_map(|(_, s)| s.iter().map(|&x| x as f32)).collect();
+    write_atomic(&dir.join("shapes.npy"), |tmp| {
+        npy_model::write_npy_f32(tmp, &[shapes.len() as u64, n3 as u64], &data).map_err(Into::into)
+    })?;
+    let csv: String = std::iter::once("frame\n".to_string())
+        .chain(shapes.iter().map(|(f, _)| format!("{f}\n")))
+        .collect();
+    write_atomic(&dir.join("frames.csv"), |tmp| {
+        std::fs::write(tmp, csv.as_bytes()).map_err(|e| Error::io(tmp, e))
+    })?;
+    if objs {
+        for (frame, shape) in shapes {
+            let mut moved = mesh.clone();
+            for (p, c) in moved.vertices.iter_mut().zip(shape.as_slice().chunks_exact(3)) {
+                *p = crate::math::Point3::new(c[0], c[1], c[2]);
+            }
+            write_atomic(&dir.join(format!("frame_{frame:05}.obj")), |tmp| {
+                obj::write_obj(tmp, &moved).map_err(Into::into)
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `path` through `write` on a temporary file beside it, then renames it into place,
+/// so a reader never sees half a file.
+fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
+    write(&tmp)?;
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+/// Records (or updates) the head in the session's transferred heads; returns its name.
+pub fn record_head(
+    session: &mut Session,
+    head: &Path,
+    mapping: &Path,
+    mode: Interpolation,
+) -> String {
+    let mesh = std::path::absolute(head).unwrap_or_else(|_| head.to_path_buf());
+    let mapping = std::path::absolute(mapping).unwrap_or_else(|_| mapping.to_path_buf());
+    let mode = mode_name(mode).to_string();
+    let heads = &mut session.transferred_heads;
+    if let Some(h) = heads.iter_mut().find(|h| h.mesh == mesh) {
+        h.mapping = mapping;
+        h.mode = mode;
+        return h.name.clone();
+    }
+    let base = mesh.file_stem().map_or_else(|| "head".into(), |s| s.to_string_lossy().into_owned());
+    let mut name = base.clone();
+    let mut k = 1;
+    while heads.iter().any(|h| h.name == name) {
+        k += 1;
+        name = format!("{base}#{k}");
+    }
+    heads.push(TransferredHead { name: name.clone(), mesh, mapping, mode });
+    name
+}
+
+/// The evaluated clips with the head's W/H/P measured on `entry`'s transferred head (its own
+/// landmark map) instead of the fitted model; the video side and the alignment unchanged.
+///
+/// # Errors
+/// As [`load_target`], [`set_up_for_head`], [`transfer_fits`].
+pub fn transferred_utterances(
+    res: &Resources,
+    entry: &TransferredHead,
+    done: &ClipsEvaluated,
+) -> Result<Vec<Utterance>> {
+    let target = load_target(&entry.mesh, &entry.mapping)?;
+    let transfer = set_up_for_head(res, &target, parse_mode(&entry.mode)?, &entry.mesh)?;
+    done.utterances
+        .iter()
+        .zip(&done.fits)
+        .map(|(u, (_, fits))| transferred_utterance(res, &transfer, &target.map, u, fits))
+        .collect()
+}
+
+/// `utterance` (the clip measured on the fitted model) with its head side measured on the
+/// transferred head instead, through the head's landmark map `map`; frames without a usable
+/// fit stay empty.
+///
+/// # Errors
+/// As [`transfer_fits`].
+pub fn transferred_utterance(
+    res: &Resources,
+    transfer: &Transfer,
+    map: &LandmarkMap,
+    utterance: &Utterance,
+    fits: &[FrameFit],
+) -> Result<Utterance> {
+    let n = utterance.head.w.len();
+    let mut shapes: Vec<Option<DVector>> = vec![None; n];
+    for (frame, shape) in transfer_fits(res, transfer, fits)? {
+        if frame < n {
+            shapes[frame] = Some(shape);
+        }
+    }
+    let options = MeshMeasureOptions::default();
+    let head = trajectory_from_shapes(shapes.iter().map(Option::as_ref), map, &options);
+    Ok(Utterance { head, ..utterance.clone() })
+}
+
+/// The per-sentence, per-phoneme and per-viseme tables of every head recorded in the session,
+/// measured on the transferred head ([`transferred_utterances`]), titles naming the head; a
+/// head that cannot be transferred any more (a moved file) is a warning, not a failure.
+pub fn transferred_head_tables(
+    session: &Session,
+    res: &Resources,
+    done: &ClipsEvaluated,
+    normalisation: super::Normalisation,
+    n_worst: usize,
+) -> (Vec<crate::eval::Table>, Vec<super::Warning>) {
+    let mut tables = Vec::new();
+    let mut warnings = Vec::new();
+    for entry in &session.transferred_heads {
+        match transferred_utterances(res, entry, done) {
+            Ok(utterances) => {
+                let r = super::evaluate(&utterances, &done.fit_refs(), normalisation, n_worst);
+                for mut t in [r.sentences, r.phonemes, r.visemes] {
+                    t.title =
+                        format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
+                    tables.push(t);
+                }
+            }
+            Err(e) => warnings.push(super::Warning(format!(
+                "lipmap: warning: transferred head `{}` skipped: {}",
+                entry.name,
+                super::error_chain(&e)
+            ))),
+        }
+    }
+    (tables, warnings)
+}

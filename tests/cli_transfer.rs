@@ -1,0 +1,150 @@
+//! `lipmap transfer` through the binary on a demo session: the demo head driven by its own
+//! fitted motion writes `shapes.npy`, records the head in the session and `eval` prints its
+//! tables; bad heads and maps get a one-line error naming the file, never a panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn transfer(session: &Path, head: &Path, map: &Path, out: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .arg("transfer")
+        .arg(session)
+        .arg("--head")
+        .arg(head)
+        .arg("--mapping")
+        .arg(map)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+/// The run failed with one line on stderr that contains every one of `needles`.
+fn assert_one_line_error(o: &Output, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "succeeded: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    for n in needles {
+        assert!(err.contains(n), "`{n}` not in: {err}");
+    }
+}
+
+#[test]
+fn transfers_the_demo_and_refuses_bad_heads() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::demo_session(dir.path());
+    let demo = session.parent().unwrap();
+    let (head, map) = (demo.join("head.obj"), demo.join("head_map.toml"));
+    let out = dir.path().join("out");
+
+    let ok = transfer(&session, &head, &map, &out);
+    let text = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(text.contains("placement residual") && text.contains("ms per frame"), "{text}");
+    let npy = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path().join("shapes.npy"))
+        .next()
+        .unwrap();
+    let bytes = std::fs::read(&npy).unwrap();
+    assert!(bytes.len() > 10_000, "{} bytes in {}", bytes.len(), npy.display());
+    let saved = std::fs::read_to_string(&session).unwrap();
+    assert!(saved.contains("transferred_heads") && saved.contains("biharmonic"), "{saved}");
+    let eval = Command::new(env!("CARGO_BIN_EXE_lipmap")).arg("eval").arg(&session).output();
+    let eval = eval.unwrap();
+    let tables = String::from_utf8_lossy(&eval.stdout);
+    assert!(eval.status.success(), "{}", String::from_utf8_lossy(&eval.stderr));
+    assert!(tables.contains("transferred head `head`"), "{tables}");
+
+    // Too few landmarks labelled on the head.
+    let few = dir.path().join("few.toml");
+    std::fs::write(&few, "[landmark_mappings]\n31 = 10\n37 = 20\n46 = 30\n").unwrap();
+    assert_one_line_error(
+        &transfer(&session, &head, &few, &out),
+        &["head.obj", "landmarks are labelled on both"],
+    );
+    // A map for another mesh.
+    let other = dir.path().join("other.toml");
+    let text = std::fs::read_to_string(&map).unwrap();
+    std::fs::write(&other, format!("{}\n", text.replacen("\n1 = ", "\n1 = 99999", 1))).unwrap();
+    assert_one_line_error(&transfer(&session, &head, &other, &out), &["head.obj", "another mesh"]);
+    // A non-manifold edge: two more triangles on the first face's first edge.
+    let obj = std::fs::read_to_string(&head).unwrap();
+    let n = obj.lines().filter(|l| l.starts_with("v ")).count();
+    let first = obj.lines().find(|l| l.starts_with("f ")).unwrap();
+    let idx: Vec<&str> =
+        first.split_whitespace().skip(1).map(|t| t.split('/').next().unwrap()).collect();
+    let bad = dir.path().join("nonmanifold.obj");
+    std::fs::write(
+        &bad,
+        format!(
+            "{obj}v 9 9 9\nv 9 8 9\nf {} {} {}\nf {} {} {}\n",
+            idx[0],
+            idx[1],
+            n + 1,
+            idx[0],
+            idx[1],
+            n + 2
+        ),
+    )
+    .unwrap();
+    assert_one_line_error(
+        &transfer(&session, &bad, &map, &out),
+        &["nonmanifold.obj", "non-manifold"],
+    );
+    // A triangle of zero area.
+    let flat = dir.path().join("degenerate.obj");
+    std::fs::write(
+        &flat,
+        format!("{obj}v 9 9 9\nv 9.5 9 9\nv 10 9 9\nf {} {} {}\n", n + 1, n + 2, n + 3),
+    )
+    .unwrap();
+    assert_one_line_error(
+        &transfer(&session, &flat, &map, &out),
+        &["degenerate.obj", "degenerate"],
+    );
+}
+
+#[test]
+fn eval_heads_drives_a_plain_obj_head_through_transfer() {
+    let Some(makehuman) = lipmap::testdata::shared("data/makehuman/base.obj") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::demo_session(dir.path());
+    let demo = session.parent().unwrap();
+    let map = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let heads = format!("{},{}", demo.display(), makehuman.display());
+    let eval = |extra: &[&Path]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_lipmap"));
+        cmd.arg("eval").arg(&session).arg("--heads").arg(&heads);
+        for m in extra {
+            cmd.arg("--mapping").arg(m);
+        }
+        cmd.output().unwrap()
+    };
+    let ok = eval(&[&map]);
+    let text = String::from_utf8_lossy(&ok.stdout);
+    assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    assert!(text.contains("base W") && text.contains("demo W"), "{text}");
+    assert!(text.contains("transferred onto") && text.contains("biharmonic"), "{text}");
+    // The row of the transferred head holds numbers, not blanks.
+    let mean = text.lines().find(|l| l.starts_with("mean")).unwrap();
+    let values: Vec<f64> = mean.split_whitespace().skip(1).map(|v| v.parse().unwrap()).collect();
+    assert_eq!(values.len(), 6, "{mean}");
+    assert!(values.iter().all(|v| v.is_finite() && *v < 0.5), "{mean}");
+    // An OBJ head with no map beside it and none given is refused, naming the head.
+    let bare = dir.path().join("bare.obj");
+    std::fs::copy(&makehuman, &bare).unwrap();
+    let heads_bare = format!("{},{}", demo.display(), bare.display());
+    let o = Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .arg("eval")
+        .arg(&session)
+        .arg("--heads")
+        .arg(&heads_bare)
+        .output()
+        .unwrap();
+    assert_one_line_error(&o, &["bare.obj"]);
+}

@@ -1,0 +1,219 @@
+//! `lipmap speech` through the binary: a small model trained on demo sessions (whose clips
+//! carry the demo voice), scored and animated; and the bad inputs a user can give it (empty,
+//! truncated, too-slow-rate WAVs, a file that is not a model, another model version, a model
+//! trained at another frame rate, a session without audio), each a one-line error naming
+//! the file or setting.
+
+use lipmap::io::wav::write_wav;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lipmap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The one error line of a failed run.
+fn one_error(out: &Output) -> String {
+    assert!(!out.status.success(), "expected a failure, got: {}", text(&out.stdout));
+    let lines: Vec<String> =
+        text(&out.stderr).lines().filter(|l| !l.trim().is_empty()).map(String::from).collect();
+    assert_eq!(lines.len(), 1, "not one line: {lines:?}");
+    lines[0].clone()
+}
+
+/// A 3-sentence demo session (its clips carry the demo voice) and a small model trained on
+/// it: N 4, M 1, t_c 1 keeps the debug-build training to seconds.
+fn trained(dir: &Path) -> (PathBuf, PathBuf) {
+    let demo = dir.join("demo");
+    let out = lipmap(&["demo", "--no-tui", "--sentences", "3", "--out", s(&demo)]);
+    assert!(out.status.success(), "demo: {}", text(&out.stderr));
+    let session = demo.join("demo.lipmap.json");
+    let model = dir.join("speech.json");
+    let out = lipmap(&[
+        "speech",
+        "train",
+        s(&session),
+        "--states",
+        "4",
+        "--mixtures",
+        "1",
+        "--context",
+        "1",
+        "--out",
+        s(&model),
+    ]);
+    assert!(out.status.success(), "train: {}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("trained on 3 clips"), "{}", text(&out.stdout));
+    (session, model)
+}
+
+fn first_voice(session: &Path) -> PathBuf {
+    let s = lipmap::session::Session::load(session).unwrap();
+    s.clips[0].audio.as_ref().expect("demo clips carry audio").file.clone()
+}
+
+#[test]
+fn train_eval_animate_and_every_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let (session, model) = trained(dir.path());
+
+    let out = lipmap(&["speech", "eval", s(&model), s(&session)]);
+    assert!(out.status.success(), "eval: {}", text(&out.stderr));
+    let table = text(&out.stdout);
+    for want in ["AV-HMM", "linear baseline", "RMSE per phoneme", "fitted head"] {
+        assert!(table.contains(want), "no `{want}` in\n{table}");
+    }
+    let json = lipmap(&["speech", "eval", s(&model), s(&session), "--json"]);
+    let tables: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    let scores = tables
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(title, _)| title.starts_with("Visual parameters"))
+        .map(|(_, t)| t.clone())
+        .unwrap();
+    let acc = scores[0]["ACC"].as_f64().unwrap();
+    assert!((-1.0..=1.0).contains(&acc), "ACC {acc}");
+    session_names_the_model(&session, &model);
+
+    // Animate from the demo voice, and from a stereo 48 kHz copy (resampled, mixed).
+    let voice = first_voice(&session);
+    let anim = dir.path().join("anim");
+    let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&voice), "--out", s(&anim)]);
+    assert!(out.status.success(), "animate: {}", text(&out.stderr));
+    let shapes = lipmap::io::npy_model::read_npy(&anim.join("shapes.npy")).unwrap();
+    let audio = lipmap::io::wav::read_wav(&voice).unwrap();
+    let frames = (audio.samples.len() as f64 / 16_000.0 * 24.0) as usize;
+    assert!(shapes.shape[0].abs_diff(frames) <= 1, "{:?} vs {frames}", shapes.shape);
+    assert!(shapes.data.iter().all(|v| v.is_finite()));
+
+    let stereo = dir.path().join("stereo48k.wav");
+    write_stereo(&stereo, &lipmap::speech::resample(&audio.samples, 16_000.0, 48_000.0).unwrap());
+    let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&stereo), "--out", s(&anim)]);
+    assert!(out.status.success(), "stereo 48 kHz: {}", text(&out.stderr));
+
+    bad_wavs(dir.path(), &model, &voice, &anim);
+    bad_models(dir.path(), &model, &session);
+}
+
+/// Training (and scoring) recorded the model in the session; the TUI's charts drive the
+/// clip's head with it, and say why when they cannot (no model named, no audio).
+fn session_names_the_model(session: &Path, model: &Path) {
+    use lipmap::tui::Action;
+    use lipmap::workflow::speech_session::drive_clip_with_session_model;
+    let mut s = lipmap::session::Session::load(session).unwrap();
+    let named = s.speech_model.clone().expect("speech train records the model");
+    assert_eq!(named, std::path::absolute(model).unwrap());
+    let n = s.clips[0].tracked.len();
+    match lipmap::tui::widgets::worker::speech_for_tui(&mut s.clone(), 0) {
+        Action::SpeechReady { series } => {
+            let names: Vec<&str> = series.iter().map(|(m, _)| m.as_str()).collect();
+            assert!(names.contains(&"W") && names.contains(&"H"), "{names:?}");
+            for (m, pts) in &series {
+                assert!(pts.len() * 10 >= n * 9, "{m}: {} points of {n} frames", pts.len());
+                // Min–max normalised like the video's and the fitted head's series.
+                assert!(pts.iter().all(|p| (-1e-9..=1.0 + 1e-9).contains(&p.1)), "{m}");
+            }
+        }
+        other => panic!("no speech-driven series: {other:?}"),
+    }
+    let mut unnamed = s.clone();
+    unnamed.speech_model = None;
+    let e = drive_clip_with_session_model(&mut unnamed, 0).unwrap_err().to_string();
+    assert!(e.contains("names no speech model") && e.contains("speech train"), "{e}");
+    s.clips[0].audio = None;
+    let e = drive_clip_with_session_model(&mut s, 0).unwrap_err().to_string();
+    assert_eq!(e, "the clip has no audio");
+}
+
+/// `samples` as a 2-channel 48 kHz 16-bit WAV (both channels the same).
+fn write_stereo(path: &Path, samples: &[f32]) {
+    let spec = hound::WavSpec {
+        channels: 2,
+        sample_rate: 48_000,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(path, spec).unwrap();
+    for v in samples {
+        let x = (v.clamp(-1.0, 1.0) * 32767.0) as i16;
+        w.write_sample(x).unwrap();
+        w.write_sample(x).unwrap();
+    }
+    w.finalize().unwrap();
+}
+
+fn bad_wavs(dir: &Path, model: &Path, voice: &Path, anim: &Path) {
+    let animate = |wav: &Path| {
+        one_error(&lipmap(&["speech", "animate", s(model), "--audio", s(wav), "--out", s(anim)]))
+    };
+    let empty = dir.join("empty.wav");
+    std::fs::write(&empty, b"").unwrap();
+    let e = animate(&empty);
+    assert!(e.contains("empty.wav"), "{e}");
+
+    let truncated = dir.join("truncated.wav");
+    let bytes = std::fs::read(voice).unwrap();
+    std::fs::write(&truncated, &bytes[..30]).unwrap();
+    let e = animate(&truncated);
+    assert!(e.contains("truncated.wav"), "{e}");
+
+    let slow = dir.join("8k.wav");
+    write_wav(&slow, &vec![0.1; 8000], 8000).unwrap();
+    let e = animate(&slow);
+    assert!(e.contains("8k.wav") && e.contains("8000 Hz"), "{e}");
+
+    let e = animate(&dir.join("missing.wav"));
+    assert!(e.contains("missing.wav"), "{e}");
+}
+
+fn bad_models(dir: &Path, model: &Path, session: &Path) {
+    let eval = |m: &Path| one_error(&lipmap(&["speech", "eval", s(m), s(session)]));
+    // A session file is not a model.
+    let e = eval(session);
+    assert!(e.contains("not a speech model"), "{e}");
+
+    let file: serde_json::Value = serde_json::from_slice(&std::fs::read(model).unwrap()).unwrap();
+    let edited = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut v = file.clone();
+        edit(&mut v);
+        let p = dir.join(name);
+        std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
+        p
+    };
+    let e = eval(&edited("v99.json", &|v| v["version"] = 99.into()));
+    assert!(e.contains("v99.json") && e.contains("version 99"), "{e}");
+
+    // A model trained on 25 fps features refuses a 24 fps session, naming the field.
+    let fps25 = edited("fps25.json", &|v| {
+        v["speech"]["features"]["mfcc"]["frame_rate"] = 25.0.into();
+    });
+    let e = eval(&fps25);
+    assert!(e.contains("frame rate (fps) = 25") && e.contains("= 24"), "{e}");
+
+    // Damaged numbers: a covariance that is not positive definite.
+    let broken = edited("broken.json", &|v| {
+        let cov = &mut v["speech"]["hmm"]["states"][0][0]["gaussian"]["cov"];
+        *cov = serde_json::json!([[-1.0]]);
+    });
+    let e = eval(&broken);
+    assert!(e.contains("broken.json"), "{e}");
+
+    // A session whose clips have no audio trains nothing.
+    let mut silent = lipmap::session::Session::load(session).unwrap();
+    silent.clips.iter_mut().for_each(|c| c.audio = None);
+    let silent_path = session.with_file_name("silent.lipmap.json");
+    silent.save(&silent_path).unwrap();
+    let out = lipmap(&["speech", "train", s(&silent_path), "--out", s(&dir.join("x.json"))]);
+    let lines = text(&out.stderr);
+    assert!(!out.status.success());
+    assert!(lines.contains("no clip with audio"), "{lines}");
+}

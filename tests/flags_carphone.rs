@@ -3,9 +3,8 @@
 //! over them) and labelled; `docs/flags.md` and `docs/closure.md` say what was seen.
 
 use lipmap::io::landmark_format::read_track;
+use lipmap::landmarks::closure::{Closure, inner_lip_gap, seal_inner_lips};
 use lipmap::landmarks::flags::FlagThresholds;
-use lipmap::measure::closure::{estimate_closed_lips, sealed_frames};
-use lipmap::measure::mouth::trajectory_from_track;
 use lipmap::workflow::flags::{clip_flags, flag_lines};
 use std::collections::BTreeSet;
 
@@ -36,12 +35,12 @@ fn carphone_flags_few_frames_and_every_labelled_tracker_error() {
 #[test]
 fn carphone_sealed_mode_covers_the_closed_frames_and_no_opening() {
     let Some(pts) = lipmap::testdata::shared("data/carphone/dlib68_pts") else { return };
-    let track = read_track(&pts).unwrap();
-    let h = trajectory_from_track(&track, None).h;
-    let closed = estimate_closed_lips(&h).unwrap();
-    let sealed = sealed_frames(&h, &closed);
+    let mut track = read_track(&pts).unwrap();
+    let closed = seal_inner_lips(&mut track, Closure::Seal).unwrap().unwrap();
+    let sealed: Vec<bool> = track.frames.iter().map(|f| inner_lip_gap(f) == Some(0.0)).collect();
     let n = sealed.iter().filter(|&&s| s).count();
-    println!("carphone closed lips {closed:?}: {n} of {} frames sealed", h.len());
+    println!("carphone closed lips {closed:?}: {n} of {} frames sealed", track.len());
+    assert_eq!(n, closed.sealed);
     // Pressed lips (seen in the video) are sealed; wide openings are not.
     for f in [0, 20, 82, 83, 94, 95, 96, 97, 98] {
         assert!(sealed[f], "frame {f} not sealed");

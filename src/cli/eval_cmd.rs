@@ -56,7 +56,8 @@ pub struct EvalArgs {
     /// head's ear-to-ear axis): set it to match the real side camera's pitch.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub render_pitch: f64,
-    /// How sealed lips are measured (becomes the session's setting when it is saved).
+    /// Sealed lips: `seal` or `off` (as `lipmap fit --closure`; refits the frames it changes
+    /// and becomes the session's setting when it is saved).
     #[arg(long, value_enum)]
     pub closure: Option<crate::cli::fit_cmd::ClosureArg>,
     #[command(flatten)]
@@ -109,7 +110,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         );
     }
     if let Some(c) = a.closure {
-        opened.session.closure = c.into();
+        opened.session.fit_settings.closure = c.into();
     }
     let base = opened.session.fit_settings.clone();
     let head_p = a.head_p()?;
@@ -121,11 +122,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         print_warnings(&done.warnings);
         opened.save_if_locked()?;
         crate::cli::output::require_some_fit(&done.fits)?;
-        for (&c, (name, fits)) in clips.iter().zip(&done.fits) {
-            let track = opened.session.effective_track(c)?;
-            let flags = workflow::flags::clip_flags(&track, fits, &[], &Default::default());
-            for line in workflow::flags::flag_lines(name, &flags, track.len()) {
-                eprintln!("{line}");
+        for (&c, (_, fits)) in clips.iter().zip(&done.fits) {
+            for line in workflow::flags::clip_flag_lines(&opened.session, c, fits)? {
+                eprintln!("{}", crate::cli::output::terminal_safe(&line));
             }
         }
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);

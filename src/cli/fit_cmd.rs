@@ -3,10 +3,11 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
-use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text};
+use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text, terminal_safe};
 use crate::cli::progress::frames_bar;
 use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
+use crate::landmarks::closure::Closure;
 use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::{Result, bail};
 use std::io::Write;
@@ -41,23 +42,20 @@ pub struct FitArgs {
     /// Session mode: only this clip.
     #[arg(long)]
     pub only: Option<String>,
-    /// Session mode: how sealed lips are measured (becomes the session's setting).
-    #[arg(long, value_enum)]
-    pub closure: Option<ClosureArg>,
 }
 
-/// `--closure`: `snap` sets H = 0 on frames in the clip's sealed mode of the tracked inner
-/// gap (docs/closure.md); `off` measures H as tracked.
+/// `--closure`: `seal` closes the inner lips on the frames in the clip's sealed mode of the
+/// tracked gap before fitting and measuring (docs/closure.md); `off` keeps them as tracked.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum ClosureArg {
-    Snap,
+    Seal,
     Off,
 }
 
-impl From<ClosureArg> for crate::measure::closure::Closure {
+impl From<ClosureArg> for Closure {
     fn from(a: ClosureArg) -> Self {
         match a {
-            ClosureArg::Snap => Self::Snap,
+            ClosureArg::Seal => Self::Seal,
             ClosureArg::Off => Self::Off,
         }
     }
@@ -87,6 +85,10 @@ pub struct FitSettingArgs {
     /// Fit each frame alone (undoes a session's --clip setting).
     #[arg(long, conflicts_with = "clip")]
     pub per_frame: bool,
+    /// Sealed lips: `seal` (default) closes the inner lips on frames in the clip's sealed
+    /// mode of the tracked gap, `off` fits them as tracked (docs/closure.md).
+    #[arg(long, value_enum)]
+    pub closure: Option<ClosureArg>,
 }
 
 impl FitSettingArgs {
@@ -118,6 +120,9 @@ impl FitSettingArgs {
         }
         if self.per_frame {
             settings.clip = false;
+        }
+        if let Some(c) = self.closure {
+            settings.closure = c.into();
         }
         Ok(settings)
     }
@@ -164,9 +169,6 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(s)?;
     let settings = a.settings.apply(&session.fit_settings)?;
     session.fit_settings = settings.clone();
-    if let Some(c) = a.closure {
-        session.closure = c.into();
-    }
     let (res, warnings) = workflow::load_resources(&session, &path)?;
     crate::cli::progress::print_warnings(&warnings);
     let clips = select_clips(&session, a.only.as_deref())?;
@@ -191,15 +193,13 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             fits.failed()
         )?;
         for line in failure_lines(&name, &fits.fits) {
-            eprintln!("{}", crate::cli::output::terminal_safe(&line));
+            eprintln!("{}", terminal_safe(&line));
         }
-        let track = session.effective_track(c)?;
-        let flags = workflow::flags::clip_flags(&track, &fits.fits, &[], &Default::default());
-        let lines = workflow::flags::flag_lines(&name, &flags, track.len());
+        let lines = workflow::flags::clip_flag_lines(&session, c, &fits.fits)?;
         if let Some((count, frames)) = lines.split_first() {
-            writeln!(out, "{count}")?;
+            writeln!(out, "{}", terminal_safe(count))?;
             for line in frames {
-                eprintln!("{line}");
+                eprintln!("{}", terminal_safe(line));
             }
         }
     }

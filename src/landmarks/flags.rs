@@ -312,6 +312,38 @@ mod tests {
         flag_frames::<Residual>(t, None, &[], &FlagThresholds::default())
     }
 
+    /// Where point `i` sits on a still face: a grid for the points outside the mouth (outer
+    /// eye corners 36 and 45 about 32 px apart), and a closed-ish mouth whose lips are in
+    /// order (outer upper above inner upper above inner lower above outer lower).
+    fn face_point(i: usize) -> (f64, f64) {
+        const MOUTH: [(f64, f64); 20] = [
+            (-12.0, 0.0), // 48 corner
+            (-8.0, -5.0), // 49..53 outer upper
+            (-4.0, -6.0),
+            (0.0, -6.0),
+            (4.0, -6.0),
+            (8.0, -5.0),
+            (12.0, 0.0), // 54 corner
+            (8.0, 7.0),  // 55..59 outer lower, right to left
+            (4.0, 8.0),
+            (0.0, 8.0),
+            (-4.0, 8.0),
+            (-8.0, 7.0),
+            (-10.0, 0.0), // 60 inner corner
+            (-4.0, -2.0), // 61..63 inner upper
+            (0.0, -2.0),
+            (4.0, -2.0),
+            (10.0, 0.0), // 64 inner corner
+            (4.0, 2.0),  // 65..67 inner lower, right to left
+            (0.0, 2.0),
+            (-4.0, 2.0),
+        ];
+        match i {
+            48..=67 => (265.0 + MOUTH[i - 48].0, 200.0 + MOUTH[i - 48].1),
+            _ => ((i % 10) as f64 * 30.0, (i / 10) as f64 * 10.0),
+        }
+    }
+
     /// A face drifting smoothly right by ~1 px a frame with a little wobble.
     fn smooth_track(n: usize) -> Track {
         Track::new(
@@ -320,10 +352,8 @@ mod tests {
                     let wobble = ((f * 7 % 5) as f64) * 0.1;
                     let pts = (0..N_LANDMARKS)
                         .map(|i| {
-                            LandmarkPoint::tracked(
-                                100.0 + f as f64 + wobble + (i % 10) as f64 * 30.0,
-                                100.0 + (i / 10) as f64 * 10.0,
-                            )
+                            let (x, y) = face_point(i);
+                            LandmarkPoint::tracked(100.0 + f as f64 + wobble + x, 100.0 + y)
                         })
                         .collect();
                     FrameLandmarks::new(f, pts)

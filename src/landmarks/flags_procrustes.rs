@@ -79,8 +79,9 @@ pub fn head_motion(track: &Track, from: usize, to: usize) -> Option<Similarity2>
 /// neighbour (previous and next frame) is mapped into the frame by its head motion, the frame's
 /// lip points (48–67) are Procrustes-aligned to the neighbours' mean, and the RMS distance,
 /// as a fraction of the face size, is compared with the clip's robust spread of the same
-/// number (median + `shape_sigmas`·σ, at least `shape_min_face_fraction`). A smooth opening
-/// or closing keeps the frame near the mean of its neighbours; a mis-tracked frame does not.
+/// number (median + `shape_sigmas`·σ, at least `shape_min_face_fraction`), and must be the
+/// largest among its immediate neighbours'. A smooth opening or closing keeps the frame near
+/// the mean of its neighbours; a mis-tracked frame does not.
 pub fn shape_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let sizes = face_sizes(track);
     let n = track.frames.len();
@@ -111,10 +112,20 @@ pub fn shape_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason
     let values: Vec<f64> = breaks.iter().map(|b| b.1).collect();
     let Some((med, sigma)) = median_sigma(&values) else { return Vec::new() };
     let limit = (med + th.shape_sigmas * sigma).max(th.shape_min_face_fraction);
+    // A one-frame error also pulls its neighbours' references (the mean of the frames
+    // around them) half-way off; only the frame that breaks most locally is the error.
+    let break_of =
+        |frame: usize| breaks.binary_search_by_key(&frame, |b| b.0).ok().map(|i| breaks[i].1);
+    let local_peak = |&(frame, value): &(usize, f64)| {
+        [frame.checked_sub(1), Some(frame + 1)]
+            .into_iter()
+            .flatten()
+            .all(|f| break_of(f).is_none_or(|other| value >= other))
+    };
     breaks
-        .into_iter()
-        .filter(|b| b.1 > limit)
-        .map(|(frame, face_fraction)| (frame, FlagReason::ShapeBreak { face_fraction }))
+        .iter()
+        .filter(|b| b.1 > limit && local_peak(b))
+        .map(|&(frame, face_fraction)| (frame, FlagReason::ShapeBreak { face_fraction }))
         .collect()
 }
 

@@ -6,7 +6,6 @@
 //! [`Trajectory`]: one `Vec<Option<f64>>` per measure, indexed by 0-based frame number, with
 //! `None` where a frame has no value (untracked, occluded, failed fit); evaluation skips those.
 
-pub mod closure;
 pub mod indices;
 pub mod mesh;
 pub mod mouth;

@@ -37,9 +37,6 @@ pub struct Session {
     pub landmark_map: MapRef,
     #[serde(default)]
     pub fit_settings: FitSettings,
-    /// How sealed lips are measured (`measure::closure`); older sessions load the default.
-    #[serde(default, skip_serializing_if = "crate::measure::closure::Closure::is_default")]
-    pub closure: crate::measure::closure::Closure,
     /// Cached fits of every clip (see `cache`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fit_cache: Vec<FitCacheEntry>,
@@ -208,7 +205,6 @@ impl Session {
             model: None,
             landmark_map: MapRef::default(),
             fit_settings: FitSettings::default(),
-            closure: Default::default(),
             fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
             transferred_heads: Vec::new(),

@@ -556,6 +556,12 @@ impl App {
         );
     }
 
+    /// The landmarks fits are made from and the video is measured on: the edited track with
+    /// sealed lips closed as the fit settings say (`Session::fit_input_track`'s rule).
+    pub fn fit_input_track(&self) -> Track {
+        crate::landmarks::closure::with_sealed_lips(self.track.clone(), self.fit_settings.closure)
+    }
+
     /// The decoded image of the current frame, when cached.
     pub fn current_image(&self) -> Option<&Arc<FrameImage>> {
         self.images.get(&self.frame())

@@ -99,8 +99,15 @@ pub struct FlagThresholds {
     /// displacement by this many robust standard deviations (1.4826·MAD)...
     pub jump_sigmas: f64,
     /// ...and exceeds this fraction of the face size (outer eye corner distance), so that
-    /// still clips do not flag noise.
+    /// still clips do not flag noise. This floor is for steps (frame to frame), which fast
+    /// real articulation makes large...
     pub jump_min_face_fraction: f64,
+    /// ...while spikes (the distance from the neighbours' midpoint), which articulation keeps
+    /// small however fast it is, have this lower floor...
+    pub spike_min_face_fraction: f64,
+    /// ...and this one in pixels: a tracker's jitter is a pixel or two whatever the face's
+    /// size, so on a small face a relative floor alone would flag it.
+    pub spike_min_px: f64,
     /// Lip points out of order by more than this fraction of the face size are flagged.
     pub lip_order_face_fraction: f64,
     /// A lip shape breaks from its neighbours when its aligned RMS distance exceeds the
@@ -130,6 +137,8 @@ impl Default for FlagThresholds {
         Self {
             jump_sigmas: 6.0,
             jump_min_face_fraction: 0.1,
+            spike_min_face_fraction: 0.05,
+            spike_min_px: 4.0,
             lip_order_face_fraction: 0.04,
             shape_sigmas: 6.0,
             shape_min_face_fraction: 0.03,

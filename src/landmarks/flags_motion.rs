@@ -17,7 +17,8 @@ use std::collections::{BTreeMap, HashMap};
 /// small however fast it is, while a tracker error that lasts a frame or two stands out even
 /// when its step is no bigger than a fast lip movement. Both are in face sizes, after head
 /// motion is removed. Each test flags values above its own robust limit (median +
-/// `jump_sigmas`·σ of that point's values, at least `jump_min_face_fraction`); one reason per
+/// `jump_sigmas`·σ of that point's values, at least `jump_min_face_fraction` for steps and
+/// the lower `spike_min_face_fraction`, and `spike_min_px`, for spikes); one reason per
 /// frame (its largest jump). A spike counts only where it is a local maximum, and the step
 /// back after a spiked frame is not counted again.
 pub fn jump_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
@@ -75,11 +76,14 @@ pub fn jump_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)
         for (is_step, series) in [(false, &spikes), (true, &steps)] {
             let values: Vec<f64> = series.iter().map(|d| d.2).collect();
             let Some((med, sigma)) = median_sigma(&values) else { continue };
-            let limit = (med + th.jump_sigmas * sigma).max(th.jump_min_face_fraction);
+            let floor =
+                if is_step { th.jump_min_face_fraction } else { th.spike_min_face_fraction };
+            let limit = (med + th.jump_sigmas * sigma).max(floor);
             for &(frame, px, d) in series.iter() {
                 // The step back from a one-frame glitch is the glitch ending, not a new jump.
                 let returns = is_step && frame.checked_sub(1).is_some_and(|g| spiked.contains(&g));
-                if d <= limit || returns {
+                let below_jitter = !is_step && px <= th.spike_min_px;
+                if d <= limit || returns || below_jitter {
                     continue;
                 }
                 if !is_step {

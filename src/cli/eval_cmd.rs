@@ -56,6 +56,10 @@ pub struct EvalArgs {
     /// head's ear-to-ear axis): set it to match the real side camera's pitch.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub render_pitch: f64,
+    /// Sealed lips: `seal` or `off` (as `lipmap fit --closure`; refits the frames it changes
+    /// and becomes the session's setting when it is saved).
+    #[arg(long, value_enum)]
+    pub closure: Option<crate::cli::fit_cmd::ClosureArg>,
     #[command(flatten)]
     pub output: FormatArgs,
 }
@@ -105,6 +109,9 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
             "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
         );
     }
+    if let Some(c) = a.closure {
+        opened.session.fit_settings.closure = c.into();
+    }
     let base = opened.session.fit_settings.clone();
     let head_p = a.head_p()?;
     let bar = frames_bar(0, "fitting");
@@ -115,6 +122,11 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         print_warnings(&done.warnings);
         opened.save_if_locked()?;
         crate::cli::output::require_some_fit(&done.fits)?;
+        for (&c, (_, fits)) in clips.iter().zip(&done.fits) {
+            for line in workflow::flags::clip_flag_lines(&opened.session, c, fits)? {
+                eprintln!("{}", crate::cli::output::terminal_safe(&line));
+            }
+        }
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
         // Heads the motion was transferred onto, measured on their own maps, beside the model.
         let (transferred, warnings) = workflow::transfer::transferred_head_tables(

@@ -3,10 +3,11 @@
 
 use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
-use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text};
+use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text, terminal_safe};
 use crate::cli::progress::frames_bar;
 use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
+use crate::landmarks::closure::Closure;
 use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::{Result, bail};
 use std::io::Write;
@@ -43,6 +44,23 @@ pub struct FitArgs {
     pub only: Option<String>,
 }
 
+/// `--closure`: `seal` closes the inner lips on the frames in the clip's sealed mode of the
+/// tracked gap before fitting and measuring (docs/closure.md); `off` keeps them as tracked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClosureArg {
+    Seal,
+    Off,
+}
+
+impl From<ClosureArg> for Closure {
+    fn from(a: ClosureArg) -> Self {
+        match a {
+            ClosureArg::Seal => Self::Seal,
+            ClosureArg::Off => Self::Off,
+        }
+    }
+}
+
 /// The fit-setting flags of both modes; in session mode they become the session's settings.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct FitSettingArgs {
@@ -67,6 +85,10 @@ pub struct FitSettingArgs {
     /// Fit each frame alone (undoes a session's --clip setting).
     #[arg(long, conflicts_with = "clip")]
     pub per_frame: bool,
+    /// Sealed lips: `seal` (default) closes the inner lips on frames in the clip's sealed
+    /// mode of the tracked gap, `off` fits them as tracked (docs/closure.md).
+    #[arg(long, value_enum)]
+    pub closure: Option<ClosureArg>,
 }
 
 impl FitSettingArgs {
@@ -98,6 +120,9 @@ impl FitSettingArgs {
         }
         if self.per_frame {
             settings.clip = false;
+        }
+        if let Some(c) = self.closure {
+            settings.closure = c.into();
         }
         Ok(settings)
     }
@@ -168,7 +193,14 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             fits.failed()
         )?;
         for line in failure_lines(&name, &fits.fits) {
-            eprintln!("{}", crate::cli::output::terminal_safe(&line));
+            eprintln!("{}", terminal_safe(&line));
+        }
+        let lines = workflow::flags::clip_flag_lines(&session, c, &fits.fits)?;
+        if let Some((count, frames)) = lines.split_first() {
+            writeln!(out, "{}", terminal_safe(count))?;
+            for line in frames {
+                eprintln!("{}", terminal_safe(line));
+            }
         }
     }
     session.save(&path)?;

@@ -2,6 +2,7 @@
 //! and what it reports per frame (`FrameFit`).
 
 use crate::landmarks::LandmarkSet;
+use crate::landmarks::closure::Closure;
 use serde::{Deserialize, Serialize};
 
 /// Every setting that changes a fit's result. Two fits with equal settings on equal input
@@ -37,6 +38,10 @@ pub struct FitSettings {
     /// Iterations stop early when the fit's objective falls by less than this fraction.
     #[serde(default = "default_convergence_tolerance")]
     pub convergence_tolerance: f64,
+    /// Whether the inner lips are closed on the frames in the clip's sealed mode before
+    /// fitting and measuring (`landmarks::closure`); files without it get the default.
+    #[serde(default, skip_serializing_if = "Closure::is_default")]
+    pub closure: Closure,
 }
 
 /// How a group of frames (a clip, or one frame alone) is solved; `docs/fitting.md` compares
@@ -137,6 +142,7 @@ impl Default for FitSettings {
             nonnegative_expressions: true,
             solver: Solver::default(),
             convergence_tolerance: 1e-3,
+            closure: Closure::default(),
         }
     }
 }

@@ -1,10 +1,17 @@
-//! Per-frame failure flags for a clip: sudden temporal jumps of a point, low tracker
-//! confidence, high fit residual or a failed fit, and measure outliers, each with its reason.
+//! Per-frame failure flags for a clip, each with its reason and the number that triggered
+//! it: a point jumping relative to the head (`flags_motion`), lip contours out of anatomical
+//! order (`flags_lips`), a lip shape that breaks from its neighbours once head motion is
+//! removed (`flags_procrustes`), low tracker confidence, a high fit residual or failed fit,
+//! and a measure that breaks from its neighbours by much of the speaker's own range.
 //!
-//! Thresholds are robust (median and MAD over the clip) so they adapt to the speaker, the
-//! resolution and the frame rate; absolute floors stop a perfectly still clip from flagging
-//! sub-pixel noise. Start at `flag_frames`.
+//! Distances are in face sizes (the outer eye-corner distance) and limits are robust (median
+//! and MAD over the clip), so they adapt to the speaker, the resolution and the frame rate;
+//! floors stop a perfectly still clip from flagging sub-pixel noise. Start at `flag_frames`;
+//! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
+pub use super::flags_lips::lip_order_flags;
+pub use super::flags_motion::jump_flags;
+pub use super::flags_procrustes::shape_flags;
 use super::track::Track;
 use std::fmt;
 
@@ -22,8 +29,14 @@ pub trait FitResidual {
 /// Why a frame was flagged.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FlagReason {
-    /// Point `point` moved `px` pixels since the previous frame, far more than it usually does.
-    Jump { point: usize, px: f64 },
+    /// Point `point` moved `px` pixels (`face_fraction` of the face size) relative to the
+    /// head, far more than it usually does.
+    Jump { point: usize, px: f64, face_fraction: f64 },
+    /// Lip point `lower` sits above lip point `upper` by `face_fraction` of the face size.
+    LipOrder { upper: usize, lower: usize, face_fraction: f64 },
+    /// The lip shape, aligned to its neighbours' mean, is `face_fraction` of the face size
+    /// (RMS) away from it.
+    ShapeBreak { face_fraction: f64 },
     /// The tracker reported failure for the frame.
     TrackerFailed,
     /// The frame's (or its worst point's) tracker confidence is below the threshold.
@@ -32,22 +45,38 @@ pub enum FlagReason {
     FitFailed { reason: String },
     /// The fit's reprojection RMS is far above the clip's typical value.
     HighResidual { rms_px: f64 },
-    /// A measure's value is an outlier for the clip (robust z-score).
-    MeasureOutlier { measure: String, z: f64 },
+    /// A measure's value breaks from its neighbours by `range_fraction` of the clip's range
+    /// (5th to 95th percentile), a robust z-score `z` of such breaks.
+    MeasureOutlier { measure: String, z: f64, range_fraction: f64 },
 }
 
 impl fmt::Display for FlagReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Jump { point, px } => write!(f, "point {point} jumped {px:.1} px"),
+            Self::Jump { point, px, face_fraction } => {
+                let what = if MOUTH_CORNERS.contains(point) { "mouth corner" } else { "point" };
+                write!(f, "{what} {point} jumped {px:.1} px ({face_fraction:.3} of eye distance)")
+            }
+            Self::LipOrder { upper, lower, face_fraction } => write!(
+                f,
+                "lip order: point {lower} above point {upper} by {face_fraction:.3} of eye distance"
+            ),
+            Self::ShapeBreak { face_fraction } => {
+                write!(f, "lip shape off its neighbours by {face_fraction:.3} of eye distance")
+            }
             Self::TrackerFailed => write!(f, "tracker failed"),
             Self::LowConfidence { value } => write!(f, "low confidence {value:.2}"),
             Self::FitFailed { reason } => write!(f, "fit failed: {reason}"),
             Self::HighResidual { rms_px } => write!(f, "fit residual {rms_px:.1} px"),
-            Self::MeasureOutlier { measure, z } => write!(f, "{measure} outlier (z {z:.1})"),
+            Self::MeasureOutlier { measure, z, range_fraction } => {
+                write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
+            }
         }
     }
 }
+
+/// The outer and inner mouth corners, whose jumps are named as such.
+pub const MOUTH_CORNERS: [usize; 4] = [48, 54, 60, 64];
 
 /// The flags of one frame (only frames with at least one reason are reported).
 #[derive(Clone, Debug, PartialEq)]
@@ -66,12 +95,26 @@ pub struct MeasureSeries {
 /// Thresholds for `flag_frames`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FlagThresholds {
-    /// A displacement is a jump when it exceeds the point's median displacement by this many
-    /// robust standard deviations (1.4826·MAD). 6 keeps fast articulation unflagged.
+    /// A displacement relative to the head is a jump when it exceeds the point's median
+    /// displacement by this many robust standard deviations (1.4826·MAD)...
     pub jump_sigmas: f64,
     /// ...and exceeds this fraction of the face size (outer eye corner distance), so that
-    /// still clips do not flag noise.
+    /// still clips do not flag noise. This floor is for steps (frame to frame), which fast
+    /// real articulation makes large...
     pub jump_min_face_fraction: f64,
+    /// ...while spikes (the distance from the neighbours' midpoint), which articulation keeps
+    /// small however fast it is, have this lower floor...
+    pub spike_min_face_fraction: f64,
+    /// ...and this one in pixels: a tracker's jitter is a pixel or two whatever the face's
+    /// size, so on a small face a relative floor alone would flag it.
+    pub spike_min_px: f64,
+    /// Lip points out of order by more than this fraction of the face size are flagged.
+    pub lip_order_face_fraction: f64,
+    /// A lip shape breaks from its neighbours when its aligned RMS distance exceeds the
+    /// clip's median by this many robust sigmas...
+    pub shape_sigmas: f64,
+    /// ...and this fraction of the face size.
+    pub shape_min_face_fraction: f64,
     /// Frame or point confidence below this is flagged (OpenFace suggests ~0.8 for frames).
     pub min_confidence: f32,
     /// A fit residual is high when above the clip's median by this many robust sigmas...
@@ -81,26 +124,36 @@ pub struct FlagThresholds {
     pub residual_ratio: f64,
     /// ...and above this floor in pixels.
     pub residual_min_px: f64,
-    /// Robust z-score of a measure's break from its neighbours above which it is flagged.
+    /// Robust z-score of a measure's break from its neighbours above which it is flagged...
     pub measure_z: f64,
+    /// ...when the break is also at least this fraction of the measure's range over the
+    /// clip: a fast real opening is a large z on a mostly still clip, but a small part of
+    /// the speaker's range.
+    pub measure_range_fraction: f64,
 }
 
 impl Default for FlagThresholds {
     fn default() -> Self {
         Self {
             jump_sigmas: 6.0,
-            jump_min_face_fraction: 0.05,
+            jump_min_face_fraction: 0.1,
+            spike_min_face_fraction: 0.05,
+            spike_min_px: 4.0,
+            lip_order_face_fraction: 0.04,
+            shape_sigmas: 6.0,
+            shape_min_face_fraction: 0.03,
             min_confidence: 0.8,
             residual_sigmas: 4.0,
             residual_ratio: 2.0,
             residual_min_px: 1.0,
             measure_z: 6.0,
+            measure_range_fraction: 0.5,
         }
     }
 }
 
 /// Median and robust sigma (1.4826·MAD) of the values; `None` when empty.
-fn median_sigma(values: &[f64]) -> Option<(f64, f64)> {
+pub(super) fn median_sigma(values: &[f64]) -> Option<(f64, f64)> {
     let finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
     if finite.is_empty() {
         return None;
@@ -127,6 +180,8 @@ pub fn flag_frames<F: FitResidual>(
     let mut by_frame: std::collections::BTreeMap<usize, Vec<FlagReason>> = Default::default();
     for (frame, reason) in jump_flags(track, th)
         .into_iter()
+        .chain(lip_order_flags(track, th))
+        .chain(shape_flags(track, th))
         .chain(confidence_flags(track, th))
         .chain(fits.map(|f| fit_flags(f, th)).unwrap_or_default())
         .chain(measures.iter().flat_map(|m| measure_flags(m, th)))
@@ -136,73 +191,21 @@ pub fn flag_frames<F: FitResidual>(
     by_frame.into_iter().map(|(frame, reasons)| FrameFlags { frame, reasons }).collect()
 }
 
-/// Face size of a frame: distance between the outer eye corners, when both are visible.
-fn face_size(track: &Track) -> Option<f64> {
-    let sizes: Vec<f64> = track
+/// Face size per frame of `track` (its outer eye-corner distance, 36–45), the clip's median
+/// where a frame lacks either corner; all `None` when no frame has both.
+pub(super) fn face_sizes(track: &Track) -> Vec<Option<f64>> {
+    let own: Vec<Option<f64>> = track
         .frames
         .iter()
-        .filter_map(|f| {
+        .map(|f| {
             let (a, b) = (f.points.get(36)?, f.points.get(45)?);
-            (a.visible && b.visible).then(|| (a.pos() - b.pos()).norm())
+            let d = (a.pos() - b.pos()).norm();
+            (a.visible && b.visible && d > 1e-9).then_some(d)
         })
         .collect();
-    median_sigma(&sizes).map(|(m, _)| m)
-}
-
-/// Jumps: per point, two tests over frames where the point is visible. A *step* is the
-/// displacement from the previous frame; a *spike* is the distance from the midpoint of the
-/// previous and next frames' positions (a second difference), which smooth articulation keeps
-/// small however fast it is, while a tracker error that lasts a frame or two stands out even
-/// when its step is no bigger than a fast lip movement. Each test flags values above its own
-/// robust limit (median + `jump_sigmas`·σ, at least the face-size floor); one reason per frame
-/// (its largest jump). A spike counts only where it is a local maximum.
-pub fn jump_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
-    let floor = face_size(track).map_or(0.0, |s| s * th.jump_min_face_fraction);
-    let mut worst: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
-    let n_points = track.frames.first().map_or(0, |f| f.points.len());
-    let consecutive = |a: usize, b: usize| b == a + 1;
-    for i in 0..n_points {
-        let pos = |k: usize| {
-            let p = track.frames[k].points.get(i)?;
-            p.visible.then(|| p.pos())
-        };
-        let mut steps: Vec<(usize, f64)> = Vec::new();
-        let mut spikes: Vec<(usize, f64)> = Vec::new();
-        for k in 1..track.frames.len() {
-            let (f0, f1) = (track.frames[k - 1].frame, track.frames[k].frame);
-            if !consecutive(f0, f1) {
-                continue;
-            }
-            if let (Some(a), Some(b)) = (pos(k - 1), pos(k)) {
-                steps.push((f1, (b - a).norm()));
-                if k + 1 < track.frames.len()
-                    && consecutive(f1, track.frames[k + 1].frame)
-                    && let Some(c) = pos(k + 1)
-                {
-                    let mid = nalgebra::center(&a, &c);
-                    spikes.push((f1, (b - mid).norm()));
-                }
-            }
-        }
-        // A one-frame error also displaces its neighbours' midpoints by half as much: keep
-        // only spikes that are local maxima, so the frames around a glitch are not flagged.
-        let spike_at: std::collections::HashMap<usize, f64> = spikes.iter().copied().collect();
-        spikes.retain(|&(f, d)| {
-            let around = [f.checked_sub(1), Some(f + 1)];
-            around.iter().flatten().all(|g| spike_at.get(g).is_none_or(|&n| d >= n))
-        });
-        for series in [&steps, &spikes] {
-            let values: Vec<f64> = series.iter().map(|d| d.1).collect();
-            let Some((med, sigma)) = median_sigma(&values) else { continue };
-            let limit = (med + th.jump_sigmas * sigma).max(floor);
-            for &(frame, d) in series.iter() {
-                if d > limit && worst.get(&frame).is_none_or(|w| d > w.1) {
-                    worst.insert(frame, (i, d));
-                }
-            }
-        }
-    }
-    worst.into_iter().map(|(f, (point, px))| (f, FlagReason::Jump { point, px })).collect()
+    let known: Vec<f64> = own.iter().flatten().copied().collect();
+    let fallback = median_sigma(&known).map(|(m, _)| m);
+    own.into_iter().map(|s| s.or(fallback)).collect()
 }
 
 /// Tracker failure and low frame or point confidence.
@@ -247,9 +250,12 @@ pub fn fit_flags<F: FitResidual>(fits: &[F], th: &FlagThresholds) -> Vec<(usize,
 pub const MEASURE_WINDOW: usize = 2;
 
 /// Values that break from their temporal neighbourhood: the residual from the running median
-/// of ±`MEASURE_WINDOW` values, as a robust z-score over the clip. A tracker glitch stands out;
-/// a wide-open mouth held for a few frames does not (comparing with the clip's median would
-/// flag every open frame of a mostly closed clip). A constant series flags nothing.
+/// of ±`MEASURE_WINDOW` values, flagged when it is both a robust outlier among the clip's
+/// residuals (z above `measure_z`) and a large part of the speaker's own range of the measure
+/// (above `measure_range_fraction` of the 5th–95th percentile span). A tracker glitch stands
+/// out on both; a quick real opening in a mostly still clip has a large z but stays a small
+/// part of the range, and a wide-open mouth held for a few frames breaks from nothing.
+/// A constant series flags nothing.
 pub fn measure_flags(series: &MeasureSeries, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let values: Vec<(usize, f64)> =
         series.values.iter().copied().filter(|(_, v)| v.is_finite()).collect();
@@ -263,15 +269,28 @@ pub fn measure_flags(series: &MeasureSeries, th: &FlagThresholds) -> Vec<(usize,
         .collect();
     let r: Vec<f64> = residuals.iter().map(|v| v.1).collect();
     let Some((med, sigma)) = median_sigma(&r) else { return Vec::new() };
-    if sigma <= 1e-12 {
+    let range = percentile_span(values.iter().map(|v| v.1).collect(), 0.05);
+    if sigma <= 1e-12 || range <= 1e-12 {
         return Vec::new();
     }
     residuals
         .into_iter()
-        .map(|(f, v)| (f, (v - med) / sigma))
-        .filter(|(_, z)| z.abs() > th.measure_z)
-        .map(|(f, z)| (f, FlagReason::MeasureOutlier { measure: series.name.clone(), z }))
+        .map(|(f, v)| (f, (v - med) / sigma, v.abs() / range))
+        .filter(|&(_, z, part)| z.abs() > th.measure_z && part > th.measure_range_fraction)
+        .map(|(f, z, range_fraction)| {
+            (f, FlagReason::MeasureOutlier { measure: series.name.clone(), z, range_fraction })
+        })
         .collect()
+}
+
+/// The span between the `q` and `1 − q` quantiles (nearest rank) of the values.
+fn percentile_span(mut v: Vec<f64>, q: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let at = |p: f64| v[((p * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)];
+    at(1.0 - q) - at(q)
 }
 
 #[cfg(test)]
@@ -302,6 +321,38 @@ mod tests {
         flag_frames::<Residual>(t, None, &[], &FlagThresholds::default())
     }
 
+    /// Where point `i` sits on a still face: a grid for the points outside the mouth (outer
+    /// eye corners 36 and 45 about 32 px apart), and a closed-ish mouth whose lips are in
+    /// order (outer upper above inner upper above inner lower above outer lower).
+    fn face_point(i: usize) -> (f64, f64) {
+        const MOUTH: [(f64, f64); 20] = [
+            (-12.0, 0.0), // 48 corner
+            (-8.0, -5.0), // 49..53 outer upper
+            (-4.0, -6.0),
+            (0.0, -6.0),
+            (4.0, -6.0),
+            (8.0, -5.0),
+            (12.0, 0.0), // 54 corner
+            (8.0, 7.0),  // 55..59 outer lower, right to left
+            (4.0, 8.0),
+            (0.0, 8.0),
+            (-4.0, 8.0),
+            (-8.0, 7.0),
+            (-10.0, 0.0), // 60 inner corner
+            (-4.0, -2.0), // 61..63 inner upper
+            (0.0, -2.0),
+            (4.0, -2.0),
+            (10.0, 0.0), // 64 inner corner
+            (4.0, 2.0),  // 65..67 inner lower, right to left
+            (0.0, 2.0),
+            (-4.0, 2.0),
+        ];
+        match i {
+            48..=67 => (265.0 + MOUTH[i - 48].0, 200.0 + MOUTH[i - 48].1),
+            _ => ((i % 10) as f64 * 30.0, (i / 10) as f64 * 10.0),
+        }
+    }
+
     /// A face drifting smoothly right by ~1 px a frame with a little wobble.
     fn smooth_track(n: usize) -> Track {
         Track::new(
@@ -310,10 +361,8 @@ mod tests {
                     let wobble = ((f * 7 % 5) as f64) * 0.1;
                     let pts = (0..N_LANDMARKS)
                         .map(|i| {
-                            LandmarkPoint::tracked(
-                                100.0 + f as f64 + wobble + (i % 10) as f64 * 30.0,
-                                100.0 + (i / 10) as f64 * 10.0,
-                            )
+                            let (x, y) = face_point(i);
+                            LandmarkPoint::tracked(100.0 + f as f64 + wobble + x, 100.0 + y)
                         })
                         .collect();
                     FrameLandmarks::new(f, pts)
@@ -329,8 +378,8 @@ mod tests {
         t.get_mut(20).unwrap().points[48].x += 25.0;
         let flags = track_flags(&t);
         let frames: Vec<usize> = flags.iter().map(|f| f.frame).collect();
-        assert_eq!(frames, vec![20, 21]);
-        assert!(matches!(flags[0].reasons[0], FlagReason::Jump { point: 48, px } if px > 24.0));
+        assert_eq!(frames, vec![20]);
+        assert!(matches!(flags[0].reasons[0], FlagReason::Jump { point: 48, px, .. } if px > 24.0));
     }
 
     #[test]

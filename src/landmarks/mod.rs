@@ -1,8 +1,12 @@
 //! iBUG-68 landmarks: point names and groups, the F1..F5 fitting sets, and the per-frame
 //! `Track` of tracked points with visibility, confidence and source.
 
+pub mod closure;
 pub mod edit;
 pub mod flags;
+mod flags_lips;
+mod flags_motion;
+mod flags_procrustes;
 pub mod ibug;
 pub mod track;
 

@@ -333,6 +333,22 @@ impl Session {
         Ok(c.corrections.effective_track(&c.tracked))
     }
 
+    /// The landmarks a fit under `settings` is made from: the effective track with the inner
+    /// lips closed on sealed frames when `settings.closure` asks for it (`landmarks::closure`).
+    /// A clip whose sealed mode cannot be estimated is fitted as tracked; the measures report
+    /// why (`workflow::utterance_of_clip`).
+    ///
+    /// # Errors
+    /// `NoClip`.
+    pub fn fit_input_track(
+        &self,
+        clip: usize,
+        settings: &FitSettings,
+    ) -> Result<Track, SessionError> {
+        let c = self.clip(clip)?;
+        Ok(fit_input_of(c, settings))
+    }
+
     /// Records a corrected (or interpolated) point; the tracked value stays as it was.
     ///
     /// # Errors
@@ -475,16 +491,17 @@ impl Session {
         let c = self.clip(clip)?;
         let name = c.name.clone();
         let context = self.context_hash();
+        let input = fit_input_of(c, settings);
         let mut new = Vec::with_capacity(fits.len());
         for fit in fits {
-            let Some(frame) = c.corrections.effective_frame(&c.tracked, fit.frame) else {
+            let Some(frame) = input.get(fit.frame) else {
                 return Err(SessionError::Edit {
                     clip: name,
                     message: format!("fit of frame {} which has no landmarks", fit.frame),
                 });
             };
             new.push(CachedFrame {
-                input: cache::frame_input_hash(&frame, settings.set),
+                input: cache::frame_input_hash(frame, settings.set),
                 fit: cache::storable_fit(fit),
             });
         }
@@ -520,14 +537,7 @@ impl Session {
     }
 
     fn clip_input_hash(&self, clip: usize, settings: &FitSettings) -> String {
-        let c = &self.clips[clip];
-        let frames: Vec<FrameLandmarks> = c
-            .corrections
-            .frames_with_landmarks(&c.tracked)
-            .into_iter()
-            .filter_map(|f| c.corrections.effective_frame(&c.tracked, f))
-            .collect();
-        cache::clip_input_hash(&frames, settings.set)
+        cache::clip_input_hash(&fit_input_of(&self.clips[clip], settings).frames, settings.set)
     }
 
     /// The cached fit of `frame`, if it is still valid for the current landmarks, model and map.
@@ -548,8 +558,9 @@ impl Session {
             return None;
         }
         let cached = entry.frame(frame)?;
-        let now = c.corrections.effective_frame(&c.tracked, frame)?;
-        (cached.input == cache::frame_input_hash(&now, settings.set)).then_some(&cached.fit)
+        let input = fit_input_of(c, settings);
+        let now = input.get(frame)?;
+        (cached.input == cache::frame_input_hash(now, settings.set)).then_some(&cached.fit)
     }
 
     /// Every still-valid cached fit of the clip, ascending by frame.
@@ -582,17 +593,24 @@ impl Session {
         {
             return frames;
         }
+        let input = fit_input_of(c, settings);
         frames
             .into_iter()
             .filter(|&f| {
-                let fresh =
-                    entry.frame(f).zip(c.corrections.effective_frame(&c.tracked, f)).is_some_and(
-                        |(cached, now)| cached.input == cache::frame_input_hash(&now, settings.set),
-                    );
+                let fresh = entry.frame(f).zip(input.get(f)).is_some_and(|(cached, now)| {
+                    cached.input == cache::frame_input_hash(now, settings.set)
+                });
                 !fresh
             })
             .collect()
     }
+}
+
+/// The landmarks a fit of clip `c` under `settings` is made from (see
+/// [`Session::fit_input_track`]).
+fn fit_input_of(c: &Clip, settings: &FitSettings) -> Track {
+    let track = c.corrections.effective_track(&c.tracked);
+    crate::landmarks::closure::with_sealed_lips(track, settings.closure)
 }
 
 /// Opens one view's frames with the fps and size the session knows.

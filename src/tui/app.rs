@@ -11,7 +11,7 @@ pub use super::save_state::SaveState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::edit::PointChange;
-use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries, flag_frames};
+use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries};
 use crate::landmarks::{N_LANDMARKS, Track};
 use crate::math::Point2;
 use crate::measure::profile::{ProfileSetup, ProfileTrack};
@@ -355,19 +355,6 @@ pub enum Effect {
     Quit,
 }
 
-/// The video's W and H per frame as flaggable series.
-pub fn video_measures(track: &Track) -> Vec<MeasureSeries> {
-    use crate::measure::Measure;
-    let t = crate::measure::mouth::trajectory_from_track(track, None);
-    [Measure::W, Measure::H]
-        .into_iter()
-        .map(|m| MeasureSeries {
-            name: format!("video {}", m.as_str()),
-            values: t.series(m).iter().enumerate().filter_map(|(f, v)| v.map(|v| (f, v))).collect(),
-        })
-        .collect()
-}
-
 /// Everything the TUI shows and edits.
 pub struct App {
     pub title: String,
@@ -561,10 +548,18 @@ impl App {
     /// and in any extra series in `measures` (e.g. the fitted head's).
     pub fn recompute_flags(&mut self) {
         let fits: Vec<FrameFit> = self.fit.fits.values().cloned().collect();
-        let fits = (!fits.is_empty()).then_some(fits);
-        let mut measures = video_measures(&self.track);
-        measures.extend(self.measures.iter().cloned());
-        self.flags = flag_frames(&self.track, fits.as_deref(), &measures, &self.flag_thresholds);
+        self.flags = crate::workflow::flags::clip_flags(
+            &self.track,
+            &fits,
+            &self.measures,
+            &self.flag_thresholds,
+        );
+    }
+
+    /// The landmarks fits are made from and the video is measured on: the edited track with
+    /// sealed lips closed as the fit settings say (`Session::fit_input_track`'s rule).
+    pub fn fit_input_track(&self) -> Track {
+        crate::landmarks::closure::with_sealed_lips(self.track.clone(), self.fit_settings.closure)
     }
 
     /// The decoded image of the current frame, when cached.

@@ -386,9 +386,10 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
                     continue;
                 };
+                let input = app.fit_input_track();
                 let landmarks = match &frames {
-                    Some(list) => list.iter().filter_map(|f| app.track.get(*f).cloned()).collect(),
-                    None => app.track.frames.clone(),
+                    Some(list) => list.iter().filter_map(|f| input.get(*f).cloned()).collect(),
+                    None => input.frames,
                 };
                 let image_height = f64::from(app.frame_dims().1);
                 workers.request_fit(FitJob {
@@ -437,7 +438,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     name: bridge.clip_name(),
                     model,
                     map,
-                    track: app.track.clone(),
+                    track: app.fit_input_track(),
                     alignment: app.alignment.clone().unwrap_or_default(),
                     fps: app.fps,
                     fits: app.fit.fits.values().cloned().collect(),

@@ -11,6 +11,7 @@ use crate::eval::report::{group_table, sentence_table, worst_error_table, worst_
 use crate::eval::{Table, Utterance, phoneme_rmse, viseme_rmse};
 use crate::eval::{worst_frames_by_error, worst_frames_by_residual};
 use crate::fit::{FitSettings, FrameFit};
+use crate::landmarks::closure::{ClosureError, seal_inner_lips};
 use crate::measure::mouth::trajectory_from_track;
 use crate::measure::{Measure, MeshMeasureOptions, Trajectory};
 use crate::model::{LandmarkMap, MorphableModel};
@@ -49,6 +50,9 @@ pub fn utterance_from_parts(
 /// landmarks, plus the side view's protrusion when the clip has one; and what was worked
 /// around (a side view whose P cannot be measured, a model without a lip band).
 ///
+/// Sealed lips are closed in the video's landmarks as the session's fit settings say
+/// (`landmarks::closure`), as they were for the fits.
+///
 /// A side view sees the whole upper lip, so for a clip with one the head's P is measured the
 /// same way ([`head_p_options`]). Other upper-lip choices in `options` are kept as given.
 ///
@@ -62,9 +66,19 @@ pub fn utterance_of_clip(
     options: &MeshMeasureOptions,
 ) -> Result<(Utterance, Vec<Warning>)> {
     let c = session.clip(clip)?;
-    let track = session.effective_track(clip)?;
+    let mut track = session.effective_track(clip)?;
     let (options, warning) = head_p_options(&res.model, &res.map, c.side.is_some(), options);
     let mut warnings: Vec<Warning> = warning.into_iter().collect();
+    // The video is measured on the landmarks the fits were made from. A clip too short to
+    // have a sealed mode (a photo, a few frames) is not speech, and one without a separate
+    // cluster of low gaps needs no correction; only a speech-length clip whose gap never
+    // varies is worth a warning.
+    match seal_inner_lips(&mut track, session.fit_settings.closure) {
+        Ok(_) | Err(ClosureError::TooFewFrames(_) | ClosureError::NoSealedMode(_)) => {}
+        Err(e) => {
+            warnings.push(Warning(format!("lipmap: clip `{}`: inner lips as tracked: {e}", c.name)))
+        }
+    }
     let mut u = utterance_from_parts(
         &c.name,
         &c.alignment.clone().unwrap_or_default(),

@@ -42,7 +42,7 @@ pub fn fit_clip_cached(
     check_map_for_fit(&res.map, res.model.num_vertices(), settings)?;
     let stale = session.stale_frames_with(clip, settings);
     let height = image_height(session, clip)?;
-    let track = session.effective_track(clip)?;
+    let track = session.fit_input_track(clip, settings)?;
     let to_fit: Vec<FrameLandmarks> = if stale.is_empty() {
         Vec::new()
     } else if settings.clip {

@@ -14,6 +14,7 @@ pub mod evaluate;
 pub mod export;
 pub mod fit;
 pub mod fit_files;
+pub mod flags;
 pub mod heads;
 pub mod indices;
 pub mod map;

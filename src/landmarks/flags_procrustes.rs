@@ -86,12 +86,12 @@ pub fn shape_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason
     let sizes = face_sizes(track);
     let n = track.frames.len();
     let mut breaks: Vec<(usize, f64)> = Vec::new();
-    for k in 1..n.saturating_sub(1) {
+    for (k, &size) in sizes.iter().enumerate().take(n.saturating_sub(1)).skip(1) {
         let frame = track.frames[k].frame;
         if track.frames[k - 1].frame + 1 != frame || track.frames[k + 1].frame != frame + 1 {
             continue;
         }
-        let Some(size) = sizes[k] else { continue };
+        let Some(size) = size else { continue };
         let (Some(prev), Some(next)) = (head_motion(track, k - 1, k), head_motion(track, k + 1, k))
         else {
             continue;

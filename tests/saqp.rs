@@ -140,7 +140,7 @@ fn bad_input_gets_a_one_line_error_naming_what() {
     let n = corpus.sentences[0].frames.len();
     let ext = HashMap::from([(
         name.clone(),
-        External { frames: vec![vec![Point3::origin(); 5]; n - 1] },
+        External::whole_meshes(vec![vec![Point3::origin(); 5]; n - 1]),
     )]);
     let opts = CvOptions { synths: vec![SynthKind::External], ..CvOptions::default() };
     let err = saqp::cross_validate(&corpus, &ext, &opts).unwrap_err();

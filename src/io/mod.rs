@@ -18,6 +18,7 @@ pub mod landmark_map_toml;
 pub mod makehuman_target;
 pub mod model_file;
 pub mod model_source;
+pub mod motion_csv;
 pub mod names_table;
 pub mod npy_model;
 pub mod obj;

@@ -29,6 +29,8 @@ pub struct TrajectoryPlot<'a> {
     pub panels: Vec<Panel>,
     pub width: u32,
     pub panel_height: u32,
+    /// The x axis's unit, printed at its right end ("S" for time; frames map by `fps`).
+    pub x_unit: &'a str,
 }
 
 const MARGIN_LEFT: u32 = 70;
@@ -136,9 +138,9 @@ pub fn draw_trajectories(plot: &TrajectoryPlot) -> RgbImage {
     }
     draw_text(
         &mut img,
-        (plot.width - MARGIN_RIGHT - text_width("S", SCALE)) as i64,
+        i64::from(plot.width.saturating_sub(MARGIN_RIGHT + text_width(plot.x_unit, SCALE))),
         axis_y,
-        "S",
+        plot.x_unit,
         SCALE,
         INK,
     );
@@ -228,6 +230,7 @@ mod tests {
             }],
             width: 400,
             panel_height: 200,
+            x_unit: "S",
         };
         let img = draw_trajectories(&plot);
         // A rising line: red ink near the panel's bottom-left and its top-right.

@@ -25,9 +25,13 @@ pub enum SaqpError {
     )]
     FrameCount { sentence: String, got: usize, expected: usize },
     #[error(
-        "sentence `{sentence}`, frame {frame}: {got} points, expected {markers} (markers) or {vertices} (vertices)"
+        "sentence `{sentence}`, frame {frame}: {got} points, the motion names {expected} vertices"
     )]
-    PointCount { sentence: String, frame: usize, got: usize, markers: usize, vertices: usize },
+    PointCount { sentence: String, frame: usize, got: usize, expected: usize },
+    #[error("sentence `{sentence}`: vertex {vertex} is not in the model ({vertices} vertices)")]
+    VertexOutOfRange { sentence: String, vertex: usize, vertices: usize },
+    #[error("sentence `{sentence}`: the motion lacks marker vertex {vertex}")]
+    MissingVertex { sentence: String, vertex: usize },
     #[error("unknown sentence `{0}`")]
     UnknownSentence(String),
     #[error("the corpus has {got} sentences; at least {needed} are needed")]

@@ -205,18 +205,28 @@ impl<'a> TrainingSet<'a> {
 }
 
 /// A user's synthesized motion for one corpus sentence: per frame the pose-free positions
-/// (model space) of either the markers (in [`super::MarkerSet`] order) or every vertex.
+/// (model space) of `vertices`, which must include every marker (the landmark vertices and
+/// the spread face vertices of [`super::MarkerSet`]; whole meshes include them all).
 #[derive(Clone, Debug, PartialEq)]
 pub struct External {
+    /// Model vertex ids; `frames[f][k]` is the position of `vertices[k]`.
+    pub vertices: Vec<usize>,
     pub frames: Vec<Vec<Point3>>,
 }
 
 impl External {
+    /// Motion given as whole meshes: every frame holds every vertex in order.
+    pub fn whole_meshes(frames: Vec<Vec<Point3>>) -> Self {
+        let n = frames.first().map_or(0, Vec::len);
+        Self { vertices: (0..n).collect(), frames }
+    }
+
     /// The marker displacements (from sentence `index`'s neutral shape) of this motion.
     ///
     /// # Errors
     /// `FrameCount` when the frame count differs from the sentence's, `PointCount` when a
-    /// frame has neither one point per marker nor one per vertex.
+    /// frame's point count differs from the vertex list's, `VertexOutOfRange` for a vertex the
+    /// model lacks and `MissingVertex` for a marker vertex the motion does not give.
     pub fn marker_motion(
         &self,
         corpus: &Corpus,
@@ -231,29 +241,43 @@ impl External {
                 expected: s.frames.len(),
             });
         }
+        let n_vertices = corpus.shapes.num_vertices();
+        if let Some(&vertex) = self.vertices.iter().find(|&&v| v >= n_vertices) {
+            return Err(SaqpError::VertexOutOfRange {
+                sentence: s.name.clone(),
+                vertex,
+                vertices: n_vertices,
+            });
+        }
+        let mut slot = vec![None; n_vertices];
+        for (k, &v) in self.vertices.iter().enumerate() {
+            slot[v] = Some(k);
+        }
         let markers = &prepared.markers;
+        let picks: Vec<usize> = markers
+            .vertices
+            .iter()
+            .map(|&v| {
+                slot[v].ok_or(SaqpError::MissingVertex { sentence: s.name.clone(), vertex: v })
+            })
+            .collect::<Result<_, _>>()?;
         let neutral = corpus.shapes.shape(&s.neutral);
-        let vertices = corpus.shapes.num_vertices();
         self.frames
             .iter()
             .enumerate()
             .map(|(f, pts)| {
-                let pick =
-                    |m: usize, v: usize| if pts.len() == markers.len() { pts[m] } else { pts[v] };
-                if pts.len() != markers.len() && pts.len() != vertices {
+                if pts.len() != self.vertices.len() {
                     return Err(SaqpError::PointCount {
                         sentence: s.name.clone(),
                         frame: f,
                         got: pts.len(),
-                        markers: markers.len(),
-                        vertices,
+                        expected: self.vertices.len(),
                     });
                 }
                 let mut d = DVector::zeros(3 * markers.len());
-                for (m, &v) in markers.vertices.iter().enumerate() {
-                    let p = pick(m, v);
+                for (m, (&v, &k)) in markers.vertices.iter().zip(&picks).enumerate() {
                     for a in 0..3 {
-                        d[3 * m + a] = p[a] - neutral[3 * v + a];
+                        d[3 * m + a] = pts[k][a] - neutral[3 * v + a];
                     }
                 }
                 Ok(d)

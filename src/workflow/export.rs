@@ -398,6 +398,7 @@ pub fn trajectory_chart(
         panels,
         width,
         panel_height: 160,
+        x_unit: "S",
     })
 }
 

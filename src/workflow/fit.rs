@@ -82,3 +82,24 @@ pub fn shapes_by_frame(
     }
     shapes
 }
+
+/// `n` fits, frame f's or, where it failed or is missing, the last good one before it (the
+/// first good one for leading frames); `None` without any good fit.
+pub fn held_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
+    let mut by_frame: Vec<Option<&FrameFit>> = vec![None; n];
+    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n) {
+        by_frame[f.frame] = Some(f);
+    }
+    let first = by_frame.iter().flatten().next().copied()?;
+    let mut last = first;
+    Some(
+        by_frame
+            .iter()
+            .enumerate()
+            .map(|(frame, f)| {
+                last = f.unwrap_or(last);
+                FrameFit { frame, ..last.clone() }
+            })
+            .collect(),
+    )
+}

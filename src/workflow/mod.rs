@@ -22,6 +22,7 @@ pub mod measure_fits;
 pub mod profile_edit;
 pub mod reference;
 pub mod resources;
+pub mod saqp;
 pub mod session;
 pub mod side_view;
 pub mod speech;

@@ -13,7 +13,7 @@
 
 use super::error::{Error, Result, Warning};
 use super::evaluate::{EvalReport, Normalisation, evaluate, utterance_of_clip};
-use super::fit::fit_clip_cached;
+use super::fit::{fit_clip_cached, held_fits};
 use super::resources::Resources;
 use super::session::{ReadSession, clip_length, open_for_read};
 use super::{Progress, ProgressFn};
@@ -247,7 +247,7 @@ fn clip_data(
     let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
     let settings = session.fit_settings.clone();
     let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))?.fits;
-    let Some(fits) = hold_fits(&fits, n) else {
+    let Some(fits) = held_fits(&fits, n) else {
         warnings.push(Warning(format!("clip `{name}` has no successful fit; not used")));
         return Ok(None);
     };
@@ -265,27 +265,6 @@ fn clip_data(
         .map(|f| mouth_points(&fitted_shape(&res.model, f), mouth).map_err(speech_error))
         .collect::<Result<_>>()?;
     Ok(Some(ClipData { clip, fps, samples, fits, mouth: mouth_frames, neutral, neutral_mouth }))
-}
-
-/// `n` fits, frame f's or, where it failed or is missing, the last good one before it (the
-/// first good one for leading frames); `None` without any good fit.
-fn hold_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
-    let mut by_frame: Vec<Option<&FrameFit>> = vec![None; n];
-    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n) {
-        by_frame[f.frame] = Some(f);
-    }
-    let first = by_frame.iter().flatten().next().copied()?;
-    let mut last = first;
-    Some(
-        by_frame
-            .iter()
-            .enumerate()
-            .map(|(frame, f)| {
-                last = f.unwrap_or(last);
-                FrameFit { frame, ..last.clone() }
-            })
-            .collect(),
-    )
 }
 
 fn speech_error(e: SpeechError) -> Error {

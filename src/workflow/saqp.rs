@@ -1,0 +1,618 @@
+//! Quality prediction (SAQP, `crate::saqp`) on sessions: gather the fitted clips with phone
+//! alignments of one or more sessions into a motion corpus, run the paper's
+//! cross-validation, train a predictor and save it, score a new phone sequence, and read a
+//! researcher's own synthesized motion from files.
+//!
+//! A clip becomes a sentence when it has a phone alignment and at least one good fit. Frames
+//! whose fit failed hold the last good fit, so motion and phones stay frame-aligned. Motion
+//! is measured from one neutral per session (the identity coefficients averaged over every
+//! good fit of the session's clips, expressions at 0): a session is one speaker, and a
+//! per-clip neutral would carry each clip's identity error into its motion.
+//!
+//! Start with [`session_corpus`], then [`cross_validate_sessions`] or [`train_predictor`];
+//! predictors are saved by [`save_predictor`] and read by [`load_predictor`].
+
+use super::error::{Context, Error, Result, Warning};
+use super::fit::{fit_clip_cached, held_fits};
+use super::resources::Resources;
+use super::session::{clip_length, open_for_read};
+use super::{Progress, ProgressFn};
+use crate::alignment::Phone;
+use crate::eval::{Cell, Table};
+use crate::io::alignment_format::read_alignment;
+use crate::io::motion_csv::read_motion_csv;
+use crate::io::obj::read_obj;
+use crate::math::{DVector, Point3};
+use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
+use crate::saqp::{
+    Corpus, CvOptions, CvReport, External, GpPrediction, LinearShapes, Predictor, Prepared,
+    SaqpError, Sentence, SynthKind, TrainOptions,
+};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// What a quality-model file says it is.
+pub const SAQP_MODEL_FORMAT: &str = "lipmap saqp model";
+/// The version this lipmap writes and reads.
+pub const SAQP_MODEL_VERSION: u32 = 1;
+
+/// Where a corpus sentence came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SentenceOrigin {
+    pub session: PathBuf,
+    pub clip: usize,
+}
+
+/// The motion corpus of some sessions.
+#[derive(Clone, Debug)]
+pub struct SessionCorpus {
+    pub corpus: Corpus,
+    /// One per sentence, in corpus order.
+    pub origins: Vec<SentenceOrigin>,
+    pub warnings: Vec<Warning>,
+}
+
+/// A core error as a workflow error.
+fn saqp_error(e: SaqpError) -> Error {
+    Error::Invalid(e.to_string())
+}
+
+/// Gathers the fitted clips with phone alignments of `sessions` (one morphable model and
+/// landmark map for all) into a motion corpus, fitting what the fit cache lacks and saving
+/// it where the session can be locked. Sentences are named by their clip; a clip name that
+/// several sessions use becomes `SESSION:CLIP` (the session file's stem).
+///
+/// # Errors
+/// A session, model or map that cannot be read; sessions of different models or maps; no
+/// clip with both an alignment and a good fit.
+pub fn session_corpus(sessions: &[String], progress: ProgressFn<'_>) -> Result<SessionCorpus> {
+    let mut warnings = Vec::new();
+    let mut shared: Option<(Resources, String)> = None;
+    let mut sentences: Vec<Sentence> = Vec::new();
+    let mut origins = Vec::new();
+    let mut stems = Vec::new();
+    for s in sessions {
+        let mut read = open_for_read(s)?;
+        warnings.extend(read.notice.take());
+        let res = Resources::load(&read.session).map_err(|e| e.context(s))?;
+        if let Some((first, name)) = &shared
+            && (first.model.num_vertices() != res.model.num_vertices()
+                || LinearShapes::from_model(&first.model).num_coefficients()
+                    != LinearShapes::from_model(&res.model).num_coefficients()
+                || first.map.to_vertex != res.map.to_vertex)
+        {
+            return Err(Error::Invalid(format!(
+                "{s}: its model or landmark map differs from {name}'s; gather sessions of one model"
+            )));
+        }
+        let session = &mut read.session;
+        let settings = session.fit_settings.clone();
+        let mut neutral_sum: Option<DVector> = None;
+        let mut good_total = 0usize;
+        let first_new = sentences.len();
+        for clip in 0..session.clips.len() {
+            let c = &session.clips[clip];
+            let (name, fps) = (c.name.clone(), c.front.fps);
+            let Some(alignment) = c.alignment.clone().filter(|a| !a.phones.is_empty()) else {
+                warnings.push(Warning(format!(
+                    "lipmap: warning: {s}: clip `{name}` has no phone alignment; not used \
+                     (a clip gets one with --alignment in `lipmap new` or `lipmap import`)"
+                )));
+                continue;
+            };
+            progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
+            let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
+            let fits = fit_clip_cached(session, &res, clip, &settings, Some(&steps))
+                .map_err(|e| e.context(format!("{s}: clip `{name}`")))?
+                .fits;
+            let n = clip_length(session, clip)?;
+            let Some(held) = held_fits(&fits, n) else {
+                warnings.push(Warning(format!(
+                    "lipmap: warning: {s}: clip `{name}` has no successful fit; not used"
+                )));
+                continue;
+            };
+            for f in fits.iter().filter(|f| f.failed.is_none()) {
+                let c = LinearShapes::neutral_of_fit(f);
+                neutral_sum = Some(neutral_sum.map_or_else(|| c.clone(), |sum| sum + &c));
+                good_total += 1;
+            }
+            sentences.push(Sentence {
+                name,
+                phones: alignment.phones,
+                fps,
+                frames: held.iter().map(LinearShapes::coefficients_of_fit).collect(),
+                neutral: DVector::zeros(0),
+            });
+            origins.push(SentenceOrigin { session: read.path.clone(), clip });
+            stems.push(session_stem(&read.path));
+        }
+        if let Some(sum) = neutral_sum {
+            let neutral = sum / good_total as f64;
+            for sentence in &mut sentences[first_new..] {
+                sentence.neutral = neutral.clone();
+            }
+        }
+        read.save_if_locked().context(s.as_str())?;
+        if shared.is_none() {
+            shared = Some((res, s.clone()));
+        }
+    }
+    progress(Progress::Finished);
+    let (res, _) = shared.ok_or_else(|| Error::Invalid("no sessions given".into()))?;
+    if sentences.is_empty() {
+        return Err(Error::Invalid(format!(
+            "{}: no clip has both a phone alignment and a successful fit (a clip gets an \
+             alignment with --alignment in `lipmap new` or `lipmap import`)",
+            sessions.join(", ")
+        )));
+    }
+    let mut count: HashMap<String, usize> = HashMap::new();
+    for s in &sentences {
+        *count.entry(s.name.clone()).or_default() += 1;
+    }
+    for (s, stem) in sentences.iter_mut().zip(&stems) {
+        if count[&s.name] > 1 {
+            s.name = format!("{stem}:{}", s.name);
+        }
+    }
+    let corpus =
+        Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
+    corpus.validate().map_err(saqp_error)?;
+    Ok(SessionCorpus { corpus, origins, warnings })
+}
+
+/// `demo` of `sessions/demo.lipmap.json`.
+fn session_stem(path: &Path) -> String {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    name.strip_suffix(".lipmap.json")
+        .or_else(|| name.strip_suffix(".json"))
+        .unwrap_or(&name)
+        .to_string()
+}
+
+/// The marker vertices quality is measured on (landmark vertices, then evenly spread face
+/// vertices), in order, and whether each is a mouth marker: what a synthesized-motion file
+/// must give.
+///
+/// # Errors
+/// As [`session_corpus`]; a corpus without motion.
+pub fn marker_vertices(corpus: &Corpus) -> Result<Vec<(usize, bool)>> {
+    let prepared = Prepared::new(corpus).map_err(saqp_error)?;
+    let m = &prepared.markers;
+    Ok(m.vertices.iter().copied().zip(m.mouth.iter().copied()).collect())
+}
+
+/// A researcher's synthesized motion, per corpus sentence that has a file.
+#[derive(Clone, Debug, Default)]
+pub struct SynthFiles {
+    pub motion: HashMap<String, External>,
+    /// Sentences without a file (not scored for the external synthesizer).
+    pub missing: Vec<String>,
+}
+
+/// Reads synthesized motion for the corpus's sentences from `dir`: `DIR/NAME.csv`
+/// (`frame,vertex,x,y,z`, [`crate::io::motion_csv`]) or a folder `DIR/NAME/` of OBJ meshes
+/// with the model's vertex order, one per frame, ordered by the last number in their names.
+/// NAME is the sentence name made a safe file name as `lipmap export` does.
+///
+/// # Errors
+/// An unreadable folder or file (named, with its line); a folder without OBJs; no file for
+/// any sentence.
+pub fn read_synth_files(dir: &Path, corpus: &Corpus) -> Result<SynthFiles> {
+    if !dir.is_dir() {
+        return Err(Error::Invalid(format!(
+            "{}: not a folder of synthesized motion",
+            dir.display()
+        )));
+    }
+    let names: Vec<String> = corpus.sentences.iter().map(|s| s.name.clone()).collect();
+    let files = super::export::safe_file_names(&names);
+    let mut out = SynthFiles::default();
+    for (name, file) in names.iter().zip(&files) {
+        let csv = dir.join(format!("{file}.csv"));
+        let folder = dir.join(file);
+        let motion = if csv.is_file() {
+            let m = read_motion_csv(&csv)?;
+            External { vertices: m.vertices, frames: m.frames }
+        } else if folder.is_dir() {
+            External::whole_meshes(read_obj_sequence(&folder)?)
+        } else {
+            out.missing.push(name.clone());
+            continue;
+        };
+        out.motion.insert(name.clone(), motion);
+    }
+    if out.motion.is_empty() {
+        let example = files.first().map_or("NAME", String::as_str);
+        return Err(Error::Invalid(format!(
+            "{}: no synthesized motion for any of the {} sentences (expected e.g. {example}.csv \
+             with columns frame,vertex,x,y,z, or a folder {example}/ of OBJs)",
+            dir.display(),
+            names.len()
+        )));
+    }
+    Ok(out)
+}
+
+/// The vertex positions of every OBJ in `dir`, ordered by the last number in the name.
+fn read_obj_sequence(dir: &Path) -> Result<Vec<Vec<Point3>>> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let mut files: Vec<(u64, PathBuf)> = Vec::new();
+    for entry in entries {
+        let path = entry.map_err(|e| Error::io(dir, e))?.path();
+        if path.extension().is_some_and(|x| x.eq_ignore_ascii_case("obj")) {
+            files.push((last_number(&path), path));
+        }
+    }
+    if files.is_empty() {
+        return Err(Error::Invalid(format!("{}: no OBJ files in the folder", dir.display())));
+    }
+    files.sort();
+    files
+        .iter()
+        .map(|(_, p)| {
+            let mesh = read_obj(p)?;
+            Ok(mesh.vertices.iter().map(|v| Point3::new(v.x, v.y, v.z)).collect())
+        })
+        .collect()
+}
+
+/// The last run of digits in a file's stem (`frame_00012.obj` → 12), 0 without one.
+fn last_number(path: &Path) -> u64 {
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let digits: String = stem
+        .chars()
+        .rev()
+        .skip_while(|c| !c.is_ascii_digit())
+        .take_while(char::is_ascii_digit)
+        .collect::<Vec<_>>()
+        .into_iter()
+        .rev()
+        .collect();
+    digits.parse().unwrap_or(0)
+}
+
+/// What to learn: the cross-validation options and, for the external synthesizer, the
+/// folder of the researcher's motion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SaqpSettings {
+    pub cv: CvOptions,
+    pub synth_files: Option<PathBuf>,
+}
+
+/// The corpus's external motion when the settings learn it.
+fn external_motion(
+    settings: &SaqpSettings,
+    corpus: &Corpus,
+    warnings: &mut Vec<Warning>,
+) -> Result<HashMap<String, External>> {
+    let Some(dir) = &settings.synth_files else {
+        if settings.cv.synths.contains(&SynthKind::External) {
+            return Err(Error::Invalid("the external synthesizer needs --synth-files DIR".into()));
+        }
+        return Ok(HashMap::new());
+    };
+    let files = read_synth_files(dir, corpus)?;
+    if !files.missing.is_empty() {
+        warnings.push(Warning(format!(
+            "lipmap: warning: {}: no motion for {} of {} sentences (e.g. `{}`); they are not scored for it",
+            dir.display(),
+            files.missing.len(),
+            corpus.sentences.len(),
+            files.missing[0]
+        )));
+    }
+    Ok(files.motion)
+}
+
+/// A synthesized-motion error names the folder it came from.
+fn with_synth_dir(e: SaqpError, settings: &SaqpSettings) -> Error {
+    let hint = matches!(e, SaqpError::MissingVertex { .. });
+    let msg = match (&settings.synth_files, &e) {
+        (
+            Some(dir),
+            SaqpError::FrameCount { .. }
+            | SaqpError::PointCount { .. }
+            | SaqpError::MissingVertex { .. }
+            | SaqpError::VertexOutOfRange { .. },
+        ) => format!("{}: {e}", dir.display()),
+        _ => e.to_string(),
+    };
+    if hint {
+        Error::Invalid(format!("{msg} (`lipmap saqp markers SESSION` lists the vertices needed)"))
+    } else {
+        Error::Invalid(msg)
+    }
+}
+
+/// The cross-validation of some sessions.
+#[derive(Clone, Debug)]
+pub struct SaqpCv {
+    pub report: CvReport,
+    pub sentences: usize,
+    pub warnings: Vec<Warning>,
+}
+
+/// Runs the paper's cross-validation on the corpus of `sessions`.
+///
+/// # Errors
+/// As [`session_corpus`] and [`read_synth_files`]; the core's errors (too few sentences, a
+/// synthesized motion of the wrong size), naming the sentence.
+pub fn cross_validate_sessions(
+    sessions: &[String],
+    settings: &SaqpSettings,
+    progress: ProgressFn<'_>,
+) -> Result<SaqpCv> {
+    let sc = session_corpus(sessions, progress)?;
+    cross_validate_corpus(sc, settings)
+}
+
+/// [`cross_validate_sessions`] on a corpus already gathered.
+///
+/// # Errors
+/// As [`cross_validate_sessions`].
+pub fn cross_validate_corpus(sc: SessionCorpus, settings: &SaqpSettings) -> Result<SaqpCv> {
+    let SessionCorpus { corpus, mut warnings, .. } = sc;
+    let external = external_motion(settings, &corpus, &mut warnings)?;
+    let report = crate::saqp::cross_validate(&corpus, &external, &settings.cv)
+        .map_err(|e| with_synth_dir(e, settings))?;
+    Ok(SaqpCv { report, sentences: corpus.sentences.len(), warnings })
+}
+
+/// A predictor as saved.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SaqpModelFile {
+    pub format: String,
+    pub version: u32,
+    /// The sessions it was trained on.
+    pub sessions: Vec<String>,
+    pub sentences: usize,
+    pub predictor: Predictor,
+}
+
+/// A trained predictor with the cross-validation that chose it.
+#[derive(Clone, Debug)]
+pub struct SaqpTrained {
+    pub file: SaqpModelFile,
+    pub report: CvReport,
+    pub warnings: Vec<Warning>,
+}
+
+/// Trains a predictor for `synth` on the corpus of `sessions`.
+///
+/// # Errors
+/// As [`cross_validate_sessions`].
+pub fn train_predictor(
+    sessions: &[String],
+    settings: &SaqpSettings,
+    synth: SynthKind,
+    progress: ProgressFn<'_>,
+) -> Result<SaqpTrained> {
+    let SessionCorpus { corpus, mut warnings, .. } = session_corpus(sessions, progress)?;
+    let external = external_motion(settings, &corpus, &mut warnings)?;
+    let mut cv = settings.cv.clone();
+    if !cv.synths.contains(&synth) {
+        cv.synths = vec![synth];
+    }
+    let (predictor, report) = crate::saqp::train(&corpus, &external, &TrainOptions { cv, synth })
+        .map_err(|e| with_synth_dir(e, settings))?;
+    let file = SaqpModelFile {
+        format: SAQP_MODEL_FORMAT.into(),
+        version: SAQP_MODEL_VERSION,
+        sessions: sessions.to_vec(),
+        sentences: corpus.sentences.len(),
+        predictor,
+    };
+    Ok(SaqpTrained { file, report, warnings })
+}
+
+/// Writes a quality model atomically (a failed write leaves the old file).
+///
+/// # Errors
+/// The file cannot be written.
+pub fn save_predictor(path: &Path, file: &SaqpModelFile) -> Result<()> {
+    let text = serde_json::to_string(file)
+        .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+    crate::io::atomic::write_atomic_bytes(path, text.as_bytes()).map_err(|e| Error::io(path, e))
+}
+
+/// Reads a quality model file.
+///
+/// # Errors
+/// One line naming the file: unreadable, not a quality model, another version.
+pub fn load_predictor(path: &Path) -> Result<SaqpModelFile> {
+    let fail = |msg: String| Error::Invalid(format!("{}: {msg}", path.display()));
+    let bytes = crate::io::input::read_input(path)?;
+    let head: serde_json::Value = serde_json::from_slice(&bytes)
+        .map_err(|e| fail(format!("not a quality model file: {e}")))?;
+    if head.get("format").and_then(|f| f.as_str()) != Some(SAQP_MODEL_FORMAT) {
+        return Err(fail(format!(
+            "not a quality model file (no `format: \"{SAQP_MODEL_FORMAT}\"`); make one with `lipmap saqp train`"
+        )));
+    }
+    let version = head.get("version").and_then(serde_json::Value::as_u64);
+    if version != Some(u64::from(SAQP_MODEL_VERSION)) {
+        return Err(fail(format!(
+            "quality model version {} is not the version {SAQP_MODEL_VERSION} this lipmap reads",
+            version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
+        )));
+    }
+    serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))
+}
+
+/// A predicted quality for a phone sequence.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QualityPrediction {
+    /// The SATF error of the sequence against the training corpus.
+    pub e: f64,
+    /// Predicted Likert score (1 worst – 5 best) and its standard deviation.
+    pub prediction: GpPrediction,
+}
+
+/// Predicts the quality `model` gives the timed phones of `phones_file` (TextGrid, HTK .lab
+/// or `start,end,phone` CSV).
+///
+/// # Errors
+/// An unreadable model or alignment; a sequence of fewer than two phones or of phones the
+/// corpus never saw (named by the file).
+pub fn predict_quality(model: &SaqpModelFile, phones_file: &Path) -> Result<QualityPrediction> {
+    let alignment = read_alignment(phones_file, None)?;
+    predict_phones(model, &phones_file.display().to_string(), &alignment.phones)
+}
+
+/// [`predict_quality`] of phones already read; `name` names them in errors.
+///
+/// # Errors
+/// As [`predict_quality`].
+pub fn predict_phones(
+    model: &SaqpModelFile,
+    name: &str,
+    phones: &[Phone],
+) -> Result<QualityPrediction> {
+    let (e, prediction) = model.predictor.predict(name, phones).map_err(saqp_error)?;
+    Ok(QualityPrediction { e, prediction })
+}
+
+/// The region PCA of a cross-validation: vertices, dimensions and variance kept per region.
+pub fn regions_table(report: &CvReport) -> Table {
+    let headers = ["region", "vertices", "dims", "variance kept %"].map(String::from).to_vec();
+    let mut t = Table::new("Motion regions (PCA per region, ≥ 95 % of the variance)", headers);
+    for r in &report.regions {
+        t.push_row(vec![
+            Cell::Text(r.region.name().into()),
+            Cell::Int(r.vertices as i64),
+            Cell::Int(r.dims as i64),
+            Cell::Num(100.0 * r.variance_kept),
+        ]);
+    }
+    let dims: usize = report.regions.iter().map(|r| r.dims).sum();
+    t.notes.push(format!("{dims} dimensions in all; {} markers measure quality", report.markers));
+    t.precision = 1;
+    t
+}
+
+/// Per synthesizer: the learned model (ω_m, ξ, GP hyperparameters) and its held-out figures
+/// beside a constant predictor's.
+pub fn synths_table(report: &CvReport) -> Table {
+    let headers = [
+        "synthesizer",
+        "held out",
+        "r",
+        "RMSE",
+        "RMSE constant",
+        "RMSE ratio",
+        "omega_m",
+        "xi",
+        "length scale",
+        "signal var",
+        "noise var",
+    ]
+    .map(String::from)
+    .to_vec();
+    let mut t = Table::new(
+        format!(
+            "Predicted vs ground-truth quality (Likert 1-5) on {} held-out sentences; trained on {}",
+            report.test_sentences, report.train_sentences
+        ),
+        headers,
+    );
+    for s in &report.synths {
+        let h = s.gp.hyper;
+        t.push_row(vec![
+            Cell::Text(s.synth.name().into()),
+            Cell::Int(s.held_out.len() as i64),
+            Cell::Num(s.pearson_r),
+            Cell::Num(s.rmse),
+            Cell::Num(s.rmse_constant),
+            Cell::Num(s.rmse / s.rmse_constant),
+            Cell::Num(s.omega_m),
+            Cell::Num(s.xi),
+            Cell::Num(h.length_scale),
+            Cell::Num(h.signal_variance),
+            Cell::Num(h.noise_variance),
+        ]);
+    }
+    t.notes.push(format!(
+        "SATF: lambda {} order {} (chosen by cross-validation); {} training (E, Q) pairs, {} dropped as all phones unseen",
+        report.satf.lambda, report.satf.order, report.pairs, report.unseen
+    ));
+    t.notes.push(
+        "r: Pearson correlation of predicted and ground-truth scores; RMSE constant: predicting the training mean; RMSE ratio below 1 beats it"
+            .into(),
+    );
+    t
+}
+
+/// Every held-out sentence: E, ground-truth Q and Likert score, the prediction and its σ.
+pub fn held_out_table(report: &CvReport) -> Table {
+    let headers = ["synthesizer", "sentence", "E", "Q", "likert", "predicted", "sigma"]
+        .map(String::from)
+        .to_vec();
+    let mut t = Table::new("Held-out sentences", headers);
+    for s in &report.synths {
+        for h in &s.held_out {
+            t.push_row(vec![
+                Cell::Text(s.synth.name().into()),
+                Cell::Text(h.sentence.clone()),
+                Cell::Num(h.e),
+                Cell::Num(h.q),
+                Cell::Num(h.likert),
+                Cell::Num(h.predicted.mean),
+                Cell::Num(h.predicted.std()),
+            ]);
+        }
+    }
+    t
+}
+
+/// The paper's Fig. 8: per synthesizer, held-out sentences sorted by ground-truth score,
+/// the ground truth and the prediction with ±σ.
+pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
+    let panels = report
+        .synths
+        .iter()
+        .map(|s| {
+            let mut held: Vec<&crate::saqp::HeldOut> = s.held_out.iter().collect();
+            held.sort_by(|a, b| a.likert.total_cmp(&b.likert));
+            let series =
+                |name: &str, colour: [u8; 3], f: &dyn Fn(&crate::saqp::HeldOut) -> f64| Series {
+                    name: name.into(),
+                    colour,
+                    values: held.iter().map(|h| Some(f(h))).collect(),
+                };
+            Panel {
+                label: format!("{} R {:.2}", s.synth.name(), s.pearson_r),
+                series: vec![
+                    series("ground truth", [31, 119, 180], &|h| h.likert),
+                    series("predicted", [255, 127, 14], &|h| h.predicted.mean),
+                    series("+SD", [250, 200, 150], &|h| h.predicted.mean + h.predicted.std()),
+                    series("-SD", [250, 200, 150], &|h| h.predicted.mean - h.predicted.std()),
+                ],
+            }
+        })
+        .collect();
+    draw_trajectories(&TrajectoryPlot {
+        title: "Quality of held-out sentences, sorted by ground truth".into(),
+        fps: 1.0,
+        alignment: None,
+        panels,
+        width,
+        panel_height: 180,
+        x_unit: "SENTENCE",
+    })
+}
+
+/// Writes [`quality_chart`] as a PNG, atomically.
+///
+/// # Errors
+/// The file cannot be written.
+pub fn write_quality_chart(path: &Path, report: &CvReport) -> Result<()> {
+    let img = quality_chart(report, 900);
+    crate::io::atomic::write_atomic(path, |w| {
+        let enc = image::codecs::png::PngEncoder::new(w);
+        img.write_with_encoder(enc).map_err(std::io::Error::other)
+    })
+    .map_err(|e| Error::io(path, e))
+}

@@ -27,6 +27,13 @@ pub struct DemoArgs {
     /// GRID sentences per speaker.
     #[arg(long, default_value_t = 4)]
     pub sentences: usize,
+    /// Skip rendering video frames (the landmarks, alignments and audio are still written):
+    /// a large corpus for `lipmap saqp` or `lipmap speech` in a fraction of the time.
+    #[arg(long)]
+    pub no_frames: bool,
+    /// Fraction of frames (0 to 1) given a gross tracker error, at least one per sentence.
+    #[arg(long, value_name = "RATE", default_value_t = DemoOptions::default().gross_error_rate)]
+    pub tracker_errors: f64,
     /// Run headless: print the tables and exit instead of opening the TUI.
     #[arg(long)]
     pub no_tui: bool,
@@ -39,12 +46,19 @@ pub struct DemoArgs {
 
 pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let t0 = Instant::now();
+    if !(0.0..=1.0).contains(&a.tracker_errors) {
+        anyhow::bail!("--tracker-errors {}: must be a fraction between 0 and 1", a.tracker_errors);
+    }
+    let defaults = DemoOptions::default();
     let opts = DemoOptions {
         seed: a.seed,
         speakers: a.speakers.max(1),
         sentences: a.sentences.max(1),
         out_dir: a.out.clone(),
-        ..DemoOptions::default()
+        write_frames: defaults.write_frames && !a.no_frames,
+        side_view: defaults.side_view && !a.no_frames,
+        gross_error_rate: a.tracker_errors,
+        ..defaults
     };
     eprintln!("lipmap demo: generating the synthetic speaker into {} ...", a.out.display());
     let generated = demo::generate(&opts)?;

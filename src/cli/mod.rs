@@ -16,6 +16,7 @@ pub mod output;
 pub mod phones;
 pub mod profile_cmd;
 pub mod progress;
+pub mod saqp_cmd;
 pub mod speech_cmd;
 pub mod tables_cmd;
 pub mod transfer_cmd;
@@ -84,6 +85,10 @@ pub enum Command {
     /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
     #[command(subcommand)]
     Speech(speech_cmd::SpeechCommand),
+    /// Quality of synthesized speech animation (SAQP): cross-validate, train a predictor,
+    /// predict a phone sequence's quality.
+    #[command(subcommand)]
+    Saqp(saqp_cmd::SaqpCommand),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -168,6 +173,10 @@ fn run_command(command: Command) -> Result<Outcome> {
         },
         Command::Speech(cmd) => {
             speech_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Saqp(cmd) => {
+            saqp_cmd::run(&cmd, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Tables(args) => {

@@ -86,7 +86,11 @@ pub fn draw_trajectories(plot: &TrajectoryPlot) -> RgbImage {
             );
             let label = format!("{:.2}", lo + frac * (hi - lo));
             let tx = MARGIN_LEFT as i64 - 6 - text_width(&label, SCALE) as i64;
-            draw_text(&mut img, tx, y - text_height(SCALE) as i64 / 2, &label, SCALE, INK);
+            // The end labels sit inside their panel's span, so neighbouring panels' labels
+            // never meet across the gap.
+            let h = text_height(SCALE) as i64;
+            let ty = (y - h / 2).clamp(top as i64 + 1, bottom as i64 - h - 1);
+            draw_text(&mut img, tx, ty, &label, SCALE, INK);
         }
         if let Some(a) = plot.alignment {
             for (i, ph) in a.phones.iter().enumerate() {
@@ -109,7 +113,6 @@ pub fn draw_trajectories(plot: &TrajectoryPlot) -> RgbImage {
                 }
             }
         }
-        draw_text(&mut img, 6, top as i64 + 4, &panel.label, SCALE, INK);
         for s in &panel.series {
             let mut prev: Option<(f64, f64)> = None;
             for (f, v) in s.values.iter().enumerate() {
@@ -125,25 +128,31 @@ pub fn draw_trajectories(plot: &TrajectoryPlot) -> RgbImage {
                 }
             }
         }
+        // Inside the panel, on white (the margin holds the value labels), below the phone
+        // labels of the first panel.
+        let label_top = top as i64 + if k == 0 && plot.alignment.is_some() { 14 } else { 4 };
+        fill_rect(
+            &mut img,
+            MARGIN_LEFT as i64 + 2,
+            label_top - 2,
+            text_width(&panel.label, SCALE) + 8,
+            text_height(SCALE) + 4,
+            Rgb([255, 255, 255]),
+        );
+        draw_text(&mut img, MARGIN_LEFT as i64 + 6, label_top, &panel.label, SCALE, INK);
         draw_rect_outline(&mut img, MARGIN_LEFT, top, plot_w, plot.panel_height, INK);
     }
     let axis_y = (height - FOOTER + 6) as i64;
     let step = nice_step(duration);
     let mut t = 0.0;
     while t <= duration + 1e-9 {
-        let label = format!("{t:.1}");
+        let label = if step >= 1.0 { format!("{t:.0}") } else { format!("{t:.1}") };
         let x = x_of(t) as i64 - text_width(&label, SCALE) as i64 / 2;
         draw_text(&mut img, x, axis_y, &label, SCALE, INK);
         t += step;
     }
-    draw_text(
-        &mut img,
-        i64::from(plot.width.saturating_sub(MARGIN_RIGHT + text_width(plot.x_unit, SCALE))),
-        axis_y,
-        plot.x_unit,
-        SCALE,
-        INK,
-    );
+    // Under the value labels, where no tick label can reach.
+    draw_text(&mut img, 6, axis_y, plot.x_unit, SCALE, INK);
     img
 }
 

@@ -34,7 +34,7 @@ pub use cv::{CvOptions, CvReport, HeldOut, SynthReport, cross_validate};
 pub use error::SaqpError;
 pub use gp::{GaussianProcess, GpHyper, GpPrediction};
 pub use motion::{MotionBasis, Region, RegionSummary};
-pub use predictor::{Predictor, TrainOptions, train};
+pub use predictor::{Predictor, QualityEstimate, TrainOptions, train};
 pub use prepared::{PhoneSet, Prepared};
 pub use quality::{MarkerSet, QualityParts};
 pub use satf::{SatfFit, SatfParams, fit_trajectory};

@@ -4,7 +4,7 @@
 //! application layer.
 
 use super::SaqpError;
-use super::context::ContextStats;
+use super::context::{ContextLevel, ContextStats};
 use super::corpus::Corpus;
 use super::cv::{CvOptions, CvReport, cross_validate_prepared};
 use super::gp::{GaussianProcess, GpPrediction};
@@ -77,16 +77,39 @@ pub fn train(
 }
 
 impl Predictor {
-    /// E of a timed phone sequence against the training corpus, and the predicted Likert
-    /// score for it.
+    /// E of a timed phone sequence against the training corpus, the predicted Likert score
+    /// for it, and the phones the corpus never saw.
     ///
     /// # Errors
     /// `TooFewPhones`, `AllPhonesUnseen` (named `name`), a corrupted model.
-    pub fn predict(&self, name: &str, phones: &[Phone]) -> Result<(f64, GpPrediction), SaqpError> {
+    pub fn predict(&self, name: &str, phones: &[Phone]) -> Result<QualityEstimate, SaqpError> {
         let mut set = self.phones.clone();
         let ids = set.intern_all(phones);
         let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
         let p = self.gp.predict(&[fit.e])?;
-        Ok((fit.e, p[0]))
+        // A phone backed off past its own statistics is fitted to a viseme's or the whole
+        // corpus's loose spread, which lowers E: the prediction is then too kind, so say so.
+        let mut unseen: Vec<String> = Vec::new();
+        for (&id, level) in ids.iter().zip(&fit.levels) {
+            let label = set.label(id);
+            if *level > ContextLevel::Monophone
+                && label != "sil"
+                && !unseen.iter().any(|u| u == label)
+            {
+                unseen.push(label.to_string());
+            }
+        }
+        Ok(QualityEstimate { e: fit.e, prediction: p[0], unseen })
     }
+}
+
+/// A predicted quality.
+#[derive(Clone, Debug, PartialEq)]
+pub struct QualityEstimate {
+    /// The SATF error of the sequence against the training corpus.
+    pub e: f64,
+    /// Predicted Likert score (1 worst – 5 best) and its standard deviation.
+    pub prediction: GpPrediction,
+    /// Phone labels (grouping labels) without statistics of their own in the corpus.
+    pub unseen: Vec<String>,
 }

@@ -25,7 +25,7 @@ use crate::io::obj::read_obj;
 use crate::math::{DVector, Point3};
 use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
 use crate::saqp::{
-    Corpus, CvOptions, CvReport, External, GpPrediction, LinearShapes, Predictor, Prepared,
+    Corpus, CvOptions, CvReport, External, LinearShapes, Predictor, Prepared, QualityEstimate,
     SaqpError, Sentence, SynthKind, TrainOptions,
 };
 use serde::{Deserialize, Serialize};
@@ -358,7 +358,26 @@ pub fn cross_validate_corpus(sc: SessionCorpus, settings: &SaqpSettings) -> Resu
     let external = external_motion(settings, &corpus, &mut warnings)?;
     let report = crate::saqp::cross_validate(&corpus, &external, &settings.cv)
         .map_err(|e| with_synth_dir(e, settings))?;
+    warn_unscored(&report, settings, &mut warnings);
     Ok(SaqpCv { report, sentences: corpus.sentences.len(), warnings })
+}
+
+/// Warns of a synthesizer with fewer than two held-out sentences: its r and RMSE say
+/// nothing.
+fn warn_unscored(report: &CvReport, settings: &SaqpSettings, warnings: &mut Vec<Warning>) {
+    for s in report.synths.iter().filter(|s| s.held_out.len() < 2) {
+        let dir = settings.synth_files.as_ref().map_or(String::new(), |d| d.display().to_string());
+        warnings.push(Warning(format!(
+            "lipmap: warning: {} held-out sentences have {} motion, too few to score it{}",
+            s.held_out.len(),
+            s.synth.name(),
+            if s.synth == SynthKind::External {
+                format!("; give {dir} motion for more sentences")
+            } else {
+                String::new()
+            }
+        )));
+    }
 }
 
 /// A predictor as saved.
@@ -398,6 +417,7 @@ pub fn train_predictor(
     }
     let (predictor, report) = crate::saqp::train(&corpus, &external, &TrainOptions { cv, synth })
         .map_err(|e| with_synth_dir(e, settings))?;
+    warn_unscored(&report, settings, &mut warnings);
     let file = SaqpModelFile {
         format: SAQP_MODEL_FORMAT.into(),
         version: SAQP_MODEL_VERSION,
@@ -442,22 +462,13 @@ pub fn load_predictor(path: &Path) -> Result<SaqpModelFile> {
     serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))
 }
 
-/// A predicted quality for a phone sequence.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct QualityPrediction {
-    /// The SATF error of the sequence against the training corpus.
-    pub e: f64,
-    /// Predicted Likert score (1 worst – 5 best) and its standard deviation.
-    pub prediction: GpPrediction,
-}
-
 /// Predicts the quality `model` gives the timed phones of `phones_file` (TextGrid, HTK .lab
 /// or `start,end,phone` CSV).
 ///
 /// # Errors
 /// An unreadable model or alignment; a sequence of fewer than two phones or of phones the
 /// corpus never saw (named by the file).
-pub fn predict_quality(model: &SaqpModelFile, phones_file: &Path) -> Result<QualityPrediction> {
+pub fn predict_quality(model: &SaqpModelFile, phones_file: &Path) -> Result<QualityEstimate> {
     let alignment = read_alignment(phones_file, None)?;
     predict_phones(model, &phones_file.display().to_string(), &alignment.phones)
 }
@@ -470,9 +481,8 @@ pub fn predict_phones(
     model: &SaqpModelFile,
     name: &str,
     phones: &[Phone],
-) -> Result<QualityPrediction> {
-    let (e, prediction) = model.predictor.predict(name, phones).map_err(saqp_error)?;
-    Ok(QualityPrediction { e, prediction })
+) -> Result<QualityEstimate> {
+    model.predictor.predict(name, phones).map_err(saqp_error)
 }
 
 /// The region PCA of a cross-validation: vertices, dimensions and variance kept per region.
@@ -520,13 +530,16 @@ pub fn synths_table(report: &CvReport) -> Table {
     );
     for s in &report.synths {
         let h = s.gp.hyper;
+        // Figures over no held-out sentence do not exist (an external synthesizer's motion
+        // may cover only some sentences).
+        let scored = |v: f64| if s.held_out.is_empty() { Cell::Missing } else { Cell::Num(v) };
         t.push_row(vec![
             Cell::Text(s.synth.name().into()),
             Cell::Int(s.held_out.len() as i64),
-            Cell::Num(s.pearson_r),
-            Cell::Num(s.rmse),
-            Cell::Num(s.rmse_constant),
-            Cell::Num(s.rmse / s.rmse_constant),
+            scored(s.pearson_r),
+            scored(s.rmse),
+            scored(s.rmse_constant),
+            scored(s.rmse / s.rmse_constant),
             Cell::Num(s.omega_m),
             Cell::Num(s.xi),
             Cell::Num(h.length_scale),
@@ -600,7 +613,7 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
         panels,
         width,
         panel_height: 180,
-        x_unit: "SENTENCE",
+        x_unit: "RANK",
     })
 }
 

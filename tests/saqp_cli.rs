@@ -1,0 +1,205 @@
+//! `lipmap saqp` through the binary on a 30-sentence demo session made without video
+//! frames: cross-validation of the built-in synthesizers and of an external one read from
+//! motion CSVs, a trained predictor scoring phone files, and the bad inputs a researcher can
+//! give it, each a one-line error naming the file or folder.
+
+use lipmap::io::motion_csv::{VertexMotion, format_motion_csv};
+use lipmap::math::Point3;
+use lipmap::workflow::saqp::{marker_vertices, session_corpus};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn lipmap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The one error line of a failed run (progress lines aside).
+fn one_error(out: &Output) -> String {
+    assert!(!out.status.success(), "expected a failure, got: {}", text(&out.stdout));
+    let lines: Vec<String> = text(&out.stderr)
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with("cross-validating"))
+        .map(String::from)
+        .collect();
+    assert_eq!(lines.len(), 1, "not one line: {lines:?}");
+    lines[0].clone()
+}
+
+fn demo(dir: &Path) -> PathBuf {
+    let out_dir = dir.join("demo");
+    let out =
+        lipmap(&["demo", "--no-tui", "--no-frames", "--sentences", "30", "--out", s(&out_dir)]);
+    assert!(out.status.success(), "demo: {}", text(&out.stderr));
+    let pngs = walk(&out_dir).into_iter().filter(|p| p.extension().is_some_and(|e| e == "png"));
+    assert_eq!(pngs.count(), 0, "--no-frames still rendered frames");
+    out_dir.join("demo.lipmap.json")
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() { out.extend(walk(&p)) } else { out.push(p) }
+    }
+    out
+}
+
+/// A synthesizer that lags the real motion by `lag` frames, as marker CSVs, one per
+/// sentence.
+fn write_lagged_motion(session: &Path, dir: &Path, lag: usize) {
+    std::fs::create_dir_all(dir).unwrap();
+    let sc = session_corpus(&[s(session).to_string()], &|_| {}).unwrap();
+    let markers: Vec<usize> = marker_vertices(&sc.corpus).unwrap().iter().map(|m| m.0).collect();
+    let shapes = &sc.corpus.shapes;
+    for sentence in &sc.corpus.sentences {
+        let frames = (0..sentence.frames.len())
+            .map(|f| {
+                let x = shapes.shape(&sentence.frames[f.saturating_sub(lag)]);
+                markers.iter().map(|&v| Point3::new(x[3 * v], x[3 * v + 1], x[3 * v + 2])).collect()
+            })
+            .collect();
+        let motion = VertexMotion { vertices: markers.clone(), frames };
+        let mut sorted = motion.clone();
+        // The CSV reader gives vertices in ascending order; write them so.
+        let mut order: Vec<usize> = (0..markers.len()).collect();
+        order.sort_by_key(|&k| markers[k]);
+        sorted.vertices = order.iter().map(|&k| markers[k]).collect();
+        sorted.frames =
+            motion.frames.iter().map(|f| order.iter().map(|&k| f[k]).collect()).collect();
+        std::fs::write(dir.join(format!("{}.csv", sentence.name)), format_motion_csv(&sorted))
+            .unwrap();
+    }
+}
+
+fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
+    let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
+    let (_, rows) = tables
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
+        .expect("the synthesizer table");
+    rows.as_array().unwrap().clone()
+}
+
+#[test]
+fn cross_validate_train_predict_and_every_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = demo(dir.path());
+
+    // The built-in synthesizers, with the paper's Fig. 8.
+    let png = dir.path().join("quality.png");
+    let out = lipmap(&["saqp", "cv", s(&session), "--plot", s(&png), "--json"]);
+    assert!(out.status.success(), "cv: {}", text(&out.stderr));
+    let rows = synth_rows(&out.stdout);
+    let names: Vec<&str> = rows.iter().map(|r| r["synthesizer"].as_str().unwrap()).collect();
+    assert_eq!(names, ["keyframe", "trajectory", "concat"]);
+    for r in &rows {
+        assert_eq!(r["held out"].as_i64(), Some(6), "{r}");
+        let rmse = r["RMSE"].as_f64().unwrap();
+        assert!(rmse.is_finite() && rmse > 0.0 && rmse < 2.0, "{r}");
+    }
+    let chart = image::open(&png).unwrap();
+    assert_eq!(chart.width(), 900);
+
+    // The markers a researcher's CSV must give.
+    let out = lipmap(&["saqp", "markers", s(&session), "--format", "csv"]);
+    assert!(out.status.success(), "markers: {}", text(&out.stderr));
+    let listing = text(&out.stdout);
+    assert!(listing.contains("vertex,mouth"), "{listing}");
+    assert!(listing.lines().filter(|l| l.ends_with(",yes")).count() >= 4, "{listing}");
+
+    // An external synthesizer from motion CSVs is scored beside nothing else.
+    let ext = dir.path().join("lagged");
+    write_lagged_motion(&session, &ext, 3);
+    let out = lipmap(&[
+        "saqp",
+        "cv",
+        s(&session),
+        "--synth-files",
+        s(&ext),
+        "--synth",
+        "external",
+        "--json",
+    ]);
+    assert!(out.status.success(), "external cv: {}", text(&out.stderr));
+    let rows = synth_rows(&out.stdout);
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0]["synthesizer"], "external");
+    assert_eq!(rows[0]["held out"].as_i64(), Some(6), "{}", rows[0]);
+    assert!(rows[0]["RMSE"].as_f64().is_some_and(f64::is_finite), "{}", rows[0]);
+
+    // A trained predictor scores phone files and names phones the corpus never saw.
+    let model = dir.path().join("quality.json");
+    let out = lipmap(&["saqp", "train", s(&session), "--synth", "keyframe", "--out", s(&model)]);
+    assert!(out.status.success(), "train: {}", text(&out.stderr));
+    assert!(text(&out.stdout).contains("keyframe quality predictor on 30 sentences"));
+    let known = dir.path().join("known.csv");
+    std::fs::write(
+        &known,
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,IH1\n0.45,0.6,N\n0.6,0.8,sil\n",
+    )
+    .unwrap();
+    let foreign = dir.path().join("foreign.csv");
+    std::fs::write(
+        &foreign,
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,ə\n0.45,0.6,N\n0.6,0.8,sil\n",
+    )
+    .unwrap();
+    let out = lipmap(&["saqp", "predict", s(&model), "--phones", s(&known), s(&foreign), "--json"]);
+    assert!(out.status.success(), "predict: {}", text(&out.stderr));
+    let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = tables.as_object().unwrap().values().next().unwrap().as_array().unwrap().clone();
+    assert_eq!(rows.len(), 2);
+    for r in &rows {
+        let p = r["predicted"].as_f64().unwrap();
+        assert!(p.is_finite() && p > 0.0 && p < 6.0, "{r}");
+    }
+    assert_eq!(rows[0]["unseen phones"], "");
+    assert_eq!(rows[1]["unseen phones"], "ə");
+
+    // Bad inputs: one line naming the place.
+    let first = std::fs::read_dir(&ext).unwrap().next().unwrap().unwrap().path();
+    let name = first.file_stem().unwrap().to_string_lossy().into_owned();
+    let good = std::fs::read_to_string(&first).unwrap();
+    let cv_ext = || lipmap(&["saqp", "cv", s(&session), "--synth-files", s(&ext)]);
+    let lines: Vec<&str> = good.lines().collect();
+    // One frame short.
+    let last_frame = lines.last().unwrap().split(',').next().unwrap().to_string();
+    let short: Vec<&str> =
+        lines.iter().copied().filter(|l| !l.starts_with(&format!("{last_frame},"))).collect();
+    std::fs::write(&first, short.join("\n")).unwrap();
+    let e = one_error(&cv_ext());
+    assert!(e.contains(s(&ext)) && e.contains(&name) && e.contains("frames"), "{e}");
+    // A marker missing.
+    let marker = lines[1].split(',').nth(1).unwrap().to_string();
+    let no_marker: Vec<&str> =
+        lines.iter().copied().filter(|l| l.split(',').nth(1) != Some(marker.as_str())).collect();
+    std::fs::write(&first, no_marker.join("\n")).unwrap();
+    let e = one_error(&cv_ext());
+    assert!(e.contains(&marker) && e.contains("lipmap saqp markers"), "{e}");
+    // A bad number.
+    let mut bad_number: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+    let mut fields: Vec<&str> = lines[1].split(',').collect();
+    fields[2] = "1.0e";
+    bad_number[1] = fields.join(",");
+    std::fs::write(&first, bad_number.join("\n")).unwrap();
+    let e = one_error(&cv_ext());
+    assert!(e.contains(&format!("{name}.csv:2")), "{e}");
+    // A folder with nothing for any sentence.
+    let empty = dir.path().join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let e = one_error(&lipmap(&["saqp", "cv", s(&session), "--synth-files", s(&empty)]));
+    assert!(e.contains(s(&empty)) && e.contains("no synthesized motion"), "{e}");
+    // Not a predictor.
+    let e = one_error(&lipmap(&["saqp", "predict", s(&known), "--phones", s(&known)]));
+    assert!(e.contains(s(&known)) && e.contains("not a quality model"), "{e}");
+}

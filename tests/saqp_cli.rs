@@ -5,7 +5,7 @@
 
 use lipmap::io::motion_csv::{VertexMotion, format_motion_csv};
 use lipmap::math::Point3;
-use lipmap::workflow::saqp::{marker_vertices, session_corpus};
+use lipmap::workflow::saqp::{CorpusOptions, marker_vertices, session_corpus};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -56,7 +56,7 @@ fn walk(dir: &Path) -> Vec<PathBuf> {
 /// sentence.
 fn write_lagged_motion(session: &Path, dir: &Path, lag: usize) {
     std::fs::create_dir_all(dir).unwrap();
-    let sc = session_corpus(&[s(session).to_string()], &|_| {}).unwrap();
+    let sc = session_corpus(&[s(session).to_string()], &CorpusOptions::default(), &|_| {}).unwrap();
     let markers: Vec<usize> = marker_vertices(&sc.corpus).unwrap().iter().map(|m| m.0).collect();
     let shapes = &sc.corpus.shapes;
     for sentence in &sc.corpus.sentences {

@@ -6,9 +6,9 @@ use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::eval::{Cell, Table};
 use crate::saqp::{CvOptions, SatfParams, SynthKind};
 use crate::workflow::saqp::{
-    SaqpSettings, cross_validate_corpus, held_out_table, load_predictor, marker_vertices,
-    predict_quality, regions_table, save_predictor, session_corpus, synths_table, train_predictor,
-    write_quality_chart,
+    CorpusOptions, SaqpSettings, cross_validate_corpus, held_out_table, load_predictor,
+    marker_vertices, predict_quality, regions_table, save_predictor, session_corpus, synths_table,
+    train_predictor, write_quality_chart,
 };
 use anyhow::Result;
 use std::io::Write;
@@ -77,6 +77,10 @@ pub struct LearnArgs {
     /// ω_m, the weight of the mouth markers; default: chosen by cross-validation.
     #[arg(long)]
     pub omega_m: Option<f64>,
+    /// Take flagged frames as ground truth as they are (default: bridge them from their
+    /// unflagged neighbours, so a tracker's gross error is not scored as the truth).
+    #[arg(long)]
+    pub keep_flagged: bool,
 }
 
 impl LearnArgs {
@@ -104,7 +108,11 @@ impl LearnArgs {
             synths,
             ..CvOptions::default()
         };
-        Ok(SaqpSettings { cv, synth_files: self.synth_files.clone() })
+        Ok(SaqpSettings {
+            corpus: CorpusOptions { keep_flagged: self.keep_flagged },
+            cv,
+            synth_files: self.synth_files.clone(),
+        })
     }
 }
 
@@ -185,11 +193,14 @@ fn chosen_synths(a: &CvArgs) -> Vec<SynthKind> {
 fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
     let settings = a.learn.settings(chosen_synths(a))?;
     let bar = frames_bar(0, "fitting");
-    let sc = session_corpus(&a.learn.sessions, &show_on(&bar))?;
+    let sc = session_corpus(&a.learn.sessions, &settings.corpus, &show_on(&bar))?;
     bar.finish_and_clear();
     eprintln!(
-        "cross-validating on {} ({})…",
+        "cross-validating on {} ({} frames, {} bridged{}; {})…",
         plural(sc.corpus.sentences.len(), "sentence"),
+        sc.frames,
+        sc.bridged,
+        if a.learn.keep_flagged { ": failed fits" } else { ": failed fits and flagged frames" },
         plural(settings.cv.synths.len(), "synthesizer")
     );
     let start = std::time::Instant::now();
@@ -283,7 +294,7 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
 
 fn markers(a: &MarkersArgs, out: &mut dyn Write) -> Result<()> {
     let bar = frames_bar(0, "fitting");
-    let sc = session_corpus(&a.sessions, &show_on(&bar))?;
+    let sc = session_corpus(&a.sessions, &CorpusOptions::default(), &show_on(&bar))?;
     bar.finish_and_clear();
     print_warnings(&sc.warnings);
     let markers = marker_vertices(&sc.corpus)?;

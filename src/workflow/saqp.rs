@@ -13,15 +13,18 @@
 //! predictors are saved by [`save_predictor`] and read by [`load_predictor`].
 
 use super::error::{Context, Error, Result, Warning};
-use super::fit::{fit_clip_cached, held_fits};
+use super::fit::fit_clip_cached;
+use super::flags::clip_flags;
 use super::resources::Resources;
 use super::session::{clip_length, open_for_read};
 use super::{Progress, ProgressFn};
 use crate::alignment::Phone;
 use crate::eval::{Cell, Table};
+use crate::fit::FrameFit;
 use crate::io::alignment_format::read_alignment;
 use crate::io::motion_csv::read_motion_csv;
 use crate::io::obj::read_obj;
+use crate::landmarks::flags::FlagThresholds;
 use crate::math::{DVector, Point3};
 use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
 use crate::saqp::{
@@ -50,7 +53,18 @@ pub struct SessionCorpus {
     pub corpus: Corpus,
     /// One per sentence, in corpus order.
     pub origins: Vec<SentenceOrigin>,
+    /// Frames in the corpus, and those bridged (a failed fit, or flagged and not kept).
+    pub frames: usize,
+    pub bridged: usize,
     pub warnings: Vec<Warning>,
+}
+
+/// Which frames make the ground-truth motion.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CorpusOptions {
+    /// Use flagged frames (`lipmap fit`'s tracker and fit checks) as they are, instead of
+    /// bridging them from their unflagged neighbours.
+    pub keep_flagged: bool,
 }
 
 /// A core error as a workflow error.
@@ -63,11 +77,21 @@ fn saqp_error(e: SaqpError) -> Error {
 /// it where the session can be locked. Sentences are named by their clip; a clip name that
 /// several sessions use becomes `SESSION:CLIP` (the session file's stem).
 ///
+/// The corpus is the ground truth every synthesizer is scored against, so a tracker's gross
+/// error would count as the truth: frames whose fit failed, and unless
+/// `options.keep_flagged` frames the flags mark, are bridged linearly from the nearest
+/// usable frames on either side.
+///
 /// # Errors
 /// A session, model or map that cannot be read; sessions of different models or maps; no
 /// clip with both an alignment and a good fit.
-pub fn session_corpus(sessions: &[String], progress: ProgressFn<'_>) -> Result<SessionCorpus> {
+pub fn session_corpus(
+    sessions: &[String],
+    options: &CorpusOptions,
+    progress: ProgressFn<'_>,
+) -> Result<SessionCorpus> {
     let mut warnings = Vec::new();
+    let (mut frames_total, mut bridged_total) = (0usize, 0usize);
     let mut shared: Option<(Resources, String)> = None;
     let mut sentences: Vec<Sentence> = Vec::new();
     let mut origins = Vec::new();
@@ -107,12 +131,23 @@ pub fn session_corpus(sessions: &[String], progress: ProgressFn<'_>) -> Result<S
                 .map_err(|e| e.context(format!("{s}: clip `{name}`")))?
                 .fits;
             let n = clip_length(session, clip)?;
-            let Some(held) = held_fits(&fits, n) else {
+            let skip: Vec<usize> = if options.keep_flagged {
+                Vec::new()
+            } else {
+                let track = session.effective_track(clip)?;
+                clip_flags(&track, &fits, &[], &FlagThresholds::default())
+                    .iter()
+                    .map(|f| f.frame)
+                    .collect()
+            };
+            let Some((frames, bridged)) = bridged_coefficients(&fits, n, &skip) else {
                 warnings.push(Warning(format!(
                     "lipmap: warning: {s}: clip `{name}` has no successful fit; not used"
                 )));
                 continue;
             };
+            frames_total += n;
+            bridged_total += bridged;
             for f in fits.iter().filter(|f| f.failed.is_none()) {
                 let c = LinearShapes::neutral_of_fit(f);
                 neutral_sum = Some(neutral_sum.map_or_else(|| c.clone(), |sum| sum + &c));
@@ -122,7 +157,7 @@ pub fn session_corpus(sessions: &[String], progress: ProgressFn<'_>) -> Result<S
                 name,
                 phones: alignment.phones,
                 fps,
-                frames: held.iter().map(LinearShapes::coefficients_of_fit).collect(),
+                frames,
                 neutral: DVector::zeros(0),
             });
             origins.push(SentenceOrigin { session: read.path.clone(), clip });
@@ -160,7 +195,51 @@ pub fn session_corpus(sessions: &[String], progress: ProgressFn<'_>) -> Result<S
     let corpus =
         Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
     corpus.validate().map_err(saqp_error)?;
-    Ok(SessionCorpus { corpus, origins, warnings })
+    Ok(SessionCorpus { corpus, origins, frames: frames_total, bridged: bridged_total, warnings })
+}
+
+/// The shape coefficients of `n` frames from `fits`, with frames that failed, are missing
+/// or are listed in `skip` interpolated linearly between the nearest usable frames (held at
+/// the ends), and how many were so bridged. When `skip` leaves no usable frame it is
+/// ignored; `None` without any successful fit.
+fn bridged_coefficients(
+    fits: &[FrameFit],
+    n: usize,
+    skip: &[usize],
+) -> Option<(Vec<DVector>, usize)> {
+    let mut usable: Vec<Option<DVector>> = vec![None; n];
+    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n) {
+        usable[f.frame] = Some(LinearShapes::coefficients_of_fit(f));
+    }
+    if !usable.iter().any(Option::is_some) {
+        return None;
+    }
+    let mut kept = usable.clone();
+    for &f in skip.iter().filter(|&&f| f < n) {
+        kept[f] = None;
+    }
+    if kept.iter().any(Option::is_some) {
+        usable = kept;
+    }
+    let known: Vec<usize> = (0..n).filter(|&f| usable[f].is_some()).collect();
+    let bridged = n - known.len();
+    let coefficient = |f: usize| usable[f].clone().unwrap_or_else(|| DVector::zeros(0));
+    let frames = (0..n)
+        .map(|f| {
+            let after = known.partition_point(|&k| k < f);
+            match (after.checked_sub(1).map(|i| known[i]), known.get(after).copied()) {
+                (_, Some(b)) if b == f => coefficient(f),
+                (Some(a), Some(b)) => {
+                    let t = (f - a) as f64 / (b - a) as f64;
+                    coefficient(a) * (1.0 - t) + coefficient(b) * t
+                }
+                (Some(a), None) => coefficient(a),
+                (None, Some(b)) => coefficient(b),
+                (None, None) => unreachable!("some frame is usable"),
+            }
+        })
+        .collect();
+    Some((frames, bridged))
 }
 
 /// `demo` of `sessions/demo.lipmap.json`.
@@ -278,6 +357,7 @@ fn last_number(path: &Path) -> u64 {
 /// folder of the researcher's motion.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SaqpSettings {
+    pub corpus: CorpusOptions,
     pub cv: CvOptions,
     pub synth_files: Option<PathBuf>,
 }
@@ -345,7 +425,7 @@ pub fn cross_validate_sessions(
     settings: &SaqpSettings,
     progress: ProgressFn<'_>,
 ) -> Result<SaqpCv> {
-    let sc = session_corpus(sessions, progress)?;
+    let sc = session_corpus(sessions, &settings.corpus, progress)?;
     cross_validate_corpus(sc, settings)
 }
 
@@ -409,7 +489,8 @@ pub fn train_predictor(
     synth: SynthKind,
     progress: ProgressFn<'_>,
 ) -> Result<SaqpTrained> {
-    let SessionCorpus { corpus, mut warnings, .. } = session_corpus(sessions, progress)?;
+    let SessionCorpus { corpus, mut warnings, .. } =
+        session_corpus(sessions, &settings.corpus, progress)?;
     let external = external_motion(settings, &corpus, &mut warnings)?;
     let mut cv = settings.cv.clone();
     if !cv.synths.contains(&synth) {
@@ -628,4 +709,34 @@ pub fn write_quality_chart(path: &Path, report: &CvReport) -> Result<()> {
         img.write_with_encoder(enc).map_err(std::io::Error::other)
     })
     .map_err(|e| Error::io(path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit(frame: usize, value: f64) -> FrameFit {
+        FrameFit { identity: vec![1.0], expression: vec![value], ..FrameFit::unposed(frame) }
+    }
+
+    fn values(frames: &[DVector]) -> Vec<f64> {
+        frames.iter().map(|c| c[1]).collect()
+    }
+
+    #[test]
+    fn skipped_and_failed_frames_are_bridged_linearly_and_held_at_the_ends() {
+        let mut fits: Vec<FrameFit> =
+            [(0, 9.0), (1, 0.0), (2, 2.0), (3, 50.0), (4, 6.0)].map(|(f, v)| fit(f, v)).to_vec();
+        fits[1].failed = Some("too few landmarks".into());
+        // Frame 5 is missing from the fits; frame 3 is flagged, frame 0 too.
+        let (frames, bridged) = bridged_coefficients(&fits, 7, &[0, 3]).unwrap();
+        assert_eq!(values(&frames), vec![2.0, 2.0, 2.0, 4.0, 6.0, 6.0, 6.0]);
+        assert_eq!(bridged, 5);
+        assert!(frames.iter().all(|c| c[0] == 1.0));
+        // A skip list that would leave nothing is ignored; no good fit at all is `None`.
+        let (frames, bridged) = bridged_coefficients(&fits[..1], 2, &[0]).unwrap();
+        assert_eq!((values(&frames), bridged), (vec![9.0, 9.0], 1));
+        fits.iter_mut().for_each(|f| f.failed = Some("x".into()));
+        assert!(bridged_coefficients(&fits, 5, &[]).is_none());
+    }
 }

@@ -77,8 +77,9 @@ pub struct LearnArgs {
     /// ω_m, the weight of the mouth markers; default: chosen by cross-validation.
     #[arg(long)]
     pub omega_m: Option<f64>,
-    /// Take flagged frames as ground truth as they are (default: bridge them from their
-    /// unflagged neighbours, so a tracker's gross error is not scored as the truth).
+    /// Take frames flagged as mis-tracked (crossed lips, a broken lip shape, a high fit
+    /// residual) as ground truth as they are (default: bridge them from their neighbours,
+    /// so a tracker's gross error is not scored as the truth).
     #[arg(long)]
     pub keep_flagged: bool,
 }
@@ -200,7 +201,7 @@ fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
         plural(sc.corpus.sentences.len(), "sentence"),
         sc.frames,
         sc.bridged,
-        if a.learn.keep_flagged { ": failed fits" } else { ": failed fits and flagged frames" },
+        if a.learn.keep_flagged { ": failed fits" } else { ": failed fits and mis-tracked frames" },
         plural(settings.cv.synths.len(), "synthesizer")
     );
     let start = std::time::Instant::now();

@@ -75,6 +75,16 @@ impl fmt::Display for FlagReason {
     }
 }
 
+impl FlagReason {
+    /// Whether the reason is evidence that the frame's landmarks or fit are wrong, not only
+    /// that its motion is unusual: a jump or a measure break alone also marks real fast
+    /// speech (a wide opening), while a crossed lip, a broken lip shape, a fit that cannot
+    /// follow the points or the tracker's own doubt do not happen on a good track.
+    pub fn discredits_frame(&self) -> bool {
+        !matches!(self, Self::Jump { .. } | Self::MeasureOutlier { .. })
+    }
+}
+
 /// The outer and inner mouth corners, whose jumps are named as such.
 pub const MOUTH_CORNERS: [usize; 4] = [48, 54, 60, 64];
 

@@ -62,8 +62,9 @@ pub struct SessionCorpus {
 /// Which frames make the ground-truth motion.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CorpusOptions {
-    /// Use flagged frames (`lipmap fit`'s tracker and fit checks) as they are, instead of
-    /// bridging them from their unflagged neighbours.
+    /// Use frames the flags discredit (crossed lips, a broken lip shape, a high fit
+    /// residual, the tracker's own doubt) as they are, instead of bridging them from their
+    /// neighbours.
     pub keep_flagged: bool,
 }
 
@@ -79,8 +80,10 @@ fn saqp_error(e: SaqpError) -> Error {
 ///
 /// The corpus is the ground truth every synthesizer is scored against, so a tracker's gross
 /// error would count as the truth: frames whose fit failed, and unless
-/// `options.keep_flagged` frames the flags mark, are bridged linearly from the nearest
-/// usable frames on either side.
+/// `options.keep_flagged` frames whose flags discredit them
+/// ([`crate::landmarks::flags::FlagReason::discredits_frame`]), are bridged linearly from
+/// the nearest usable frames on either side. Frames flagged only as unusual motion stay:
+/// they are as often real fast speech.
 ///
 /// # Errors
 /// A session, model or map that cannot be read; sessions of different models or maps; no
@@ -137,6 +140,7 @@ pub fn session_corpus(
                 let track = session.effective_track(clip)?;
                 clip_flags(&track, &fits, &[], &FlagThresholds::default())
                     .iter()
+                    .filter(|f| f.reasons.iter().any(|r| r.discredits_frame()))
                     .map(|f| f.frame)
                     .collect()
             };

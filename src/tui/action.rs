@@ -127,6 +127,9 @@ pub enum Action {
     OpenRow,
     /// Draw the speech-driven head's series in the charts, or hide it.
     ToggleSpeech,
+    /// Cross-validate quality prediction (SAQP) over the session's clips and list the
+    /// held-out sentences.
+    AssessQuality,
 
     // ---- help overlay ----
     ScrollDown,
@@ -245,6 +248,17 @@ pub enum Action {
     SpeechAbsent {
         why: String,
     },
+    /// The quality cross-validation's tables, computed on a worker.
+    #[serde(skip)]
+    QualityReady {
+        tables: Vec<crate::tui::app::AnalysisTable>,
+        summary: String,
+    },
+    /// Why there is no quality cross-validation.
+    #[serde(skip)]
+    QualityFailed {
+        error: String,
+    },
     /// Transferred head `index` set up on a worker, or why not.
     #[serde(skip)]
     HeadPrepared {
@@ -333,6 +347,9 @@ impl Action {
             Self::SortReverse => "reverse the sort order",
             Self::OpenRow => "open the row's frame in the frames view",
             Self::ToggleSpeech => "show / hide the speech-driven head in the charts",
+            Self::AssessQuality => {
+                "cross-validate quality prediction (SAQP) over the session's sentences"
+            }
             Self::ScrollDown => "scroll down",
             Self::ScrollUp => "scroll up",
             Self::PromptChar(_)
@@ -362,6 +379,8 @@ impl Action {
             | Self::PlayTick
             | Self::SpeechReady { .. }
             | Self::SpeechAbsent { .. }
+            | Self::QualityReady { .. }
+            | Self::QualityFailed { .. }
             | Self::HeadPrepared { .. }
             | Self::HeadFrameReady(_) => "internal",
         };

@@ -241,6 +241,9 @@ pub struct AnalysisRow {
     pub keys: Vec<Option<f64>>,
     /// The frame Enter jumps to (a worst frame, or the first frame of a phoneme).
     pub frame: Option<usize>,
+    /// The session's clip Enter opens (a sentence of the quality tables), when not the
+    /// open one.
+    pub clip: Option<usize>,
 }
 
 impl AnalysisRow {
@@ -250,7 +253,7 @@ impl AnalysisRow {
         cells.extend(values.iter().map(|v| format!("{v:.3}")));
         let mut keys = vec![None];
         keys.extend(values.iter().map(|v| Some(*v)));
-        Self { cells, keys, frame }
+        Self { cells, keys, frame, clip: None }
     }
 }
 
@@ -343,6 +346,8 @@ pub enum Effect {
     Analyse {
         generation: u64,
     },
+    /// Cross-validate quality prediction over the session's sentences.
+    AssessQuality,
     /// Decode this side-view frame.
     LoadSideFrame(usize),
     /// Set up the transfer onto the session's transferred head number `.0`.
@@ -411,6 +416,14 @@ pub struct App {
     pub analysis_view: AnalysisView,
     /// Generation of the newest requested analysis; older replies are dropped.
     pub analysis_generation: u64,
+    /// The quality cross-validation's tables (SAQP over the session's sentences), kept
+    /// after the clip's own analysis tables whenever those are recomputed.
+    pub quality: Vec<AnalysisTable>,
+    /// A quality cross-validation is running on a worker.
+    pub quality_running: bool,
+    /// Where in the quality tables the previous clip left the cursor (table counted from
+    /// the first quality table), until this clip's own tables arrive in front of them.
+    pub quality_view: Option<AnalysisView>,
     /// The speech-driven head's series for the charts, and whether they are drawn.
     pub speech: SpeechSeries,
     pub show_speech: bool,
@@ -473,6 +486,9 @@ impl App {
             analysis: AnalysisData::default(),
             analysis_view: AnalysisView::default(),
             analysis_generation: 0,
+            quality: Vec::new(),
+            quality_running: false,
+            quality_view: None,
             speech: SpeechSeries::Pending,
             show_speech: true,
             heads: TransferredHeads::default(),
@@ -603,6 +619,20 @@ impl App {
             self.heads = TransferredHeads { current: None, ..previous.heads.clone() };
         }
         self.show_speech = previous.show_speech;
+        // The quality tables are the session's: a sentence opened from them keeps them, with
+        // the cursor where it was, so the next sentence is one Enter away.
+        self.quality = previous.quality.clone();
+        let own_now = self.analysis.tables.len();
+        self.analysis.tables.extend(self.quality.iter().cloned());
+        let own = previous.analysis.tables.len().saturating_sub(previous.quality.len());
+        if !previous.quality.is_empty() && previous.analysis_view.table >= own {
+            let view = AnalysisView {
+                table: previous.analysis_view.table - own,
+                ..previous.analysis_view
+            };
+            self.analysis_view = AnalysisView { table: own_now + view.table, ..view };
+            self.quality_view = Some(view);
+        }
         self.status = format!("clip {} of {}: {clip_name}", self.clip + 1, self.clip_names.len());
     }
 

@@ -446,6 +446,14 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
             }
+            Effect::AssessQuality => {
+                // The worker reads the session as last written back, with every correction.
+                if let Err(e) = bridge.write_back(app) {
+                    apply(app, Action::QualityFailed { error: format!("{e:#}") });
+                    continue;
+                }
+                workers.run_once("the quality cross-validation", bridge.quality_job());
+            }
             Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
                 Some(job) => workers.run_once("the transferred head's set-up", job),
                 None => {

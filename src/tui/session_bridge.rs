@@ -301,6 +301,13 @@ impl SessionBridge {
         move || super::widgets::worker::speech_for_tui(&mut session, clip)
     }
 
+    /// The quality cross-validation over this session's sentences for a worker thread (it
+    /// may fit what the cache lacks): replies `QualityReady` or `QualityFailed`.
+    pub fn quality_job(&self) -> impl FnOnce() -> Action + Send + 'static {
+        let (mut session, path) = (self.session.clone(), self.path.clone());
+        move || super::widgets::worker::quality_for_tui(&mut session, &path)
+    }
+
     /// The set-up of the session's transferred head number `index` for a worker thread:
     /// replies `HeadPrepared`. `None` when the session has no such head.
     pub fn head_setup_job(&self, index: usize) -> Option<impl FnOnce() -> Action + Send + 'static> {

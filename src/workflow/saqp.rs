@@ -31,6 +31,7 @@ use crate::saqp::{
     Corpus, CvOptions, CvReport, External, LinearShapes, Predictor, Prepared, QualityEstimate,
     SaqpError, Sentence, SynthKind, TrainOptions,
 };
+use crate::session::Session;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -93,15 +94,11 @@ pub fn session_corpus(
     options: &CorpusOptions,
     progress: ProgressFn<'_>,
 ) -> Result<SessionCorpus> {
-    let mut warnings = Vec::new();
-    let (mut frames_total, mut bridged_total) = (0usize, 0usize);
+    let mut g = Gathering::default();
     let mut shared: Option<(Resources, String)> = None;
-    let mut sentences: Vec<Sentence> = Vec::new();
-    let mut origins = Vec::new();
-    let mut stems = Vec::new();
     for s in sessions {
         let mut read = open_for_read(s)?;
-        warnings.extend(read.notice.take());
+        g.warnings.extend(read.notice.take());
         let res = Resources::load(&read.session).map_err(|e| e.context(s))?;
         if let Some((first, name)) = &shared
             && (first.model.num_vertices() != res.model.num_vertices()
@@ -113,16 +110,68 @@ pub fn session_corpus(
                 "{s}: its model or landmark map differs from {name}'s; gather sessions of one model"
             )));
         }
-        let session = &mut read.session;
+        g.add_session(&mut read.session, &read.path, &res, s, options, progress)?;
+        read.save_if_locked().context(s.as_str())?;
+        if shared.is_none() {
+            shared = Some((res, s.clone()));
+        }
+    }
+    progress(Progress::Finished);
+    let (res, _) = shared.ok_or_else(|| Error::Invalid("no sessions given".into()))?;
+    g.finish(res, &sessions.join(", "))
+}
+
+/// [`session_corpus`] of one session already open (the TUI's, with its unsaved
+/// corrections), at `path`; fits the cache lacks are computed and kept in `session`.
+///
+/// # Errors
+/// As [`session_corpus`].
+pub fn open_session_corpus(
+    session: &mut Session,
+    path: &Path,
+    options: &CorpusOptions,
+    progress: ProgressFn<'_>,
+) -> Result<SessionCorpus> {
+    let label = path.display().to_string();
+    let res = Resources::load(session).map_err(|e| e.context(&label))?;
+    let mut g = Gathering::default();
+    g.add_session(session, path, &res, &label, options, progress)?;
+    progress(Progress::Finished);
+    g.finish(res, &label)
+}
+
+/// Sentences gathered so far from some sessions.
+#[derive(Default)]
+struct Gathering {
+    sentences: Vec<Sentence>,
+    origins: Vec<SentenceOrigin>,
+    stems: Vec<String>,
+    frames: usize,
+    bridged: usize,
+    warnings: Vec<Warning>,
+}
+
+impl Gathering {
+    /// Adds the usable clips of `session` (named `s` in messages), with the session's
+    /// neutral.
+    fn add_session(
+        &mut self,
+        session: &mut Session,
+        path: &Path,
+        res: &Resources,
+        s: &str,
+        options: &CorpusOptions,
+        progress: ProgressFn<'_>,
+    ) -> Result<()> {
         let settings = session.fit_settings.clone();
         let mut neutral_sum: Option<DVector> = None;
         let mut good_total = 0usize;
-        let first_new = sentences.len();
+        let first_new = self.sentences.len();
         for clip in 0..session.clips.len() {
             let c = &session.clips[clip];
             let (name, fps) = (c.name.clone(), c.front.fps);
             let Some(alignment) = c.alignment.clone().filter(|a| !a.phones.is_empty()) else {
-                warnings.push(Warning(format!(
+                self.warnings.push(Warning(format!(
                     "lipmap: warning: {s}: clip `{name}` has no phone alignment; not used \
                      (a clip gets one with --alignment in `lipmap new` or `lipmap import`)"
                 )));
@@ -130,7 +179,7 @@ pub fn session_corpus(
             };
             progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
             let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
-            let fits = fit_clip_cached(session, &res, clip, &settings, Some(&steps))
+            let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))
                 .map_err(|e| e.context(format!("{s}: clip `{name}`")))?
                 .fits;
             let n = clip_length(session, clip)?;
@@ -145,61 +194,60 @@ pub fn session_corpus(
                     .collect()
             };
             let Some((frames, bridged)) = bridged_coefficients(&fits, n, &skip) else {
-                warnings.push(Warning(format!(
+                self.warnings.push(Warning(format!(
                     "lipmap: warning: {s}: clip `{name}` has no successful fit; not used"
                 )));
                 continue;
             };
-            frames_total += n;
-            bridged_total += bridged;
+            self.frames += n;
+            self.bridged += bridged;
             for f in fits.iter().filter(|f| f.failed.is_none()) {
                 let c = LinearShapes::neutral_of_fit(f);
                 neutral_sum = Some(neutral_sum.map_or_else(|| c.clone(), |sum| sum + &c));
                 good_total += 1;
             }
-            sentences.push(Sentence {
+            self.sentences.push(Sentence {
                 name,
                 phones: alignment.phones,
                 fps,
                 frames,
                 neutral: DVector::zeros(0),
             });
-            origins.push(SentenceOrigin { session: read.path.clone(), clip });
-            stems.push(session_stem(&read.path));
+            self.origins.push(SentenceOrigin { session: path.to_path_buf(), clip });
+            self.stems.push(session_stem(path));
         }
         if let Some(sum) = neutral_sum {
             let neutral = sum / good_total as f64;
-            for sentence in &mut sentences[first_new..] {
+            for sentence in &mut self.sentences[first_new..] {
                 sentence.neutral = neutral.clone();
             }
         }
-        read.save_if_locked().context(s.as_str())?;
-        if shared.is_none() {
-            shared = Some((res, s.clone()));
+        Ok(())
+    }
+
+    /// The corpus on `res`'s model and map; `what` names the sessions in errors.
+    fn finish(self, res: Resources, what: &str) -> Result<SessionCorpus> {
+        let Gathering { mut sentences, origins, stems, frames, bridged, warnings } = self;
+        if sentences.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{what}: no clip has both a phone alignment and a successful fit (a clip gets an \
+                 alignment with --alignment in `lipmap new` or `lipmap import`)"
+            )));
         }
-    }
-    progress(Progress::Finished);
-    let (res, _) = shared.ok_or_else(|| Error::Invalid("no sessions given".into()))?;
-    if sentences.is_empty() {
-        return Err(Error::Invalid(format!(
-            "{}: no clip has both a phone alignment and a successful fit (a clip gets an \
-             alignment with --alignment in `lipmap new` or `lipmap import`)",
-            sessions.join(", ")
-        )));
-    }
-    let mut count: HashMap<String, usize> = HashMap::new();
-    for s in &sentences {
-        *count.entry(s.name.clone()).or_default() += 1;
-    }
-    for (s, stem) in sentences.iter_mut().zip(&stems) {
-        if count[&s.name] > 1 {
-            s.name = format!("{stem}:{}", s.name);
+        let mut count: HashMap<String, usize> = HashMap::new();
+        for s in &sentences {
+            *count.entry(s.name.clone()).or_default() += 1;
         }
+        for (s, stem) in sentences.iter_mut().zip(&stems) {
+            if count[&s.name] > 1 {
+                s.name = format!("{stem}:{}", s.name);
+            }
+        }
+        let corpus =
+            Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
+        corpus.validate().map_err(saqp_error)?;
+        Ok(SessionCorpus { corpus, origins, frames, bridged, warnings })
     }
-    let corpus =
-        Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
-    corpus.validate().map_err(saqp_error)?;
-    Ok(SessionCorpus { corpus, origins, frames: frames_total, bridged: bridged_total, warnings })
 }
 
 /// The shape coefficients of `n` frames from `fits`, with frames that failed, are missing
@@ -359,7 +407,7 @@ fn last_number(path: &Path) -> u64 {
 
 /// What to learn: the cross-validation options and, for the external synthesizer, the
 /// folder of the researcher's motion.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct SaqpSettings {
     pub corpus: CorpusOptions,
     pub cv: CvOptions,
@@ -643,22 +691,24 @@ pub fn synths_table(report: &CvReport) -> Table {
     t
 }
 
-/// Every held-out sentence: E, ground-truth Q and Likert score, the prediction and its σ.
+/// Every held-out sentence: E, ground-truth Q and Likert score, the prediction, its σ and
+/// its error (predicted − ground truth, so the worst predicted sentences sort first).
 pub fn held_out_table(report: &CvReport) -> Table {
-    let headers = ["synthesizer", "sentence", "E", "Q", "likert", "predicted", "sigma"]
+    let headers = ["sentence", "synthesizer", "E", "Q", "likert", "predicted", "sigma", "error"]
         .map(String::from)
         .to_vec();
-    let mut t = Table::new("Held-out sentences", headers);
+    let mut t = Table::new("Held-out sentences: ground-truth and predicted quality", headers);
     for s in &report.synths {
         for h in &s.held_out {
             t.push_row(vec![
-                Cell::Text(s.synth.name().into()),
                 Cell::Text(h.sentence.clone()),
+                Cell::Text(s.synth.name().into()),
                 Cell::Num(h.e),
                 Cell::Num(h.q),
                 Cell::Num(h.likert),
                 Cell::Num(h.predicted.mean),
                 Cell::Num(h.predicted.std()),
+                Cell::Num(h.predicted.mean - h.likert),
             ]);
         }
     }

@@ -1,9 +1,9 @@
 //! The analysis view: moving through the tables' rows, sorting, opening a row's frame, and
 //! the charts' speech-driven series (its arrival, or why there is none, and its toggle).
 
-use super::global::go_to_frame;
+use super::global::{go_to_frame, quit};
 use crate::tui::action::Action;
-use crate::tui::app::{AnalysisView, App, SpeechSeries, View};
+use crate::tui::app::{AnalysisView, App, Effect, SpeechSeries, View};
 use crate::tui::views;
 
 /// Applies an action of this file (routed here by `update`).
@@ -38,17 +38,47 @@ pub(super) fn update(app: &mut App, action: Action) {
             app.analysis_view.row = 0;
         }
         A::OpenRow => {
-            let frame = app.analysis.tables.get(app.analysis_view.table).and_then(|t| {
+            let row = app.analysis.tables.get(app.analysis_view.table).and_then(|t| {
                 let order = views::analysis::sorted_rows(t, &app.analysis_view);
-                order.get(app.analysis_view.row).and_then(|&i| t.rows[i].frame)
+                order.get(app.analysis_view.row).map(|&i| &t.rows[i])
             });
-            match frame {
-                Some(f) => {
+            match row.map(|r| (r.frame, r.clip)) {
+                Some((_, Some(clip))) if clip != app.clip => {
+                    // As the next-clip key does: save, then reopen on that clip.
+                    app.switch_clip = Some(clip);
+                    quit(app);
+                }
+                Some((_, Some(_))) => app.status = "that sentence is the open clip".into(),
+                Some((Some(f), None)) => {
                     go_to_frame(app, f);
                     app.view = View::Frames;
                 }
-                None => app.status = "this row has no frame".into(),
+                _ => app.status = "this row has no frame".into(),
             }
+        }
+        A::AssessQuality => {
+            if app.quality_running {
+                app.status = "the quality cross-validation is already running".into();
+                return;
+            }
+            app.quality_running = true;
+            app.status = "cross-validating quality prediction over the session's sentences…".into();
+            app.effects.push(Effect::AssessQuality);
+        }
+        A::QualityReady { tables, summary } => {
+            app.quality_running = false;
+            let own = app.analysis.tables.len() - app.quality.len().min(app.analysis.tables.len());
+            app.analysis.tables.truncate(own);
+            app.analysis.tables.extend(tables.iter().cloned());
+            app.quality = tables;
+            // Show the held-out sentences.
+            app.analysis_view = AnalysisView { table: own, ..Default::default() };
+            app.view = View::Analysis;
+            app.status = summary;
+        }
+        A::QualityFailed { error } => {
+            app.quality_running = false;
+            app.status = format!("no quality cross-validation: {error}");
         }
         A::ToggleSpeech => {
             app.show_speech = !app.show_speech;
@@ -91,9 +121,82 @@ pub(super) fn speech_absent(app: &App) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use crate::tui::action::Action;
-    use crate::tui::app::{SpeechSeries, View};
+    use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Effect, SpeechSeries, View};
     use crate::tui::fixtures::synthetic_app;
     use crate::tui::update::update;
+
+    fn table(title: &str, rows: &[(&str, Option<usize>)]) -> AnalysisTable {
+        AnalysisTable {
+            title: title.into(),
+            columns: vec!["sentence".into(), "error".into()],
+            rows: rows
+                .iter()
+                .enumerate()
+                .map(|(i, (name, clip))| AnalysisRow {
+                    clip: *clip,
+                    ..AnalysisRow::numbers(name, &[i as f64], None)
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn quality_tables_follow_the_clips_own_and_enter_opens_the_sentence() {
+        let mut app = synthetic_app(10, 320, 240, true);
+        app.clip_names = vec!["s1".into(), "s2".into(), "s3".into()];
+        update(&mut app, Action::AssessQuality);
+        assert_eq!(app.effects, vec![Effect::AssessQuality]);
+        update(&mut app, Action::AssessQuality);
+        assert_eq!(app.effects.len(), 1, "a second run while one runs");
+        let own = AnalysisData { tables: vec![table("phonemes", &[])], ..Default::default() };
+        app.analysis = own.clone();
+        let held = table("held out", &[("s1", Some(0)), ("s3", Some(2))]);
+        let synths = table("synthesizers", &[("trajectory", None)]);
+        update(
+            &mut app,
+            Action::QualityReady {
+                tables: vec![held.clone(), synths.clone()],
+                summary: "q".into(),
+            },
+        );
+        assert_eq!(app.view, View::Analysis);
+        assert_eq!(app.analysis.tables, vec![own.tables[0].clone(), held.clone(), synths.clone()]);
+        assert_eq!(app.analysis_view.table, 1, "the held-out sentences are shown");
+        // The clip's own tables are recomputed; the quality tables stay after them.
+        let generation = app.analysis_generation;
+        update(&mut app, Action::AnalysisReady { generation, data: own.clone() });
+        assert_eq!(app.analysis.tables.len(), 3);
+        assert_eq!(app.analysis.tables[1], held);
+        // A second result replaces the first rather than adding to it.
+        update(&mut app, Action::QualityReady { tables: vec![held], summary: "q".into() });
+        assert_eq!(app.analysis.tables.len(), 2);
+        // Enter on the open clip's sentence says so; on another, that clip is opened.
+        update(&mut app, Action::OpenRow);
+        assert_eq!(app.status, "that sentence is the open clip");
+        assert_eq!(app.switch_clip, None);
+        update(&mut app, Action::RowDown);
+        update(&mut app, Action::OpenRow);
+        assert_eq!(app.switch_clip, Some(2));
+        // The next clip opens with the quality tables and the cursor where it was, once its
+        // own tables arrive in front of them too.
+        let mut next = synthetic_app(10, 320, 240, true);
+        next.clip = 2;
+        let own_at_start = next.analysis.tables.len();
+        next.continue_from(&app, "s3");
+        assert_eq!(next.analysis.tables.len(), own_at_start + 1);
+        assert_eq!(next.analysis_view.table, own_at_start);
+        let generation = next.analysis_generation;
+        let two = AnalysisData {
+            tables: vec![table("phonemes", &[]), table("visemes", &[])],
+            ..Default::default()
+        };
+        update(&mut next, Action::AnalysisReady { generation, data: two });
+        assert_eq!(next.analysis.tables.len(), 3);
+        assert_eq!((next.analysis_view.table, next.analysis_view.row), (2, 1));
+        update(&mut app, Action::QualityFailed { error: "no clip has an alignment".into() });
+        assert!(app.status.contains("no clip has an alignment"), "{}", app.status);
+        assert!(!app.quality_running);
+    }
 
     #[test]
     fn the_status_line_says_why_there_is_no_speech_series() {

@@ -82,7 +82,10 @@ pub fn update(app: &mut App, action: Action) -> Option<Action> {
         | A::OpenRow
         | A::ToggleSpeech
         | A::SpeechReady { .. }
-        | A::SpeechAbsent { .. } => analysis::update(app, action),
+        | A::SpeechAbsent { .. }
+        | A::AssessQuality
+        | A::QualityReady { .. }
+        | A::QualityFailed { .. } => analysis::update(app, action),
         A::CycleHead | A::HeadPrepared { .. } | A::HeadFrameReady(_) => {
             transferred::update(app, action)
         }

@@ -38,7 +38,17 @@ pub(super) fn update(app: &mut App, action: Action) {
             if let Some(w) = data.warnings.first() {
                 app.status.clone_from(w);
             }
+            let (own_before, own) =
+                (app.analysis.tables.len().saturating_sub(app.quality.len()), data.tables.len());
             app.analysis = data;
+            app.analysis.tables.extend(app.quality.iter().cloned());
+            // Still where the previous clip left it (the user has not moved): keep the cursor
+            // on the same quality table behind the new own tables.
+            if let Some(v) = app.quality_view.take()
+                && app.analysis_view.table == own_before + v.table
+            {
+                app.analysis_view.table = own + v.table;
+            }
             let n = app.analysis.tables.len().max(1);
             app.analysis_view.table = app.analysis_view.table.min(n - 1);
         }

@@ -110,6 +110,37 @@ fn transfers_the_demo_and_refuses_bad_heads() {
 }
 
 #[test]
+fn transfer_keeps_hostile_clip_names_inside_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::demo_session(dir.path());
+    let demo = session.parent().unwrap();
+    let (head, map) = (demo.join("head.obj"), demo.join("head_map.toml"));
+    let mut json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&session).unwrap()).unwrap();
+    let old = json["clips"][0]["name"].as_str().unwrap().to_string();
+    let evil = "../../evil";
+    json["clips"][0]["name"] = evil.into();
+    for e in json["fit_cache"].as_array_mut().into_iter().flatten() {
+        if e["clip"] == old.as_str() {
+            e["clip"] = evil.into();
+        }
+    }
+    std::fs::write(&session, serde_json::to_vec(&json).unwrap()).unwrap();
+    let out = dir.path().join("a").join("b").join("out");
+    // A symlink where a clip's folder goes is replaced, never written through.
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, out.join(".._.._evil")).unwrap();
+
+    let o = transfer(&session, &head, &map, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!dir.path().join("evil").exists() && !dir.path().join("a").join("evil").exists());
+    assert!(out.join(".._.._evil").join("shapes.npy").is_file());
+    assert!(std::fs::read_dir(&elsewhere).unwrap().next().is_none(), "wrote through a link");
+}
+
+#[test]
 fn eval_heads_drives_a_plain_obj_head_through_transfer() {
     let Some(makehuman) = lipmap::testdata::shared("data/makehuman/base.obj") else { return };
     let dir = tempfile::tempdir().unwrap();

@@ -84,6 +84,8 @@ fn demo_corpus_cross_validation_meets_the_targets() {
     assert!(t[0] >= 0.6 && t[1] <= 0.85 * t[2], "trajectory {t:?}");
     let k = sums[&SynthKind::Keyframe];
     assert!(k[0] >= 0.6 && k[1] <= 0.85 * k[2], "keyframe {k:?}");
+    let c = sums[&SynthKind::Concatenative];
+    assert!(c[0] >= 0.4 && c[1] <= 0.95 * c[2], "concat {c:?}");
 }
 
 #[test]

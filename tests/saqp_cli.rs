@@ -202,4 +202,21 @@ fn cross_validate_train_predict_and_every_bad_input() {
     // Not a predictor.
     let e = one_error(&lipmap(&["saqp", "predict", s(&known), "--phones", s(&known)]));
     assert!(e.contains(s(&known)) && e.contains("not a quality model"), "{e}");
+    // A damaged predictor is refused before use (these crashed or hung once).
+    let trained: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+    type Damage = fn(&mut serde_json::Value);
+    let damages: [(&str, Damage); 3] = [
+        ("targets", |m| m["predictor"]["gp"]["targets"] = serde_json::json!([])),
+        ("order", |m| m["predictor"]["satf"]["order"] = serde_json::json!(4_294_967_296u64)),
+        ("stats.dims", |m| m["predictor"]["stats"]["dims"] = serde_json::json!(0)),
+    ];
+    let damaged = dir.path().join("damaged.json");
+    for (field, damage) in damages {
+        let mut m = trained.clone();
+        damage(&mut m);
+        std::fs::write(&damaged, serde_json::to_vec(&m).unwrap()).unwrap();
+        let e = one_error(&lipmap(&["saqp", "predict", s(&damaged), "--phones", s(&known)]));
+        assert!(e.contains(s(&damaged)) && e.contains(field), "{field}: {e}");
+    }
 }

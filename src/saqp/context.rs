@@ -142,7 +142,44 @@ fn add<K: Eq + Hash>(map: &mut HashMap<K, Acc>, key: K, k: usize, x: &DVector) {
     map.entry(key).or_insert_with(|| Acc::new(k)).add(x);
 }
 
+/// The most coefficients per sample a statistics table may hold (the paper's K is 27).
+pub const MAX_DIMS: usize = 4096;
+
 impl ContextStats {
+    /// Checks statistics read from a file: every accumulator as long as `dims`, every value
+    /// finite. The message names the table at fault.
+    ///
+    /// # Errors
+    /// The first inconsistency found.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=MAX_DIMS).contains(&self.dims) {
+            return Err(format!("stats.dims {} is not between 1 and {MAX_DIMS}", self.dims));
+        }
+        let o = &self.options;
+        if ![o.shrinkage, o.variance_floor].iter().all(|v| v.is_finite() && *v >= 0.0) {
+            return Err("stats.options: shrinkage and variance_floor must be ≥ 0".into());
+        }
+        let check = |table: &str, acc: &Acc| {
+            if acc.sum.len() != self.dims || acc.sumsq.len() != self.dims {
+                return Err(format!(
+                    "stats.{table}: {} and {} values where dims is {}",
+                    acc.sum.len(),
+                    acc.sumsq.len(),
+                    self.dims
+                ));
+            }
+            if acc.sum.iter().chain(&acc.sumsq).any(|v| !v.is_finite()) {
+                return Err(format!("stats.{table}: a value is not finite"));
+            }
+            Ok(())
+        };
+        check("global", &self.global)?;
+        self.tri.values().try_for_each(|a| check("tri", a))?;
+        self.di.values().try_for_each(|a| check("di", a))?;
+        self.mono.values().try_for_each(|a| check("mono", a))?;
+        self.vis.values().try_for_each(|a| check("vis", a))
+    }
+
     /// Accumulates the samples of sentences given as (phone ids, one sample per phone).
     pub fn build<'a>(
         dims: usize,

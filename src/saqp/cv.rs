@@ -20,6 +20,7 @@ use super::motion::RegionSummary;
 use super::prepared::Prepared;
 use super::quality::{QualityParts, likert};
 use super::satf::{SatfParams, fit_trajectory};
+use super::synth::SynthParams;
 use super::synth::{External, SynthKind, TrainingSet};
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
@@ -44,6 +45,10 @@ pub struct CvOptions {
     pub satf: Option<SatfParams>,
     pub lambda_grid: Vec<f64>,
     pub orders: Vec<usize>,
+    /// The concatenative synthesizer's smoothing, seconds; `None` = chosen from
+    /// `smoothing_grid` by the lowest mean training error.
+    pub smoothing: Option<f64>,
+    pub smoothing_grid: Vec<f64>,
     /// ω_m; `None` = chosen from `omega_grid` per synthesizer.
     pub omega_m: Option<f64>,
     pub omega_grid: Vec<f64>,
@@ -64,6 +69,8 @@ impl Default for CvOptions {
             satf: None,
             lambda_grid: vec![0.1, 0.5, 2.0],
             orders: vec![1, 2],
+            smoothing: None,
+            smoothing_grid: vec![0.0, 0.01, 0.02, 0.03, 0.04],
             omega_m: None,
             omega_grid: vec![1.0, 2.0, 3.0, 4.0, 5.0],
             restarts: 3,
@@ -116,6 +123,10 @@ pub struct CvReport {
     pub satf: SatfParams,
     /// (λ, order, mean |r(E, Q)|) of each candidate tried.
     pub satf_scores: Vec<(f64, usize, f64)>,
+    /// The concatenative synthesizer's smoothing, seconds.
+    pub smoothing: f64,
+    /// (smoothing, mean training Q at ω_m = 1) of each candidate tried.
+    pub smoothing_scores: Vec<(f64, f64)>,
     pub synths: Vec<SynthReport>,
 }
 
@@ -203,7 +214,7 @@ impl Scorer<'_> {
         &self,
         set: &TrainingSet,
         target: usize,
-        params: SatfParams,
+        params: SynthParams,
         which: &[bool],
     ) -> Result<Option<Pair>, SaqpError> {
         let s = &self.prepared.sentences[target];
@@ -214,7 +225,7 @@ impl Scorer<'_> {
             &s.ids,
             &s.phones,
             s.fps,
-            params,
+            params.satf,
         ) {
             Ok(f) => f,
             Err(SaqpError::AllPhonesUnseen(_)) => return Ok(None),
@@ -251,7 +262,7 @@ impl Scorer<'_> {
     fn score_splits(
         &self,
         splits: &[Split],
-        params: SatfParams,
+        params: SynthParams,
         which: &[bool],
     ) -> Result<Vec<Option<Pair>>, SaqpError> {
         let per: Vec<Vec<Option<Pair>>> = splits
@@ -359,12 +370,52 @@ pub fn cross_validate_prepared(
             })
             .collect(),
     };
-    let first = candidates.first().copied().unwrap_or_default();
-    let base = scorer.score_splits(&splits, first, &fixed)?;
+    let smoothings = match options.smoothing {
+        Some(s) => vec![s],
+        None => options.smoothing_grid.clone(),
+    };
+    let first = SynthParams {
+        satf: candidates.first().copied().unwrap_or_default(),
+        smoothing: smoothings.first().copied().unwrap_or_default(),
+    };
+    let mut base = scorer.score_splits(&splits, first, &fixed)?;
+
+    // The concatenative synthesizer's smoothing is tuned for its own error (mean Q), as its
+    // author would tune it, not for how predictable that error is.
+    let concat: Vec<bool> = options.synths.iter().map(|&k| k == SynthKind::Concatenative).collect();
+    let mut smoothing_scores = Vec::new();
+    let mut smoothing = first.smoothing;
+    if let Some(ci) = concat.iter().position(|&c| c) {
+        let mut best: Option<(f64, f64, Vec<Option<Pair>>)> = None;
+        for (k, &width) in smoothings.iter().enumerate() {
+            let pairs = if k == 0 {
+                base.clone()
+            } else {
+                let extra = scorer.score_splits(
+                    &splits,
+                    SynthParams { smoothing: width, ..first },
+                    &concat,
+                )?;
+                merge(&base, &extra, &concat)
+            };
+            let q: Vec<f64> =
+                pairs.iter().flatten().filter_map(|p| p.parts[ci].map(|x| x.q(1.0))).collect();
+            let mean = q.iter().sum::<f64>() / q.len().max(1) as f64;
+            smoothing_scores.push((width, mean));
+            if best.as_ref().is_none_or(|b| mean < b.0) {
+                best = Some((mean, width, pairs));
+            }
+        }
+        if let Some((_, width, pairs)) = best {
+            smoothing = width;
+            base = pairs;
+        }
+    }
+
     let mut satf_scores = Vec::new();
     let mut best: Option<(f64, SatfParams, Vec<Option<Pair>>)> = None;
-    for &params in &candidates {
-        let extra = scorer.score_splits(&splits, params, &depends)?;
+    for &satf in &candidates {
+        let extra = scorer.score_splits(&splits, SynthParams { satf, smoothing }, &depends)?;
         let pairs = merge(&base, &extra, &depends);
         let score = (0..options.synths.len())
             .map(|s| {
@@ -377,9 +428,9 @@ pub fn cross_validate_prepared(
             })
             .sum::<f64>()
             / options.synths.len() as f64;
-        satf_scores.push((params.lambda, params.order, score));
+        satf_scores.push((satf.lambda, satf.order, score));
         if best.as_ref().is_none_or(|b| score > b.0) {
-            best = Some((score, params, pairs));
+            best = Some((score, satf, pairs));
         }
     }
     let (_, satf, pairs) = best.ok_or_else(|| SaqpError::Option("no λ/order candidate".into()))?;
@@ -390,7 +441,11 @@ pub fn cross_validate_prepared(
     let all_on = vec![true; options.synths.len()];
     let held: Vec<(usize, Pair)> = test
         .iter()
-        .map(|&t| scorer.score(&full, t, satf, &all_on).map(|p| p.map(|p| (t, p))))
+        .map(|&t| {
+            scorer
+                .score(&full, t, SynthParams { satf, smoothing }, &all_on)
+                .map(|p| p.map(|p| (t, p)))
+        })
         .collect::<Result<Vec<_>, _>>()?
         .into_iter()
         .flatten()
@@ -411,6 +466,8 @@ pub fn cross_validate_prepared(
         unseen,
         satf,
         satf_scores,
+        smoothing,
+        smoothing_scores,
         synths,
     })
 }
@@ -432,6 +489,18 @@ fn fit_at(
     Ok((xi, GaussianProcess::fit(&e, &l, restarts)?))
 }
 
+/// The GP's leave-one-out squared error as a fraction of the targets' variance: how much of
+/// the ground truth E leaves unexplained. Each ω_m rescales the targets differently (Q and ξ
+/// both change), so a plain LOO RMSE would favour whichever ω_m compresses the scores, not
+/// the one E predicts best.
+fn loo_unexplained(gp: &GaussianProcess) -> Result<f64, SaqpError> {
+    let loo = gp.loo_residuals()?;
+    let n = gp.targets.len() as f64;
+    let variance = gp.targets.iter().map(|t| (t - gp.target_mean).powi(2)).sum::<f64>() / n;
+    let mse = loo.iter().map(|r| r * r).sum::<f64>() / loo.len() as f64;
+    Ok(if variance > 0.0 { mse / variance } else { f64::INFINITY })
+}
+
 fn fit_synth(
     si: usize,
     kind: SynthKind,
@@ -448,8 +517,7 @@ fn fit_synth(
         .par_iter()
         .map(|&w| {
             let (xi, gp) = fit_at(si, pairs, w, options.restarts)?;
-            let loo = gp.loo_residuals()?;
-            let score = (loo.iter().map(|r| r * r).sum::<f64>() / loo.len() as f64).sqrt();
+            let score = loo_unexplained(&gp)?;
             Ok((w, xi, gp, score))
         })
         .collect::<Result<_, SaqpError>>()?;

@@ -199,6 +199,37 @@ impl GaussianProcess {
 
     /// Leave-one-out residuals of the training targets in closed form (Rasmussen & Williams
     /// eq. 5.12): `Q_i − μ_{−i} = [K⁻¹Q]_i / [K⁻¹]_ii`.
+    /// Checks a process read from a file: as many targets as inputs, at least one, every
+    /// value finite and the hyperparameters positive.
+    ///
+    /// # Errors
+    /// The first inconsistency found, naming the field.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.inputs.is_empty() || self.inputs.len() != self.targets.len() {
+            return Err(format!(
+                "gp: {} inputs and {} targets (they must match and not be empty)",
+                self.inputs.len(),
+                self.targets.len()
+            ));
+        }
+        if self.inputs.iter().chain(&self.targets).any(|v| !v.is_finite())
+            || !self.target_mean.is_finite()
+        {
+            return Err("gp: an input or target is not finite".into());
+        }
+        let h = &self.hyper;
+        if [h.length_scale, h.signal_variance, h.noise_variance]
+            .iter()
+            .any(|v| !(v.is_finite() && *v > 0.0))
+        {
+            return Err(
+                "gp.hyper: length_scale, signal_variance and noise_variance must be positive"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+
     pub fn loo_residuals(&self) -> Result<Vec<f64>, SaqpError> {
         let (_, k) = kernel_matrix(&self.inputs, &self.hyper);
         let chol = Cholesky::new(k)

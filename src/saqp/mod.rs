@@ -38,4 +38,4 @@ pub use predictor::{Predictor, QualityEstimate, TrainOptions, train};
 pub use prepared::{PhoneSet, Prepared};
 pub use quality::{MarkerSet, QualityParts};
 pub use satf::{SatfFit, SatfParams, fit_trajectory};
-pub use synth::{External, SynthKind};
+pub use synth::{External, SynthKind, SynthParams};

@@ -37,6 +37,28 @@ pub struct Predictor {
     stats: ContextStats,
 }
 
+impl Predictor {
+    /// Checks a predictor read from a file before it is used, so a hand-edited or damaged
+    /// model is refused with the field at fault instead of failing deep in a solve.
+    ///
+    /// # Errors
+    /// The first inconsistency found, naming the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let SatfParams { lambda, order } = self.satf;
+        if !(lambda.is_finite() && lambda >= 0.0 && (1..=2).contains(&order)) {
+            return Err(format!("satf: lambda {lambda} must be ≥ 0 and order {order} 1 or 2"));
+        }
+        if !(self.fps.is_finite() && (1.0..=1000.0).contains(&self.fps)) {
+            return Err(format!("fps {} is not between 1 and 1000", self.fps));
+        }
+        if ![self.xi, self.omega_m].iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err("xi and omega_m must be positive".into());
+        }
+        self.gp.validate()?;
+        self.stats.validate()
+    }
+}
+
 /// Trains a predictor: runs the cross-validation and keeps `options.synth`'s model, with
 /// context statistics from every sentence of the corpus. Returns the report too.
 ///

@@ -60,6 +60,31 @@ pub fn interpolate_keys(
         .collect()
 }
 
+/// `frames` convolved with a Gaussian of standard deviation `sigma` frames (cut at 3σ,
+/// renormalised at the ends so a constant stays constant); σ ≤ 0 returns them unchanged.
+pub fn smooth_gaussian(frames: &[DVector], sigma: f64) -> Vec<DVector> {
+    if sigma.is_nan() || sigma <= 0.0 || frames.is_empty() {
+        return frames.to_vec();
+    }
+    let reach = (3.0 * sigma).ceil() as usize;
+    let weights: Vec<f64> =
+        (0..=reach).map(|d| (-0.5 * (d as f64 / sigma).powi(2)).exp()).collect();
+    let n = frames.len();
+    (0..n)
+        .map(|f| {
+            let (lo, hi) = (f.saturating_sub(reach), (f + reach).min(n - 1));
+            let mut acc = DVector::zeros(frames[f].len());
+            let mut total = 0.0;
+            for (g, frame) in frames.iter().enumerate().take(hi + 1).skip(lo) {
+                let w = weights[g.abs_diff(f)];
+                acc.axpy(w, frame, 1.0);
+                total += w;
+            }
+            acc / total
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -85,5 +110,22 @@ mod tests {
         for (g, w) in got.iter().zip(want) {
             assert!((g - w).abs() < 1e-12, "{got:?}");
         }
+    }
+
+    #[test]
+    fn smoothing_keeps_constants_and_lines_and_damps_alternation() {
+        let line: Vec<DVector> = (0..9).map(|i| v(2.0 * i as f64 + 1.0)).collect();
+        let out = smooth_gaussian(&line, 1.0);
+        // Away from the ends a symmetric kernel leaves a line unchanged.
+        for f in 3..6 {
+            assert!((out[f][0] - line[f][0]).abs() < 1e-12, "{f}: {}", out[f][0]);
+        }
+        let flat = smooth_gaussian(&vec![v(3.0); 5], 0.7);
+        assert!(flat.iter().all(|x| (x[0] - 3.0).abs() < 1e-12));
+        let zigzag: Vec<DVector> =
+            (0..20).map(|i| v(if i % 2 == 0 { 1.0 } else { -1.0 })).collect();
+        let damped = smooth_gaussian(&zigzag, 0.5);
+        assert!(damped[10][0].abs() < 0.5 && damped[10][0] > 0.0, "{}", damped[10][0]);
+        assert_eq!(smooth_gaussian(&zigzag, 0.0), zigzag);
     }
 }

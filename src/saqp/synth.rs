@@ -8,14 +8,19 @@
 //!   trajectory synthesis;
 //! - **concatenative**: per phone the training segment of the best context match (both
 //!   neighbours, then one, then the viseme class; closest duration breaks ties), time-warped
-//!   linearly onto the target interval and cross-faded over 40 ms at the joins, after eFASE;
+//!   linearly onto the target interval, cross-faded over 40 ms at the joins and smoothed by
+//!   a narrow Gaussian, after eFASE. The segments are recorded motion, so each carries its
+//!   own frame-to-frame tracking noise; no synthesizer would want to replay that, and left
+//!   in it dominates this synthesizer's error with noise no phone sequence predicts. The
+//!   width is a setting ([`SynthParams::smoothing`]) the cross-validation chooses by the
+//!   synthesizer's own error;
 //! - **external**: the user's own per-frame positions for a corpus sentence.
 
 use super::SaqpError;
 use super::context::{ContextOptions, ContextStats};
 use super::corpus::Corpus;
 use super::prepared::{Prepared, PreparedSentence};
-use super::sampling::{interpolate_keys, midpoint, sample_at};
+use super::sampling::{interpolate_keys, midpoint, sample_at, smooth_gaussian};
 use super::satf::{SatfParams, fit_trajectory, sequence_stats};
 use crate::math::{DVector, Point3};
 use serde::{Deserialize, Serialize};
@@ -47,6 +52,16 @@ impl SynthKind {
 
 /// Half-width of the cross-fade at concatenation joins, seconds.
 const JOIN_HALF_WIDTH: f64 = 0.04;
+
+/// The settings of the built-in synthesizers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SynthParams {
+    /// λ and W's order of the trajectory synthesizer (and of E).
+    pub satf: SatfParams,
+    /// Standard deviation, seconds, of the Gaussian that smooths concatenated motion
+    /// (0 = none).
+    pub smoothing: f64,
+}
 
 /// A training set: sentences of a prepared corpus, their context statistics and an index of
 /// phone occurrences for concatenation.
@@ -90,7 +105,7 @@ impl<'a> TrainingSet<'a> {
         &self,
         kind: SynthKind,
         target: &PreparedSentence,
-        params: SatfParams,
+        params: SynthParams,
     ) -> Result<Vec<DVector>, SaqpError> {
         let phones = &self.prepared.phones;
         let n = target.n_frames();
@@ -114,11 +129,14 @@ impl<'a> TrainingSet<'a> {
                     &target.ids,
                     &target.phones,
                     target.fps,
-                    params,
+                    params.satf,
                 )?;
                 Ok(interpolate_keys(&mids, &fit.y, target.fps, n))
             }
-            SynthKind::Concatenative => self.concatenate(target),
+            SynthKind::Concatenative => {
+                let joined = self.concatenate(target)?;
+                Ok(smooth_gaussian(&joined, params.smoothing * target.fps))
+            }
             SynthKind::External => {
                 Err(SaqpError::Option("external motion is not synthesized".into()))
             }

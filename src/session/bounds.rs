@@ -32,10 +32,29 @@ pub fn check_values(session: &Session) -> Result<(), String> {
 fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
     check_fit_settings(&e.settings)
         .map_err(|m| format!("clip {:?}: cached fit settings: {m}", e.clip))?;
-    match e.frames.iter().find(|f| f.fit.frame > MAX_FRAME) {
-        Some(f) => Err(format!("clip {:?}: cached fit of frame {} {}", e.clip, f.fit.frame, PAST)),
-        None => Ok(()),
+    if let Some(f) = e.frames.iter().find(|f| f.fit.frame > MAX_FRAME) {
+        return Err(format!("clip {:?}: cached fit of frame {} {}", e.clip, f.fit.frame, PAST));
     }
+    // One model fitted every frame of an entry, so its good fits agree on their coefficient
+    // counts; whether those match the model is checked where the model is loaded.
+    let mut good = e.frames.iter().map(|f| &f.fit).filter(|f| f.failed.is_none());
+    if let Some(first) = good.next() {
+        let counts = (first.identity.len(), first.expression.len());
+        if let Some(f) = good.find(|f| (f.identity.len(), f.expression.len()) != counts) {
+            return Err(format!(
+                "clip {:?}: cached fit of frame {} has {} identity and {} expression \
+                 coefficients where frame {} has {} and {}",
+                e.clip,
+                f.frame,
+                f.identity.len(),
+                f.expression.len(),
+                first.frame,
+                counts.0,
+                counts.1
+            ));
+        }
+    }
+    Ok(())
 }
 
 const PAST: &str = "is past the largest frame lipmap accepts";
@@ -158,6 +177,30 @@ mod tests {
     fn phones(s: &mut Session, start: f64, end: f64) {
         let phone = crate::alignment::Phone { start, end, label: "AA".into() };
         s.clips[0].alignment = Some(crate::alignment::Alignment { phones: vec![phone] });
+    }
+
+    #[test]
+    fn cached_fits_of_one_entry_agree_on_coefficient_counts() {
+        let fit = |frame: usize, identity: usize| {
+            let mut f = crate::fit::FrameFit::unposed(frame);
+            f.failed = None;
+            f.identity = vec![0.0; identity];
+            f.expression = vec![0.0; 2];
+            super::super::CachedFrame { input: String::new(), fit: f }
+        };
+        let entry = |frames| super::super::FitCacheEntry {
+            clip: "a".into(),
+            settings: Default::default(),
+            context: String::new(),
+            clip_input: None,
+            frames,
+        };
+        let mut s = session_with_clip();
+        s.fit_cache.push(entry(vec![fit(0, 3), fit(1, 3)]));
+        assert_eq!(check_values(&s), Ok(()));
+        s.fit_cache[0] = entry(vec![fit(0, 3), fit(1, 0)]);
+        let err = check_values(&s).unwrap_err();
+        assert!(err.contains("frame 1 has 0 identity"), "{err}");
     }
 
     #[test]

@@ -176,7 +176,7 @@ pub fn plot_path(out: &Path, file: &str) -> PathBuf {
 ///
 /// # Errors
 /// A file in its place, or the folder cannot be made.
-fn ensure_real_dir(dir: &Path) -> Result<()> {
+pub(crate) fn ensure_real_dir(dir: &Path) -> Result<()> {
     match std::fs::symlink_metadata(dir) {
         Ok(m) if m.file_type().is_symlink() => {
             std::fs::remove_file(dir).map_err(|e| Error::io(dir, e))?;

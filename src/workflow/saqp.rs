@@ -592,7 +592,10 @@ pub fn load_predictor(path: &Path) -> Result<SaqpModelFile> {
             version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
         )));
     }
-    serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))
+    let model: SaqpModelFile =
+        serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))?;
+    model.predictor.validate().map_err(|e| fail(format!("bad quality model: {e}")))?;
+    Ok(model)
 }
 
 /// Predicts the quality `model` gives the timed phones of `phones_file` (TextGrid, HTK .lab
@@ -684,6 +687,12 @@ pub fn synths_table(report: &CvReport) -> Table {
         "SATF: lambda {} order {} (chosen by cross-validation); {} training (E, Q) pairs, {} dropped as all phones unseen",
         report.satf.lambda, report.satf.order, report.pairs, report.unseen
     ));
+    if report.synths.iter().any(|s| s.synth == SynthKind::Concatenative) {
+        t.notes.push(format!(
+            "concat: motion smoothed by a Gaussian of {:.0} ms (the width with the lowest mean training error)",
+            report.smoothing * 1000.0
+        ));
+    }
     t.notes.push(
         "r: Pearson correlation of predicted and ground-truth scores; RMSE constant: predicting the training mean; RMSE ratio below 1 beats it"
             .into(),

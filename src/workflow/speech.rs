@@ -203,8 +203,16 @@ fn mouth_vertices(map: &LandmarkMap) -> Result<Vec<usize>> {
 /// frame 0 (silence where the recording starts later).
 ///
 /// # Errors
-/// The WAV's one-line error.
-pub fn clip_samples(audio: &ClipAudio, rate: u32) -> Result<Vec<f32>> {
+/// The WAV's one-line error; an offset that starts the audio after the clip's end.
+pub fn clip_samples(audio: &ClipAudio, rate: u32, clip_seconds: f64) -> Result<Vec<f32>> {
+    // An offset is only meaningful while audio and frames overlap; checked before any
+    // padding is allocated, so a wild offset in a session file cannot size it.
+    if !(audio.offset_s.is_finite() && audio.offset_s < clip_seconds) {
+        return Err(Error::Invalid(format!(
+            "audio offset {} s starts the audio after the clip's end ({clip_seconds:.2} s)",
+            audio.offset_s
+        )));
+    }
     let samples = read_wav_at_rate(&audio.file, rate)?;
     let shift = (audio.offset_s * f64::from(rate)).round();
     Ok(if shift >= 0.0 {
@@ -241,7 +249,7 @@ fn clip_data(
     };
     let n = clip_length(session, clip)?;
     let silent: Vec<bool> = (0..n).map(|f| silent_of(f as f64 / fps)).collect();
-    let samples = clip_samples(&audio, SPEECH_SAMPLE_RATE)
+    let samples = clip_samples(&audio, SPEECH_SAMPLE_RATE, n as f64 / fps)
         .map_err(|e| Error::Invalid(format!("clip `{name}`: {e}")))?;
     progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
     let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });

@@ -192,8 +192,13 @@ pub fn transfer_session(
     let settings = session.fit_settings.clone();
     let (mut applied, mut frames_done) = (Duration::ZERO, 0usize);
     let mut clips = Vec::new();
-    for &c in &request.clips {
-        let name = session.clip(c)?.name.clone();
+    // Clip names come from the session file, which anyone may have edited: each clip's
+    // folder is its safe file name, made a real folder inside --out (never a link out).
+    let names: Vec<String> =
+        request.clips.iter().map(|&c| Ok(session.clip(c)?.name.clone())).collect::<Result<_>>()?;
+    let files = super::export::safe_file_names(&names);
+    std::fs::create_dir_all(&request.out_dir).map_err(|e| Error::io(&request.out_dir, e))?;
+    for ((&c, name), file) in request.clips.iter().zip(names).zip(files) {
         progress(Progress::Stage { what: format!("transferring {name}"), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip_cached(session, res, c, &settings, Some(&steps))?.fits;
@@ -201,7 +206,8 @@ pub fn transfer_session(
         let shapes = transfer_fits(res, &transfer, &fits)?;
         applied += start.elapsed();
         frames_done += shapes.len();
-        let dir = request.out_dir.join(&name);
+        let dir = request.out_dir.join(&file);
+        super::export::ensure_real_dir(&dir)?;
         write_clip(&dir, &target.mesh, &shapes, request.objs)?;
         clips.push((name, shapes.len(), dir));
     }
@@ -220,7 +226,6 @@ pub fn transfer_session(
 }
 
 fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let n3 = 3 * mesh.vertices.len();
     let data: Vec<f32> = shapes.iter().flat_map(|(_, s)| s.iter().map(|&x| x as f32)).collect();
     npy_model::write_npy_f32(&dir.join("shapes.npy"), &[shapes.len() as u64, n3 as u64], &data)?;

@@ -64,12 +64,12 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
     Ok(())
 }
 
-/// `text` with every control character (C0, DEL, C1) spelt as an escape (`\x1b`, `\n`,
+/// `text` with every control character (C0, DEL, C1) and bidirectional override spelt as an escape (`\x1b`, `\n`,
 /// `\u{9b}`), so a clip name, phone label or path from a file cannot move the cursor, clear
 /// the screen or forge a line on the terminal. Every name the command line prints goes
 /// through here (directly, or through [`TerminalSafe`] on stdout).
 pub fn terminal_safe(text: &str) -> std::borrow::Cow<'_, str> {
-    if !text.chars().any(char::is_control) {
+    if !text.chars().any(needs_escape) {
         return std::borrow::Cow::Borrowed(text);
     }
     let mut out = String::with_capacity(text.len() + 8);
@@ -79,13 +79,19 @@ pub fn terminal_safe(text: &str) -> std::borrow::Cow<'_, str> {
     std::borrow::Cow::Owned(out)
 }
 
+/// Control characters, and the bidirectional overrides and isolates, which reorder what
+/// follows them on the line (a name could make a path read backwards).
+fn needs_escape(c: char) -> bool {
+    c.is_control() || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
 fn push_escaped(out: &mut String, c: char) {
     match c {
         '\n' => out.push_str("\\n"),
         '\t' => out.push_str("\\t"),
         '\r' => out.push_str("\\r"),
         c if (c as u32) < 0x80 && c.is_control() => out.push_str(&format!("\\x{:02x}", c as u32)),
-        c if c.is_control() => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
+        c if needs_escape(c) => out.push_str(&format!("\\u{{{:x}}}", c as u32)),
         c => out.push(c),
     }
 }
@@ -256,6 +262,7 @@ mod tests {
     fn control_characters_in_names_are_escaped() {
         assert_eq!(terminal_safe("s1 ok"), "s1 ok");
         assert_eq!(terminal_safe("evil\x1b[2J\nfake\u{9b}"), "evil\\x1b[2J\\nfake\\u{9b}");
+        assert_eq!(terminal_safe("gpj.\u{202e}exe"), "gpj.\\u{202e}exe");
         let mut buf = Vec::new();
         {
             let mut w = TerminalSafe::new(&mut buf);

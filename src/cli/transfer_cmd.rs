@@ -2,6 +2,7 @@
 //! (`shapes.npy` per clip, OBJs with `--objs`); the head is recorded in the session so
 //! `eval` prints its tables too.
 
+use crate::cli::output::terminal_safe;
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::transfer::Interpolation;
 use crate::workflow::{self, open_for_edit, select_clips};
@@ -80,7 +81,10 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
         1e3 * report.per_frame.as_secs_f64()
     )?;
     for (clip, frames, dir) in &report.clips {
-        writeln!(out, "{clip}: {frames} frames -> {}", dir.join("shapes.npy").display())?;
+        let file = dir.join("shapes.npy");
+        let (clip, file) =
+            (terminal_safe(clip), terminal_safe(&file.to_string_lossy()).into_owned());
+        writeln!(out, "{clip}: {frames} frames -> {file}")?;
     }
     writeln!(out, "recorded head `{}` in {}", report.head_name, path.display())?;
     Ok(())

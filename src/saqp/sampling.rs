@@ -125,7 +125,11 @@ mod tests {
         let zigzag: Vec<DVector> =
             (0..20).map(|i| v(if i % 2 == 0 { 1.0 } else { -1.0 })).collect();
         let damped = smooth_gaussian(&zigzag, 0.5);
-        assert!(damped[10][0].abs() < 0.5 && damped[10][0] > 0.0, "{}", damped[10][0]);
+        // σ = ½ frame: neighbours weigh e⁻², the next e⁻⁸ (3σ reaches two frames).
+        let (w1, w2) = ((-2.0f64).exp(), (-8.0f64).exp());
+        let want = (1.0 - 2.0 * w1 + 2.0 * w2) / (1.0 + 2.0 * w1 + 2.0 * w2);
+        assert!((damped[10][0] - want).abs() < 1e-12, "{} vs {want}", damped[10][0]);
+        assert!(want < 0.6);
         assert_eq!(smooth_gaussian(&zigzag, 0.0), zigzag);
     }
 }

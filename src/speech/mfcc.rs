@@ -58,18 +58,23 @@ impl MfccOptions {
         }
     }
 
-    fn validate(&self) -> Result<(), SpeechError> {
-        let pos = |v: f64| v.is_finite() && v > 0.0;
-        if !pos(self.sample_rate) {
+    /// Checks the options, bounded by what speech analysis can mean (they also come from
+    /// model files): rates within what a recording or a video has, a window of at most a
+    /// second, at most 256 filters. Without the bounds a number read from a file would size
+    /// the frame and filterbank tables.
+    pub(crate) fn validate(&self) -> Result<(), SpeechError> {
+        let within = |v: f64, hi: f64| v.is_finite() && v > 0.0 && v <= hi;
+        if !within(self.sample_rate, 384_000.0) {
             return Err(bad("sample rate", format!("{} Hz", self.sample_rate)));
         }
-        if !pos(self.frame_rate) {
+        if !within(self.frame_rate, 1000.0) {
             return Err(bad("frame rate", format!("{} fps", self.frame_rate)));
         }
-        if !pos(self.window_s) || self.window_s * self.sample_rate < 4.0 {
+        if !within(self.window_s, 1.0) || self.window_s * self.sample_rate < 4.0 {
             return Err(bad("window", format!("{} s", self.window_s)));
         }
-        if self.n_filters < 2 || self.n_ceps == 0 || self.n_ceps >= self.n_filters {
+        if !(2..=256).contains(&self.n_filters) || self.n_ceps == 0 || self.n_ceps >= self.n_filters
+        {
             return Err(bad(
                 "filterbank",
                 format!("{} coefficients from {} filters", self.n_ceps, self.n_filters),
@@ -314,5 +319,19 @@ mod tests {
         assert_eq!(compute_mfcc(&[], &opts, 3), Err(SpeechError::Empty("audio samples")));
         assert!(compute_mfcc(&[0.0, f32::NAN], &opts, 1).is_err());
         assert!(compute_mfcc(&[0.0; 100], &MfccOptions { n_ceps: 30, ..opts }, 1).is_err());
+    }
+
+    #[test]
+    fn options_beyond_speech_analysis_are_refused() {
+        let opts = MfccOptions::new(16_000.0, 25.0);
+        assert_eq!(opts.validate(), Ok(()));
+        for wrong in [
+            MfccOptions { sample_rate: 1e9, ..opts },
+            MfccOptions { frame_rate: 1e7, ..opts },
+            MfccOptions { window_s: 50.0, ..opts },
+            MfccOptions { n_filters: 100_000, ..opts },
+        ] {
+            assert!(wrong.validate().is_err(), "{wrong:?}");
+        }
     }
 }

@@ -192,6 +192,7 @@ impl SpeechModel {
     /// Sizes that disagree between the feature description, the basis, the HMM and the
     /// baseline, or an invalid HMM.
     pub fn validate(&self) -> Result<(), SpeechError> {
+        self.features.mfcc.validate()?;
         self.hmm.validate()?;
         let da = self.features.audio_dim();
         let dv = self.features.visual_components;

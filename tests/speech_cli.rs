@@ -95,6 +95,35 @@ fn train_eval_animate_and_every_bad_input() {
     assert!(shapes.shape[0].abs_diff(frames) <= 1, "{:?} vs {frames}", shapes.shape);
     assert!(shapes.data.iter().all(|v| v.is_finite()));
 
+    // The same voice carried onto a head (the demo's own OBJ and map): one row per frame of
+    // the animation, the head's vertex count wide, and the mouth moves.
+    let demo = session.parent().unwrap();
+    let on_head = dir.path().join("on_head");
+    let out = lipmap(&[
+        "speech",
+        "animate",
+        s(&model),
+        "--audio",
+        s(&voice),
+        "--head",
+        s(&demo.join("head.obj")),
+        "--mapping",
+        s(&demo.join("head_map.toml")),
+        "--out",
+        s(&on_head),
+    ]);
+    assert!(out.status.success(), "animate --head: {}", text(&out.stderr));
+    let head = lipmap::io::npy_model::read_npy(&on_head.join("head_shapes.npy")).unwrap();
+    let mesh = lipmap::io::obj::read_obj(&demo.join("head.obj")).unwrap();
+    assert_eq!(head.shape, vec![shapes.shape[0], 3 * mesh.vertices.len()]);
+    let width = head.shape[1];
+    let first = &head.data[..width];
+    let moved = head
+        .data
+        .chunks(width)
+        .map(|row| row.iter().zip(first).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max));
+    assert!(moved.fold(0.0, f64::max) > 1e-3, "the transferred head never moves");
+
     let stereo = dir.path().join("stereo48k.wav");
     write_stereo(&stereo, &lipmap::speech::resample(&audio.samples, 16_000.0, 48_000.0).unwrap());
     let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&stereo), "--out", s(&anim)]);

@@ -186,23 +186,17 @@ fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
         a.head.as_deref().zip(a.mapping.as_deref()).map(|(obj, map)| TransferHead { obj, map });
     let bar = steps_bar();
     let progress = crate::cli::progress::show_on(&bar);
-    let anim = animate_speech(&model, &a.audio, head, &progress)?;
+    let files = animate_speech(&model, &a.audio, head, &a.out, &progress)?;
     bar.finish_and_clear();
-    std::fs::create_dir_all(&a.out)
-        .map_err(|e| anyhow::anyhow!("{}: cannot create the folder: {e}", a.out.display()))?;
-    let shapes = a.out.join("shapes.npy");
-    write_shapes(&shapes, &anim.shapes)?;
     writeln!(
         out,
         "{} frames at {} fps from {}: wrote {}",
-        anim.shapes.nrows(),
-        anim.fps,
+        files.frames,
+        files.fps,
         a.audio.display(),
-        shapes.display()
+        files.shapes.display()
     )?;
-    if let Some(h) = &anim.head_shapes {
-        let path = a.out.join("head_shapes.npy");
-        write_shapes(&path, h)?;
+    if let Some(path) = &files.head_shapes {
         writeln!(out, "transferred to {}: wrote {}", display(a.head.as_deref()), path.display())?;
     }
     Ok(())
@@ -210,11 +204,4 @@ fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
 
 fn display(p: Option<&Path>) -> String {
     p.map_or_else(String::new, |p| p.display().to_string())
-}
-
-/// Rows of `m` as a frames × width float32 .npy.
-fn write_shapes(path: &Path, m: &crate::math::DMatrix) -> Result<()> {
-    let data: Vec<f32> = m.transpose().iter().map(|&v| v as f32).collect();
-    let shape = [m.nrows() as u64, m.ncols() as u64];
-    Ok(crate::io::npy_model::write_npy_f32(path, &shape, &data)?)
 }

@@ -20,6 +20,7 @@ use super::{Progress, ProgressFn};
 use crate::alignment::grouping_label;
 use crate::eval::Utterance;
 use crate::fit::{FrameFit, fitted_shape};
+use crate::io::npy_model;
 use crate::io::wav::read_wav_at_rate;
 use crate::math::{DMatrix, Point3, Vector3};
 use crate::measure::MeshMeasureOptions;
@@ -551,15 +552,16 @@ pub fn evaluate_speech(
     })
 }
 
-/// Per-frame shapes driven from new audio.
-#[derive(Clone, Debug)]
-pub struct Animation {
-    /// Frames per second (the model's).
+/// What [`animate_speech`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimationFiles {
+    /// Frames, at `fps` (the model's frame rate).
+    pub frames: usize,
     pub fps: f64,
-    /// One flat 3N model shape per frame (rows).
-    pub shapes: DMatrix,
-    /// The same on the transferred head, when one was given.
-    pub head_shapes: Option<DMatrix>,
+    /// `shapes.npy`: one flat 3N model shape per frame (rows, f32).
+    pub shapes: PathBuf,
+    /// `head_shapes.npy`: the same on the transferred head, when one was given.
+    pub head_shapes: Option<PathBuf>,
 }
 
 /// A head to transfer the animation to: its OBJ and its landmark map (TOML).
@@ -570,18 +572,25 @@ pub struct TransferHead<'a> {
 }
 
 /// Animates the speech model's morphable model from `audio` (any WAV at the model's rate or
-/// faster): per frame at the model's frame rate, the AV-HMM's mouth on the training neutral;
-/// and the same on `head`, through [`crate::transfer`], when given.
+/// faster) into the folder `out`: per frame at the model's frame rate, the AV-HMM's mouth on
+/// the training neutral as `shapes.npy`, and the same on `head`, through
+/// [`crate::transfer`], as `head_shapes.npy`.
+///
+/// Each frame's mesh goes to the files as it is made: whole meshes of a minute of speech on
+/// a real head take gigabytes, the coefficients a few hundred kilobytes. The files appear only
+/// when complete.
 ///
 /// # Errors
 /// The WAV's one-line error; audio shorter than one frame; the bound model cannot be read;
-/// the head or its map cannot be read or the transfer cannot be set up.
+/// the head or its map cannot be read or the transfer cannot be set up; `out` cannot be made
+/// or written.
 pub fn animate_speech(
     model: &SpeechModelFile,
     audio: &Path,
     head: Option<TransferHead<'_>>,
+    out: &Path,
     progress: ProgressFn<'_>,
-) -> Result<Animation> {
+) -> Result<AnimationFiles> {
     let sm = &model.speech;
     let rate = sm.features.mfcc.sample_rate.round() as u32;
     let samples = read_wav_at_rate(audio, rate)?;
@@ -590,29 +599,53 @@ pub fn animate_speech(
         return Err(Error::Invalid(format!("{}: shorter than one video frame", audio.display())));
     }
     let mm = model.head.load_model()?;
-    progress(Progress::Stage { what: format!("inverting {n} frames"), total: n });
+    // The head is checked before the long inversion, so a wrong path fails at once.
+    let transfer = head.as_ref().map(|h| head_transfer(model, &mm, h)).transpose()?;
+    progress(Progress::Stage { what: format!("inverting {n} frames"), total: 0 });
     let estimate = sm.estimate_visual(&samples, n, &InversionOptions::default());
     let estimate = estimate.map_err(|e| Error::Invalid(format!("{}: {e}", audio.display())))?;
     let driver =
         MouthDriver::new(&mm, &model.head.mouth_vertices, DRIVER_RIDGE).map_err(speech_error)?;
     let coefficients = drive_coefficients(sm, &driver, &model.head.neutral(), &estimate)?;
-    let width = 3 * mm.num_vertices();
-    let mut shapes = DMatrix::zeros(n, width);
+
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let shapes = out.join("shapes.npy");
+    let mut shapes_npy =
+        npy_model::NpyF32Writer::create(&shapes, &[n as u64, 3 * mm.num_vertices() as u64])?;
+    let head_shapes = transfer.as_ref().map(|_| out.join("head_shapes.npy"));
+    let mut head_npy = match (&transfer, &head_shapes) {
+        (Some((_, vertices)), Some(path)) => {
+            Some(npy_model::NpyF32Writer::create(path, &[n as u64, 3 * *vertices as u64])?)
+        }
+        _ => None,
+    };
+    progress(Progress::Stage { what: format!("writing {n} frames"), total: n });
     for (t, c) in coefficients.iter().enumerate() {
-        shapes.row_mut(t).copy_from(&mm.shape_at(&c.identity, &c.expression).transpose());
+        let shape = mm.shape_at(&c.identity, &c.expression);
+        shapes_npy.write(shape.as_slice())?;
+        if let (Some((transfer, _)), Some(npy), Some(h)) = (&transfer, &mut head_npy, &head) {
+            let moved = transfer
+                .apply(&shape)
+                .map_err(|e| Error::Invalid(format!("{}: transfer: {e}", h.obj.display())))?;
+            npy.write(moved.as_slice())?;
+        }
+        progress(Progress::Steps { done: t + 1, total: n });
     }
-    let head_shapes = head.map(|h| transfer_shapes(model, &mm, &shapes, &h)).transpose()?;
+    shapes_npy.finish()?;
+    if let Some(npy) = head_npy {
+        npy.finish()?;
+    }
     progress(Progress::Finished);
-    Ok(Animation { fps: sm.features.mfcc.frame_rate, shapes, head_shapes })
+    Ok(AnimationFiles { frames: n, fps: sm.features.mfcc.frame_rate, shapes, head_shapes })
 }
 
-/// `shapes` (rows) of the bound model carried onto `head`.
-fn transfer_shapes(
+/// The transfer from the bound model's training neutral onto `head`, with the head's
+/// vertex count.
+fn head_transfer(
     model: &SpeechModelFile,
     mm: &MorphableModel,
-    shapes: &DMatrix,
     head: &TransferHead<'_>,
-) -> Result<DMatrix> {
+) -> Result<(crate::transfer::Transfer, usize)> {
     use crate::transfer::{SourceFace, TargetHead, Transfer, TransferOptions};
     let mesh = crate::io::obj::read_obj(head.obj)?;
     let target_map = crate::io::landmark_map_toml::read_landmark_map(head.map)?;
@@ -632,12 +665,5 @@ fn transfer_shapes(
         &TransferOptions::default(),
     )
     .map_err(|e| Error::Invalid(format!("{}: transfer: {e}", head.obj.display())))?;
-    let mut out = DMatrix::zeros(shapes.nrows(), 3 * mesh.vertices.len());
-    for (t, row) in shapes.row_iter().enumerate() {
-        let moved = transfer
-            .apply(&row.transpose())
-            .map_err(|e| Error::Invalid(format!("{}: transfer: {e}", head.obj.display())))?;
-        out.row_mut(t).copy_from(&moved.transpose());
-    }
-    Ok(out)
+    Ok((transfer, mesh.vertices.len()))
 }

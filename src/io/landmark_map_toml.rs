@@ -6,6 +6,7 @@
 //! (`[contour_landmarks]`) are accepted and ignored; unmapped points are simply absent.
 
 use crate::io::error::{FormatError, Result};
+use crate::io::pts::shorten;
 use crate::landmarks::{N_LANDMARKS, landmark_name};
 use crate::model::LandmarkMap;
 use std::fmt::Write as _;
@@ -50,13 +51,20 @@ pub fn parse_landmark_map(text: &str, path: &Path) -> Result<LandmarkMap> {
         let line = line_of_key(text, key);
         let id: usize =
             key.parse().ok().filter(|id| (1..=N_LANDMARKS).contains(id)).ok_or_else(|| {
-                FormatError::at_line(path, line, format!("`{key}` is not an iBUG id in 1..=68"))
+                FormatError::at_line(
+                    path,
+                    line,
+                    format!("`{}` is not an iBUG id in 1..=68", shorten(key)),
+                )
             })?;
         let vertex = value.as_integer().and_then(|v| usize::try_from(v).ok()).ok_or_else(|| {
             FormatError::at_line(
                 path,
                 line,
-                format!("vertex for iBUG {id} must be a non-negative integer, got {value}"),
+                format!(
+                    "vertex for iBUG {id} must be a non-negative integer, got {}",
+                    shorten(&value.to_string())
+                ),
             )
         })?;
         map.to_vertex.insert(id - 1, vertex);
@@ -186,6 +194,17 @@ mod tests {
         assert_eq!(e.location, Location::Line(3));
         let e = parse_landmark_map("[landmark_mappings]\n1 = 2\n2 = = 5\n", p).unwrap_err();
         assert_eq!(e.location, Location::Line(3));
+        let huge = format!(
+            "[landmark_mappings]\n1 = \"{}\"\n{} = 3\n",
+            "x".repeat(100_000),
+            "9".repeat(50_000)
+        );
+        let e = parse_landmark_map(&huge, p).unwrap_err();
+        assert!(
+            e.to_string().len() < 200,
+            "the value is echoed whole: {} bytes",
+            e.to_string().len()
+        );
         let e = parse_landmark_map("[other]\n1 = 2\n", p).unwrap_err();
         assert_eq!(e.location, Location::Field(SECTION.into()));
     }

@@ -148,12 +148,20 @@ impl TextGrid {
         if self.tiers.is_empty() {
             return "none".into();
         }
-        self.tiers
+        // A one-line message: a file of thousands of tiers is named by its first few.
+        const SHOWN: usize = 10;
+        let mut list = self
+            .tiers
             .iter()
+            .take(SHOWN)
             .enumerate()
             .map(|(i, t)| format!("{} `{}`", i + 1, shorten(&t.name)))
             .collect::<Vec<_>>()
-            .join(", ")
+            .join(", ");
+        if self.tiers.len() > SHOWN {
+            list.push_str(&format!(", … {} in all", self.tiers.len()));
+        }
+        list
     }
 }
 
@@ -580,6 +588,18 @@ mod tests {
                 Phone { start: 0.25, end: 1.0 / 3.0, label: "ɪ".into() },
             ],
         }
+    }
+
+    #[test]
+    fn a_grid_of_many_tiers_is_named_in_one_short_line() {
+        let tier = |i: usize| Tier {
+            name: format!("p{i}"),
+            line: i,
+            kind: TierKind::Intervals(sample().phones),
+        };
+        let grid = TextGrid { xmin: 0.0, xmax: 1.0, tiers: (0..5000).map(tier).collect() };
+        let e = grid.alignment(None, Path::new("t")).unwrap_err().to_string();
+        assert!(e.contains("1 `p0`") && e.contains("5000 in all") && e.len() < 300, "{e}");
     }
 
     #[test]

@@ -26,7 +26,44 @@ pub fn check_values(session: &Session) -> Result<(), String> {
     for clip in &session.clips {
         check_clip(clip).map_err(|m| format!("clip {:?}: {m}", clip.name))?;
     }
-    Ok(())
+    check_session_frames(&session.clips)
+}
+
+/// Most frames a session's clips may span together: as many as one clip may
+/// ([`MAX_FRAME`] + 1, 12 hours at 24 fps). Every clip's analyses hold a few values per frame
+/// of its span and a report holds all clips, so the bound keeps a small hand-edited file
+/// from sizing gigabytes through frame numbers alone.
+pub const MAX_SESSION_FRAMES: usize = MAX_FRAME + 1;
+
+/// The frames clip `clip` spans: up to its last tracked, corrected, reviewed or
+/// profile-corrected frame, or its last phone's end.
+pub fn clip_span(clip: &Clip) -> usize {
+    let last = [
+        clip.tracked.frames.last().map(|f| f.frame),
+        clip.corrections.points.keys().next_back().copied(),
+        clip.corrections.reviewed.iter().next_back().copied(),
+        clip.profile_corrections.keys().next_back().copied(),
+    ];
+    let frames = last.into_iter().flatten().max().map_or(0, |f| f + 1);
+    let end = clip.alignment.iter().flat_map(|a| &a.phones).fold(0.0, |m: f64, p| m.max(p.end));
+    let phones = (end * clip.front.fps).ceil();
+    // Bounded by the per-clip checks; `as` saturates on anything else.
+    frames.max(phones as usize)
+}
+
+fn check_session_frames(clips: &[Clip]) -> Result<(), String> {
+    let spans: Vec<usize> = clips.iter().map(clip_span).collect();
+    let total = spans.iter().fold(0usize, |t, &s| t.saturating_add(s));
+    if total <= MAX_SESSION_FRAMES {
+        return Ok(());
+    }
+    // The longest clip is the likely culprit: name it.
+    let (clip, span) = clips.iter().zip(&spans).max_by_key(|(_, s)| **s).expect("over budget");
+    Err(format!(
+        "clip {:?}: spans {span} frames, and the session's clips {total} together, past the \
+         {MAX_SESSION_FRAMES} a session holds (a frame number far past the clip's end?)",
+        clip.name
+    ))
 }
 
 fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
@@ -231,6 +268,21 @@ mod tests {
         refused("end before its start", |s| phones(s, 2.0, 1.0));
         refused("end past", |s| phones(s, 0.0, 1e9));
         refused("negative start", |s| phones(s, -1.0, 1.0));
+    }
+
+    #[test]
+    fn the_clips_together_span_at_most_a_session_of_frames() {
+        let mut s = session_with_clip();
+        s.clips[0].corrections.reviewed.insert(MAX_FRAME / 2);
+        let mut b = s.clips[0].clone();
+        b.name = "b".into();
+        s.clips.push(b.clone());
+        assert_eq!(check_values(&s), Ok(()));
+        // Phones count as frames too: 2 s at 25 fps more than half the budget.
+        phones(&mut s, 0.0, 2.0 + (MAX_FRAME / 2) as f64 / 25.0);
+        let err = check_values(&s).unwrap_err();
+        assert!(err.starts_with("clip \"a\"") && err.contains("past the 1048576"), "{err}");
+        assert_eq!(clip_span(&s.clips[0]), MAX_FRAME / 2 + 50);
     }
 
     #[test]

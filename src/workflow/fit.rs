@@ -83,6 +83,36 @@ pub fn shapes_by_frame(
     shapes
 }
 
+/// Longest stretch, in seconds, that the analyses learning from a clip's motion (SAQP's
+/// corpus, the speech model's training) fill in from the neighbouring good fits. A phone
+/// lasts about a tenth of a second: past a second the filled-in motion would span several
+/// phones the video never showed, so such a clip is left out instead.
+pub const MAX_FILLED_S: f64 = 1.0;
+
+/// Why frames `0..n` of a clip at `fps` cannot be filled in from `good` (the ascending
+/// frames with a usable fit): the longest run without one, named with its length, when it is
+/// longer than [`MAX_FILLED_S`]; `None` when every run is short enough. Runs before the first
+/// and after the last good frame count too. Nothing is allocated per frame, so a frame number
+/// far past the clip's end costs nothing here.
+pub fn unfillable_run(good: &[usize], n: usize, fps: f64) -> Option<String> {
+    let (mut worst, mut start) = ((0usize, 0usize), 0usize);
+    for &f in good.iter().filter(|&&f| f < n).chain(std::iter::once(&n)) {
+        if f.saturating_sub(start) > worst.1 - worst.0 {
+            worst = (start, f);
+        }
+        start = start.max(f + 1);
+    }
+    let (a, b) = worst;
+    let seconds = (b - a) as f64 / fps;
+    (seconds > MAX_FILLED_S).then(|| {
+        format!(
+            "frames {a}–{} ({seconds:.1} s) have no usable fit; at most {MAX_FILLED_S} s is \
+             filled in from the neighbouring frames",
+            b - 1
+        )
+    })
+}
+
 /// `n` fits, frame f's or, where it failed or is missing, the last good one before it (the
 /// first good one for leading frames); `None` without any good fit.
 pub fn held_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
@@ -102,4 +132,25 @@ pub fn held_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
             })
             .collect(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_longest_unfitted_run_is_named_when_longer_than_a_second() {
+        // At 10 fps: frames 3–12 (1.0 s) are missing: short enough.
+        assert_eq!(unfillable_run(&[0, 1, 2, 13], 14, 10.0), None);
+        let why = unfillable_run(&[0, 1, 2, 14], 15, 10.0).unwrap();
+        assert!(why.starts_with("frames 3–13 (1.1 s)"), "{why}");
+        // Leading and trailing runs count; the worst is named.
+        let why = unfillable_run(&[20, 21], 25, 10.0).unwrap();
+        assert!(why.starts_with("frames 0–19 (2.0 s)"), "{why}");
+        let why = unfillable_run(&[0], 1 << 20, 25.0).unwrap();
+        assert!(why.starts_with("frames 1–1048575"), "{why}");
+        // Frames past n are not fits of this clip.
+        assert!(unfillable_run(&[0, 500], 5, 1.0).unwrap().starts_with("frames 1–4"));
+        assert_eq!(unfillable_run(&[0, 1, 2], 3, 1.0), None);
+    }
 }

@@ -13,7 +13,7 @@
 //! predictors are saved by [`save_predictor`] and read by [`load_predictor`].
 
 use super::error::{Context, Error, Result, Warning};
-use super::fit::fit_clip_cached;
+use super::fit::{fit_clip_cached, unfillable_run};
 use super::flags::clip_flags;
 use super::resources::Resources;
 use super::session::{clip_length, open_for_read};
@@ -193,11 +193,18 @@ impl Gathering {
                     .map(|f| f.frame)
                     .collect()
             };
-            let Some((frames, bridged)) = bridged_coefficients(&fits, n, &skip) else {
-                self.warnings.push(Warning(format!(
-                    "lipmap: warning: {s}: clip `{name}` has no successful fit; not used"
-                )));
-                continue;
+            let (frames, bridged) = match bridged_coefficients(&fits, n, fps, &skip) {
+                Ok(b) => b,
+                Err(why) => {
+                    let why = match why {
+                        Unbridged::NoFit => "has no successful fit".to_string(),
+                        Unbridged::Gap(why) => why,
+                    };
+                    self.warnings.push(Warning(format!(
+                        "lipmap: warning: {s}: clip `{name}`: {why}; not used"
+                    )));
+                    continue;
+                }
             };
             self.frames += n;
             self.bridged += bridged;
@@ -250,30 +257,40 @@ impl Gathering {
     }
 }
 
-/// The shape coefficients of `n` frames from `fits`, with frames that failed, are missing
-/// or are listed in `skip` interpolated linearly between the nearest usable frames (held at
-/// the ends), and how many were so bridged. When `skip` leaves no usable frame it is
-/// ignored; `None` without any successful fit.
+/// Why a clip's fits cannot make a corpus sentence.
+#[derive(Debug, PartialEq)]
+enum Unbridged {
+    NoFit,
+    /// Too long a run without a usable fit, as [`unfillable_run`] words it.
+    Gap(String),
+}
+
+/// The shape coefficients of `n` frames (at `fps`) from `fits`, with frames that failed,
+/// are missing or are listed in `skip` interpolated linearly between the nearest usable
+/// frames (held at the ends), and how many were so bridged. When `skip` leaves no usable
+/// frame it is ignored. Runs longer than [`MAX_FILLED_S`](super::fit::MAX_FILLED_S) are
+/// refused before anything is allocated per frame.
 fn bridged_coefficients(
     fits: &[FrameFit],
     n: usize,
+    fps: f64,
     skip: &[usize],
-) -> Option<(Vec<DVector>, usize)> {
+) -> std::result::Result<(Vec<DVector>, usize), Unbridged> {
+    let good: Vec<usize> =
+        fits.iter().filter(|f| f.failed.is_none() && f.frame < n).map(|f| f.frame).collect();
+    if good.is_empty() {
+        return Err(Unbridged::NoFit);
+    }
+    let skip: std::collections::HashSet<usize> = skip.iter().copied().collect();
+    let kept: Vec<usize> = good.iter().copied().filter(|f| !skip.contains(f)).collect();
+    let known = if kept.is_empty() { good } else { kept };
+    if let Some(why) = unfillable_run(&known, n, fps) {
+        return Err(Unbridged::Gap(why));
+    }
     let mut usable: Vec<Option<DVector>> = vec![None; n];
-    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n) {
+    for f in fits.iter().filter(|f| known.binary_search(&f.frame).is_ok()) {
         usable[f.frame] = Some(LinearShapes::coefficients_of_fit(f));
     }
-    if !usable.iter().any(Option::is_some) {
-        return None;
-    }
-    let mut kept = usable.clone();
-    for &f in skip.iter().filter(|&&f| f < n) {
-        kept[f] = None;
-    }
-    if kept.iter().any(Option::is_some) {
-        usable = kept;
-    }
-    let known: Vec<usize> = (0..n).filter(|&f| usable[f].is_some()).collect();
     let bridged = n - known.len();
     let coefficient = |f: usize| usable[f].clone().unwrap_or_else(|| DVector::zeros(0));
     let frames = (0..n)
@@ -291,7 +308,7 @@ fn bridged_coefficients(
             }
         })
         .collect();
-    Some((frames, bridged))
+    Ok((frames, bridged))
 }
 
 /// `demo` of `sessions/demo.lipmap.json`.
@@ -792,14 +809,32 @@ mod tests {
             [(0, 9.0), (1, 0.0), (2, 2.0), (3, 50.0), (4, 6.0)].map(|(f, v)| fit(f, v)).to_vec();
         fits[1].failed = Some("too few landmarks".into());
         // Frame 5 is missing from the fits; frame 3 is flagged, frame 0 too.
-        let (frames, bridged) = bridged_coefficients(&fits, 7, &[0, 3]).unwrap();
+        let (frames, bridged) = bridged_coefficients(&fits, 7, 25.0, &[0, 3]).unwrap();
         assert_eq!(values(&frames), vec![2.0, 2.0, 2.0, 4.0, 6.0, 6.0, 6.0]);
         assert_eq!(bridged, 5);
         assert!(frames.iter().all(|c| c[0] == 1.0));
         // A skip list that would leave nothing is ignored; no good fit at all is `None`.
-        let (frames, bridged) = bridged_coefficients(&fits[..1], 2, &[0]).unwrap();
+        let (frames, bridged) = bridged_coefficients(&fits[..1], 2, 25.0, &[0]).unwrap();
         assert_eq!((values(&frames), bridged), (vec![9.0, 9.0], 1));
         fits.iter_mut().for_each(|f| f.failed = Some("x".into()));
-        assert!(bridged_coefficients(&fits, 5, &[]).is_none());
+        assert_eq!(bridged_coefficients(&fits, 5, 25.0, &[]), Err(Unbridged::NoFit));
+    }
+
+    #[test]
+    fn a_gap_longer_than_a_second_is_not_bridged() {
+        let fits: Vec<FrameFit> = [0, 1, 27].map(|f| fit(f, 1.0)).to_vec();
+        // 25 missing frames at 25 fps are a second: bridged.
+        assert!(bridged_coefficients(&fits, 28, 25.0, &[]).is_ok());
+        // One more, or a flag that widens the gap, is not.
+        let Err(Unbridged::Gap(why)) = bridged_coefficients(&fits, 28, 24.0, &[]) else {
+            panic!("a 1.04 s gap was bridged")
+        };
+        assert!(why.contains("frames 2–26"), "{why}");
+        assert!(bridged_coefficients(&fits, 28, 25.0, &[1]).is_err());
+        // A last frame far past the fits (a hand-edited session) is refused at once.
+        let Err(Unbridged::Gap(why)) = bridged_coefficients(&fits, 1 << 20, 25.0, &[]) else {
+            panic!("bridged to frame 2^20")
+        };
+        assert!(why.contains("frames 28–1048575"), "{why}");
     }
 }

@@ -13,7 +13,7 @@
 
 use super::error::{Error, Result, Warning};
 use super::evaluate::{EvalReport, Normalisation, evaluate, utterance_of_clip};
-use super::fit::{fit_clip_cached, held_fits};
+use super::fit::{fit_clip_cached, held_fits, unfillable_run};
 use super::resources::Resources;
 use super::session::{ReadSession, clip_length, open_for_read};
 use super::{Progress, ProgressFn};
@@ -250,16 +250,24 @@ fn clip_data(
     };
     let n = clip_length(session, clip)?;
     let silent: Vec<bool> = (0..n).map(|f| silent_of(f as f64 / fps)).collect();
-    let samples = clip_samples(&audio, SPEECH_SAMPLE_RATE, n as f64 / fps)
-        .map_err(|e| Error::Invalid(format!("clip `{name}`: {e}")))?;
     progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
     let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
     let settings = session.fit_settings.clone();
     let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))?.fits;
+    // Failed frames are held, and held motion past a second is not speech; checked before
+    // the audio and the held fits are sized by the clip's length.
+    let good: Vec<usize> =
+        fits.iter().filter(|f| f.failed.is_none() && f.frame < n).map(|f| f.frame).collect();
+    if let Some(why) = unfillable_run(&good, n, fps).filter(|_| !good.is_empty()) {
+        warnings.push(Warning(format!("clip `{name}`: {why}; not used")));
+        return Ok(None);
+    }
     let Some(fits) = held_fits(&fits, n) else {
         warnings.push(Warning(format!("clip `{name}` has no successful fit; not used")));
         return Ok(None);
     };
+    let samples = clip_samples(&audio, SPEECH_SAMPLE_RATE, n as f64 / fps)
+        .map_err(|e| Error::Invalid(format!("clip `{name}`: {e}")))?;
     let coefficients: Vec<Coefficients> = fits
         .iter()
         .map(|f| Coefficients { identity: f.identity.clone(), expression: f.expression.clone() })

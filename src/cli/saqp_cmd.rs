@@ -94,10 +94,9 @@ impl LearnArgs {
         }
         let satf = match (self.lambda, self.order) {
             (Some(lambda), Some(order)) => {
-                if !(lambda.is_finite() && lambda >= 0.0 && (1..=2).contains(&order)) {
-                    anyhow::bail!("--lambda must be ≥ 0 and --order 1 or 2");
-                }
-                Some(SatfParams { lambda, order })
+                let satf = SatfParams { lambda, order };
+                satf.check().map_err(|m| anyhow::anyhow!("--{m}"))?;
+                Some(satf)
             }
             _ => None,
         };

@@ -65,7 +65,7 @@ impl FromStr for AlignmentFormat {
 
 /// The alignment format of decoded text, judged from content alone.
 pub fn detect_text(text: &str) -> AlignmentFormat {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     let first = text.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("");
     if first.starts_with("File type") || first.starts_with("\"ooTextFile") {
         return AlignmentFormat::TextGrid;
@@ -110,7 +110,7 @@ pub fn parse_alignment_as(
             textgrid::parse_textgrid_str(text, path)?.alignment(tier, path)
         }
         AlignmentFormat::HtkLab => {
-            htk_lab::parse_htk_lab(text.strip_prefix('\u{feff}').unwrap_or(text), path)
+            htk_lab::parse_htk_lab(crate::io::input::without_bom(text), path)
         }
         AlignmentFormat::Xlabel => htk_lab::parse_xlabel(text, path),
         AlignmentFormat::PhonesCsv => phones_csv::parse_phones_csv(text, path),

@@ -42,7 +42,7 @@ pub fn is_xlabel(text: &str) -> bool {
 /// assert_eq!((x.phones[1].start, x.phones[1].label.as_str()), (0.22, "b"));
 /// ```
 pub fn parse_lab(text: &str, path: &Path) -> Result<Alignment> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     if is_xlabel(text) { parse_xlabel(text, path) } else { parse_htk_lab(text, path) }
 }
 

@@ -108,6 +108,12 @@ pub fn read_input_string(path: &Path) -> Result<String> {
     })
 }
 
+/// `text` without a leading UTF-8 byte-order mark, which Windows editors write and which
+/// would otherwise be read as part of the first token.
+pub fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

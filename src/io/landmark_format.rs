@@ -81,7 +81,7 @@ impl FromStr for LandmarkFormat {
 
 /// The format of landmark text judged from its content alone, if recognisable.
 pub fn detect_text(text: &str) -> Option<LandmarkFormat> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     let first = text.lines().map(str::trim).find(|l| !l.is_empty())?;
     if first.starts_with('<') {
         return Some(LandmarkFormat::DlibXml);

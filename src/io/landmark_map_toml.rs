@@ -37,6 +37,7 @@ pub fn read_landmark_map(path: &Path) -> Result<LandmarkMap> {
 /// assert_eq!(map.vertex(30), Some(114)); // iBUG 31 is lipmap's 0-based point 30
 /// ```
 pub fn parse_landmark_map(text: &str, path: &Path) -> Result<LandmarkMap> {
+    let text = super::input::without_bom(text);
     let table: toml::Table = toml::from_str(text).map_err(|e| {
         let line = e.span().map_or(1, |s| line_of_offset(text, s.start));
         FormatError::at_line(path, line, e.message().trim().to_string())

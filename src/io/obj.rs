@@ -45,7 +45,7 @@ pub fn parse_obj(text: &str, path: &Path) -> Result<Mesh> {
     let mut faces: Vec<Vec<u32>> = Vec::new();
     // The line of each face, for errors found once all `v` lines are known.
     let mut face_lines: Vec<usize> = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
+    for (i, raw) in super::input::without_bom(text).lines().enumerate() {
         let line_no = i + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
         let mut tokens = line.split_whitespace();
@@ -233,6 +233,12 @@ pub fn write_obj_to<W: Write + ?Sized>(w: &mut W, mesh: &Mesh) -> std::io::Resul
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn a_byte_order_mark_before_the_first_vertex_is_skipped() {
+        let mesh = parse_obj("\u{feff}v 1 2 3\nv 4 5 6\nv 7 8 9\nf 1 2 3\n", Path::new("m.obj"));
+        assert_eq!(mesh.unwrap().vertices.len(), 3);
+    }
 
     #[test]
     fn a_binary_file_named_obj_is_not_a_mesh() {

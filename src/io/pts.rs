@@ -40,7 +40,7 @@ const PTS_ORIGIN: f64 = 1.0;
 /// assert_eq!((pts[3].x, pts[3].y), (3.0, 9.5));
 /// ```
 pub fn parse_pts(text: &str, path: &Path) -> Result<Vec<LandmarkPoint>> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     let mut declared: Option<(usize, usize)> = None; // (n_points, line)
     let mut points: Vec<LandmarkPoint> = Vec::with_capacity(N_LANDMARKS);
     let mut state = State::Header;

@@ -419,7 +419,7 @@ pub fn parse_textgrid(bytes: &[u8], path: &Path) -> Result<TextGrid> {
 /// # Errors
 /// As `parse_textgrid`.
 pub fn parse_textgrid_str(text: &str, path: &Path) -> Result<TextGrid> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     if text.starts_with("ooBinaryFile") {
         return Err(FormatError::at_line(path, 1, BINARY_MESSAGE));
     }

@@ -59,7 +59,7 @@ impl CsvTable {
 
 /// Reads CSV text (fields trimmed, header required, all rows the same width).
 pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let text = crate::io::input::without_bom(text);
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)

@@ -63,6 +63,14 @@ pub fn parse_wav(reader: impl Read, path: &Path) -> Result<Audio> {
     if interleaved.len() < channels {
         return Err(FormatError::whole(path, "WAV file has no audio samples"));
     }
+    // Float WAVs can carry NaN or infinities, which every later step would spread.
+    if let Some(i) = interleaved.iter().position(|v| !v.is_finite()) {
+        return Err(FormatError::at_field(
+            path,
+            format!("sample {}", i / channels),
+            "is not a finite number",
+        ));
+    }
     let samples = interleaved
         .chunks_exact(channels)
         .map(|c| c.iter().sum::<f32>() / channels as f32)
@@ -171,6 +179,15 @@ mod tests {
         w.write_sample(0.25f32).unwrap();
         w.finalize().unwrap();
         assert_eq!(parse_wav(Cursor::new(buf.into_inner()), &p).unwrap().samples, vec![0.25]);
+
+        let mut buf = Cursor::new(Vec::new());
+        let mut w = hound::WavWriter::new(&mut buf, fspec).unwrap();
+        for v in [0.25f32, 0.5, f32::NAN] {
+            w.write_sample(v).unwrap();
+        }
+        w.finalize().unwrap();
+        let e = parse_wav(Cursor::new(buf.into_inner()), &p).unwrap_err().to_string();
+        assert!(e.contains("a.wav") && e.contains("sample 2") && !e.contains('\n'), "{e}");
     }
 
     #[test]

@@ -44,10 +44,7 @@ impl Predictor {
     /// # Errors
     /// The first inconsistency found, naming the field.
     pub fn validate(&self) -> Result<(), String> {
-        let SatfParams { lambda, order } = self.satf;
-        if !(lambda.is_finite() && lambda >= 0.0 && (1..=2).contains(&order)) {
-            return Err(format!("satf: lambda {lambda} must be ≥ 0 and order {order} 1 or 2"));
-        }
+        self.satf.check().map_err(|m| format!("satf: {m}"))?;
         if !(self.fps.is_finite() && (1.0..=1000.0).contains(&self.fps)) {
             return Err(format!("fps {} is not between 1 and 1000", self.fps));
         }

@@ -25,6 +25,28 @@ pub struct SatfParams {
     pub order: usize,
 }
 
+/// Largest λ accepted. The weights of the data term are at most 1 (V is normalised, D ≤ 1),
+/// so past a million the solution is the smoothest curve already, and larger values only cost
+/// the band solver its precision (λ = 10²⁰⁰ makes the system numerically singular).
+pub const MAX_LAMBDA: f64 = 1e6;
+
+impl SatfParams {
+    /// The one rule for λ and the order, wherever they come from (flags, a model file):
+    /// 0 ≤ λ ≤ [`MAX_LAMBDA`], order 1 or 2. The message starts with the field's name.
+    ///
+    /// # Errors
+    /// The field at fault.
+    pub fn check(&self) -> Result<(), String> {
+        if !(self.lambda.is_finite() && (0.0..=MAX_LAMBDA).contains(&self.lambda)) {
+            return Err(format!("lambda {} is not within 0–{MAX_LAMBDA}", self.lambda));
+        }
+        if !(1..=2).contains(&self.order) {
+            return Err(format!("order {} is not 1 or 2", self.order));
+        }
+        Ok(())
+    }
+}
+
 impl Default for SatfParams {
     /// The paper's choice (§5.1.2): λ = 0.5, first order.
     fn default() -> Self {
@@ -170,6 +192,17 @@ mod tests {
                 count: 1,
             })
             .collect()
+    }
+
+    #[test]
+    fn lambda_and_order_are_bounded() {
+        assert_eq!(SatfParams::default().check(), Ok(()));
+        assert_eq!(SatfParams { lambda: MAX_LAMBDA, order: 2 }.check(), Ok(()));
+        for bad in [-1.0, 1e200, f64::NAN] {
+            let e = SatfParams { lambda: bad, order: 1 }.check().unwrap_err();
+            assert!(e.starts_with("lambda"), "{e}");
+        }
+        assert!(SatfParams { lambda: 1.0, order: 3 }.check().unwrap_err().starts_with("order"));
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! `lipmap validate FILE...`: parse any file lipmap reads (landmarks, alignments, meshes,
-//! models, landmark maps, blendshape targets, sessions, videos and frame folders) and print
+//! models, landmark maps, blendshape targets, sessions, videos and frame folders, WAVs, speech
+//! and quality models, synthesized motion) and print
 //! `ok` or the one-line error.
 
 use crate::cli::convert::is_alignment_path;
@@ -35,6 +36,14 @@ pub enum FileKind {
     Video,
     /// A folder of frame images.
     Frames,
+    /// A WAV recording.
+    Audio,
+    /// A `speech train` model (JSON).
+    SpeechModel,
+    /// A `saqp train` quality model (JSON).
+    QualityModel,
+    /// Synthesized motion for `saqp --synth-files` (`frame,vertex,x,y,z`).
+    Motion,
 }
 
 /// File extensions taken for videos (decoded with ffmpeg; anything ffmpeg reads works with
@@ -60,15 +69,33 @@ pub fn classify(path: &Path) -> FileKind {
     if is_alignment_path(path) {
         return FileKind::Alignment;
     }
+    // JSON and CSV files are told apart by what they start with; a model names its format.
+    let format_is = |format: &str| head_of(path).contains(&format!("\"{format}\""));
     match ext.as_deref() {
+        Some("wav") => FileKind::Audio,
+        Some("json") => {
+            if format_is(crate::workflow::speech::SPEECH_MODEL_FORMAT) {
+                FileKind::SpeechModel
+            } else if format_is(crate::workflow::saqp::SAQP_MODEL_FORMAT) {
+                FileKind::QualityModel
+            } else {
+                FileKind::Landmarks
+            }
+        }
+        Some("csv")
+            if head_of(path)
+                .lines()
+                .next()
+                .is_some_and(|h| h.split(',').any(|c| c.trim() == "vertex")) =>
+        {
+            FileKind::Motion
+        }
         Some(e) if VIDEO_EXTENSIONS.contains(&e) && !path.is_dir() => FileKind::Video,
         Some("obj") => FileKind::Mesh,
         Some("bin" | "npz" | "npy" | "lipmodel") => FileKind::Model,
         Some("toml") => FileKind::LandmarkMap,
         Some("txt") => {
-            let head = crate::io::input::read_input(path)
-                .map(|b| String::from_utf8_lossy(&b[..b.len().min(4096)]).into_owned());
-            if head.is_ok_and(|t| t.contains("[landmark_mappings]")) {
+            if head_of(path).contains("[landmark_mappings]") {
                 FileKind::LandmarkMap
             } else {
                 FileKind::Alignment
@@ -92,6 +119,16 @@ pub fn classify(path: &Path) -> FileKind {
         }
         _ => FileKind::Landmarks,
     }
+}
+
+/// The first 4 KB of `path` as text (empty when unreadable: the parser then says why).
+fn head_of(path: &Path) -> String {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    if let Ok(f) = crate::io::input::open_input(path, crate::io::input::MAX_INPUT_BYTES) {
+        let _ = f.take(4096).read_to_end(&mut bytes);
+    }
+    String::from_utf8_lossy(&bytes).into_owned()
 }
 
 /// Parses `path` as its kind; `Ok` carries a short description of what was found.
@@ -145,6 +182,36 @@ pub fn validate_file(path: &Path) -> Result<String> {
         FileKind::Target => {
             let t = makehuman_target::read_target(path)?;
             format!("blendshape target, {}", plural(t.len(), "vertex offset"))
+        }
+        FileKind::Audio => {
+            let a = crate::io::wav::read_wav(path)?;
+            let seconds = a.samples.len() as f64 / f64::from(a.sample_rate);
+            format!("audio, {seconds:.2} s at {} Hz", a.sample_rate)
+        }
+        FileKind::SpeechModel => {
+            let m = crate::workflow::speech::load_speech_model(path)?;
+            format!(
+                "speech model, {} at {} fps, driving {}",
+                plural(m.speech.hmm.n_states(), "state"),
+                m.speech.features.mfcc.frame_rate,
+                m.head.model.display()
+            )
+        }
+        FileKind::QualityModel => {
+            let m = crate::workflow::saqp::load_predictor(path)?;
+            format!(
+                "quality model, trained on {} from {}",
+                plural(m.sentences, "sentence"),
+                plural(m.sessions.len(), "session")
+            )
+        }
+        FileKind::Motion => {
+            let m = crate::io::motion_csv::read_motion_csv(path)?;
+            format!(
+                "synthesized motion, {} of {}",
+                plural(m.frames.len(), "frame"),
+                plural_vertices(m.vertices.len())
+            )
         }
         FileKind::Video | FileKind::Frames => {
             let f = FrameSource::open(path, &FrameOptions::default())?;

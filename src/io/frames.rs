@@ -385,7 +385,12 @@ pub fn check_fps_value(fps: f64) -> Result<(), String> {
     if FPS_RANGE.contains(&fps) {
         Ok(())
     } else {
-        Err(format!("frame rate {fps} is outside {}–{} fps", FPS_RANGE.start(), FPS_RANGE.end()))
+        Err(format!(
+            "frame rate {} is outside {}–{} fps",
+            crate::math::short_number(fps),
+            FPS_RANGE.start(),
+            FPS_RANGE.end()
+        ))
     }
 }
 

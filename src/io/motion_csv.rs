@@ -53,6 +53,10 @@ fn parse_index(
     }
 }
 
+/// Largest vertex coordinate accepted, in any unit: far beyond any head, and small enough
+/// that the squared distances the quality measures sum stay finite.
+pub const MAX_COORDINATE: f64 = 1e9;
+
 /// Parses `frame,vertex,x,y,z` CSV text.
 ///
 /// # Errors
@@ -79,6 +83,16 @@ pub fn parse_motion_csv(text: &str, path: &Path) -> Result<VertexMotion> {
         let mut p = Point3::origin();
         for (a, name) in ["x", "y", "z"].into_iter().enumerate() {
             p[a] = parse_f64_field(rec, cols[2 + a], name, path, line)?;
+            if p[a].abs() > MAX_COORDINATE {
+                return Err(FormatError::at_line(
+                    path,
+                    line,
+                    format!(
+                        "column `{name}`: {} is not within ±{MAX_COORDINATE:e}",
+                        crate::math::short_number(p[a])
+                    ),
+                ));
+            }
         }
         if by_frame.entry(frame).or_default().insert(vertex, p).is_some() {
             return Err(FormatError::at_line(
@@ -168,6 +182,7 @@ mod tests {
             ("frame,vertex,x,y\n0,1,0,0\n", "missing column `z`"),
             ("frame,vertex,x,y,z\n", "no rows"),
             ("frame,vertex,x,y,z\n0,1,0,0,nan\n", "m.csv:2"),
+            ("frame,vertex,x,y,z\n0,1,0,1e200,0\n", "column `y`: 1e200 is not within ±1e9"),
             ("frame,vertex,x,y,z\n-1,1,0,0,0\n", "whole number"),
             ("frame,vertex,x,y,z\n99999999999,1,0,0,0\n", "largest"),
             ("frame,vertex,x,y,z\n0,1,0,0,0\n0,1,1,1,1\n", "twice"),

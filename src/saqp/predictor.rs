@@ -46,7 +46,10 @@ impl Predictor {
     pub fn validate(&self) -> Result<(), String> {
         self.satf.check().map_err(|m| format!("satf: {m}"))?;
         if !(self.fps.is_finite() && (1.0..=1000.0).contains(&self.fps)) {
-            return Err(format!("fps {} is not between 1 and 1000", self.fps));
+            return Err(format!(
+                "fps {} is not between 1 and 1000",
+                crate::math::short_number(self.fps)
+            ));
         }
         if ![self.xi, self.omega_m].iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err("xi and omega_m must be positive".into());

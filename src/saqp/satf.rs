@@ -15,7 +15,7 @@ use super::banded::BandMatrix;
 use super::context::{ContextLevel, ContextStats, PhoneStats};
 use super::prepared::PhoneSet;
 use crate::alignment::Phone;
-use crate::math::DVector;
+use crate::math::{DVector, short_number};
 use serde::{Deserialize, Serialize};
 
 /// λ and the order of W.
@@ -38,7 +38,11 @@ impl SatfParams {
     /// The field at fault.
     pub fn check(&self) -> Result<(), String> {
         if !(self.lambda.is_finite() && (0.0..=MAX_LAMBDA).contains(&self.lambda)) {
-            return Err(format!("lambda {} is not within 0–{MAX_LAMBDA}", self.lambda));
+            return Err(format!(
+                "lambda {} is not within 0–{}",
+                short_number(self.lambda),
+                short_number(MAX_LAMBDA)
+            ));
         }
         if !(1..=2).contains(&self.order) {
             return Err(format!("order {} is not 1 or 2", self.order));

@@ -10,6 +10,7 @@ use super::model::{Clip, Session, View};
 use crate::fit::FitSettings;
 use crate::io::frames::{MAX_IMAGE_SIDE, check_fps_value};
 use crate::landmarks::{MAX_FRAME, N_LANDMARKS};
+use crate::math::short_number;
 
 /// Most camera/shape alternations a session may ask for; each is a full solve per frame.
 pub const MAX_ITERATIONS: usize = 1000;
@@ -131,7 +132,7 @@ fn check_view(v: &View) -> Result<(), String> {
     // longest clip is a corrupt file.
     let max_offset = MAX_FRAME as f64;
     if !(v.offset_s.is_finite() && v.offset_s.abs() <= max_offset) {
-        return Err(format!("offset_s {} is not within ±{max_offset} s", v.offset_s));
+        return Err(format!("offset_s {} is not within ±{max_offset} s", short_number(v.offset_s)));
     }
     if let Some([w, h]) = v.size
         && !((1..=MAX_IMAGE_SIDE).contains(&w) && (1..=MAX_IMAGE_SIDE).contains(&h))
@@ -155,11 +156,14 @@ pub fn check_fit_settings(s: &FitSettings) -> Result<(), String> {
     ];
     for (name, v) in non_negative {
         if !(v.is_finite() && v >= 0.0) {
-            return Err(format!("{name} {v} must be finite and ≥ 0"));
+            return Err(format!("{name} {} must be finite and ≥ 0", short_number(v)));
         }
     }
     if !(s.max_reproj_rms_px.is_finite() && s.max_reproj_rms_px > 0.0) {
-        return Err(format!("max_reproj_rms_px {} must be finite and > 0", s.max_reproj_rms_px));
+        return Err(format!(
+            "max_reproj_rms_px {} must be finite and > 0",
+            short_number(s.max_reproj_rms_px)
+        ));
     }
     if !(s.convergence_tolerance.is_finite() && (0.0..1.0).contains(&s.convergence_tolerance)) {
         return Err(format!("convergence_tolerance {} must be in [0, 1)", s.convergence_tolerance));
@@ -181,7 +185,7 @@ pub fn check_fit_settings(s: &FitSettings) -> Result<(), String> {
         ));
     }
     if let Some((i, v)) = w.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
-        return Err(format!("landmark_weights[{i}] {v} must be finite and ≥ 0"));
+        return Err(format!("landmark_weights[{i}] {} must be finite and ≥ 0", short_number(*v)));
     }
     Ok(())
 }

@@ -142,25 +142,31 @@ pub fn parse_track(text: &str, path: &Path, format: LandmarkFormat) -> Result<Tr
         LandmarkFormat::DlibXml => dlib_xml::parse_dlib_xml(text, path),
         LandmarkFormat::LipmapCsv => track_csv::parse_track_csv(text, path),
     }?;
-    check_frame_numbers(track, path)
+    check_track_bounds(track, path)
 }
 
-/// Refuses a track whose frame numbers exceed [`MAX_FRAME`](crate::landmarks::MAX_FRAME):
-/// such a number is a typo or a corrupt file, and per-frame tables sized by it would
-/// exhaust memory later.
+/// Refuses a track whose frame numbers exceed [`MAX_FRAME`](crate::landmarks::MAX_FRAME)
+/// or whose coordinates lie beyond [`MAX_COORDINATE_PX`](crate::landmarks::MAX_COORDINATE_PX):
+/// such values are typos or a corrupt file; per-frame tables sized by the first would exhaust
+/// memory later, sums of the second overflow.
 ///
 /// # Errors
-/// The first frame past the bound, naming `path`.
-pub fn check_frame_numbers(track: Track, path: &Path) -> Result<Track> {
-    use crate::landmarks::MAX_FRAME;
-    match track.frames.iter().find(|f| f.frame > MAX_FRAME) {
-        Some(f) => Err(FormatError::at_field(
+/// The first value past a bound, naming `path`.
+pub fn check_track_bounds(track: Track, path: &Path) -> Result<Track> {
+    use crate::landmarks::{MAX_FRAME, point_out_of_bounds};
+    if let Some(f) = track.frames.iter().find(|f| f.frame > MAX_FRAME) {
+        return Err(FormatError::at_field(
             path,
             "frame",
             format!("frame {} is past the largest frame lipmap accepts ({MAX_FRAME})", f.frame),
-        )),
-        None => Ok(track),
+        ));
     }
+    for f in &track.frames {
+        if let Some(why) = point_out_of_bounds(f) {
+            return Err(FormatError::at_field(path, format!("frame {}", f.frame), why));
+        }
+    }
+    Ok(track)
 }
 
 /// Reads landmarks from a file or `.pts` folder, detecting the format.
@@ -175,7 +181,7 @@ pub fn check_frame_numbers(track: Track, path: &Path) -> Result<Track> {
 /// ```
 pub fn read_track(path: &Path) -> Result<Track> {
     match detect(path)? {
-        LandmarkFormat::PtsFolder => check_frame_numbers(pts::read_pts_folder(path)?, path),
+        LandmarkFormat::PtsFolder => check_track_bounds(pts::read_pts_folder(path)?, path),
         format => {
             let text = super::input::read_input_string(path)?;
             parse_track(&text, path, format)

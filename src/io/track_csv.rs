@@ -308,7 +308,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
 /// I/O failures and everything `parse_track_csv` rejects.
 pub fn read_track_csv(path: &Path) -> Result<Track> {
     let text = super::input::read_input_string(path)?;
-    super::landmark_format::check_frame_numbers(parse_track_csv(&text, path)?, path)
+    super::landmark_format::check_track_bounds(parse_track_csv(&text, path)?, path)
 }
 
 /// The lipmap CSV text of a track: every point of every frame, one row each; the

@@ -18,3 +18,21 @@ pub use track::{FrameLandmarks, LandmarkPoint, PointSource, Track};
 /// frame numbers enter: landmark readers, session files) is what keeps their memory tied to
 /// real recordings rather than to a number written in a file.
 pub const MAX_FRAME: usize = (1 << 20) - 1;
+
+/// Largest landmark coordinate magnitude accepted, in pixels (about 30 times the largest
+/// image side). A point may lie off the image, as when a face leaves the frame, but never
+/// this far; past it the squared distances that fits and measures sum stop being finite.
+pub const MAX_COORDINATE_PX: f64 = 1e6;
+
+/// The first point of `frame` with a coordinate beyond [`MAX_COORDINATE_PX`] (or not
+/// finite), as `point N (x, y)` for a message.
+pub fn point_out_of_bounds(frame: &FrameLandmarks) -> Option<String> {
+    let ok = |v: f64| v.is_finite() && v.abs() <= MAX_COORDINATE_PX;
+    frame.points.iter().enumerate().find(|(_, p)| !(ok(p.x) && ok(p.y))).map(|(i, p)| {
+        format!(
+            "point {i} ({}, {}) is not within ±{MAX_COORDINATE_PX:e} px",
+            crate::math::short_number(p.x),
+            crate::math::short_number(p.y)
+        )
+    })
+}

@@ -9,7 +9,7 @@
 use super::model::{Clip, Session, View};
 use crate::fit::FitSettings;
 use crate::io::frames::{MAX_IMAGE_SIDE, check_fps_value};
-use crate::landmarks::{MAX_FRAME, N_LANDMARKS};
+use crate::landmarks::{MAX_COORDINATE_PX, MAX_FRAME, N_LANDMARKS, point_out_of_bounds};
 use crate::math::short_number;
 
 /// Most camera/shape alternations a session may ask for; each is a full solve per frame.
@@ -111,6 +111,22 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
     }
     // Frame keys are sorted: the last is the largest.
     check_frame("tracked frame", clip.tracked.frames.last().map(|f| f.frame))?;
+    for f in &clip.tracked.frames {
+        if let Some(why) = point_out_of_bounds(f) {
+            return Err(format!("tracked frame {}: {why}", f.frame));
+        }
+    }
+    let far = |v: f64| !(v.is_finite() && v.abs() <= MAX_COORDINATE_PX);
+    for (frame, points) in &clip.corrections.points {
+        if let Some((i, p)) = points.iter().find(|(_, p)| far(p.x) || far(p.y)) {
+            return Err(format!(
+                "correction of frame {frame} point {i}: ({}, {}) is not within \
+                 ±{MAX_COORDINATE_PX:e} px",
+                short_number(p.x),
+                short_number(p.y)
+            ));
+        }
+    }
     check_frame("correction of frame", clip.corrections.points.keys().next_back().copied())?;
     check_frame("reviewed frame", clip.corrections.reviewed.iter().next_back().copied())?;
     check_frame(
@@ -261,6 +277,15 @@ mod tests {
         refused("correction of frame 1000000000000", |s| {
             let p = crate::landmarks::LandmarkPoint::tracked(1.0, 2.0);
             s.clips[0].corrections.set(1_000_000_000_000, 3, p).unwrap();
+        });
+        refused("tracked frame 0: point 0 (1e300, 2)", |s| {
+            let mut points = vec![crate::landmarks::LandmarkPoint::tracked(1.0, 2.0); N_LANDMARKS];
+            points[0].x = 1e300;
+            s.clips[0].tracked.frames.push(crate::landmarks::FrameLandmarks::new(0, points));
+        });
+        refused("correction of frame 3 point 4: (-2000000, 1)", |s| {
+            let p = crate::landmarks::LandmarkPoint::tracked(-2e6, 1.0);
+            s.clips[0].corrections.set(3, 4, p).unwrap();
         });
         refused("reviewed frame", |s| {
             s.clips[0].corrections.reviewed.insert(4_000_000_000);

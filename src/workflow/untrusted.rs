@@ -76,6 +76,9 @@ mod tests {
             let err = track_csv_through_eval(&csv_with_frame(frame)).expect_err(frame);
             assert!(err.starts_with("landmarks.csv") && !err.contains('\n'), "{frame}: {err}");
         }
+        let far = csv_with_frame("7").replacen("7,0,100.5", "7,0,1e300", 1);
+        let err = track_csv_through_eval(&far).expect_err("a coordinate of 1e300");
+        assert!(err.starts_with("landmarks.csv") && err.contains("1e300"), "{err}");
         assert_eq!(track_csv_through_eval(&csv_with_frame("7")), Ok(8));
     }
 

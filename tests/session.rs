@@ -61,7 +61,9 @@ fn fit_of(frame: usize) -> FrameFit {
 // Round trips and paths
 
 fn arb_point() -> impl Strategy<Value = LandmarkPoint> {
-    let coord = prop_oneof![-1e4..1e4f64, prop::num::f64::NORMAL, Just(0.0)];
+    // Any bit pattern a session may hold: normal floats folded into the accepted range.
+    let any_within = prop::num::f64::NORMAL.prop_map(|v| v % lipmap::landmarks::MAX_COORDINATE_PX);
+    let coord = prop_oneof![-1e4..1e4f64, any_within, Just(0.0)];
     (coord.clone(), coord, any::<bool>(), prop::option::of(0.0f32..1.0), 0..3u8).prop_map(
         |(x, y, visible, confidence, s)| {
             let source = [PointSource::Tracked, PointSource::Corrected, PointSource::Interpolated]

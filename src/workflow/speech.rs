@@ -620,10 +620,12 @@ pub fn animate_speech(
     let shapes = out.join("shapes.npy");
     let mut shapes_npy =
         npy_model::NpyF32Writer::create(&shapes, &[n as u64, 3 * mm.num_vertices() as u64])?;
-    let head_shapes = transfer.as_ref().map(|_| out.join("head_shapes.npy"));
-    let mut head_npy = match (&transfer, &head_shapes) {
-        (Some((_, vertices)), Some(path)) => {
-            Some(npy_model::NpyF32Writer::create(path, &[n as u64, 3 * *vertices as u64])?)
+    // The transferred head's writer, with what names it in errors.
+    let mut on_head = match (transfer, &head) {
+        (Some((transfer, vertices)), Some(h)) => {
+            let path = out.join("head_shapes.npy");
+            let npy = npy_model::NpyF32Writer::create(&path, &[n as u64, 3 * vertices as u64])?;
+            Some((transfer, npy, path, h.obj))
         }
         _ => None,
     };
@@ -631,18 +633,22 @@ pub fn animate_speech(
     for (t, c) in coefficients.iter().enumerate() {
         let shape = mm.shape_at(&c.identity, &c.expression);
         shapes_npy.write(shape.as_slice())?;
-        if let (Some((transfer, _)), Some(npy), Some(h)) = (&transfer, &mut head_npy, &head) {
+        if let Some((transfer, npy, _, obj)) = &mut on_head {
             let moved = transfer
                 .apply(&shape)
-                .map_err(|e| Error::Invalid(format!("{}: transfer: {e}", h.obj.display())))?;
+                .map_err(|e| Error::Invalid(format!("{}: transfer: {e}", obj.display())))?;
             npy.write(moved.as_slice())?;
         }
         progress(Progress::Steps { done: t + 1, total: n });
     }
     shapes_npy.finish()?;
-    if let Some(npy) = head_npy {
-        npy.finish()?;
-    }
+    let head_shapes = match on_head {
+        Some((_, npy, path, _)) => {
+            npy.finish()?;
+            Some(path)
+        }
+        None => None,
+    };
     progress(Progress::Finished);
     Ok(AnimationFiles { frames: n, fps: sm.features.mfcc.frame_rate, shapes, head_shapes })
 }

@@ -124,6 +124,24 @@ fn train_eval_animate_and_every_bad_input() {
         .map(|row| row.iter().zip(first).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max));
     assert!(moved.fold(0.0, f64::max) > 1e-3, "the transferred head never moves");
 
+    // `validate` knows the model, the WAV and a synthesized-motion CSV by their content.
+    let motion = dir.path().join("synth.csv");
+    let m = lipmap::io::motion_csv::VertexMotion {
+        vertices: vec![3, 9],
+        frames: vec![vec![lipmap::math::Point3::new(1.0, 2.0, 3.0); 2]; 4],
+    };
+    std::fs::write(&motion, lipmap::io::motion_csv::format_motion_csv(&m)).unwrap();
+    let out = lipmap(&["validate", s(&model), s(&voice), s(&motion)]);
+    let said = text(&out.stdout);
+    assert!(out.status.success(), "validate: {said}{}", text(&out.stderr));
+    for want in [
+        "ok (speech model, 4 states at 24 fps",
+        "ok (audio, ",
+        "ok (synthesized motion, 4 frames of 2 vertices)",
+    ] {
+        assert!(said.contains(want), "no `{want}` in\n{said}");
+    }
+
     let stereo = dir.path().join("stereo48k.wav");
     write_stereo(&stereo, &lipmap::speech::resample(&audio.samples, 16_000.0, 48_000.0).unwrap());
     let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&stereo), "--out", s(&anim)]);

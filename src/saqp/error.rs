@@ -21,7 +21,7 @@ pub enum SaqpError {
     #[error("sentence `{0}`: every phone is unseen in the training corpus")]
     AllPhonesUnseen(String),
     #[error(
-        "sentence `{sentence}`: the synthesized motion has {got} frames, the sentence has {expected}"
+        "sentence `{sentence}`: synthesized motion of length {got} for a sentence of {expected} frames"
     )]
     FrameCount { sentence: String, got: usize, expected: usize },
     #[error(

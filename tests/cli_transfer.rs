@@ -4,7 +4,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn transfer(session: &Path, head: &Path, map: &Path, out: &Path) -> Output {
@@ -33,12 +33,18 @@ fn assert_one_line_error(o: &Output, needles: &[&str]) {
     }
 }
 
+/// The demo session in `dir`, with its own head and map as the transfer target.
+fn demo_with_head(dir: &Path) -> (PathBuf, PathBuf, PathBuf) {
+    let session = common::demo_session(dir);
+    let demo = session.parent().unwrap();
+    let (head, map) = (demo.join("head.obj"), demo.join("head_map.toml"));
+    (session, head, map)
+}
+
 #[test]
 fn transfers_the_demo_and_refuses_bad_heads() {
     let dir = tempfile::tempdir().unwrap();
-    let session = common::demo_session(dir.path());
-    let demo = session.parent().unwrap();
-    let (head, map) = (demo.join("head.obj"), demo.join("head_map.toml"));
+    let (session, head, map) = demo_with_head(dir.path());
     let out = dir.path().join("out");
 
     let ok = transfer(&session, &head, &map, &out);
@@ -112,9 +118,7 @@ fn transfers_the_demo_and_refuses_bad_heads() {
 #[test]
 fn transfer_keeps_hostile_clip_names_inside_out() {
     let dir = tempfile::tempdir().unwrap();
-    let session = common::demo_session(dir.path());
-    let demo = session.parent().unwrap();
-    let (head, map) = (demo.join("head.obj"), demo.join("head_map.toml"));
+    let (session, head, map) = demo_with_head(dir.path());
     let mut json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&session).unwrap()).unwrap();
     let old = json["clips"][0]["name"].as_str().unwrap().to_string();

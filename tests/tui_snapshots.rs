@@ -193,7 +193,7 @@ fn analysis_view_with_the_speech_driven_head() {
 fn head_view_showing_a_transferred_head() {
     use lipmap::tui::app::TransferredHeads;
     use lipmap::tui::fixtures::{synthetic_model, synthetic_prepared_head};
-    use lipmap::tui::widgets::worker::{HeadFrameJob, transfer_frame_for_tui};
+    use lipmap::tui::jobs::{HeadFrameJob, transfer_frame_for_tui};
     use std::sync::Arc;
     for size in SIZES {
         let mut app = app_at(size);

@@ -2,7 +2,7 @@
 //! Start at `run::run`; the shape is `App` (state) + `Action` + `update` + `views::draw`.
 //!
 //! Keys become actions through `keymap`; only `update` changes the `App`; views only read it;
-//! slow work runs in `widgets::worker` and replies as actions. `session_bridge` loads an
+//! slow work runs in `jobs` and replies as actions. `session_bridge` loads an
 //! `App` from a session and writes the corrections back.
 
 pub mod action;
@@ -10,6 +10,7 @@ pub mod app;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod fixtures;
 pub mod head_state;
+pub mod jobs;
 pub mod keymap;
 pub mod save_state;
 pub mod update;

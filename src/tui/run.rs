@@ -1,5 +1,5 @@
-//! The event loop: terminal events and worker replies become actions, `update` applies them,
-//! effects go to the workers and the session, and the screen is redrawn when something changed.
+//! The event loop: terminal events and job replies become actions, `update` applies them,
+//! effects go to the jobs and the session, and the screen is redrawn when something changed.
 //!
 //! Graphics: a `GraphicsState` (the terminal's image protocol, if any, and its cached
 //! encoding) is owned here, not by the `App`, and drawn over the half-block image.
@@ -12,6 +12,7 @@
 
 use super::action::Action;
 use super::app::{App, Effect};
+use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
 use super::keymap::Keymap;
 use super::session_bridge::SessionBridge;
 use super::update::{key_to_action, mouse_to_action, request_images, update};
@@ -19,7 +20,6 @@ use super::views::draw;
 use super::views::frames::draw_graphics;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
-use super::widgets::worker::{AnalysisJob, FitJob, HeadFrameJob, Workers};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 
 /// How long after the last edit the batch is saved.
 pub const AUTOSAVE_IDLE: Duration = Duration::from_millis(400);
-/// Longest wait for a terminal event before checking workers and autosave.
+/// Longest wait for a terminal event before checking jobs and autosave.
 const POLL: Duration = Duration::from_millis(30);
 
 /// Opens the session at `session_path` (first clip) in the terminal UI until the user quits.
@@ -87,17 +87,17 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         app.status = gfx.note.clone();
     }
     loop {
-        // A channel and workers per clip: replies of the previous clip's workers go nowhere.
+        // A channel and jobs per clip: replies of the previous clip's jobs go nowhere.
         let (tx, rx) = channel();
         if let Some(job) = bridge.side_view_job() {
             let tx = tx.clone();
             std::thread::spawn(move || tx.send(job()));
         }
         bridge.start_saver(tx.clone());
-        let workers = Workers::start(provider, tx.clone());
-        workers.run_once("the speech-driven head", bridge.speech_job());
+        let jobs = Jobs::start(provider, tx.clone());
+        jobs.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
-            workers.start_side_frames(side, tx);
+            jobs.start_side_frames(side, tx);
         }
         let size = guard.terminal.size()?;
         app.term_size = (size.width, size.height);
@@ -105,11 +105,11 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         app.request_analysis();
         let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
         let result =
-            event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
+            event_loop(&mut guard.terminal, &mut app, &mut bridge, &jobs, &mut gfx, inputs);
         if signals.caught().is_some() {
             signals.loop_left();
         }
-        drop(workers);
+        drop(jobs);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
         bridge.finish_saving();
@@ -248,7 +248,7 @@ pub fn apply(app: &mut App, action: Action) {
     }
 }
 
-/// Where the event loop's actions come from: keys (through the keymap), worker replies and
+/// Where the event loop's actions come from: keys (through the keymap), job replies and
 /// the stopping signals.
 struct LoopInputs<'a> {
     keymap: &'a Keymap,
@@ -260,7 +260,7 @@ fn event_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
     bridge: &mut SessionBridge,
-    workers: &Workers,
+    jobs: &Jobs,
     gfx: &mut GraphicsState,
     inputs: LoopInputs<'_>,
 ) -> anyhow::Result<()>
@@ -275,7 +275,7 @@ where
     // Playback's next frame is due then.
     let mut next_tick: Option<Instant> = None;
     loop {
-        run_effects(app, bridge, workers);
+        run_effects(app, bridge, jobs);
         if app.save.should_quit() || signals.caught().is_some() {
             return Ok(());
         }
@@ -301,7 +301,7 @@ where
         if last_edit.elapsed() >= AUTOSAVE_IDLE {
             apply(app, Action::Idle);
             if !app.effects.is_empty() {
-                run_effects(app, bridge, workers);
+                run_effects(app, bridge, jobs);
                 seen_edits = app.save.unsaved();
                 redraw = true;
             }
@@ -356,7 +356,7 @@ where
                 if let Some(a) = action {
                     apply(app, a);
                 }
-                run_effects(app, bridge, workers);
+                run_effects(app, bridge, jobs);
                 if app.save.should_quit() || !event::poll(Duration::ZERO)? {
                     break;
                 }
@@ -377,11 +377,11 @@ fn frame_interval(fps: f64) -> Duration {
 }
 
 /// Carries out queued effects.
-fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
+fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
     for effect in std::mem::take(&mut app.effects) {
         match effect {
-            Effect::LoadFrames(frames) => workers.request_frames(frames),
-            Effect::LoadSideFrame(frame) => workers.request_side_frame(frame),
+            Effect::LoadFrames(frames) => jobs.request_frames(frames),
+            Effect::LoadSideFrame(frame) => jobs.request_side_frame(frame),
             Effect::Fit { generation, frames } => {
                 let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
                     continue;
@@ -392,7 +392,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     None => input.frames,
                 };
                 let image_height = f64::from(app.frame_dims().1);
-                workers.request_fit(FitJob {
+                jobs.request_fit(FitJob {
                     generation,
                     model,
                     map,
@@ -433,7 +433,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
                     continue;
                 };
-                workers.request_analysis(AnalysisJob {
+                jobs.request_analysis(AnalysisJob {
                     generation,
                     name: bridge.clip_name(),
                     model,
@@ -447,15 +447,15 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 });
             }
             Effect::AssessQuality => {
-                // The worker reads the session as last written back, with every correction.
+                // The job reads the session as last written back, with every correction.
                 if let Err(e) = bridge.write_back(app) {
                     apply(app, Action::QualityFailed { error: format!("{e:#}") });
                     continue;
                 }
-                workers.run_once("the quality cross-validation", bridge.quality_job());
+                jobs.run_once("the quality cross-validation", bridge.quality_job());
             }
             Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
-                Some(job) => workers.run_once("the transferred head's set-up", job),
+                Some(job) => jobs.run_once("the transferred head's set-up", job),
                 None => {
                     apply(app, Action::HeadPrepared { index, head: Err("no such head".into()) })
                 }
@@ -467,7 +467,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 };
                 let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
                 if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
-                    workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
+                    jobs.request_head_frame(HeadFrameJob { head, prepared, model, fit });
                 }
             }
             Effect::Quit => {}

@@ -298,14 +298,14 @@ impl SessionBridge {
     /// lacks and inverts the whole clip's audio): replies `SpeechReady` or `SpeechAbsent`.
     pub fn speech_job(&self) -> impl FnOnce() -> Action + Send + 'static {
         let (mut session, clip) = (self.session.clone(), self.clip);
-        move || super::widgets::worker::speech_for_tui(&mut session, clip)
+        move || super::jobs::speech_for_tui(&mut session, clip)
     }
 
     /// The quality cross-validation over this session's sentences for a worker thread (it
     /// may fit what the cache lacks): replies `QualityReady` or `QualityFailed`.
     pub fn quality_job(&self) -> impl FnOnce() -> Action + Send + 'static {
         let (mut session, path) = (self.session.clone(), self.path.clone());
-        move || super::widgets::worker::quality_for_tui(&mut session, &path)
+        move || super::jobs::quality_for_tui(&mut session, &path)
     }
 
     /// The set-up of the session's transferred head number `index` for a worker thread:
@@ -314,7 +314,7 @@ impl SessionBridge {
         let entry = self.session.transferred_heads.get(index)?.clone();
         let session = self.session.clone();
         Some(move || {
-            let head = super::widgets::worker::prepare_head_for_tui(&session, &entry);
+            let head = super::jobs::prepare_head_for_tui(&session, &entry);
             Action::HeadPrepared { index, head: head.map(Arc::new) }
         })
     }

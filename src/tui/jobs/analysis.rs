@@ -1,0 +1,152 @@
+//! The analysis job: measures the video and the fitted head, evaluates them and turns the
+//! report into the analysis screen's tables and trajectories.
+
+use crate::alignment::Alignment;
+use crate::fit::FrameFit;
+use crate::landmarks::Track;
+use crate::model::{LandmarkMap, MorphableModel};
+use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
+use std::sync::Arc;
+
+/// Everything the analysis needs: the clip's effective landmarks, phones and fits.
+pub struct AnalysisJob {
+    pub generation: u64,
+    pub name: String,
+    pub model: Arc<MorphableModel>,
+    pub map: LandmarkMap,
+    pub track: Track,
+    pub alignment: Alignment,
+    pub fps: f64,
+    pub fits: Vec<FrameFit>,
+    /// The head mesh the app shows: the head's facial indices are taken on it (or on the
+    /// model's mean when it is not the model's topology), shown after the error tables.
+    pub head: Option<Arc<crate::model::Mesh>>,
+    /// The side view's P per front frame (corrections applied), when the clip has one.
+    pub side_p: Option<Vec<Option<f64>>>,
+}
+
+/// Rows of the worst-frame tables shown in the analysis view.
+const N_WORST: usize = 20;
+
+/// Measures the video and the fitted head, evaluates them with `crate::workflow::evaluate`
+/// (min–max normalised, as the published method) and turns the report into the analysis
+/// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
+pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
+    use crate::measure::{Measure, MeshMeasureOptions};
+    use crate::workflow::{Normalisation, evaluate, head_p_options, utterance_from_parts};
+    // With a side view, the head's P is its whole upper lip's foremost point, as a profile
+    // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
+    // landmark vertices there too).
+    let (options, warning) =
+        head_p_options(&job.model, &job.map, job.side_p.is_some(), &MeshMeasureOptions::default());
+    let mut u = utterance_from_parts(
+        &job.name,
+        &job.alignment,
+        job.fps,
+        &job.track,
+        &job.model,
+        &job.map,
+        &job.fits,
+        &options,
+    );
+    if let Some(p) = &job.side_p {
+        u.video.p = p.clone();
+        u.video.p.resize(u.head.p.len(), None);
+    }
+    let report = evaluate(
+        std::slice::from_ref(&u),
+        &[(job.name.as_str(), job.fits.as_slice())],
+        Normalisation::MinMax,
+        N_WORST,
+    );
+    let first_frame_of = |label: &str| {
+        let key = crate::alignment::grouping_label(label);
+        job.alignment
+            .phones
+            .iter()
+            .find(|p| crate::alignment::grouping_label(&p.label) == key)
+            .map(|p| Alignment::frames_of(p, job.fps).start)
+    };
+    // The facial indices of speaker and head from what the app holds (no disk reads), when
+    // a map and the index points allow them.
+    let index_tables = crate::workflow::indices::index_tables(
+        &job.model,
+        &job.map,
+        job.head.as_deref(),
+        &job.name,
+        &job.track,
+        &job.alignment,
+        job.fps,
+        &crate::reference::current().bounds,
+    )
+    .unwrap_or_default();
+    let tables = [
+        &report.phonemes,
+        &report.visemes,
+        &report.sentences,
+        &report.worst_frames,
+        &report.worst_fits,
+    ]
+    .into_iter()
+    .chain(index_tables.iter())
+    .map(|t| table_for_tui(t, &first_frame_of, t.title == report.phonemes.title))
+    .collect();
+    let normalised = u.min_max_normalised();
+    let trajectories = Measure::ALL
+        .into_iter()
+        .filter(|m| {
+            normalised.video.series(*m).iter().any(Option::is_some)
+                || normalised.head.series(*m).iter().any(Option::is_some)
+        })
+        .map(|m| Trajectory {
+            name: m.as_str().to_string(),
+            video: frame_points(normalised.video.series(m)),
+            model: frame_points(normalised.head.series(m)),
+        })
+        .collect();
+    // The status line has no room for the command line's `lipmap: ` prefix.
+    let warnings = warning
+        .into_iter()
+        .map(|w| w.0.strip_prefix("lipmap: ").unwrap_or(&w.0).to_string())
+        .collect();
+    AnalysisData { tables, trajectories, warnings }
+}
+
+/// A per-frame series as chart points (frame, value), gaps left out.
+pub(super) fn frame_points(s: &[Option<f64>]) -> Vec<(f64, f64)> {
+    s.iter().enumerate().filter_map(|(f, v)| v.map(|v| (f as f64, v))).collect()
+}
+
+/// An eval `Table` as an analysis table: a `frame` column gives the row's jump target; in the
+/// phoneme table the phone's first occurrence does.
+pub(super) fn table_for_tui(
+    t: &crate::eval::Table,
+    first_frame_of: &dyn Fn(&str) -> Option<usize>,
+    phones: bool,
+) -> AnalysisTable {
+    use crate::eval::Cell;
+    let frame_col = t.headers.iter().position(|h| h == "frame");
+    let rows = t
+        .rows
+        .iter()
+        .map(|r| {
+            let cells: Vec<String> = (0..t.headers.len())
+                .map(|c| r.get(c).map_or(String::new(), |x| x.display(t.precision)))
+                .collect();
+            let keys = (0..t.headers.len())
+                .map(|c| match r.get(c) {
+                    Some(Cell::Num(v)) if v.is_finite() => Some(*v),
+                    Some(Cell::Int(i)) => Some(*i as f64),
+                    _ => None,
+                })
+                .collect();
+            let frame = match (frame_col, r.get(frame_col.unwrap_or(usize::MAX))) {
+                (Some(_), Some(Cell::Int(i))) => usize::try_from(*i).ok(),
+                _ if phones => cells.first().and_then(|l| first_frame_of(l)),
+                _ => None,
+            };
+            AnalysisRow { cells, keys, frame, clip: None }
+        })
+        .collect();
+    AnalysisTable { title: t.title.clone(), columns: t.headers.clone(), rows }
+}

@@ -15,7 +15,7 @@ use super::app::{App, Effect};
 use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
 use super::keymap::Keymap;
 use super::session_bridge::SessionBridge;
-use super::update::{key_to_action, mouse_to_action, request_images, update};
+use super::update::{apply, key_to_action, mouse_to_action, request_images};
 use super::views::draw;
 use super::views::frames::draw_graphics;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
@@ -237,14 +237,6 @@ impl Drop for Signals {
         for id in self.ids.drain(..) {
             signal_hook::low_level::unregister(id);
         }
-    }
-}
-
-/// Applies an action and its follow-ups.
-pub fn apply(app: &mut App, action: Action) {
-    let mut next = Some(action);
-    while let Some(a) = next {
-        next = update(app, a);
     }
 }
 

@@ -1,115 +1,140 @@
 //! The analysis view: moving through the tables' rows, sorting, opening a row's frame, and
-//! the charts' speech-driven series (its arrival, or why there is none, and its toggle).
+//! the tables' arrival from the analysis job, the quality cross-validation, and the charts'
+//! speech-driven series (its arrival, or why there is none, and its toggle).
 
-use super::global::{go_to_frame, quit};
 use crate::tui::action::Action;
-use crate::tui::app::{AnalysisView, App, Effect, SpeechSeries, View};
+use crate::tui::app::{AnalysisData, AnalysisTable, AnalysisView, App, Effect, SpeechSeries, View};
 use crate::tui::views;
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    use Action as A;
-    match action {
-        A::RowDown | A::RowUp => {
-            let n = app.analysis.tables.get(app.analysis_view.table).map_or(0, |t| t.rows.len());
-            let r = &mut app.analysis_view.row;
-            *r = if action == A::RowDown {
-                (*r + 1).min(n.saturating_sub(1))
-            } else {
-                r.saturating_sub(1)
-            };
+pub fn row_down(app: &mut App) {
+    let n = app.analysis.tables.get(app.analysis_view.table).map_or(0, |t| t.rows.len());
+    let r = &mut app.analysis_view.row;
+    *r = (*r + 1).min(n.saturating_sub(1));
+}
+
+pub fn row_up(app: &mut App) {
+    app.analysis_view.row = app.analysis_view.row.saturating_sub(1);
+}
+
+pub fn next_table(app: &mut App) {
+    let n = app.analysis.tables.len().max(1);
+    app.analysis_view =
+        AnalysisView { table: (app.analysis_view.table + 1) % n, ..Default::default() };
+}
+
+pub fn sort_next_column(app: &mut App) {
+    let ncols =
+        app.analysis.tables.get(app.analysis_view.table).map_or(1, |t| t.columns.len().max(1));
+    app.analysis_view.sort_column = (app.analysis_view.sort_column + 1) % ncols;
+    app.analysis_view.row = 0;
+}
+
+pub fn sort_reverse(app: &mut App) {
+    app.analysis_view.descending = !app.analysis_view.descending;
+    app.analysis_view.row = 0;
+}
+
+/// Opens the selected row (in the order shown): its frame in the frames view, or its
+/// sentence's clip (saving first, as the next-clip key does).
+pub fn open_row(app: &mut App) -> Option<Action> {
+    let row = app.analysis.tables.get(app.analysis_view.table).and_then(|t| {
+        let order = views::analysis::sorted_rows(t, &app.analysis_view);
+        order.get(app.analysis_view.row).map(|&i| &t.rows[i])
+    });
+    match row.map(|r| (r.frame, r.clip)) {
+        Some((_, Some(clip))) if clip != app.clip => return Some(Action::SwitchClip { clip }),
+        Some((_, Some(_))) => app.status = "that sentence is the open clip".into(),
+        Some((Some(frame), None)) => {
+            app.view = View::Frames;
+            return Some(Action::GoToFrame { frame });
         }
-        A::NextTable => {
-            let n = app.analysis.tables.len().max(1);
-            app.analysis_view =
-                AnalysisView { table: (app.analysis_view.table + 1) % n, ..Default::default() };
-        }
-        A::SortNextColumn => {
-            let ncols = app
-                .analysis
-                .tables
-                .get(app.analysis_view.table)
-                .map_or(1, |t| t.columns.len().max(1));
-            app.analysis_view.sort_column = (app.analysis_view.sort_column + 1) % ncols;
-            app.analysis_view.row = 0;
-        }
-        A::SortReverse => {
-            app.analysis_view.descending = !app.analysis_view.descending;
-            app.analysis_view.row = 0;
-        }
-        A::OpenRow => {
-            let row = app.analysis.tables.get(app.analysis_view.table).and_then(|t| {
-                let order = views::analysis::sorted_rows(t, &app.analysis_view);
-                order.get(app.analysis_view.row).map(|&i| &t.rows[i])
-            });
-            match row.map(|r| (r.frame, r.clip)) {
-                Some((_, Some(clip))) if clip != app.clip => {
-                    // As the next-clip key does: save, then reopen on that clip.
-                    app.switch_clip = Some(clip);
-                    quit(app);
-                }
-                Some((_, Some(_))) => app.status = "that sentence is the open clip".into(),
-                Some((Some(f), None)) => {
-                    go_to_frame(app, f);
-                    app.view = View::Frames;
-                }
-                _ => app.status = "this row has no frame".into(),
-            }
-        }
-        A::AssessQuality => {
-            if app.quality_running {
-                app.status = "the quality cross-validation is already running".into();
-                return;
-            }
-            app.quality_running = true;
-            app.status = "cross-validating quality prediction over the session's sentences…".into();
-            app.effects.push(Effect::AssessQuality);
-        }
-        A::QualityReady { tables, summary } => {
-            app.quality_running = false;
-            let own = app.analysis.tables.len() - app.quality.len().min(app.analysis.tables.len());
-            app.analysis.tables.truncate(own);
-            app.analysis.tables.extend(tables.iter().cloned());
-            app.quality = tables;
-            // Show the held-out sentences.
-            app.analysis_view = AnalysisView { table: own, ..Default::default() };
-            app.view = View::Analysis;
-            app.status = summary;
-        }
-        A::QualityFailed { error } => {
-            app.quality_running = false;
-            app.status = format!("no quality cross-validation: {error}");
-        }
-        A::ToggleSpeech => {
-            app.show_speech = !app.show_speech;
-            app.status = match (&app.speech, app.show_speech) {
-                (_, false) => "speech-driven head hidden".into(),
-                (SpeechSeries::Ready(_), true) => "speech-driven head shown".into(),
-                (SpeechSeries::Pending, true) => {
-                    "speech-driven head: still being driven from the clip's audio".into()
-                }
-                (SpeechSeries::Absent(why), true) => format!("no speech-driven head: {why}"),
-            };
-        }
-        A::SpeechReady { series } => {
-            app.speech = SpeechSeries::Ready(series);
-            if app.view == View::Analysis && app.show_speech {
-                app.status = "speech-driven head ready".into();
-            }
-        }
-        A::SpeechAbsent { why } => {
-            app.speech = SpeechSeries::Absent(why);
-            if app.view == View::Analysis {
-                app.status = speech_absent(app).unwrap_or_default();
-            }
-        }
-        _ => {}
+        _ => app.status = "this row has no frame".into(),
     }
+    None
+}
+
+/// Starts the quality cross-validation on a job, unless one is running.
+pub fn assess_quality(app: &mut App) {
+    if app.quality_running {
+        app.status = "the quality cross-validation is already running".into();
+        return;
+    }
+    app.quality_running = true;
+    app.status = "cross-validating quality prediction over the session's sentences…".into();
+    app.effects.push(Effect::AssessQuality);
+}
+
+/// The quality tables replace the previous ones after the clip's own, and are shown.
+pub fn quality_ready(app: &mut App, tables: Vec<AnalysisTable>, summary: String) {
+    app.quality_running = false;
+    let own = app.analysis.tables.len() - app.quality.len().min(app.analysis.tables.len());
+    app.analysis.tables.truncate(own);
+    app.analysis.tables.extend(tables.iter().cloned());
+    app.quality = tables;
+    // Show the held-out sentences.
+    app.analysis_view = AnalysisView { table: own, ..Default::default() };
+    app.view = View::Analysis;
+    app.status = summary;
+}
+
+pub fn quality_failed(app: &mut App, error: String) {
+    app.quality_running = false;
+    app.status = format!("no quality cross-validation: {error}");
+}
+
+pub fn toggle_speech(app: &mut App) {
+    app.show_speech = !app.show_speech;
+    app.status = match (&app.speech, app.show_speech) {
+        (_, false) => "speech-driven head hidden".into(),
+        (SpeechSeries::Ready(_), true) => "speech-driven head shown".into(),
+        (SpeechSeries::Pending, true) => {
+            "speech-driven head: still being driven from the clip's audio".into()
+        }
+        (SpeechSeries::Absent(why), true) => format!("no speech-driven head: {why}"),
+    };
+}
+
+pub fn speech_ready(app: &mut App, series: Vec<(String, Vec<(f64, f64)>)>) {
+    app.speech = SpeechSeries::Ready(series);
+    if app.view == View::Analysis && app.show_speech {
+        app.status = "speech-driven head ready".into();
+    }
+}
+
+pub fn speech_absent(app: &mut App, why: String) {
+    app.speech = SpeechSeries::Absent(why);
+    if app.view == View::Analysis {
+        app.status = speech_absent_reason(app).unwrap_or_default();
+    }
+}
+
+/// The newest analysis' tables, with the quality tables kept after them; older replies are
+/// dropped.
+pub fn analysis_ready(app: &mut App, generation: u64, data: AnalysisData) {
+    if generation != app.analysis_generation {
+        return;
+    }
+    if let Some(w) = data.warnings.first() {
+        app.status.clone_from(w);
+    }
+    let (own_before, own) =
+        (app.analysis.tables.len().saturating_sub(app.quality.len()), data.tables.len());
+    app.analysis = data;
+    app.analysis.tables.extend(app.quality.iter().cloned());
+    // Still where the previous clip left it (the user has not moved): keep the cursor on the
+    // same quality table behind the new own tables.
+    if let Some(v) = app.quality_view.take()
+        && app.analysis_view.table == own_before + v.table
+    {
+        app.analysis_view.table = own + v.table;
+    }
+    let n = app.analysis.tables.len().max(1);
+    app.analysis_view.table = app.analysis_view.table.min(n - 1);
 }
 
 /// The status line's reason for the charts having no speech-driven series, when they have
 /// none and it is not hidden on purpose.
-pub(super) fn speech_absent(app: &App) -> Option<String> {
+pub(super) fn speech_absent_reason(app: &App) -> Option<String> {
     match &app.speech {
         SpeechSeries::Absent(why) if app.show_speech => {
             Some(format!("no speech-driven head: {why}"))
@@ -122,8 +147,8 @@ pub(super) fn speech_absent(app: &App) -> Option<String> {
 mod tests {
     use crate::tui::action::Action;
     use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Effect, SpeechSeries, View};
-    use crate::tui::fixtures::synthetic_app;
-    use crate::tui::update::update;
+    use crate::tui::fixtures::{synthetic_analysis, synthetic_app};
+    use crate::tui::update::apply;
 
     fn table(title: &str, rows: &[(&str, Option<usize>)]) -> AnalysisTable {
         AnalysisTable {
@@ -144,15 +169,15 @@ mod tests {
     fn quality_tables_follow_the_clips_own_and_enter_opens_the_sentence() {
         let mut app = synthetic_app(10, 320, 240, true);
         app.clip_names = vec!["s1".into(), "s2".into(), "s3".into()];
-        update(&mut app, Action::AssessQuality);
+        apply(&mut app, Action::AssessQuality);
         assert_eq!(app.effects, vec![Effect::AssessQuality]);
-        update(&mut app, Action::AssessQuality);
+        apply(&mut app, Action::AssessQuality);
         assert_eq!(app.effects.len(), 1, "a second run while one runs");
         let own = AnalysisData { tables: vec![table("phonemes", &[])], ..Default::default() };
         app.analysis = own.clone();
         let held = table("held out", &[("s1", Some(0)), ("s3", Some(2))]);
         let synths = table("synthesizers", &[("trajectory", None)]);
-        update(
+        apply(
             &mut app,
             Action::QualityReady {
                 tables: vec![held.clone(), synths.clone()],
@@ -164,18 +189,18 @@ mod tests {
         assert_eq!(app.analysis_view.table, 1, "the held-out sentences are shown");
         // The clip's own tables are recomputed; the quality tables stay after them.
         let generation = app.analysis_generation;
-        update(&mut app, Action::AnalysisReady { generation, data: own.clone() });
+        apply(&mut app, Action::AnalysisReady { generation, data: own.clone() });
         assert_eq!(app.analysis.tables.len(), 3);
         assert_eq!(app.analysis.tables[1], held);
         // A second result replaces the first rather than adding to it.
-        update(&mut app, Action::QualityReady { tables: vec![held], summary: "q".into() });
+        apply(&mut app, Action::QualityReady { tables: vec![held], summary: "q".into() });
         assert_eq!(app.analysis.tables.len(), 2);
         // Enter on the open clip's sentence says so; on another, that clip is opened.
-        update(&mut app, Action::OpenRow);
+        apply(&mut app, Action::OpenRow);
         assert_eq!(app.status, "that sentence is the open clip");
         assert_eq!(app.switch_clip, None);
-        update(&mut app, Action::RowDown);
-        update(&mut app, Action::OpenRow);
+        apply(&mut app, Action::RowDown);
+        apply(&mut app, Action::OpenRow);
         assert_eq!(app.switch_clip, Some(2));
         // The next clip opens with the quality tables and the cursor where it was, once its
         // own tables arrive in front of them too.
@@ -190,10 +215,10 @@ mod tests {
             tables: vec![table("phonemes", &[]), table("visemes", &[])],
             ..Default::default()
         };
-        update(&mut next, Action::AnalysisReady { generation, data: two });
+        apply(&mut next, Action::AnalysisReady { generation, data: two });
         assert_eq!(next.analysis.tables.len(), 3);
         assert_eq!((next.analysis_view.table, next.analysis_view.row), (2, 1));
-        update(&mut app, Action::QualityFailed { error: "no clip has an alignment".into() });
+        apply(&mut app, Action::QualityFailed { error: "no clip has an alignment".into() });
         assert!(app.status.contains("no clip has an alignment"), "{}", app.status);
         assert!(!app.quality_running);
     }
@@ -201,21 +226,31 @@ mod tests {
     #[test]
     fn the_status_line_says_why_there_is_no_speech_series() {
         let mut app = synthetic_app(10, 320, 240, true);
-        update(&mut app, Action::SpeechAbsent { why: "the clip has no audio".into() });
+        apply(&mut app, Action::SpeechAbsent { why: "the clip has no audio".into() });
         // Not in the analysis view: nothing said yet; on entering it, the reason.
         assert!(app.status.is_empty(), "{}", app.status);
-        update(&mut app, Action::ShowAnalysis);
+        apply(&mut app, Action::ShowAnalysis);
         assert_eq!(app.status, "no speech-driven head: the clip has no audio");
-        update(&mut app, Action::ToggleSpeech);
+        apply(&mut app, Action::ToggleSpeech);
         assert_eq!(app.status, "speech-driven head hidden");
-        update(&mut app, Action::ToggleSpeech);
+        apply(&mut app, Action::ToggleSpeech);
         assert_eq!(app.status, "no speech-driven head: the clip has no audio");
         let series = vec![("W".to_string(), vec![(0.0, 0.5), (1.0, 0.7)])];
-        update(&mut app, Action::SpeechReady { series });
+        apply(&mut app, Action::SpeechReady { series });
         assert_eq!(app.view, View::Analysis);
         assert_eq!(app.status, "speech-driven head ready");
         assert_eq!(app.speech.of("W"), Some(&[(0.0, 0.5), (1.0, 0.7)][..]));
         assert!(app.speech.of("H").is_none());
         assert!(!matches!(app.speech, SpeechSeries::Absent(_)));
+    }
+
+    #[test]
+    fn an_analysis_warning_reaches_the_status_line() {
+        let mut app = synthetic_app(10, 320, 240, true);
+        let mut data = synthetic_analysis(10);
+        data.warnings.push("warning: the model's upper-lip region: no lip band".into());
+        let generation = app.analysis_generation;
+        apply(&mut app, Action::AnalysisReady { generation, data });
+        assert_eq!(app.status, "warning: the model's upper-lip region: no lip band");
     }
 }

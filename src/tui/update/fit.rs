@@ -1,10 +1,12 @@
 //! The fit: starting one (all frames, or only those edited since their fit) once the map can
-//! support it. Its replies are handled in `replies`.
+//! support it, its progress and results (only the newest request's count), and whether the
+//! results reached the session's fit cache.
 
+use crate::fit::FrameFit;
 use crate::tui::app::{App, Effect};
 
 /// Queues a fit of the frames that need one, or says why not.
-pub(super) fn run_fit(app: &mut App) {
+pub fn run_fit(app: &mut App) {
     let Some(model) = &app.model else {
         app.status = "cannot fit: the session has no model".into();
         return;
@@ -36,4 +38,51 @@ pub(super) fn run_fit(app: &mut App) {
     app.fit.progress = (0, total);
     app.fit.error = None;
     app.effects.push(Effect::Fit { generation: app.fit.generation, frames });
+}
+
+pub fn fit_progress(app: &mut App, generation: u64, done: usize, total: usize) {
+    if generation == app.fit.generation {
+        app.fit.progress = (done, total);
+    }
+}
+
+/// Takes the newest fit's results; when nothing was edited since it was requested, its fits
+/// match the landmarks the session holds, so they go to the session's fit cache too.
+pub fn fit_done(app: &mut App, generation: u64, fits: Vec<FrameFit>) {
+    if generation != app.fit.generation {
+        return;
+    }
+    app.fit.running = false;
+    app.fit.error = None;
+    let n = fits.len();
+    let failed = fits.iter().filter(|f| f.failed.is_some()).count();
+    if app.fit.stale.is_empty() {
+        app.effects.push(Effect::StoreFits { fits: fits.clone() });
+    }
+    for f in fits {
+        app.fit.fits.insert(f.frame, f);
+    }
+    app.recompute_flags();
+    app.request_analysis();
+    // A transferred head follows the new fit.
+    app.heads.current = None;
+    super::transferred::request_head_frame(app);
+    app.status = format!("fitted {n} frames ({failed} failed)");
+}
+
+pub fn fit_failed(app: &mut App, generation: u64, error: String) {
+    if generation == app.fit.generation {
+        app.fit.running = false;
+        app.status = format!("fit failed: {error}");
+        app.fit.error = Some(error);
+    }
+}
+
+/// The cache is part of the session: autosave writes it.
+pub fn fits_stored(app: &mut App) {
+    app.save.change_made();
+}
+
+pub fn fits_not_stored(app: &mut App, error: String) {
+    app.status = format!("fit cache not updated: {error}");
 }

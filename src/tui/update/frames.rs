@@ -5,94 +5,115 @@ use super::MAX_ZOOM;
 use super::edits::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::landmarks::edit;
 use crate::landmarks::{LandmarkPoint, N_LANDMARKS, ibug};
-use crate::tui::action::Action;
-use crate::tui::app::{App, Edit, Scope};
+use crate::tui::app::{App, Edit, FrameImage, Scope};
 use crate::tui::views;
 use std::collections::BTreeSet;
+use std::sync::Arc;
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    use Action as A;
-    match action {
-        A::ZoomIn => zoom(app, 2.0),
-        A::ZoomOut => zoom(app, 0.5),
-        A::ZoomReset => app.image_view = Default::default(),
-        A::Pan { dx, dy } => pan(app, dx, dy),
-        A::CenterOnPoint => {
-            if let Some(p) = current_point(app) {
-                app.image_view.center = Some((p.x, p.y));
-            }
-        }
-        A::Nudge { dx, dy } => {
-            let step = step_px(app);
-            let idx = app.scope_indices();
-            let f = app.frame();
-            let r = edit::move_points(&mut app.track, f, &idx, dx as f64 * step, dy as f64 * step);
-            commit(app, r);
-        }
-        A::NextPoint => select_point(app, (app.selected + 1) % N_LANDMARKS),
-        A::PrevPoint => select_point(app, (app.selected + N_LANDMARKS - 1) % N_LANDMARKS),
-        A::CycleScope => {
-            app.scope = app.scope.next();
-            app.status = match app.scope {
-                Scope::Group => format!(
-                    "moving: group ({})",
-                    ibug::group_of(app.selected).map_or("point", |g| g.name)
-                ),
-                s => format!("moving: {}", s.label()),
-            };
-        }
-        A::ToggleVisible => {
-            let (f, idx) = (app.frame(), app.scope_indices());
-            let r = edit::toggle_visible(&mut app.track, f, &idx);
-            commit(app, r);
-        }
-        A::CopyPointFromPrev => {
-            let (f, idx) = (app.frame(), app.scope_indices());
-            let r = edit::copy_from_previous(&mut app.track, f, &idx);
-            commit(app, r);
-        }
-        A::CopyFrameFromPrev => {
-            let f = app.frame();
-            let all: Vec<usize> = (0..N_LANDMARKS).collect();
-            let r = edit::copy_from_previous(&mut app.track, f, &all);
-            commit(app, r);
-        }
-        A::InterpolateSelected | A::InterpolateAll => {
-            let idx = if action == A::InterpolateAll {
-                (0..N_LANDMARKS).collect()
-            } else {
-                app.scope_indices()
-            };
-            let changes = edit::interpolate_keyframes(&mut app.track, &idx);
-            if changes.is_empty() {
-                app.status = "nothing to interpolate: needs two corrected keyframes".into();
-            } else {
-                let n = changes.iter().map(|c| c.frame).collect::<BTreeSet<_>>().len();
-                commit(app, Ok(changes));
-                app.status = format!("interpolated over {n} frames");
-            }
-        }
-        A::RevertPoint => {
-            let (f, idx) = (app.frame(), app.scope_indices());
-            let r = edit::revert_points(&mut app.track, &app.tracked, f, &idx);
-            commit(app, r);
-        }
-        A::ToggleReviewed => {
-            let f = app.frame();
-            let now = !app.reviewed.contains(&f);
-            apply_reviewed(app, f, now);
-            push_edit(app, Edit::Reviewed { frame: f, now });
-        }
-        A::MouseDown { col, row } => mouse_down(app, col, row),
-        A::MouseDrag { col, row } => mouse_drag(app, col, row),
-        A::MouseUp => app.dragging = false,
-        _ => {}
+pub fn center_on_point(app: &mut App) {
+    if let Some(p) = current_point(app) {
+        app.image_view.center = Some((p.x, p.y));
     }
 }
 
+/// Moves the points of the scope by `dx, dy` keyboard steps.
+pub fn nudge(app: &mut App, dx: i32, dy: i32) {
+    let step = step_px(app);
+    let idx = app.scope_indices();
+    let f = app.frame();
+    let r = edit::move_points(&mut app.track, f, &idx, dx as f64 * step, dy as f64 * step);
+    commit(app, r);
+}
+
+pub fn next_point(app: &mut App) {
+    select_point(app, (app.selected + 1) % N_LANDMARKS);
+}
+
+pub fn prev_point(app: &mut App) {
+    select_point(app, (app.selected + N_LANDMARKS - 1) % N_LANDMARKS);
+}
+
+pub fn cycle_scope(app: &mut App) {
+    app.scope = app.scope.next();
+    app.status = match app.scope {
+        Scope::Group => {
+            format!("moving: group ({})", ibug::group_of(app.selected).map_or("point", |g| g.name))
+        }
+        s => format!("moving: {}", s.label()),
+    };
+}
+
+pub fn toggle_visible(app: &mut App) {
+    let (f, idx) = (app.frame(), app.scope_indices());
+    let r = edit::toggle_visible(&mut app.track, f, &idx);
+    commit(app, r);
+}
+
+pub fn copy_point_from_prev(app: &mut App) {
+    let (f, idx) = (app.frame(), app.scope_indices());
+    let r = edit::copy_from_previous(&mut app.track, f, &idx);
+    commit(app, r);
+}
+
+pub fn copy_frame_from_prev(app: &mut App) {
+    let f = app.frame();
+    let all: Vec<usize> = (0..N_LANDMARKS).collect();
+    let r = edit::copy_from_previous(&mut app.track, f, &all);
+    commit(app, r);
+}
+
+pub fn interpolate_selected(app: &mut App) {
+    let idx = app.scope_indices();
+    interpolate(app, &idx);
+}
+
+pub fn interpolate_all(app: &mut App) {
+    let all: Vec<usize> = (0..N_LANDMARKS).collect();
+    interpolate(app, &all);
+}
+
+/// Interpolates points `idx` between the hand-corrected keyframes over the clip.
+fn interpolate(app: &mut App, idx: &[usize]) {
+    let changes = edit::interpolate_keyframes(&mut app.track, idx);
+    if changes.is_empty() {
+        app.status = "nothing to interpolate: needs two corrected keyframes".into();
+    } else {
+        let n = changes.iter().map(|c| c.frame).collect::<BTreeSet<_>>().len();
+        commit(app, Ok(changes));
+        app.status = format!("interpolated over {n} frames");
+    }
+}
+
+pub fn revert_point(app: &mut App) {
+    let (f, idx) = (app.frame(), app.scope_indices());
+    let r = edit::revert_points(&mut app.track, &app.tracked, f, &idx);
+    commit(app, r);
+}
+
+pub fn toggle_reviewed(app: &mut App) {
+    let f = app.frame();
+    let now = !app.reviewed.contains(&f);
+    apply_reviewed(app, f, now);
+    push_edit(app, Edit::Reviewed { frame: f, now });
+}
+
+pub fn mouse_up(app: &mut App) {
+    app.dragging = false;
+}
+
+/// A decoded frame for the cache (its size is the clip's).
+pub fn frame_loaded(app: &mut App, frame: usize, image: Arc<FrameImage>) {
+    app.image_size = Some((image.width, image.height));
+    app.image_errors.remove(&frame);
+    app.cache_image(frame, image);
+}
+
+pub fn frame_failed(app: &mut App, frame: usize, error: String) {
+    app.image_errors.insert(frame, error);
+}
+
 /// Propagates the selected points' correction to the next `n` frames.
-pub(super) fn propagate(app: &mut App, n: usize) {
+pub fn propagate(app: &mut App, n: usize) {
     let (f, idx) = (app.frame(), app.scope_indices());
     let r = edit::propagate_correction(&mut app.track, &app.tracked, f, &idx, n);
     let count = r.as_ref().map_or(0, |c| c.len());
@@ -103,7 +124,7 @@ pub(super) fn propagate(app: &mut App, n: usize) {
 }
 
 /// Selects a point and, when zoomed in, pans to it if it is off screen.
-pub(super) fn select_point(app: &mut App, index: usize) {
+pub fn select_point(app: &mut App, index: usize) {
     app.selected = index;
     let (Some(m), Some(p)) = (views::image_mapping(app, app.term_size), current_point(app)) else {
         return;
@@ -125,7 +146,8 @@ fn step_px(app: &App) -> f64 {
     views::image_mapping(app, app.term_size).map_or(1.0, |m| m.step_px())
 }
 
-fn zoom(app: &mut App, factor: f64) {
+/// Zooms the image by `factor` (within 1..`MAX_ZOOM`).
+pub(super) fn zoom(app: &mut App, factor: f64) {
     let z = (app.image_view.zoom * factor).clamp(1.0, MAX_ZOOM);
     if app.image_view.center.is_none() && z > 1.0 {
         // Zoom towards the selected point: that is what one zooms in to correct.
@@ -137,7 +159,12 @@ fn zoom(app: &mut App, factor: f64) {
     }
 }
 
-fn pan(app: &mut App, dx: i32, dy: i32) {
+pub(super) fn zoom_reset(app: &mut App) {
+    app.image_view = Default::default();
+}
+
+/// Pans the image by `dx, dy` tenths of the visible width and height.
+pub fn pan(app: &mut App, dx: i32, dy: i32) {
     let Some(m) = views::image_mapping(app, app.term_size) else { return };
     let (w, h) = (f64::from(m.area.width), 2.0 * f64::from(m.area.height));
     let (cx, cy) =
@@ -145,7 +172,8 @@ fn pan(app: &mut App, dx: i32, dy: i32) {
     app.image_view.center = Some((cx, cy));
 }
 
-fn mouse_down(app: &mut App, col: u16, row: u16) {
+/// Selects the point nearest the click and starts dragging it.
+pub fn mouse_down(app: &mut App, col: u16, row: u16) {
     let Some(m) = views::image_mapping(app, app.term_size) else { return };
     let Some((x, y)) = m.cell_to_image(col, row) else { return };
     let Some(f) = app.track.frames.get(app.frame_pos) else { return };
@@ -166,7 +194,8 @@ fn mouse_down(app: &mut App, col: u16, row: u16) {
     }
 }
 
-fn mouse_drag(app: &mut App, col: u16, row: u16) {
+/// Moves the dragged point under the mouse; one drag is one undo step.
+pub fn mouse_drag(app: &mut App, col: u16, row: u16) {
     if !app.dragging {
         return;
     }

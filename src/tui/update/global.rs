@@ -1,153 +1,100 @@
-//! Actions that work in every view: help and prompts, saving and quitting, switching views
-//! and clips, moving through the frames, undo and redo (the edits themselves are in `edits`).
+//! Actions that work in every view: saving and quitting (and how saves went), switching
+//! views and clips, moving through the frames and playing them, undo and redo (the edits
+//! themselves are in `edits`), the terminal's size and status messages.
 
 use super::edits::undo_redo;
-use super::{DEFAULT_PROPAGATE, frames, head};
-use crate::landmarks::N_LANDMARKS;
 use crate::tui::action::Action;
-use crate::tui::app::{App, Effect, Overlay, PromptKind, SideState, View};
-use crate::tui::save_state::QuitStep;
+use crate::tui::app::{App, Effect, SideState, View};
+use crate::tui::save_state::{AfterSave, QuitStep};
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    use Action as A;
-    match action {
-        A::Quit => {
-            app.switch_clip = None;
-            quit(app);
-        }
-        A::ToggleHelp => {
-            if matches!(app.top_overlay(), Some(Overlay::Help { .. })) {
-                app.overlays.pop();
-            } else {
-                app.overlays.push(Overlay::Help { scroll: 0 });
-            }
-        }
-        A::Cancel => {
-            let closed = app.overlays.pop();
-            if closed.is_none() {
-                app.status.clear();
-            }
-        }
-        A::ScrollDown | A::ScrollUp => {
-            if let Some(Overlay::Help { scroll }) = app.overlays.last_mut() {
-                *scroll = if action == A::ScrollDown {
-                    scroll.saturating_add(1)
-                } else {
-                    scroll.saturating_sub(1)
-                };
-            }
-        }
-        A::Save => request_save(app),
-        // After a failed save autosave waits for the next edit rather than retrying in a loop.
-        A::Idle if app.save.autosave_due() && !app.dragging => request_save(app),
-        A::Idle => {}
-        A::Undo => undo_redo(app, true),
-        A::Redo => undo_redo(app, false),
-        A::ShowFrames => app.view = View::Frames,
-        A::ShowHead => {
-            app.view = View::Head;
-            super::transferred::request_head_frame(app);
-        }
-        A::ShowFit => app.view = View::Fit,
-        A::ShowAnalysis => {
-            app.view = View::Analysis;
-            if let Some(why) = super::analysis::speech_absent(app) {
-                app.status = why;
-            }
-        }
-        A::ShowSide => match &app.side {
-            SideState::None => app.status = "this clip has no side view".into(),
-            _ => {
-                app.view = View::Side;
-                request_images(app);
-            }
-        },
-        A::NextClip | A::PrevClip => {
-            let n = app.clip_names.len();
-            if n <= 1 {
-                app.status = "the session has one clip".into();
-                return;
-            }
-            let next =
-                if action == A::NextClip { (app.clip + 1) % n } else { (app.clip + n - 1) % n };
-            app.switch_clip = Some(next);
-            quit(app);
-        }
-        A::NextFrame => go_to_pos(app, app.frame_pos.saturating_add(1)),
-        A::PrevFrame => go_to_pos(app, app.frame_pos.saturating_sub(1)),
-        A::FirstFrame => go_to_pos(app, 0),
-        A::LastFrame => go_to_pos(app, app.n_frames().saturating_sub(1)),
-        A::NextFlagged => {
-            let cur = app.frame();
-            match app.flags.iter().find(|f| f.frame > cur).map(|f| f.frame) {
-                Some(f) => go_to_frame(app, f),
-                None => app.status = "no flagged frame after this one".into(),
-            }
-        }
-        A::PrevFlagged => {
-            let cur = app.frame();
-            match app.flags.iter().rev().find(|f| f.frame < cur).map(|f| f.frame) {
-                Some(f) => go_to_frame(app, f),
-                None => app.status = "no flagged frame before this one".into(),
-            }
-        }
-        A::TogglePlay => {
-            app.playing = !app.playing && app.n_frames() > 1;
-            if app.playing {
-                if app.frame_pos + 1 >= app.n_frames() {
-                    go_to_pos(app, 0);
-                }
-                app.status = format!("playing at {:.0} fps", app.fps);
-            }
-        }
-        // The end of the clip stops playback where it is.
-        A::PlayTick if app.playing => {
-            if app.frame_pos + 1 >= app.n_frames() {
-                app.playing = false;
-                app.status = "end of the clip".into();
-            } else {
-                go_to_pos(app, app.frame_pos + 1);
-            }
-        }
-        A::NextUnreviewed => {
-            let n = app.n_frames();
-            let next = (1..=n)
-                .map(|k| (app.frame_pos + k) % n.max(1))
-                .find(|&p| !app.reviewed.contains(&app.track.frames[p].frame));
-            match next {
-                Some(p) => go_to_pos(app, p),
-                None => app.status = "every frame is reviewed".into(),
-            }
-        }
-        A::GotoFramePrompt => open_prompt(app, PromptKind::GotoFrame),
-        A::GotoPointPrompt => open_prompt(app, PromptKind::GotoPoint),
-        A::PropagatePrompt => open_prompt(app, PromptKind::Propagate),
-        A::GotoLabelPrompt => open_prompt(app, PromptKind::GotoLabel),
-        A::PromptChar(c) => {
-            if let Some(Overlay::Prompt { input, .. }) = app.overlays.last_mut()
-                && input.len() < 9
-            {
-                input.push(c);
-            }
-        }
-        A::PromptBackspace => {
-            if let Some(Overlay::Prompt { input, .. }) = app.overlays.last_mut() {
-                input.pop();
-            }
-        }
-        A::PromptSubmit => submit_prompt(app),
-        A::Resize { width, height } => app.term_size = (width, height),
-        _ => {}
+pub fn quit(app: &mut App) -> Option<Action> {
+    app.switch_clip = None;
+    leave(app)
+}
+
+pub fn save(app: &mut App) {
+    request_save(app);
+}
+
+/// A pause in editing: autosave, unless a drag is under way or the last save failed (then
+/// autosave waits for the next edit rather than retrying in a loop).
+pub fn idle(app: &mut App) {
+    if app.save.autosave_due() && !app.dragging {
+        request_save(app);
     }
 }
 
+pub fn undo(app: &mut App) {
+    undo_redo(app, true);
+}
+
+pub fn redo(app: &mut App) {
+    undo_redo(app, false);
+}
+
+pub fn show_frames(app: &mut App) {
+    app.view = View::Frames;
+}
+
+pub fn show_head(app: &mut App) {
+    app.view = View::Head;
+    super::transferred::request_head_frame(app);
+}
+
+pub fn show_fit(app: &mut App) {
+    app.view = View::Fit;
+}
+
+pub fn show_analysis(app: &mut App) {
+    app.view = View::Analysis;
+    if let Some(why) = super::analysis::speech_absent_reason(app) {
+        app.status = why;
+    }
+}
+
+pub fn show_side(app: &mut App) {
+    match &app.side {
+        SideState::None => app.status = "this clip has no side view".into(),
+        _ => {
+            app.view = View::Side;
+            request_images(app);
+        }
+    }
+}
+
+pub fn next_clip(app: &mut App) -> Option<Action> {
+    step_clip(app, 1)
+}
+
+pub fn prev_clip(app: &mut App) -> Option<Action> {
+    step_clip(app, app.clip_names.len().saturating_sub(1))
+}
+
+/// The clip `by` places on (wrapping), or why there is none.
+fn step_clip(app: &mut App, by: usize) -> Option<Action> {
+    let n = app.clip_names.len();
+    if n <= 1 {
+        app.status = "the session has one clip".into();
+        return None;
+    }
+    Some(Action::SwitchClip { clip: (app.clip + by) % n })
+}
+
+/// The run loop saves, then opens clip `clip` once this one is left.
+pub fn switch_clip(app: &mut App, clip: usize) -> Option<Action> {
+    app.switch_clip = Some(clip);
+    leave(app)
+}
+
 /// Leaves, or saves first and leaves on the save's reply.
-pub(super) fn quit(app: &mut App) {
+fn leave(app: &mut App) -> Option<Action> {
     match app.save.quit_requested() {
-        QuitStep::Leave => app.effects.push(Effect::Quit),
+        QuitStep::Leave => {
+            app.effects.push(Effect::Quit);
+            None
+        }
         // Autosave normally leaves nothing unsaved; save the last batch before leaving.
-        QuitStep::SaveFirst => request_save(app),
+        QuitStep::SaveFirst => Some(Action::Save),
     }
 }
 
@@ -157,38 +104,106 @@ pub(super) fn request_save(app: &mut App) {
     app.effects.push(Effect::Save { generation });
 }
 
-fn open_prompt(app: &mut App, kind: PromptKind) {
-    app.overlays.push(Overlay::Prompt { kind, input: String::new() });
+pub fn saved(app: &mut App, generation: u64) -> Option<Action> {
+    let (newest, next) = app.save.saved(generation);
+    if newest {
+        // The tables follow the corrections (the head's side uses the fits as they are until
+        // the next fit).
+        app.request_analysis();
+    }
+    // The status line's right side shows the save state; keep the message.
+    match next {
+        AfterSave::Leave => app.effects.push(Effect::Quit),
+        AfterSave::SaveAgain => return Some(Action::Save),
+        AfterSave::Nothing => {}
+    }
+    None
 }
 
-fn submit_prompt(app: &mut App) {
-    let Some(Overlay::Prompt { kind, input }) = app.overlays.pop() else { return };
-    let n: Option<usize> = input.parse().ok();
-    match kind {
-        PromptKind::GotoPoint | PromptKind::GotoLabel => match n.filter(|&n| n < N_LANDMARKS) {
-            Some(n) if kind == PromptKind::GotoPoint => frames::select_point(app, n),
-            Some(n) => head::set_label_target(app, n),
-            None => app.status = format!("no landmark `{input}` (0-67)"),
-        },
-        PromptKind::GotoFrame => {
-            match n.and_then(|f| app.track.frames.iter().position(|x| x.frame == f)) {
-                Some(p) => go_to_pos(app, p),
-                None => app.status = format!("no frame `{input}`"),
-            }
-        }
-        PromptKind::Propagate => {
-            let n = if input.is_empty() { Some(DEFAULT_PROPAGATE) } else { n };
-            match n {
-                Some(n) => frames::propagate(app, n),
-                None => app.status = format!("not a number of frames: `{input}`"),
-            }
-        }
+pub fn save_failed(app: &mut App, error: String) {
+    app.save.save_failed();
+    app.switch_clip = None;
+    app.status = if app.save.force_quit_armed() {
+        format!(
+            "save failed: {error} (q again quits without saving; the edits stay in the \
+             session's journal and are restored when it is opened again)"
+        )
+    } else {
+        format!("save failed: {error} (s retries; q retries, then quits)")
+    };
+}
+
+pub fn next_frame(app: &mut App) {
+    go_to_pos(app, app.frame_pos.saturating_add(1));
+}
+
+pub fn prev_frame(app: &mut App) {
+    go_to_pos(app, app.frame_pos.saturating_sub(1));
+}
+
+pub fn first_frame(app: &mut App) {
+    go_to_pos(app, 0);
+}
+
+pub fn last_frame(app: &mut App) {
+    go_to_pos(app, app.n_frames().saturating_sub(1));
+}
+
+pub fn next_flagged(app: &mut App) {
+    let cur = app.frame();
+    match app.flags.iter().find(|f| f.frame > cur).map(|f| f.frame) {
+        Some(f) => go_to_frame(app, f),
+        None => app.status = "no flagged frame after this one".into(),
     }
 }
 
-pub(super) fn go_to_frame(app: &mut App, frame: usize) {
-    if let Ok(p) = app.track.frames.binary_search_by_key(&frame, |f| f.frame) {
-        go_to_pos(app, p);
+pub fn prev_flagged(app: &mut App) {
+    let cur = app.frame();
+    match app.flags.iter().rev().find(|f| f.frame < cur).map(|f| f.frame) {
+        Some(f) => go_to_frame(app, f),
+        None => app.status = "no flagged frame before this one".into(),
+    }
+}
+
+pub fn next_unreviewed(app: &mut App) {
+    let n = app.n_frames();
+    let next = (1..=n)
+        .map(|k| (app.frame_pos + k) % n.max(1))
+        .find(|&p| !app.reviewed.contains(&app.track.frames[p].frame));
+    match next {
+        Some(p) => go_to_pos(app, p),
+        None => app.status = "every frame is reviewed".into(),
+    }
+}
+
+pub fn toggle_play(app: &mut App) {
+    app.playing = !app.playing && app.n_frames() > 1;
+    if app.playing {
+        if app.frame_pos + 1 >= app.n_frames() {
+            go_to_pos(app, 0);
+        }
+        app.status = format!("playing at {:.0} fps", app.fps);
+    }
+}
+
+/// The next frame while playing; the end of the clip stops playback where it is.
+pub fn play_tick(app: &mut App) {
+    if !app.playing {
+        return;
+    }
+    if app.frame_pos + 1 >= app.n_frames() {
+        app.playing = false;
+        app.status = "end of the clip".into();
+    } else {
+        go_to_pos(app, app.frame_pos + 1);
+    }
+}
+
+/// Goes to frame number `frame`, or says there is none.
+pub fn go_to_frame(app: &mut App, frame: usize) {
+    match app.track.frames.binary_search_by_key(&frame, |f| f.frame) {
+        Ok(p) => go_to_pos(app, p),
+        Err(_) => app.status = format!("no frame `{frame}`"),
     }
 }
 
@@ -223,4 +238,12 @@ pub fn request_images(app: &mut App) {
         app.effects.push(Effect::LoadSideFrame(k));
     }
     super::transferred::request_head_frame(app);
+}
+
+pub fn resize(app: &mut App, width: u16, height: u16) {
+    app.term_size = (width, height);
+}
+
+pub fn status(app: &mut App, text: String) {
+    app.status = text;
 }

@@ -2,85 +2,119 @@
 //! 3D cursor, or from suggestions the current frame makes), loading and saving the map.
 
 use super::edits::relabel;
-use super::global::request_save;
 use crate::fit::OrthoPose;
 use crate::fit::map_suggest::LeftOut;
 use crate::fit::suggest::SuggestHead;
 use crate::landmarks::N_LANDMARKS;
+use crate::model::LandmarkMap;
 use crate::tui::action::Action;
 use crate::tui::app::{App, Effect, HeadView};
 use crate::tui::views::head;
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    use Action as A;
-    // A transferred head is looked at, turned and zoomed; labels go on the model.
-    let looking = matches!(
-        action,
-        A::ZoomIn
-            | A::ZoomOut
-            | A::ZoomReset
-            | A::Rotate { .. }
-            | A::ResetView
-            | A::LoadMap
-            | A::SaveMap
-    );
-    if app.heads.shown.is_some() && !looking {
+/// Whether labels may be set now: not while a transferred head is shown (labels go on the
+/// model; a transferred head is only looked at, turned and zoomed). Says so when not.
+fn labelling(app: &mut App) -> bool {
+    if app.heads.shown.is_some() {
         app.status = "labels are set on the model: t until the model is shown".into();
+        return false;
+    }
+    true
+}
+
+pub(super) fn zoom_in(app: &mut App) {
+    app.head.zoom = (app.head.zoom * 1.5).min(20.0);
+}
+
+pub(super) fn zoom_out(app: &mut App) {
+    app.head.zoom = (app.head.zoom / 1.5).max(0.2);
+}
+
+pub(super) fn zoom_reset(app: &mut App) {
+    app.head.zoom = 1.0;
+}
+
+/// Turns the head by `yaw, pitch` degrees (pitch stops at straight up and down).
+pub fn rotate(app: &mut App, yaw: i32, pitch: i32) {
+    app.head.yaw = (app.head.yaw + f64::from(yaw)).rem_euclid(360.0);
+    app.head.pitch = (app.head.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
+}
+
+/// Back to facing the head unzoomed, keeping the landmark being labelled and the drawing.
+pub fn reset_view(app: &mut App) {
+    let (label, wireframe) = (app.head.label, app.head.wireframe);
+    app.head = HeadView { label, wireframe, ..Default::default() };
+}
+
+/// Moves the 2D cursor by `dx, dy` hundredths of the head's radius (finer when zoomed).
+pub fn move_cursor(app: &mut App, dx: i32, dy: i32) {
+    if !labelling(app) {
         return;
     }
-    match action {
-        A::ZoomIn | A::ZoomOut | A::ZoomReset => {
-            app.head.zoom = match action {
-                A::ZoomIn => (app.head.zoom * 1.5).min(20.0),
-                A::ZoomOut => (app.head.zoom / 1.5).max(0.2),
-                _ => 1.0,
-            };
-        }
-        A::Rotate { yaw, pitch } => {
-            app.head.yaw = (app.head.yaw + f64::from(yaw)).rem_euclid(360.0);
-            app.head.pitch = (app.head.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
-        }
-        A::ResetView => {
-            let (label, wireframe) = (app.head.label, app.head.wireframe);
-            app.head = HeadView { label, wireframe, ..Default::default() };
-        }
-        A::MoveCursor { dx, dy } => {
-            app.head.suggested = None;
-            let k = 0.01 / app.head.zoom;
-            let (x, y) = app.head.cursor;
-            app.head.cursor = (
-                (x + f64::from(dx) * k).clamp(-1.5, 1.5),
-                (y + f64::from(dy) * k).clamp(-1.5, 1.5),
-            );
-        }
-        A::NextLabel => set_label_target(app, (app.head.label + 1) % N_LANDMARKS),
-        A::PrevLabel => set_label_target(app, (app.head.label + N_LANDMARKS - 1) % N_LANDMARKS),
-        A::ConfirmLabel => confirm_label(app),
-        A::ClearLabel => {
-            relabel(app, vec![(app.head.label, None)]);
-        }
-        A::SuggestLabel => suggest_label(app),
-        A::SuggestAllLabels => suggest_all_labels(app),
-        A::ToggleWireframe => app.head.wireframe = !app.head.wireframe,
-        // The session then records the map file it now refers to.
-        A::LoadMap => app.effects.push(Effect::LoadMap),
-        A::SaveMap => {
-            app.effects.push(Effect::SaveMap);
-            request_save(app);
-        }
-        _ => {}
+    app.head.suggested = None;
+    let k = 0.01 / app.head.zoom;
+    let (x, y) = app.head.cursor;
+    app.head.cursor =
+        ((x + f64::from(dx) * k).clamp(-1.5, 1.5), (y + f64::from(dy) * k).clamp(-1.5, 1.5));
+}
+
+pub fn next_label(app: &mut App) {
+    if labelling(app) {
+        set_label_target(app, (app.head.label + 1) % N_LANDMARKS);
     }
 }
 
+pub fn prev_label(app: &mut App) {
+    if labelling(app) {
+        set_label_target(app, (app.head.label + N_LANDMARKS - 1) % N_LANDMARKS);
+    }
+}
+
+pub fn clear_label(app: &mut App) {
+    if labelling(app) {
+        relabel(app, vec![(app.head.label, None)]);
+    }
+}
+
+pub fn toggle_wireframe(app: &mut App) {
+    if labelling(app) {
+        app.head.wireframe = !app.head.wireframe;
+    }
+}
+
+/// Asks for the session's map file; `MapLoaded` brings it.
+pub fn load_map(app: &mut App) {
+    app.effects.push(Effect::LoadMap);
+}
+
+/// Writes the map file, then saves: the session then records the map file it refers to.
+pub fn save_map(app: &mut App) -> Option<Action> {
+    app.effects.push(Effect::SaveMap);
+    Some(Action::Save)
+}
+
+/// The session's map file replaces the labels, as one undoable edit.
+pub fn map_loaded(app: &mut App, map: LandmarkMap, path: String) {
+    let mut labels: Vec<(usize, Option<usize>)> =
+        map.to_vertex.iter().map(|(&l, &v)| (l, Some(v))).collect();
+    if let Some(old) = &app.map {
+        labels
+            .extend(old.to_vertex.keys().filter(|l| map.vertex(**l).is_none()).map(|&l| (l, None)));
+    }
+    let n = relabel(app, labels);
+    app.status = format!("{} landmarks from {path} ({n} labels changed; u undoes)", map.len());
+}
+
 /// Makes `landmark` the one being labelled (dropping a suggestion for another).
-pub(super) fn set_label_target(app: &mut App, landmark: usize) {
+pub fn set_label_target(app: &mut App, landmark: usize) {
     app.head.label = landmark;
     app.head.suggested = None;
 }
 
 /// Assigns the suggested vertex, or the one under the cursor, then moves to the next landmark.
-fn confirm_label(app: &mut App) {
+pub fn confirm_label(app: &mut App) {
+    if !labelling(app) {
+        return;
+    }
     let l = app.head.label;
     let picked = match app.head.suggested {
         Some((sl, v)) if sl == l => Some(v),
@@ -126,7 +160,11 @@ fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
     }
 }
 
-fn suggest_label(app: &mut App) {
+/// Puts the cursor on the vertex the current frame suggests for the landmark.
+pub fn suggest_label(app: &mut App) {
+    if !labelling(app) {
+        return;
+    }
     let Some((vertices, tris, pose)) = suggestion_basis(app) else {
         app.status = "no head to label".into();
         return;
@@ -167,7 +205,11 @@ fn suggest_label(app: &mut App) {
     }
 }
 
-fn suggest_all_labels(app: &mut App) {
+/// Labels every unmapped landmark with its suggested vertex, as one undoable edit.
+pub fn suggest_all_labels(app: &mut App) {
+    if !labelling(app) {
+        return;
+    }
     let Some((vertices, tris, pose)) = suggestion_basis(app) else {
         app.status = "no head to label".into();
         return;

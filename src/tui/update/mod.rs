@@ -1,23 +1,24 @@
-//! `update(&mut App, Action)`: the only place the TUI's state changes. It routes each action
-//! to the file that owns it: one per view (`frames`, `head`, `fit`, `analysis`, `side`),
-//! `global` for what works everywhere (saving, quitting, views, frame navigation, prompts),
-//! `replies` for what workers and the run loop send back. Edits go through
-//! `landmarks::edit` and land on an unlimited undo stack (`edits`); slow work is queued as
-//! `Effect`s for the run loop to carry out.
+//! `update(&mut App, Action)`: the only place the TUI's state changes. Each action goes to
+//! the handler the `actions!` table in `action.rs` names for it: one file per view
+//! (`frames`, `head` with `transferred`, `fit`, `analysis`, `side`), `overlays` for help and
+//! prompts, `global` for what works everywhere (saving, quitting, views, clips, frame
+//! navigation, replies about saving), and here what goes to whichever view is shown. Edits
+//! go through `landmarks::edit` and land on an unlimited undo stack (`edits`); slow work is
+//! queued as `Effect`s for the run loop to carry out.
 //!
 //! Also here: turning key and mouse events into actions (`input`), because which table a key
 //! is looked up in depends on the `App`.
 
-mod analysis;
+pub(crate) mod analysis;
 mod edits;
-mod fit;
-mod frames;
-mod global;
-mod head;
+pub(crate) mod fit;
+pub(crate) mod frames;
+pub(crate) mod global;
+pub(crate) mod head;
 mod input;
-mod replies;
-mod side;
-mod transferred;
+pub(crate) mod overlays;
+pub(crate) mod side;
+pub(crate) mod transferred;
 
 pub use global::request_images;
 pub use input::{key_to_action, mode_chain, mouse_to_action};
@@ -30,115 +31,46 @@ pub const DEFAULT_PROPAGATE: usize = 10;
 /// Zoom limits; 64× makes one image pixel 64 display pixels, enough for sub-pixel work.
 pub const MAX_ZOOM: f64 = 64.0;
 
-/// Applies one action; may return a follow-up action to apply next.
+/// Applies one action through its handler. Returns the follow-up action the handler asks
+/// for (a prompt's answer, a save after the map is written, the clip to switch to), which
+/// the caller applies next, and so on until there is none.
 pub fn update(app: &mut App, action: Action) -> Option<Action> {
-    use Action as A;
     // A message answers the key that caused it; the next key clears it.
     // (`Save` may come from autosave, which must not wipe the message of the edit it saves.)
-    if action.is_bindable() && !matches!(action, A::Cancel | A::Save) {
+    if action.is_bindable() && !matches!(action, Action::Cancel | Action::Save) {
         app.status.clear();
     }
-    match action {
-        A::ZoomIn | A::ZoomOut | A::ZoomReset if app.view == View::Head => {
-            head::update(app, action);
-        }
-        A::ZoomIn
-        | A::ZoomOut
-        | A::ZoomReset
-        | A::Pan { .. }
-        | A::CenterOnPoint
-        | A::Nudge { .. }
-        | A::NextPoint
-        | A::PrevPoint
-        | A::CycleScope
-        | A::ToggleVisible
-        | A::CopyPointFromPrev
-        | A::CopyFrameFromPrev
-        | A::InterpolateSelected
-        | A::InterpolateAll
-        | A::RevertPoint
-        | A::ToggleReviewed
-        | A::MouseDown { .. }
-        | A::MouseDrag { .. }
-        | A::MouseUp => frames::update(app, action),
-        A::Rotate { .. }
-        | A::ResetView
-        | A::MoveCursor { .. }
-        | A::NextLabel
-        | A::PrevLabel
-        | A::ConfirmLabel
-        | A::ClearLabel
-        | A::SuggestLabel
-        | A::SuggestAllLabels
-        | A::ToggleWireframe
-        | A::LoadMap
-        | A::SaveMap => head::update(app, action),
-        A::RunFit => fit::run_fit(app),
-        A::RowDown
-        | A::RowUp
-        | A::NextTable
-        | A::SortNextColumn
-        | A::SortReverse
-        | A::OpenRow
-        | A::ToggleSpeech
-        | A::SpeechReady { .. }
-        | A::SpeechAbsent { .. }
-        | A::AssessQuality
-        | A::QualityReady { .. }
-        | A::QualityFailed { .. } => analysis::update(app, action),
-        A::CycleHead | A::HeadPrepared { .. } | A::HeadFrameReady(_) => {
-            transferred::update(app, action)
-        }
-        A::NudgeLipPoint { .. } | A::RevertLipPoint => side::update(app, action),
-        A::FrameLoaded { .. }
-        | A::FrameFailed { .. }
-        | A::FitProgress { .. }
-        | A::FitDone { .. }
-        | A::FitFailed { .. }
-        | A::FitsStored
-        | A::FitsNotStored { .. }
-        | A::AnalysisReady { .. }
-        | A::SideReady { .. }
-        | A::SideFailed { .. }
-        | A::SideFrameLoaded { .. }
-        | A::SideFrameFailed { .. }
-        | A::MapLoaded { .. }
-        | A::Saved { .. }
-        | A::SaveFailed { .. }
-        | A::Status(_) => replies::update(app, action),
-        A::Quit
-        | A::ToggleHelp
-        | A::Cancel
-        | A::ScrollDown
-        | A::ScrollUp
-        | A::Save
-        | A::Undo
-        | A::Redo
-        | A::ShowFrames
-        | A::ShowHead
-        | A::ShowFit
-        | A::ShowAnalysis
-        | A::ShowSide
-        | A::NextClip
-        | A::PrevClip
-        | A::NextFrame
-        | A::PrevFrame
-        | A::FirstFrame
-        | A::LastFrame
-        | A::NextFlagged
-        | A::PrevFlagged
-        | A::NextUnreviewed
-        | A::TogglePlay
-        | A::PlayTick
-        | A::GotoFramePrompt
-        | A::GotoPointPrompt
-        | A::PropagatePrompt
-        | A::GotoLabelPrompt
-        | A::PromptChar(_)
-        | A::PromptBackspace
-        | A::PromptSubmit
-        | A::Resize { .. }
-        | A::Idle => global::update(app, action),
+    action.dispatch(app)
+}
+
+/// Applies an action and its follow-ups.
+pub fn apply(app: &mut App, action: Action) {
+    let mut next = Some(action);
+    while let Some(a) = next {
+        next = update(app, a);
     }
-    None
+}
+
+/// Zooms the shown view in: the head in the head view, the image elsewhere.
+pub fn zoom_in(app: &mut App) {
+    match app.view {
+        View::Head => head::zoom_in(app),
+        _ => frames::zoom(app, 2.0),
+    }
+}
+
+/// Zooms the shown view out.
+pub fn zoom_out(app: &mut App) {
+    match app.view {
+        View::Head => head::zoom_out(app),
+        _ => frames::zoom(app, 0.5),
+    }
+}
+
+/// Back to the unzoomed view.
+pub fn zoom_reset(app: &mut App) {
+    match app.view {
+        View::Head => head::zoom_reset(app),
+        _ => frames::zoom_reset(app),
+    }
 }

@@ -1,22 +1,55 @@
 //! The side view: correcting the upper lip's foremost point of the side frame shown with the
-//! current front frame (the protrusion P is measured from it).
+//! current front frame (the protrusion P is measured from it), and the side view's
+//! measurement and frames arriving from their jobs.
 
 use super::edits::push_edit;
+use super::global::request_images;
 use crate::math::{Point2, Vector2};
-use crate::tui::action::Action;
-use crate::tui::app::{App, Edit};
+use crate::tui::app::{App, Edit, FrameImage, SideState, SideView};
 use crate::tui::views;
+use std::sync::Arc;
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    match action {
-        Action::NudgeLipPoint { dx, dy } => nudge_profile_point(app, dx, dy),
-        Action::RevertLipPoint => match side_point(app) {
-            Some((k, before @ Some(_))) => set_profile_point(app, k, before, None),
-            Some((_, None)) => app.status = "this side frame has no correction".into(),
-            None => {}
-        },
-        _ => {}
+/// Drops the side frame's correction: the automatic point again.
+pub fn revert_lip_point(app: &mut App) {
+    match side_point(app) {
+        Some((k, before @ Some(_))) => set_profile_point(app, k, before, None),
+        Some((_, None)) => app.status = "this side frame has no correction".into(),
+        None => {}
+    }
+}
+
+/// The side view measured on a job: shown, its frame asked for, P in the analysis.
+pub fn side_ready(app: &mut App, side: Box<SideView>) {
+    let failed = side.track.automatic.iter().filter(|p| p.failed.is_some()).count();
+    app.status =
+        format!("side view measured: {} frames ({failed} failed)", side.track.automatic.len());
+    app.side = SideState::Ready(side);
+    request_images(app);
+    app.request_analysis();
+}
+
+pub fn side_failed(app: &mut App, error: String) {
+    app.status = format!("side view: {error}");
+    app.side = SideState::Failed(error);
+}
+
+pub fn side_frame_loaded(app: &mut App, frame: usize, image: Arc<FrameImage>) {
+    if let Some(side) = app.side.view_mut() {
+        side.image_errors.remove(&frame);
+        side.images.insert(frame, image);
+        // Keep the frames nearest the one just decoded (the one being looked at).
+        while side.images.len() > SideView::CACHE {
+            let far = side.images.keys().copied().max_by_key(|k| k.abs_diff(frame));
+            if let Some(far) = far {
+                side.images.remove(&far);
+            }
+        }
+    }
+}
+
+pub fn side_frame_failed(app: &mut App, frame: usize, error: String) {
+    if let Some(side) = app.side.view_mut() {
+        side.image_errors.insert(frame, error);
     }
 }
 
@@ -36,7 +69,7 @@ fn set_profile_point(app: &mut App, k: usize, before: Option<Point2>, after: Opt
 
 /// Moves the side frame's upper-lip point (starting from the automatic one, or the crop's
 /// centre where extraction failed) by keyboard steps of one display pixel.
-fn nudge_profile_point(app: &mut App, dx: i32, dy: i32) {
+pub fn nudge_lip_point(app: &mut App, dx: i32, dy: i32) {
     let Some((k, before)) = side_point(app) else {
         app.status = "no side frame here".into();
         return;

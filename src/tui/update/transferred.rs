@@ -1,45 +1,43 @@
 //! The head view's transferred heads: cycling model → each head → model, setting a head up
 //! (once, on a worker) and asking for the current frame's shape, which playback then follows.
 
-use crate::tui::action::Action;
-use crate::tui::app::{App, Effect, HeadSetup, View};
+use crate::tui::app::{App, Effect, HeadFrame, HeadSetup, PreparedHead, View};
+use std::sync::Arc;
 
-/// Applies an action of this file (routed here by `update`).
-pub(super) fn update(app: &mut App, action: Action) {
-    match action {
-        Action::CycleHead => cycle(app),
-        Action::HeadPrepared { index, head } => {
-            let Some(setup) = app.heads.setups.get_mut(index) else { return };
-            let name = app.heads.names[index].clone();
-            *setup = match head {
-                Ok(p) => {
-                    if app.heads.shown == Some(index) {
-                        app.status = format!(
-                            "transferred head `{name}` ({}, {} vertices) set up",
-                            p.mode,
-                            p.mesh.vertices.len()
-                        );
-                    }
-                    HeadSetup::Ready(p)
-                }
-                Err(e) => {
-                    if app.heads.shown == Some(index) {
-                        app.status = format!("transferred head `{name}`: {e}");
-                    }
-                    HeadSetup::Failed(e)
-                }
-            };
-            request_head_frame(app);
+/// A head's set-up arrived (or why it failed); the status line says so when it is shown.
+pub fn head_prepared(app: &mut App, index: usize, head: Result<Arc<PreparedHead>, String>) {
+    let Some(setup) = app.heads.setups.get_mut(index) else { return };
+    let name = app.heads.names[index].clone();
+    *setup = match head {
+        Ok(p) => {
+            if app.heads.shown == Some(index) {
+                app.status = format!(
+                    "transferred head `{name}` ({}, {} vertices) set up",
+                    p.mode,
+                    p.mesh.vertices.len()
+                );
+            }
+            HeadSetup::Ready(p)
         }
-        Action::HeadFrameReady(f) if app.heads.shown == Some(f.head) => {
-            app.heads.current = Some(f);
+        Err(e) => {
+            if app.heads.shown == Some(index) {
+                app.status = format!("transferred head `{name}`: {e}");
+            }
+            HeadSetup::Failed(e)
         }
-        _ => {}
+    };
+    request_head_frame(app);
+}
+
+/// A frame of the shown head; a late one for another head is dropped.
+pub fn head_frame_ready(app: &mut App, frame: HeadFrame) {
+    if app.heads.shown == Some(frame.head) {
+        app.heads.current = Some(frame);
     }
 }
 
 /// Shows the next head, asking for its set-up the first time it is shown.
-fn cycle(app: &mut App) {
+pub fn cycle_head(app: &mut App) {
     if app.heads.names.is_empty() {
         app.status = "no transferred heads in this session \
                       (add one with `lipmap transfer SESSION --head HEAD.obj --out DIR`)"

@@ -15,19 +15,27 @@
 //! or `Option<Action>`, a follow-up `update` applies next. Bind it in `data/keymap.toml` to
 //! give it a key; the help overlay then lists it with its text.
 
-use super::app::{AnalysisData, AnalysisTable, App, FrameImage, HeadFrame, PreparedHead, SideView};
+use super::screens::analysis::{AnalysisData, AnalysisTable};
+use super::screens::head::{HeadFrame, PreparedHead};
+use super::screens::side::SideView;
 use crate::fit::FrameFit;
+use crate::tui::app::{App, FrameImage};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-/// The modules whose functions the table names: one per view, `heads` for the transferred
-/// heads the head view shows, `overlays` for help and prompts, `global` for what works in
-/// every view, and `shown` for what goes to whichever view is shown.
+/// The modules whose functions the table names: each screen's `update.rs` (and `heads` for
+/// the transferred heads the head screen shows), `overlays` for help and prompts, `global`
+/// for what works on every screen, and `shown` for what goes to whichever screen is shown.
 mod routes {
-    pub(super) use crate::tui::update as shown;
-    pub(super) use crate::tui::update::{
-        analysis, fit, frames, global, head, overlays, side, transferred as heads,
-    };
+    pub(super) use crate::tui::global;
+    pub(super) use crate::tui::overlays::update as overlays;
+    pub(super) use crate::tui::screens as shown;
+    pub(super) use crate::tui::screens::analysis::update as analysis;
+    pub(super) use crate::tui::screens::fit::update as fit;
+    pub(super) use crate::tui::screens::frames::update as frames;
+    pub(super) use crate::tui::screens::head::transferred as heads;
+    pub(super) use crate::tui::screens::head::update as head;
+    pub(super) use crate::tui::screens::side::update as side;
 }
 
 /// What a handler may give back to `update`: nothing, or a follow-up action.

@@ -11,15 +11,18 @@
 //! terminal). The terminal is restored on return, error, signal and panic.
 
 use super::action::Action;
-use super::app::{App, Effect};
+use super::draw::draw;
+use super::global::request_images;
+use super::input::{key_to_action, mouse_to_action};
 use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
 use super::keymap::Keymap;
+use super::screens::frames::view::draw_graphics;
 use super::session_bridge::SessionBridge;
-use super::update::{apply, key_to_action, mouse_to_action, request_images};
-use super::views::draw;
-use super::views::frames::draw_graphics;
+use super::update::apply;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
+use crate::tui::app::{App, Effect};
+use crate::tui::screens::analysis::update::request_analysis;
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -102,7 +105,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         let size = guard.terminal.size()?;
         app.term_size = (size.width, size.height);
         request_images(&mut app);
-        app.request_analysis();
+        request_analysis(&mut app);
         let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
         let result =
             event_loop(&mut guard.terminal, &mut app, &mut bridge, &jobs, &mut gfx, inputs);
@@ -273,7 +276,7 @@ where
         }
         // Every finished edit goes to the journal before the next input is read (a drag is
         // written when it ends: it is one edit).
-        if app.save.changes() != journaled && !app.dragging {
+        if app.save.changes() != journaled && !app.frames.dragging {
             journaled = app.save.changes();
             if let Err(e) = bridge.journal(app) {
                 app.status = format!("edits not journaled: {e:#}");
@@ -433,7 +436,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
                     track: app.fit_input_track(),
                     alignment: app.alignment.clone().unwrap_or_default(),
                     fps: app.fps,
-                    fits: app.fit.fits.values().cloned().collect(),
+                    fits: app.fits.by_frame.values().cloned().collect(),
                     head: app.mesh.clone(),
                     side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
                 });
@@ -453,11 +456,11 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
                 }
             },
             Effect::TransferFrame { head, frame } => {
-                let prepared = match app.heads.setups.get(head) {
-                    Some(super::app::HeadSetup::Ready(p)) => p.clone(),
+                let prepared = match app.head.heads.setups.get(head) {
+                    Some(crate::tui::screens::head::HeadSetup::Ready(p)) => p.clone(),
                     _ => continue,
                 };
-                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
+                let fit = app.fits.by_frame.get(&frame).filter(|f| f.failed.is_none()).cloned();
                 if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
                     jobs.request_head_frame(HeadFrameJob { head, prepared, model, fit });
                 }

@@ -5,7 +5,7 @@ use crate::alignment::Alignment;
 use crate::fit::FrameFit;
 use crate::landmarks::Track;
 use crate::model::{LandmarkMap, MorphableModel};
-use crate::tui::app::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
+use crate::tui::screens::analysis::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
 use std::sync::Arc;
 
 /// Everything the analysis needs: the clip's effective landmarks, phones and fits.

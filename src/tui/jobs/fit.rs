@@ -5,7 +5,7 @@ use crate::landmarks::FrameLandmarks;
 use crate::model::{LandmarkMap, MorphableModel};
 use std::sync::Arc;
 
-/// Everything a fit needs, copied so the worker does not share the `App`.
+/// Everything a fit needs, copied so the job does not share the `App`.
 pub struct FitJob {
     pub generation: u64,
     pub model: Arc<MorphableModel>,

@@ -2,11 +2,11 @@
 
 use crate::fit::FrameFit;
 use crate::model::MorphableModel;
-use crate::tui::app::{HeadFrame, PreparedHead};
+use crate::tui::screens::head::{HeadFrame, PreparedHead};
 use std::sync::Arc;
 
 /// Sets up the transfer onto a session's transferred head for the head view (the one call
-/// into `workflow::transfer`, on a worker: it takes a good part of a second).
+/// into `workflow::transfer`, on a job: it takes a good part of a second).
 ///
 /// # Errors
 /// One line: the session's model or map, the head or its map cannot be read, or the

@@ -19,7 +19,8 @@ pub use heads::{HeadFrameJob, prepare_head_for_tui, transfer_frame_for_tui};
 pub use session::{quality_for_tui, speech_for_tui};
 
 use crate::tui::action::Action;
-use crate::tui::app::{FrameProvider, HeadFrame};
+use crate::tui::app::FrameProvider;
+use crate::tui::screens::head::HeadFrame;
 use slot::Slot;
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};

@@ -6,7 +6,7 @@ use crate::tui::action::Action;
 
 /// Drives clip `clip`'s head from its audio with the session's speech model (the one call
 /// into `workflow::speech_session`) and replies with its series, min–max normalised as the
-/// analysis' trajectories are, or with why there are none. `session` is the worker's copy:
+/// analysis' trajectories are, or with why there are none. `session` is the job's copy:
 /// fits its cache lacks are made in it.
 pub fn speech_for_tui(session: &mut crate::session::Session, clip: usize) -> Action {
     use crate::measure::Measure;
@@ -24,7 +24,7 @@ pub fn speech_for_tui(session: &mut crate::session::Session, clip: usize) -> Act
     }
 }
 
-/// Cross-validates quality prediction (SAQP) over the sentences of `session` (the worker's
+/// Cross-validates quality prediction (SAQP) over the sentences of `session` (the job's
 /// copy, at `path`; fits its cache lacks are made in it) with the default settings, as
 /// `lipmap saqp cv` does, and replies with the held-out sentences (each opening its clip)
 /// and the per-synthesizer table, or with why there are none.

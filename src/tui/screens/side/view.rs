@@ -2,10 +2,14 @@
 //! upper lip's foremost point (automatic or corrected) and P, so each frame's P can be checked
 //! and the point moved by hand.
 
-use super::{image_and_side, screen_layout};
 use crate::measure::profile::ProfilePoint;
-use crate::tui::app::{App, ImageView, SideState, SideView, View};
-use crate::tui::views::frames::source_colour;
+use crate::tui::app::App;
+use crate::tui::draw::screen_layout;
+use crate::tui::screens::View;
+use crate::tui::screens::frames::ImageView;
+use crate::tui::screens::frames::view::source_colour;
+use crate::tui::screens::image_and_side;
+use crate::tui::screens::side::{SideState, SideView};
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
 use ratatui::Frame;
 use ratatui::layout::Rect;

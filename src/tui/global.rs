@@ -1,11 +1,14 @@
-//! Actions that work in every view: saving and quitting (and how saves went), switching
-//! views and clips, moving through the frames and playing them, undo and redo (the edits
-//! themselves are in `edits`), the terminal's size and status messages.
-
-use super::edits::undo_redo;
+//! Actions that work on every screen: saving and quitting (and how saves went), switching
+//! screens and clips, moving through the frames and playing them, undo and redo (the edits
+//! themselves are in `app::history`), the terminal's size and status messages.
+use super::app::history::undo_redo;
 use crate::tui::action::Action;
-use crate::tui::app::{App, Effect, SideState, View};
-use crate::tui::save_state::{AfterSave, QuitStep};
+use crate::tui::app::save::{AfterSave, QuitStep};
+use crate::tui::app::{App, Effect};
+use crate::tui::screens::View;
+use crate::tui::screens::analysis::update::request_analysis;
+use crate::tui::screens::head::transferred::request_head_frame;
+use crate::tui::screens::side::SideState;
 
 pub fn quit(app: &mut App) -> Option<Action> {
     app.switch_clip = None;
@@ -19,7 +22,7 @@ pub fn save(app: &mut App) {
 /// A pause in editing: autosave, unless a drag is under way or the last save failed (then
 /// autosave waits for the next edit rather than retrying in a loop).
 pub fn idle(app: &mut App) {
-    if app.save.autosave_due() && !app.dragging {
+    if app.save.autosave_due() && !app.frames.dragging {
         request_save(app);
     }
 }
@@ -38,7 +41,7 @@ pub fn show_frames(app: &mut App) {
 
 pub fn show_head(app: &mut App) {
     app.view = View::Head;
-    super::transferred::request_head_frame(app);
+    request_head_frame(app);
 }
 
 pub fn show_fit(app: &mut App) {
@@ -47,7 +50,7 @@ pub fn show_fit(app: &mut App) {
 
 pub fn show_analysis(app: &mut App) {
     app.view = View::Analysis;
-    if let Some(why) = super::analysis::speech_absent_reason(app) {
+    if let Some(why) = super::screens::analysis::update::speech_absent_reason(app) {
         app.status = why;
     }
 }
@@ -99,7 +102,7 @@ fn leave(app: &mut App) -> Option<Action> {
 }
 
 /// Queues a save of everything edited so far; its reply (`Saved`) names its generation.
-pub(super) fn request_save(app: &mut App) {
+pub(crate) fn request_save(app: &mut App) {
     let generation = app.save.save_requested();
     app.effects.push(Effect::Save { generation });
 }
@@ -109,7 +112,7 @@ pub fn saved(app: &mut App, generation: u64) -> Option<Action> {
     if newest {
         // The tables follow the corrections (the head's side uses the fits as they are until
         // the next fit).
-        app.request_analysis();
+        request_analysis(app);
     }
     // The status line's right side shows the save state; keep the message.
     match next {
@@ -224,7 +227,9 @@ pub fn request_images(app: &mut App) {
         .into_iter()
         .flatten()
         .filter_map(|q| app.track.frames.get(q).map(|f| f.frame))
-        .filter(|f| !app.images.contains_key(f) && !app.image_errors.contains_key(f))
+        .filter(|f| {
+            !app.frames.cache.images.contains_key(f) && !app.frames.cache.errors.contains_key(f)
+        })
         .collect();
     if !wanted.is_empty() {
         app.effects.push(Effect::LoadFrames(wanted));
@@ -237,7 +242,7 @@ pub fn request_images(app: &mut App) {
     {
         app.effects.push(Effect::LoadSideFrame(k));
     }
-    super::transferred::request_head_frame(app);
+    request_head_frame(app);
 }
 
 pub fn resize(app: &mut App, width: u16, height: u16) {

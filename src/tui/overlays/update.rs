@@ -2,10 +2,10 @@
 //! scrolled) and the prompts (opened, typed into, answered). A prompt's answer is a follow-up
 //! action for the view that asked (go to a frame, select a point, propagate, label).
 
-use super::DEFAULT_PROPAGATE;
+use super::{Overlay, PromptKind};
 use crate::landmarks::N_LANDMARKS;
 use crate::tui::action::Action;
-use crate::tui::app::{App, Overlay, PromptKind};
+use crate::tui::app::App;
 
 pub fn toggle_help(app: &mut App) {
     if matches!(app.top_overlay(), Some(Overlay::Help { .. })) {
@@ -68,6 +68,9 @@ pub fn prompt_backspace(app: &mut App) {
         input.pop();
     }
 }
+
+/// Frames `PropagatePrompt` covers when the user just presses Enter.
+pub const DEFAULT_PROPAGATE: usize = 10;
 
 /// Closes the prompt and answers it: the action it asked for, or why the input is not one.
 pub fn prompt_submit(app: &mut App) -> Option<Action> {

@@ -4,9 +4,11 @@
 //! `landmark_markers` is shared with the fit view; `draw_graphics` puts a terminal graphics
 //! protocol image over the half-blocks of either view when one is in use.
 
-use super::image_and_side;
 use crate::landmarks::{LandmarkPoint, PointSource, landmark_name};
-use crate::tui::app::{App, Overlay, View};
+use crate::tui::app::App;
+use crate::tui::overlays::Overlay;
+use crate::tui::screens::View;
+use crate::tui::screens::image_and_side;
 use crate::tui::widgets::graphics::GraphicsState;
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
 use ratatui::Frame;
@@ -42,7 +44,7 @@ pub fn landmark_markers(app: &App) -> Vec<Marker> {
         .points
         .iter()
         .enumerate()
-        .filter(|(i, _)| *i != app.selected)
+        .filter(|(i, _)| *i != app.frames.selected)
         .map(|(i, p)| {
             let mut style = Style::new().fg(source_colour(p.source));
             if !p.visible {
@@ -54,7 +56,7 @@ pub fn landmark_markers(app: &App) -> Vec<Marker> {
             Marker { x: p.x, y: p.y, symbol: point_symbol(p), style }
         })
         .collect();
-    if let Some(p) = f.points.get(app.selected) {
+    if let Some(p) = f.points.get(app.frames.selected) {
         out.push(Marker {
             x: p.x,
             y: p.y,
@@ -71,11 +73,11 @@ pub fn landmark_markers(app: &App) -> Vec<Marker> {
 /// Draws the frame image with markers into `area`, with a loading/error note when needed.
 pub fn draw_image(app: &App, frame: &mut Frame, area: Rect, markers: &[Marker]) {
     let (w, h) = app.frame_dims();
-    let Some(mapping) = Mapping::new(area, w, h, &app.image_view) else { return };
+    let Some(mapping) = Mapping::new(area, w, h, &app.frames.image_view) else { return };
     let image = app.current_image().map(|i| i.as_ref());
     frame.render_widget(HalfBlockImage { image, mapping, markers }, area);
     if image.is_none() {
-        let note = match app.image_errors.get(&app.frame()) {
+        let note = match app.frames.cache.errors.get(&app.frame()) {
             Some(e) => format!(" no image: {e} "),
             None => " decoding frame… ".to_string(),
         };
@@ -91,7 +93,7 @@ pub fn draw_image(app: &App, frame: &mut Frame, area: Rect, markers: &[Marker]) 
 
 /// Draws the current frame through the terminal graphics protocol of `gfx` over the
 /// half-block image `draw` left in the frames and fit views (same area, same `Mapping`,
-/// markers rasterised into the pixels). Call after `views::draw`, inside the same
+/// markers rasterised into the pixels). Call after `draw::draw`, inside the same
 /// `Terminal::draw`. Nothing happens without a protocol, without a decoded image (the
 /// loading note stays visible), or while the help overlay covers the screen: a protocol
 /// image would paint over it, and drawing half-blocks meanwhile makes every cell differ
@@ -102,11 +104,11 @@ pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> b
     }
     let markers = match app.view {
         View::Frames => landmark_markers(app),
-        View::Fit => super::fit::fit_markers(app),
+        View::Fit => crate::tui::screens::fit::view::fit_markers(app),
         View::Head | View::Analysis | View::Side => return false,
     };
     let size = frame.area();
-    let Some(mapping) = super::image_mapping(app, (size.width, size.height)) else {
+    let Some(mapping) = crate::tui::screens::image_mapping(app, (size.width, size.height)) else {
         return false;
     };
     let Some(image) = app.current_image() else { return false };
@@ -144,7 +146,7 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
         Line::from("not reviewed").fg(Color::DarkGray)
     });
     lines.push(Line::from(""));
-    let sel = app.selected;
+    let sel = app.frames.selected;
     lines.push(Line::from(format!("{sel} {}", landmark_name(sel))).bold().fg(Color::LightMagenta));
     if let Some(p) = app.track.frames.get(app.frame_pos).and_then(|fr| fr.points.get(sel)) {
         lines.push(Line::from(vec![
@@ -161,11 +163,16 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
             lines.push(Line::from(format!("confidence {c:.2}")));
         }
     }
-    if let Some(r) = app.fit.fits.get(&f).and_then(|fit| fit.residuals.get(sel).copied().flatten())
+    if let Some(r) =
+        app.fits.by_frame.get(&f).and_then(|fit| fit.residuals.get(sel).copied().flatten())
     {
         lines.push(Line::from(format!("fit residual {:.2} px", r[0].hypot(r[1]))));
     }
-    lines.push(Line::from(format!("moves: {}   zoom {}×", app.scope.label(), app.image_view.zoom)));
+    lines.push(Line::from(format!(
+        "moves: {}   zoom {}×",
+        app.frames.scope.label(),
+        app.frames.image_view.zoom
+    )));
     lines.push(Line::from(""));
     match app.flags_of(f) {
         Some(fl) => {
@@ -195,11 +202,11 @@ mod tests {
         let mut term = Terminal::new(TestBackend::new(100, 30)).unwrap();
         let mut drew = false;
         term.draw(|f| {
-            crate::tui::views::draw(app, &Keymap::default(), f);
+            crate::tui::draw::draw(app, &Keymap::default(), f);
             drew = draw_graphics(app, gfx, f);
         })
         .unwrap();
-        let area = crate::tui::views::image_mapping(app, (100, 30)).map(|m| m.area);
+        let area = crate::tui::screens::image_mapping(app, (100, 30)).map(|m| m.area);
         let first = area.map(|a| term.backend().buffer()[(a.x, a.y)].symbol().to_string());
         (drew, first.unwrap_or_default())
     }

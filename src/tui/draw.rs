@@ -1,17 +1,71 @@
-//! The title bar (clip and view tabs), the per-frame flag strip, the status line (message,
-//! hints from the keymap, save state) and the prompt line.
+//! Drawing the whole screen: `draw(&App, &Keymap, &mut Frame)` lays out the title bar (clip
+//! and screen tabs), the shown screen (its `view`), the per-frame flag strip and the status
+//! line (message, hints from the keymap, save state), then the overlays on top. Drawing
+//! only reads the `App`.
 //!
-//! Hints are looked up in the keymap so they always name the keys actually bound.
+//! The layout is shared with `update` so mouse hit-testing matches what is drawn; hints are
+//! looked up in the keymap so they always name the keys actually bound.
 
-use crate::tui::action::Action;
-use crate::tui::app::{App, PromptKind, View};
-use crate::tui::keymap::Keymap;
-use crate::tui::update::mode_chain;
+use super::action::Action;
+use super::input::mode_chain;
+use super::keymap::Keymap;
+use super::overlays::{self, Overlay};
+use super::screens::{self, View};
+use crate::tui::app::App;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
+
+/// The fixed parts of the screen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScreenLayout {
+    pub title: Rect,
+    pub body: Rect,
+    pub strip: Rect,
+    pub status: Rect,
+}
+
+/// Title on top, flag strip and status line at the bottom, the view in between.
+pub fn screen_layout(area: Rect) -> ScreenLayout {
+    let h = area.height;
+    let row = |y: u16, height: u16| Rect::new(area.x, area.y + y, area.width, height);
+    if h < 4 {
+        return ScreenLayout {
+            title: row(0, 0),
+            body: row(0, h),
+            strip: row(h, 0),
+            status: row(h, 0),
+        };
+    }
+    ScreenLayout {
+        title: row(0, 1),
+        body: row(1, h - 3),
+        strip: row(h - 2, 1),
+        status: row(h - 1, 1),
+    }
+}
+
+/// Draws the whole screen.
+pub fn draw(app: &App, keymap: &Keymap, frame: &mut Frame) {
+    let area = frame.area();
+    let layout = screen_layout(area);
+    draw_title(app, frame, layout.title);
+    screens::draw_shown(app, frame, layout.body);
+    draw_strip(app, frame, layout.strip);
+    draw_status(app, keymap, frame, layout.status);
+    for overlay in &app.overlays {
+        match overlay {
+            Overlay::Help { scroll } => {
+                overlays::view::draw_help(app, keymap, *scroll, frame, area)
+            }
+            Overlay::Prompt { kind, input } => {
+                overlays::view::draw_prompt(*kind, input, frame, layout.status)
+            }
+        }
+    }
+}
 
 pub fn draw_title(app: &App, frame: &mut Frame, area: Rect) {
     if area.height == 0 {
@@ -27,7 +81,7 @@ pub fn draw_title(app: &App, frame: &mut Frame, area: Rect) {
         tab("3", "fit", View::Fit),
         tab("4", "analysis", View::Analysis),
     ];
-    if app.side != crate::tui::app::SideState::None {
+    if app.side != screens::side::SideState::None {
         tabs.push(tab("5", "side", View::Side));
     }
     // The tabs always show; a long session · clip title gives way.
@@ -113,18 +167,4 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     let right = Rect::new(area.x + left.width, area.y, area.width - left.width, 1);
     frame.render_widget(Paragraph::new(msg), left);
     frame.render_widget(Paragraph::new(Line::from(vec![fit, save])), right);
-}
-
-pub fn draw_prompt(kind: PromptKind, input: &str, frame: &mut Frame, area: Rect) {
-    if area.height == 0 {
-        return;
-    }
-    let line = Line::from(vec![
-        Span::from(format!("{}: ", kind.question())).fg(Color::LightCyan),
-        Span::from(input.to_string()).bold(),
-        Span::from("▏"),
-        Span::from("  Enter ok · Esc cancel").fg(Color::DarkGray),
-    ]);
-    frame.render_widget(ratatui::widgets::Clear, area);
-    frame.render_widget(Paragraph::new(line), area);
 }

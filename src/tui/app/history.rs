@@ -2,14 +2,41 @@
 //! and undoing or redoing one. Every view's edits end here, so the rules for what an edit
 //! invalidates live in one place.
 
-use super::global::go_to_frame;
 use crate::landmarks::edit::{self, EditError, PointChange};
+use crate::math::Point2;
 use crate::model::LandmarkMap;
-use crate::tui::app::{App, Edit, LabelChange};
+use crate::tui::app::App;
+use crate::tui::global::go_to_frame;
 use std::collections::BTreeSet;
 
+/// One undoable edit.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Edit {
+    Points(Vec<PointChange>),
+    Reviewed {
+        frame: usize,
+        now: bool,
+    },
+    /// Landmark map changes, applied together (one label, or all suggestions at once).
+    Labels(Vec<LabelChange>),
+    /// The user's upper-lip point of a side-view frame (None = the automatic one).
+    Profile {
+        side_frame: usize,
+        before: Option<Point2>,
+        after: Option<Point2>,
+    },
+}
+
+/// One landmark's vertex before and after a labelling edit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LabelChange {
+    pub landmark: usize,
+    pub before: Option<usize>,
+    pub after: Option<usize>,
+}
+
 /// Records an edit's changes: undo entry, autosave counter, stale fits, flags.
-pub(super) fn commit(app: &mut App, result: Result<Vec<PointChange>, EditError>) {
+pub(crate) fn commit(app: &mut App, result: Result<Vec<PointChange>, EditError>) {
     match result {
         Ok(changes) if changes.is_empty() => app.status = "nothing changed".into(),
         Ok(changes) => {
@@ -21,19 +48,19 @@ pub(super) fn commit(app: &mut App, result: Result<Vec<PointChange>, EditError>)
 }
 
 /// Point changes make their frames' fits stale and may raise or clear flags.
-pub(super) fn mark_changed(app: &mut App, changes: &[PointChange]) {
-    app.fit.stale.extend(changes.iter().map(|c| c.frame));
+pub(crate) fn mark_changed(app: &mut App, changes: &[PointChange]) {
+    app.fits.stale.extend(changes.iter().map(|c| c.frame));
     app.recompute_flags();
 }
 
 /// Pushes a new undo entry (clearing redo) and counts it as unsaved.
-pub(super) fn push_edit(app: &mut App, e: Edit) {
+pub(crate) fn push_edit(app: &mut App, e: Edit) {
     app.undo.push(e);
     app.redo.clear();
     app.save.edit_made();
 }
 
-pub(super) fn apply_reviewed(app: &mut App, frame: usize, now: bool) {
+pub(crate) fn apply_reviewed(app: &mut App, frame: usize, now: bool) {
     if now {
         app.reviewed.insert(frame);
     } else {
@@ -52,12 +79,12 @@ fn set_label(app: &mut App, landmark: usize, vertex: Option<usize>) {
 /// Another map means other fits, for every frame.
 fn stale_every_fit(app: &mut App) {
     let all: Vec<usize> = app.track.frames.iter().map(|f| f.frame).collect();
-    app.fit.stale.extend(all);
+    app.fits.stale.extend(all);
 }
 
 /// Sets landmarks' vertices (None removes) as one undoable edit; unchanged ones are skipped.
 /// Returns how many changed.
-pub(super) fn relabel(app: &mut App, labels: Vec<(usize, Option<usize>)>) -> usize {
+pub(crate) fn relabel(app: &mut App, labels: Vec<(usize, Option<usize>)>) -> usize {
     let changes: Vec<LabelChange> = labels
         .into_iter()
         .map(|(landmark, after)| {
@@ -98,7 +125,7 @@ fn describe_edit(e: &Edit) -> String {
 }
 
 /// Undoes (`undo`) or redoes the newest entry of its stack.
-pub(super) fn undo_redo(app: &mut App, undo: bool) {
+pub(crate) fn undo_redo(app: &mut App, undo: bool) {
     let (from, to) =
         if undo { (&mut app.undo, &mut app.redo) } else { (&mut app.redo, &mut app.undo) };
     let Some(e) = from.pop() else {

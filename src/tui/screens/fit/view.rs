@@ -4,13 +4,14 @@
 //!
 //! Editing keys work here as in the frames view (mode chain fit → frames → global).
 
-use super::frames::{draw_image, landmark_markers};
-use super::head::{Overlay, draw_shaded_mesh, label_triangles, rotation};
-use super::image_and_side;
 use crate::math::Matrix3;
 use crate::model::Mesh;
 use crate::render::HeadViewport;
-use crate::tui::app::{App, HeadFraming};
+use crate::tui::app::App;
+use crate::tui::screens::frames::view::{draw_image, landmark_markers};
+use crate::tui::screens::head::HeadFraming;
+use crate::tui::screens::head::view::{Overlay, draw_shaded_mesh, label_triangles, rotation};
+use crate::tui::screens::image_and_side;
 use crate::tui::widgets::halfblock::Marker;
 use ratatui::Frame;
 use ratatui::layout::Rect;
@@ -28,7 +29,7 @@ fn fit_rotation(yaw: f64, pitch: f64, roll: f64) -> Matrix3 {
 /// Markers of the fit view: tracked points as grey dots, fitted points (`+`, tracked +
 /// residual) over them, the selected point on top.
 pub fn fit_markers(app: &App) -> Vec<Marker> {
-    let fit = app.fit.fits.get(&app.frame());
+    let fit = app.fits.by_frame.get(&app.frame());
     let mut markers: Vec<Marker> = landmark_markers(app)
         .into_iter()
         .map(|mut m| {
@@ -59,7 +60,7 @@ pub fn fit_markers(app: &App) -> Vec<Marker> {
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let (image, side) = image_and_side(area);
     let f = app.frame();
-    let fit = app.fit.fits.get(&f);
+    let fit = app.fits.by_frame.get(&f);
     draw_image(app, frame, image, &fit_markers(app));
     if side.width == 0 {
         return;
@@ -101,7 +102,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             worst.sort_by(|a, b| b.1.total_cmp(&a.1));
             lines.push(Line::from("worst points (px)").fg(Color::Gray));
             for (i, r) in worst.iter().take(6) {
-                let mark = if *i == app.selected { "▸" } else { " " };
+                let mark = if *i == app.frames.selected { "▸" } else { " " };
                 lines.push(Line::from(format!("{mark}{i:>2} {r:6.2}")));
             }
         }
@@ -113,7 +114,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             lines.push(Line::from("press f to fit the clip").fg(Color::DarkGray));
         }
     }
-    if app.fit.stale.contains(&f) {
+    if app.fits.stale.contains(&f) {
         lines.push(Line::from("edited since fit").fg(Color::Yellow));
     }
     let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
@@ -131,6 +132,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         let front_area = Rect::new(content.x, y, half, room);
         let side_area = Rect::new(content.x + half, y, content.width - half, room);
         let eligible = app
+            .head
             .label_candidates
             .as_deref()
             .filter(|e| e.len() == shown.vertices.len())
@@ -158,7 +160,7 @@ fn fitted_mesh(app: &App, fit: &crate::fit::FrameFit) -> Option<(Mesh, HeadFrami
     let same = app.mesh.as_ref().filter(|m| m.vertices.len() == model.num_vertices());
     // A few hundred thousand multiply-adds for the shape and a face list: well inside a draw.
     Some(match same {
-        Some(head) => (Mesh::from_flat(shape.as_slice(), head.faces.clone()), app.head_framing),
+        Some(head) => (Mesh::from_flat(shape.as_slice(), head.faces.clone()), app.head.framing),
         None => {
             let mesh = model.to_mesh(&shape);
             let framing = HeadFraming::of_face(&mesh, Some(model), app.map.as_ref());

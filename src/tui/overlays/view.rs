@@ -1,12 +1,12 @@
-//! The help overlay, generated from the keymap and the actions' descriptions (so it cannot
-//! drift from the real bindings): one section per keymap table of the current view.
-//!
-//! Keys bound to the same action are listed together.
+//! Drawing the overlays. The help is generated from the keymap and the actions' help text (so
+//! it cannot drift from the real bindings): one section per keymap table of the shown screen,
+//! keys bound to the same action listed together. A prompt takes the status line.
 
+use super::PromptKind;
 use crate::tui::action::Action;
 use crate::tui::app::App;
+use crate::tui::input::mode_chain;
 use crate::tui::keymap::{KeyMode, Keymap};
-use crate::tui::update::mode_chain;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Stylize};
@@ -69,7 +69,8 @@ pub fn help_lines(app: &App, keymap: &Keymap) -> Vec<Line<'static>> {
     lines
 }
 
-pub fn draw(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Rect) {
+/// The help overlay, centred over the screen, scrolled down `scroll` lines.
+pub fn draw_help(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Rect) {
     let w = area.width.saturating_sub(4).min(90);
     let h = area.height.saturating_sub(2);
     if w < 10 || h < 3 {
@@ -93,4 +94,19 @@ pub fn draw(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, area: Re
             .block(Block::bordered().title(title).border_style(Color::LightMagenta)),
         r,
     );
+}
+
+/// The prompt, over the status line.
+pub fn draw_prompt(kind: PromptKind, input: &str, frame: &mut Frame, area: Rect) {
+    if area.height == 0 {
+        return;
+    }
+    let line = Line::from(vec![
+        Span::from(format!("{}: ", kind.question())).fg(Color::LightCyan),
+        Span::from(input.to_string()).bold(),
+        Span::from("▏"),
+        Span::from("  Enter ok · Esc cancel").fg(Color::DarkGray),
+    ]);
+    frame.render_widget(ratatui::widgets::Clear, area);
+    frame.render_widget(Paragraph::new(line), area);
 }

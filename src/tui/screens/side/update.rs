@@ -2,11 +2,12 @@
 //! current front frame (the protrusion P is measured from it), and the side view's
 //! measurement and frames arriving from their jobs.
 
-use super::edits::push_edit;
-use super::global::request_images;
 use crate::math::{Point2, Vector2};
-use crate::tui::app::{App, Edit, FrameImage, SideState, SideView};
-use crate::tui::views;
+use crate::tui::app::history::push_edit;
+use crate::tui::app::{App, Edit, FrameImage};
+use crate::tui::global::request_images;
+use crate::tui::screens::analysis::update::request_analysis;
+use crate::tui::screens::side::{SideState, SideView};
 use std::sync::Arc;
 
 /// Drops the side frame's correction: the automatic point again.
@@ -25,7 +26,7 @@ pub fn side_ready(app: &mut App, side: Box<SideView>) {
         format!("side view measured: {} frames ({failed} failed)", side.track.automatic.len());
     app.side = SideState::Ready(side);
     request_images(app);
-    app.request_analysis();
+    request_analysis(app);
 }
 
 pub fn side_failed(app: &mut App, error: String) {
@@ -83,7 +84,7 @@ pub fn nudge_lip_point(app: &mut App, dx: i32, dy: i32) {
                 f64::from(c.y) + f64::from(c.height) / 2.0,
             )
         });
-    let step = views::side::side_mapping(app, app.term_size).map_or(1.0, |m| m.step_px());
+    let step = super::view::side_mapping(app, app.term_size).map_or(1.0, |m| m.step_px());
     let after = start + Vector2::new(f64::from(dx) * step, f64::from(dy) * step);
     set_profile_point(app, k, before, Some(after));
 }

@@ -1,48 +1,49 @@
 //! The head view: turning and zooming the head, and labelling landmarks on its mesh (by the
 //! 3D cursor, or from suggestions the current frame makes), loading and saving the map.
 
-use super::edits::relabel;
 use crate::fit::OrthoPose;
 use crate::fit::map_suggest::LeftOut;
 use crate::fit::suggest::SuggestHead;
 use crate::landmarks::N_LANDMARKS;
 use crate::model::LandmarkMap;
 use crate::tui::action::Action;
-use crate::tui::app::{App, Effect, HeadView};
-use crate::tui::views::head;
+use crate::tui::app::history::relabel;
+use crate::tui::app::{App, Effect};
+use crate::tui::screens::head::HeadView;
+use crate::tui::screens::head::view as head;
 
 /// Whether labels may be set now: not while a transferred head is shown (labels go on the
 /// model; a transferred head is only looked at, turned and zoomed). Says so when not.
 fn labelling(app: &mut App) -> bool {
-    if app.heads.shown.is_some() {
+    if app.head.heads.shown.is_some() {
         app.status = "labels are set on the model: t until the model is shown".into();
         return false;
     }
     true
 }
 
-pub(super) fn zoom_in(app: &mut App) {
-    app.head.zoom = (app.head.zoom * 1.5).min(20.0);
+pub(crate) fn zoom_in(app: &mut App) {
+    app.head.view.zoom = (app.head.view.zoom * 1.5).min(20.0);
 }
 
-pub(super) fn zoom_out(app: &mut App) {
-    app.head.zoom = (app.head.zoom / 1.5).max(0.2);
+pub(crate) fn zoom_out(app: &mut App) {
+    app.head.view.zoom = (app.head.view.zoom / 1.5).max(0.2);
 }
 
-pub(super) fn zoom_reset(app: &mut App) {
-    app.head.zoom = 1.0;
+pub(crate) fn zoom_reset(app: &mut App) {
+    app.head.view.zoom = 1.0;
 }
 
 /// Turns the head by `yaw, pitch` degrees (pitch stops at straight up and down).
 pub fn rotate(app: &mut App, yaw: i32, pitch: i32) {
-    app.head.yaw = (app.head.yaw + f64::from(yaw)).rem_euclid(360.0);
-    app.head.pitch = (app.head.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
+    app.head.view.yaw = (app.head.view.yaw + f64::from(yaw)).rem_euclid(360.0);
+    app.head.view.pitch = (app.head.view.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
 }
 
 /// Back to facing the head unzoomed, keeping the landmark being labelled and the drawing.
 pub fn reset_view(app: &mut App) {
-    let (label, wireframe) = (app.head.label, app.head.wireframe);
-    app.head = HeadView { label, wireframe, ..Default::default() };
+    let (label, wireframe) = (app.head.view.label, app.head.view.wireframe);
+    app.head.view = HeadView { label, wireframe, ..Default::default() };
 }
 
 /// Moves the 2D cursor by `dx, dy` hundredths of the head's radius (finer when zoomed).
@@ -50,34 +51,34 @@ pub fn move_cursor(app: &mut App, dx: i32, dy: i32) {
     if !labelling(app) {
         return;
     }
-    app.head.suggested = None;
-    let k = 0.01 / app.head.zoom;
-    let (x, y) = app.head.cursor;
-    app.head.cursor =
+    app.head.view.suggested = None;
+    let k = 0.01 / app.head.view.zoom;
+    let (x, y) = app.head.view.cursor;
+    app.head.view.cursor =
         ((x + f64::from(dx) * k).clamp(-1.5, 1.5), (y + f64::from(dy) * k).clamp(-1.5, 1.5));
 }
 
 pub fn next_label(app: &mut App) {
     if labelling(app) {
-        set_label_target(app, (app.head.label + 1) % N_LANDMARKS);
+        set_label_target(app, (app.head.view.label + 1) % N_LANDMARKS);
     }
 }
 
 pub fn prev_label(app: &mut App) {
     if labelling(app) {
-        set_label_target(app, (app.head.label + N_LANDMARKS - 1) % N_LANDMARKS);
+        set_label_target(app, (app.head.view.label + N_LANDMARKS - 1) % N_LANDMARKS);
     }
 }
 
 pub fn clear_label(app: &mut App) {
     if labelling(app) {
-        relabel(app, vec![(app.head.label, None)]);
+        relabel(app, vec![(app.head.view.label, None)]);
     }
 }
 
 pub fn toggle_wireframe(app: &mut App) {
     if labelling(app) {
-        app.head.wireframe = !app.head.wireframe;
+        app.head.view.wireframe = !app.head.view.wireframe;
     }
 }
 
@@ -106,8 +107,8 @@ pub fn map_loaded(app: &mut App, map: LandmarkMap, path: String) {
 
 /// Makes `landmark` the one being labelled (dropping a suggestion for another).
 pub fn set_label_target(app: &mut App, landmark: usize) {
-    app.head.label = landmark;
-    app.head.suggested = None;
+    app.head.view.label = landmark;
+    app.head.view.suggested = None;
 }
 
 /// Assigns the suggested vertex, or the one under the cursor, then moves to the next landmark.
@@ -115,12 +116,12 @@ pub fn confirm_label(app: &mut App) {
     if !labelling(app) {
         return;
     }
-    let l = app.head.label;
-    let picked = match app.head.suggested {
+    let l = app.head.view.label;
+    let picked = match app.head.view.suggested {
         Some((sl, v)) if sl == l => Some(v),
         _ => app.mesh.as_ref().and_then(|m| {
-            let eligible = app.label_candidates.as_deref().map(Vec::as_slice);
-            head::pick_vertex(m, &app.head_framing, &app.head, eligible)
+            let eligible = app.head.label_candidates.as_deref().map(Vec::as_slice);
+            head::pick_vertex(m, &app.head.framing, &app.head.view, eligible)
         }),
     };
     match picked {
@@ -140,11 +141,11 @@ type SuggestionBasis = (Vec<crate::math::Point3>, Vec<[u32; 3]>, Option<OrthoPos
 
 fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
     // The head's skin, eyes and teeth hide what is behind them; helper shells do not.
-    let occluders = app.occluders.as_deref().map(Vec::as_slice);
+    let occluders = app.head.occluders.as_deref().map(Vec::as_slice);
     let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
         crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
     };
-    let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
+    let fit = app.fits.by_frame.get(&app.frame()).filter(|f| f.failed.is_none());
     if let (Some(model), Some(fit)) = (&app.model, fit) {
         let shape = crate::fit::fitted_shape(model, fit);
         let tris = match &app.mesh {
@@ -171,11 +172,11 @@ pub fn suggest_label(app: &mut App) {
     };
     let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
     let map = app.map.clone().unwrap_or_default();
-    let l = app.head.label;
+    let l = app.head.view.label;
     let how = if pose.is_some() { "fitted pose" } else { "pose from the labels" };
     let h = f64::from(app.frame_dims().1);
     // A vertex another landmark holds is not offered again: one vertex per landmark.
-    let mut eligible = match app.label_candidates.as_deref() {
+    let mut eligible = match app.head.label_candidates.as_deref() {
         Some(e) => e.clone(),
         None => vec![true; vertices.len()],
     };
@@ -188,13 +189,13 @@ pub fn suggest_label(app: &mut App) {
     match crate::fit::suggest::suggest_label(&head, &map, frame, h, pose, l) {
         Ok(s) => {
             if let Some(mesh) = &app.mesh {
-                let rot = head::rotation(app.head.yaw, app.head.pitch);
-                let pts = head::project(mesh, &rot, &app.head_framing);
+                let rot = head::rotation(app.head.view.yaw, app.head.view.pitch);
+                let pts = head::project(mesh, &rot, &app.head.framing);
                 if let Some(p) = pts.get(s.vertex) {
-                    app.head.cursor = (p.0, -p.1);
+                    app.head.view.cursor = (p.0, -p.1);
                 }
             }
-            app.head.suggested = Some((l, s.vertex));
+            app.head.view.suggested = Some((l, s.vertex));
             app.status = format!(
                 "suggested vertex {} for {l} ({:.1} px off the tracked point, {how}): \
                  Enter assigns",
@@ -220,7 +221,7 @@ pub fn suggest_all_labels(app: &mut App) {
     let head = SuggestHead {
         vertices: &vertices,
         triangles: &tris,
-        eligible: app.label_candidates.as_deref().map(Vec::as_slice),
+        eligible: app.head.label_candidates.as_deref().map(Vec::as_slice),
     };
     match crate::fit::map_suggest::suggest_map(&head, &map, frame, h, pose) {
         Ok(proposal) => {

@@ -4,6 +4,7 @@
 
 use crate::fit::FrameFit;
 use crate::tui::app::{App, Effect};
+use crate::tui::screens::analysis::update::request_analysis;
 
 /// Queues a fit of the frames that need one, or says why not.
 pub fn run_fit(app: &mut App) {
@@ -19,21 +20,21 @@ pub fn run_fit(app: &mut App) {
         app.status = format!("cannot fit: {e}; label more in the head view (2), `O` suggests");
         return;
     }
-    if app.fit.stale.is_empty()
-        && app.track.frames.iter().all(|f| app.fit.fits.contains_key(&f.frame))
+    if app.fits.stale.is_empty()
+        && app.track.frames.iter().all(|f| app.fits.by_frame.contains_key(&f.frame))
     {
         app.status = "every frame is fitted and nothing changed since the last fit".into();
         return;
     }
     app.fit.generation += 1;
-    let frames = if !app.fit.fits.is_empty() && !app.fit_settings.clip && !app.fit.stale.is_empty()
-    {
-        Some(app.fit.stale.iter().copied().collect())
-    } else {
-        None
-    };
+    let frames =
+        if !app.fits.by_frame.is_empty() && !app.fit_settings.clip && !app.fits.stale.is_empty() {
+            Some(app.fits.stale.iter().copied().collect())
+        } else {
+            None
+        };
     let total = frames.as_ref().map_or(app.n_frames(), Vec::len);
-    app.fit.stale.clear();
+    app.fits.stale.clear();
     app.fit.running = true;
     app.fit.progress = (0, total);
     app.fit.error = None;
@@ -56,17 +57,17 @@ pub fn fit_done(app: &mut App, generation: u64, fits: Vec<FrameFit>) {
     app.fit.error = None;
     let n = fits.len();
     let failed = fits.iter().filter(|f| f.failed.is_some()).count();
-    if app.fit.stale.is_empty() {
+    if app.fits.stale.is_empty() {
         app.effects.push(Effect::StoreFits { fits: fits.clone() });
     }
     for f in fits {
-        app.fit.fits.insert(f.frame, f);
+        app.fits.by_frame.insert(f.frame, f);
     }
     app.recompute_flags();
-    app.request_analysis();
+    request_analysis(app);
     // A transferred head follows the new fit.
-    app.heads.current = None;
-    super::transferred::request_head_frame(app);
+    app.head.heads.current = None;
+    crate::tui::screens::head::transferred::request_head_frame(app);
     app.status = format!("fitted {n} frames ({failed} failed)");
 }
 

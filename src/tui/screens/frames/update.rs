@@ -1,18 +1,22 @@
 //! The frames view (and the fit view, which shares its keys): correcting landmarks with keys
-//! and the mouse, what moves together, zoom and pan of the image.
+//! and the mouse, what moves together, zoom and pan of the image, and the decoded frames
+//! arriving from their job.
 
-use super::MAX_ZOOM;
-use super::edits::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::landmarks::edit;
 use crate::landmarks::{LandmarkPoint, N_LANDMARKS, ibug};
-use crate::tui::app::{App, Edit, FrameImage, Scope};
-use crate::tui::views;
+use crate::tui::app::history::{apply_reviewed, commit, mark_changed, push_edit};
+use crate::tui::app::{App, Edit, FrameImage};
+use crate::tui::screens;
+use crate::tui::screens::frames::Scope;
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
+/// Zoom limit; 64× makes one image pixel 64 display pixels, enough for sub-pixel work.
+pub const MAX_ZOOM: f64 = 64.0;
+
 pub fn center_on_point(app: &mut App) {
     if let Some(p) = current_point(app) {
-        app.image_view.center = Some((p.x, p.y));
+        app.frames.image_view.center = Some((p.x, p.y));
     }
 }
 
@@ -26,18 +30,21 @@ pub fn nudge(app: &mut App, dx: i32, dy: i32) {
 }
 
 pub fn next_point(app: &mut App) {
-    select_point(app, (app.selected + 1) % N_LANDMARKS);
+    select_point(app, (app.frames.selected + 1) % N_LANDMARKS);
 }
 
 pub fn prev_point(app: &mut App) {
-    select_point(app, (app.selected + N_LANDMARKS - 1) % N_LANDMARKS);
+    select_point(app, (app.frames.selected + N_LANDMARKS - 1) % N_LANDMARKS);
 }
 
 pub fn cycle_scope(app: &mut App) {
-    app.scope = app.scope.next();
-    app.status = match app.scope {
+    app.frames.scope = app.frames.scope.next();
+    app.status = match app.frames.scope {
         Scope::Group => {
-            format!("moving: group ({})", ibug::group_of(app.selected).map_or("point", |g| g.name))
+            format!(
+                "moving: group ({})",
+                ibug::group_of(app.frames.selected).map_or("point", |g| g.name)
+            )
         }
         s => format!("moving: {}", s.label()),
     };
@@ -98,18 +105,18 @@ pub fn toggle_reviewed(app: &mut App) {
 }
 
 pub fn mouse_up(app: &mut App) {
-    app.dragging = false;
+    app.frames.dragging = false;
 }
 
 /// A decoded frame for the cache (its size is the clip's).
 pub fn frame_loaded(app: &mut App, frame: usize, image: Arc<FrameImage>) {
-    app.image_size = Some((image.width, image.height));
-    app.image_errors.remove(&frame);
+    app.frames.cache.size = Some((image.width, image.height));
+    app.frames.cache.errors.remove(&frame);
     app.cache_image(frame, image);
 }
 
 pub fn frame_failed(app: &mut App, frame: usize, error: String) {
-    app.image_errors.insert(frame, error);
+    app.frames.cache.errors.insert(frame, error);
 }
 
 /// Propagates the selected points' correction to the next `n` frames.
@@ -125,56 +132,57 @@ pub fn propagate(app: &mut App, n: usize) {
 
 /// Selects a point and, when zoomed in, pans to it if it is off screen.
 pub fn select_point(app: &mut App, index: usize) {
-    app.selected = index;
-    let (Some(m), Some(p)) = (views::image_mapping(app, app.term_size), current_point(app)) else {
+    app.frames.selected = index;
+    let (Some(m), Some(p)) = (screens::image_mapping(app, app.term_size), current_point(app))
+    else {
         return;
     };
     let (x, y) = m.image_to_display(p.x, p.y);
     let (w, h) = (f64::from(m.area.width), 2.0 * f64::from(m.area.height));
-    if app.image_view.zoom > 1.0 && !((0.0..w).contains(&x) && (0.0..h).contains(&y)) {
-        app.image_view.center = Some((p.x, p.y));
+    if app.frames.image_view.zoom > 1.0 && !((0.0..w).contains(&x) && (0.0..h).contains(&y)) {
+        app.frames.image_view.center = Some((p.x, p.y));
     }
 }
 
 fn current_point(app: &App) -> Option<LandmarkPoint> {
-    app.track.frames.get(app.frame_pos).and_then(|f| f.points.get(app.selected)).copied()
+    app.track.frames.get(app.frame_pos).and_then(|f| f.points.get(app.frames.selected)).copied()
 }
 
 /// Image pixels one keyboard step moves: one display pixel (so a step is always visible,
 /// and sub-pixel when zoomed in), or 1 px when nothing is on screen.
 fn step_px(app: &App) -> f64 {
-    views::image_mapping(app, app.term_size).map_or(1.0, |m| m.step_px())
+    screens::image_mapping(app, app.term_size).map_or(1.0, |m| m.step_px())
 }
 
 /// Zooms the image by `factor` (within 1..`MAX_ZOOM`).
-pub(super) fn zoom(app: &mut App, factor: f64) {
-    let z = (app.image_view.zoom * factor).clamp(1.0, MAX_ZOOM);
-    if app.image_view.center.is_none() && z > 1.0 {
+pub(crate) fn zoom(app: &mut App, factor: f64) {
+    let z = (app.frames.image_view.zoom * factor).clamp(1.0, MAX_ZOOM);
+    if app.frames.image_view.center.is_none() && z > 1.0 {
         // Zoom towards the selected point: that is what one zooms in to correct.
-        app.image_view.center = current_point(app).map(|p| (p.x, p.y));
+        app.frames.image_view.center = current_point(app).map(|p| (p.x, p.y));
     }
-    app.image_view.zoom = z;
+    app.frames.image_view.zoom = z;
     if z == 1.0 {
-        app.image_view.center = None;
+        app.frames.image_view.center = None;
     }
 }
 
-pub(super) fn zoom_reset(app: &mut App) {
-    app.image_view = Default::default();
+pub(crate) fn zoom_reset(app: &mut App) {
+    app.frames.image_view = Default::default();
 }
 
 /// Pans the image by `dx, dy` tenths of the visible width and height.
 pub fn pan(app: &mut App, dx: i32, dy: i32) {
-    let Some(m) = views::image_mapping(app, app.term_size) else { return };
+    let Some(m) = screens::image_mapping(app, app.term_size) else { return };
     let (w, h) = (f64::from(m.area.width), 2.0 * f64::from(m.area.height));
     let (cx, cy) =
         (m.cx + f64::from(dx) * w / 10.0 / m.scale, m.cy + f64::from(dy) * h / 10.0 / m.scale);
-    app.image_view.center = Some((cx, cy));
+    app.frames.image_view.center = Some((cx, cy));
 }
 
 /// Selects the point nearest the click and starts dragging it.
 pub fn mouse_down(app: &mut App, col: u16, row: u16) {
-    let Some(m) = views::image_mapping(app, app.term_size) else { return };
+    let Some(m) = screens::image_mapping(app, app.term_size) else { return };
     let Some((x, y)) = m.cell_to_image(col, row) else { return };
     let Some(f) = app.track.frames.get(app.frame_pos) else { return };
     let (cx, cy) = m.image_to_display(x, y);
@@ -188,32 +196,32 @@ pub fn mouse_down(app: &mut App, col: u16, row: u16) {
         })
         .min_by(|a, b| a.1.total_cmp(&b.1));
     if let Some((i, _)) = nearest {
-        app.selected = i;
-        app.dragging = true;
-        app.drag_open = false;
+        app.frames.selected = i;
+        app.frames.dragging = true;
+        app.frames.drag_open = false;
     }
 }
 
 /// Moves the dragged point under the mouse; one drag is one undo step.
 pub fn mouse_drag(app: &mut App, col: u16, row: u16) {
-    if !app.dragging {
+    if !app.frames.dragging {
         return;
     }
-    let Some(m) = views::image_mapping(app, app.term_size) else { return };
+    let Some(m) = screens::image_mapping(app, app.term_size) else { return };
     let Some((x, y)) = m.cell_to_image(col, row) else { return };
     let f = app.frame();
-    match edit::place_point(&mut app.track, f, app.selected, x, y) {
+    match edit::place_point(&mut app.track, f, app.frames.selected, x, y) {
         Ok(changes) if !changes.is_empty() => {
             mark_changed(app, &changes);
             // One drag is one undo step: extend the entry the drag opened.
-            if app.drag_open
+            if app.frames.drag_open
                 && let Some(Edit::Points(prev)) = app.undo.last_mut()
             {
                 prev.extend(changes);
                 app.save.change_made();
             } else {
                 push_edit(app, Edit::Points(changes));
-                app.drag_open = true;
+                app.frames.drag_open = true;
             }
         }
         Ok(_) => {}

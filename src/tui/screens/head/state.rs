@@ -1,13 +1,34 @@
-//! The head view's state: how the head is turned and framed (`HeadView`, `HeadFraming`) and
-//! the heads the session's motion was transferred onto (`TransferredHeads`), one of which the
-//! view may show in place of the model, moving with the current frame.
+//! The head screen's state: how the head is turned and framed (`HeadView`, `HeadFraming`),
+//! what of the mesh may be labelled and drawn, and the heads the session's motion was
+//! transferred onto (`TransferredHeads`), one of which the screen may show in place of the
+//! model, moving with the current frame.
 //!
-//! A transferred head is set up once, on a worker (`PreparedHead`); each frame's shape is
-//! computed on a worker too and kept here for drawing.
+//! A transferred head is set up once, on a job (`PreparedHead`); each frame's shape is
+//! computed on a job too and kept here for drawing.
 
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use std::collections::BTreeSet;
 use std::sync::Arc;
+
+/// Everything the head screen keeps. The mesh itself is the session's (`App::mesh`); what is
+/// derived from it for this screen is here.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HeadScreen {
+    pub view: HeadView,
+    /// What the head is framed on; recomputed with `App::frame_head` when mesh, model or map
+    /// change.
+    pub framing: HeadFraming,
+    /// Unique mesh edges for the wireframe, computed once when the mesh is set.
+    pub edges: Arc<Vec<[u32; 2]>>,
+    /// Vertices landmarks may be labelled on (`None`: all): not a figure's helper or joint
+    /// geometry (see `io::obj::labelable_vertices`).
+    pub label_candidates: Option<Arc<Vec<bool>>>,
+    /// Vertices whose triangles hide what is behind them from suggestions (`None`: all): the
+    /// skin, eyeballs and teeth, not see-through shells (see `io::obj::occluding_vertices`).
+    pub occluders: Option<Arc<Vec<bool>>>,
+    /// The session's transferred heads the screen can show.
+    pub heads: TransferredHeads,
+}
 
 /// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
 /// smaller side) and the landmark being labelled.
@@ -111,7 +132,7 @@ pub fn wire_edges(mesh: &Mesh, keep: Option<&[bool]>) -> Vec<[u32; 2]> {
     edges.into_iter().collect()
 }
 
-/// A transferred head set up for the view: the transfer (computed once, on a worker), the
+/// A transferred head set up for the view: the transfer (computed once, on a job), the
 /// head's mesh at rest (skin faces only), its wireframe edges and the framing of its face.
 #[derive(Debug)]
 pub struct PreparedHead {
@@ -166,7 +187,7 @@ pub enum HeadSetup {
     Failed(String),
 }
 
-/// The transferred head's shape at one frame, as the worker computed it.
+/// The transferred head's shape at one frame, as its job computed it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HeadFrame {
     pub head: usize,

@@ -1,16 +1,20 @@
 //! The head view's transferred heads: cycling model → each head → model, setting a head up
-//! (once, on a worker) and asking for the current frame's shape, which playback then follows.
+//! (once, on a job) and asking for the current frame's shape, which playback then follows.
 
-use crate::tui::app::{App, Effect, HeadFrame, HeadSetup, PreparedHead, View};
+use crate::tui::app::{App, Effect};
+
+use crate::tui::screens::View;
+
+use crate::tui::screens::head::{HeadFrame, HeadSetup, PreparedHead};
 use std::sync::Arc;
 
 /// A head's set-up arrived (or why it failed); the status line says so when it is shown.
 pub fn head_prepared(app: &mut App, index: usize, head: Result<Arc<PreparedHead>, String>) {
-    let Some(setup) = app.heads.setups.get_mut(index) else { return };
-    let name = app.heads.names[index].clone();
+    let Some(setup) = app.head.heads.setups.get_mut(index) else { return };
+    let name = app.head.heads.names[index].clone();
     *setup = match head {
         Ok(p) => {
-            if app.heads.shown == Some(index) {
+            if app.head.heads.shown == Some(index) {
                 app.status = format!(
                     "transferred head `{name}` ({}, {} vertices) set up",
                     p.mode,
@@ -20,7 +24,7 @@ pub fn head_prepared(app: &mut App, index: usize, head: Result<Arc<PreparedHead>
             HeadSetup::Ready(p)
         }
         Err(e) => {
-            if app.heads.shown == Some(index) {
+            if app.head.heads.shown == Some(index) {
                 app.status = format!("transferred head `{name}`: {e}");
             }
             HeadSetup::Failed(e)
@@ -31,29 +35,29 @@ pub fn head_prepared(app: &mut App, index: usize, head: Result<Arc<PreparedHead>
 
 /// A frame of the shown head; a late one for another head is dropped.
 pub fn head_frame_ready(app: &mut App, frame: HeadFrame) {
-    if app.heads.shown == Some(frame.head) {
-        app.heads.current = Some(frame);
+    if app.head.heads.shown == Some(frame.head) {
+        app.head.heads.current = Some(frame);
     }
 }
 
 /// Shows the next head, asking for its set-up the first time it is shown.
 pub fn cycle_head(app: &mut App) {
-    if app.heads.names.is_empty() {
+    if app.head.heads.names.is_empty() {
         app.status = "no transferred heads in this session \
                       (add one with `lipmap transfer SESSION --head HEAD.obj --out DIR`)"
             .into();
         return;
     }
-    app.heads.shown = app.heads.next_shown();
-    app.heads.current = None;
-    let Some(h) = app.heads.shown else {
+    app.head.heads.shown = app.head.heads.next_shown();
+    app.head.heads.current = None;
+    let Some(h) = app.head.heads.shown else {
         app.status = "the model (labelling)".into();
         return;
     };
-    let name = &app.heads.names[h];
-    app.status = match &app.heads.setups[h] {
+    let name = &app.head.heads.names[h];
+    app.status = match &app.head.heads.setups[h] {
         HeadSetup::NotStarted => {
-            app.heads.setups[h] = HeadSetup::Preparing;
+            app.head.heads.setups[h] = HeadSetup::Preparing;
             app.effects.push(Effect::PrepareHead(h));
             format!("setting up the transfer onto `{name}`…")
         }
@@ -70,12 +74,12 @@ pub fn request_head_frame(app: &mut App) {
     if app.view != View::Head {
         return;
     }
-    let Some((head, _)) = app.heads.shown_ready() else { return };
+    let Some((head, _)) = app.head.heads.shown_ready() else { return };
     let frame = app.frame();
-    if app.heads.current.as_ref().is_some_and(|c| c.head == head && c.frame == frame) {
+    if app.head.heads.current.as_ref().is_some_and(|c| c.head == head && c.frame == frame) {
         return;
     }
-    if app.fit.fits.get(&frame).is_some_and(|f| f.failed.is_none()) {
+    if app.fits.by_frame.get(&frame).is_some_and(|f| f.failed.is_none()) {
         app.effects.push(Effect::TransferFrame { head, frame });
     }
 }
@@ -83,8 +87,10 @@ pub fn request_head_frame(app: &mut App) {
 #[cfg(test)]
 mod tests {
     use crate::tui::action::Action;
-    use crate::tui::app::{Effect, HeadFrame, HeadSetup, TransferredHeads, View};
+    use crate::tui::app::Effect;
     use crate::tui::fixtures::{synthetic_app, synthetic_prepared_head};
+    use crate::tui::screens::View;
+    use crate::tui::screens::head::{HeadFrame, HeadSetup, TransferredHeads};
     use crate::tui::update::update;
     use std::sync::Arc;
 
@@ -93,26 +99,26 @@ mod tests {
         let mut app = synthetic_app(10, 320, 240, true);
         app.view = View::Head;
         update(&mut app, Action::CycleHead);
-        assert_eq!(app.heads.shown, None);
+        assert_eq!(app.head.heads.shown, None);
         assert!(app.status.contains("no transferred heads"), "{}", app.status);
 
-        app.heads = TransferredHeads::named(vec!["base".into(), "scan".into()]);
+        app.head.heads = TransferredHeads::named(vec!["base".into(), "scan".into()]);
         update(&mut app, Action::CycleHead);
-        assert_eq!(app.heads.shown, Some(0));
+        assert_eq!(app.head.heads.shown, Some(0));
         assert_eq!(app.effects, vec![Effect::PrepareHead(0)]);
-        assert_eq!(app.heads.setups[0], HeadSetup::Preparing);
+        assert_eq!(app.head.heads.setups[0], HeadSetup::Preparing);
         // Labels go on the model, never on a transferred head; turning it works.
-        let (cursor, yaw) = (app.head.cursor, app.head.yaw);
+        let (cursor, yaw) = (app.head.view.cursor, app.head.view.yaw);
         update(&mut app, Action::MoveCursor { dx: 5, dy: 0 });
         update(&mut app, Action::Rotate { yaw: 15, pitch: 0 });
-        assert_eq!(app.head.cursor, cursor);
-        assert!((app.head.yaw - yaw - 15.0).abs() < 1e-9);
+        assert_eq!(app.head.view.cursor, cursor);
+        assert!((app.head.view.yaw - yaw - 15.0).abs() < 1e-9);
         app.effects.clear();
         update(&mut app, Action::CycleHead);
         update(&mut app, Action::CycleHead);
-        assert_eq!(app.heads.shown, None, "after the last head, the model again");
+        assert_eq!(app.head.heads.shown, None, "after the last head, the model again");
         update(&mut app, Action::CycleHead);
-        assert_eq!(app.heads.shown, Some(0));
+        assert_eq!(app.head.heads.shown, Some(0));
         assert_eq!(app.effects, vec![Effect::PrepareHead(1)], "head 0 is not set up twice");
     }
 
@@ -120,7 +126,7 @@ mod tests {
     fn playback_asks_for_each_fitted_frame_of_the_shown_head() {
         let mut app = synthetic_app(10, 320, 240, true);
         app.view = View::Head;
-        app.heads = TransferredHeads::named(vec!["base".into()]);
+        app.head.heads = TransferredHeads::named(vec!["base".into()]);
         update(&mut app, Action::CycleHead);
         app.effects.clear();
         let head = Ok(Arc::new(synthetic_prepared_head()));
@@ -137,10 +143,10 @@ mod tests {
         // A late reply for another head is dropped; one for the shown head is kept.
         let shape = Ok(Arc::new(crate::model::Mesh::default()));
         update(&mut app, Action::HeadFrameReady(HeadFrame { head: 1, frame: 1, shape }));
-        assert_eq!(app.heads.current, None);
+        assert_eq!(app.head.heads.current, None);
         let shape = Ok(Arc::new(crate::model::Mesh::default()));
         update(&mut app, Action::HeadFrameReady(HeadFrame { head: 0, frame: 1, shape }));
-        assert_eq!(app.heads.current.as_ref().map(|c| c.frame), Some(1));
+        assert_eq!(app.head.heads.current.as_ref().map(|c| c.frame), Some(1));
         // The frame of the reply is there: no second request for it.
         app.effects.clear();
         super::request_head_frame(&mut app);

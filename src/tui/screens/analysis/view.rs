@@ -4,7 +4,9 @@
 //!
 //! `sorted_rows` is shared with `update` so Enter opens the row the user sees.
 
-use crate::tui::app::{AnalysisTable, AnalysisView, App};
+use crate::tui::app::App;
+
+use crate::tui::screens::analysis::{AnalysisTable, AnalysisView};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::{Color, Modifier, Style, Stylize};
@@ -17,13 +19,16 @@ pub fn sorted_rows(table: &AnalysisTable, view: &AnalysisView) -> Vec<usize> {
     let mut order: Vec<usize> = (0..table.rows.len()).collect();
     let col = view.sort_column;
     // A summary row (`mean`) stays at the bottom whatever the order.
-    let summary = |r: &crate::tui::app::AnalysisRow| r.cells.first().is_some_and(|c| c == "mean");
+    let summary = |r: &crate::tui::screens::analysis::AnalysisRow| {
+        r.cells.first().is_some_and(|c| c == "mean")
+    };
     order.sort_by(|&a, &b| {
         let (ra, rb) = (&table.rows[a], &table.rows[b]);
         if summary(ra) != summary(rb) {
             return summary(ra).cmp(&summary(rb));
         }
-        let key = |r: &crate::tui::app::AnalysisRow| r.keys.get(col).copied().flatten();
+        let key =
+            |r: &crate::tui::screens::analysis::AnalysisRow| r.keys.get(col).copied().flatten();
         let o = match (key(ra), key(rb)) {
             (Some(x), Some(y)) => x.total_cmp(&y),
             // Blank values sort last either way.
@@ -37,7 +42,7 @@ pub fn sorted_rows(table: &AnalysisTable, view: &AnalysisView) -> Vec<usize> {
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let Some(table) = app.analysis.tables.get(app.analysis_view.table) else {
+    let Some(table) = app.analysis.data.tables.get(app.analysis.cursor.table) else {
         frame.render_widget(
             Paragraph::new(vec![
                 Line::from("No analysis yet.").bold(),
@@ -50,13 +55,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         );
         return;
     };
-    let chart_h = if app.analysis.trajectories.is_empty() { 0 } else { area.height * 2 / 5 };
+    let chart_h = if app.analysis.data.trajectories.is_empty() { 0 } else { area.height * 2 / 5 };
     let table_area = Rect::new(area.x, area.y, area.width, area.height - chart_h);
     draw_table(app, table, frame, table_area);
     if chart_h >= 4 {
-        let n = app.analysis.trajectories.len() as u16;
+        let n = app.analysis.data.trajectories.len() as u16;
         let w = area.width / n.max(1);
-        for (k, t) in app.analysis.trajectories.iter().enumerate() {
+        for (k, t) in app.analysis.data.trajectories.iter().enumerate() {
             let x = area.x + w * k as u16;
             let width = if k as u16 + 1 == n { area.width - w * (n - 1) } else { w };
             draw_trajectory(
@@ -70,7 +75,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
 }
 
 fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
-    let view = &app.analysis_view;
+    let view = &app.analysis.cursor;
     let order = sorted_rows(table, view);
     let arrow = if view.descending { "▼" } else { "▲" };
     let header: Vec<Cell> = table
@@ -104,7 +109,7 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
             Constraint::Length(w + u16::from(c == 0) + 1)
         })
         .collect();
-    let n_tables = app.analysis.tables.len();
+    let n_tables = app.analysis.data.tables.len();
     let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
     // Columns packed to the left: numbers next to their labels, the spare width at the end.
     let t = Table::new(rows, widths)
@@ -129,9 +134,17 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
 /// The speech-driven head's colour in the charts and their legend.
 const SPEECH: Color = Color::LightGreen;
 
-fn draw_trajectory(app: &App, t: &crate::tui::app::Trajectory, frame: &mut Frame, area: Rect) {
-    let speech: &[(f64, f64)] =
-        if app.show_speech { app.speech.of(&t.name).unwrap_or_default() } else { &[] };
+fn draw_trajectory(
+    app: &App,
+    t: &crate::tui::screens::analysis::Trajectory,
+    frame: &mut Frame,
+    area: Rect,
+) {
+    let speech: &[(f64, f64)] = if app.analysis.show_speech {
+        app.analysis.speech.of(&t.name).unwrap_or_default()
+    } else {
+        &[]
+    };
     let all = t.video.iter().chain(&t.model).chain(speech);
     let (mut x0, mut x1, mut y0, mut y1) =
         (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);

@@ -2,8 +2,10 @@
 //! `App` (its overlay and view), and a prompt takes text keys before the keymap sees them.
 
 use crate::tui::action::Action;
-use crate::tui::app::{App, Overlay, View};
+use crate::tui::app::App;
 use crate::tui::keymap::{KeyChord, KeyMode, Keymap};
+use crate::tui::overlays::Overlay;
+use crate::tui::screens::View;
 use ratatui::crossterm::event::{
     KeyCode, KeyEvent, KeyEventKind, MouseButton, MouseEvent, MouseEventKind,
 };

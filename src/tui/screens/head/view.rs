@@ -12,7 +12,8 @@ use crate::landmarks::landmark_name;
 use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
 use crate::render::{HeadShot, HeadViewport};
-use crate::tui::app::{App, HeadFraming, HeadSetup, HeadView};
+use crate::tui::app::App;
+use crate::tui::screens::head::{HeadFraming, HeadSetup, HeadView};
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Stylize};
@@ -228,9 +229,9 @@ pub fn draw_wireframe(
 
 /// The head view's camera: zoomed in, it follows the cursor so the cursor stays on screen.
 pub fn head_wire_view(app: &App) -> WireView {
-    let h = &app.head;
+    let h = &app.head.view;
     let centre = if h.zoom > 1.0 { (h.cursor.0, -h.cursor.1) } else { (0.0, 0.0) };
-    WireView { framing: app.head_framing, zoom: h.zoom, centre }
+    WireView { framing: app.head.framing, zoom: h.zoom, centre }
 }
 
 /// What a shaded head view draws over the head: markers on vertices (vertex, symbol,
@@ -243,7 +244,7 @@ pub struct Overlay {
 /// Draws `mesh` shaded in half-blocks into `area` as the head view sees it, with the
 /// overlay's markers on the visible vertices and the cursor on top.
 fn draw_shaded(app: &App, frame: &mut Frame, area: Rect, mesh: &Mesh, picked: Option<usize>) {
-    let h = &app.head;
+    let h = &app.head.view;
     let map = app.map.clone().unwrap_or_default();
     let mut vertices: Vec<(usize, &'static str, Color)> = map
         .pairs()
@@ -253,8 +254,8 @@ fn draw_shaded(app: &App, frame: &mut Frame, area: Rect, mesh: &Mesh, picked: Op
     vertices.extend(map.vertex(h.label).map(|v| (v, "◆", Color::Yellow)));
     vertices.extend(picked.map(|v| (v, "◆", Color::LightRed)));
     let overlay = Overlay { vertices, cursor: Some((h.cursor.0, -h.cursor.1)) };
-    let eligible = app.label_candidates.as_deref().map(Vec::as_slice);
-    let vp = viewport(h, &app.head_framing, 1.05 / h.zoom, head_wire_view(app).centre);
+    let eligible = app.head.label_candidates.as_deref().map(Vec::as_slice);
+    let vp = viewport(h, &app.head.framing, 1.05 / h.zoom, head_wire_view(app).centre);
     draw_shaded_mesh(frame, area, mesh, &label_triangles(mesh, eligible), &vp, &overlay);
 }
 
@@ -316,16 +317,21 @@ fn split(area: Rect) -> (Rect, Rect) {
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    if let Some(index) = app.heads.shown {
+    if let Some(index) = app.head.heads.shown {
         draw_transferred(app, index, frame, area);
         return;
     }
     let (canvas_area, side) = split(area);
-    let h = &app.head;
+    let h = &app.head.view;
     let picked = match h.suggested {
         Some((l, v)) if l == h.label => Some(v),
         _ => app.mesh.as_ref().and_then(|m| {
-            pick_vertex(m, &app.head_framing, h, app.label_candidates.as_deref().map(Vec::as_slice))
+            pick_vertex(
+                m,
+                &app.head.framing,
+                h,
+                app.head.label_candidates.as_deref().map(Vec::as_slice),
+            )
         }),
     };
     match &app.mesh {
@@ -339,7 +345,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 frame,
                 canvas_area,
                 mesh,
-                &app.mesh_edges,
+                &app.head.edges,
                 &rotation(h.yaw, h.pitch),
                 &head_wire_view(app),
                 |ctx, pts, visible| {
@@ -415,19 +421,19 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
 }
 
 /// The shown transferred head at the current frame, front and side (the side turned 90° from
-/// the front): the frame's shape when the worker has it, the last frame's meanwhile, the
+/// the front): the frame's shape when its job has it, the last frame's meanwhile, the
 /// head at rest where the frame has no fit.
 fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
     let (canvas_area, side) = split(area);
-    let h = &app.head;
+    let h = &app.head.view;
     let f = app.frame();
-    let name = app.heads.names.get(index).cloned().unwrap_or_default();
+    let name = app.head.heads.names.get(index).cloned().unwrap_or_default();
     let mut lines =
         vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
-    match app.heads.setups.get(index) {
+    match app.head.heads.setups.get(index) {
         Some(HeadSetup::Ready(p)) => {
-            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());
-            let current = app.heads.current.as_ref().filter(|c| c.head == index);
+            let fitted = app.fits.by_frame.get(&f).is_some_and(|x| x.failed.is_none());
+            let current = app.head.heads.current.as_ref().filter(|c| c.head == index);
             let (shape, note) = match current.map(|c| (&c.shape, c.frame)) {
                 Some((Err(e), _)) => (p.mesh.clone(), format!("frame {f}: {e}")),
                 Some((Ok(m), cf)) if fitted && cf == f => (m.clone(), format!("frame {f}")),

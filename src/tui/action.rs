@@ -7,13 +7,9 @@
 //! (its variant name is the name keymap files use), `Action::name`, `Action::describe`,
 //! `Action::is_bindable`, `Action::COMMANDS` and the dispatch `update::update` calls.
 //!
-//! # Adding an action
-//! Add one line to `commands` (or `replies`), e.g.
-//! `ToggleGrid => frames::toggle_grid, "show or hide the pixel grid";`, and write the handler
-//! `pub fn toggle_grid(app: &mut App)` in that screen's `update.rs` (fields come as arguments
-//! in order: `Nudge { dx: i32, dy: i32 }` calls `nudge(app, dx, dy)`). A handler returns `()`
-//! or `Option<Action>`, a follow-up `update` applies next. Bind it in `data/keymap.toml` to
-//! give it a key; the help overlay then lists it with its text.
+//! A handler takes the `App` and the variant's fields in order (`Nudge { dx: i32, dy: i32 }`
+//! calls `frames::nudge(app, dx, dy)`) and returns `()` or `Option<Action>`, a follow-up
+//! `update` applies next. Adding an action: see the `tui` module docs.
 
 use super::screens::analysis::{AnalysisData, AnalysisTable};
 use super::screens::head::{HeadFrame, PreparedHead};
@@ -277,6 +273,11 @@ actions! {
         MouseDrag { col: u16, row: u16 } => frames::mouse_drag;
         MouseUp => frames::mouse_up;
         Resize { width: u16, height: u16 } => global::resize;
+        /// The run loop opened the clip in a terminal of this size: ask for what the first
+        /// screen needs (its frames, the analysis).
+        Opened { width: u16, height: u16 } => global::opened;
+        /// How the user looked at the previous clip of the session, kept for this one.
+        Carry { from: Box<crate::tui::global::Carried> } => global::carry;
         /// The user has not edited for a while (`run::AUTOSAVE_IDLE`): a moment to autosave.
         Idle => global::idle;
         /// Playback's clock: the next frame is due.

@@ -7,7 +7,10 @@ use crate::tui::app::save::{AfterSave, QuitStep};
 use crate::tui::app::{App, Effect};
 use crate::tui::screens::View;
 use crate::tui::screens::analysis::update::request_analysis;
+use crate::tui::screens::analysis::{AnalysisTable, AnalysisView};
+use crate::tui::screens::frames::ImageView;
 use crate::tui::screens::head::transferred::request_head_frame;
+use crate::tui::screens::head::{HeadView, TransferredHeads};
 use crate::tui::screens::side::SideState;
 
 pub fn quit(app: &mut App) -> Option<Action> {
@@ -243,6 +246,74 @@ pub fn request_images(app: &mut App) {
         app.effects.push(Effect::LoadSideFrame(k));
     }
     request_head_frame(app);
+}
+
+/// The run loop opened the clip in a terminal of `width × height`: the current frame and its
+/// neighbours, and the analysis, are asked for.
+pub fn opened(app: &mut App, width: u16, height: u16) {
+    app.term_size = (width, height);
+    request_images(app);
+    request_analysis(app);
+}
+
+/// How the user looked at a clip, carried to the next clip of the session opened in the same
+/// terminal: the screen shown, the image's zoom and pan, the head's angle (not a suggestion,
+/// which was for the other clip), the transferred heads' set-ups (the session's, made once
+/// whatever the clip), whether the speech-driven series are drawn, and the quality tables
+/// (the session's too) with the cursor in them, so the next sentence is one Enter away.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Carried {
+    view: View,
+    image_view: ImageView,
+    head_view: HeadView,
+    heads: TransferredHeads,
+    show_speech: bool,
+    quality: Vec<AnalysisTable>,
+    /// Where the cursor was among the quality tables (table counted from the first of them).
+    quality_cursor: Option<AnalysisView>,
+    clip_name: String,
+}
+
+impl Carried {
+    /// What `previous` carries to the clip named `clip_name`.
+    pub fn of(previous: &App, clip_name: &str) -> Self {
+        let a = &previous.analysis;
+        let own = a.data.tables.len().saturating_sub(a.quality.len());
+        let quality_cursor = (!a.quality.is_empty() && a.cursor.table >= own)
+            .then(|| AnalysisView { table: a.cursor.table - own, ..a.cursor });
+        Self {
+            view: previous.view,
+            image_view: previous.frames.image_view,
+            head_view: HeadView { suggested: None, ..previous.head.view },
+            heads: TransferredHeads { current: None, ..previous.head.heads.clone() },
+            show_speech: a.show_speech,
+            quality: a.quality.clone(),
+            quality_cursor,
+            clip_name: clip_name.to_string(),
+        }
+    }
+}
+
+/// Opened as the next clip of the same session: looks as the previous one did, and the
+/// status line names the clip.
+pub fn carry(app: &mut App, from: Box<Carried>) {
+    let c = *from;
+    app.view = c.view;
+    app.frames.image_view = c.image_view;
+    app.head.view = c.head_view;
+    if app.head.heads.names == c.heads.names {
+        app.head.heads = c.heads;
+    }
+    let a = &mut app.analysis;
+    a.show_speech = c.show_speech;
+    let own_now = a.data.tables.len();
+    a.data.tables.extend(c.quality.iter().cloned());
+    a.quality = c.quality;
+    if let Some(view) = c.quality_cursor {
+        a.cursor = AnalysisView { table: own_now + view.table, ..view };
+        a.quality_cursor = Some(view);
+    }
+    app.status = format!("clip {} of {}: {}", app.clip + 1, app.clip_names.len(), c.clip_name);
 }
 
 pub fn resize(app: &mut App, width: u16, height: u16) {

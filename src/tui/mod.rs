@@ -21,10 +21,11 @@
 //! Add one entry to the `actions!` table in `action.rs` — its variant (with fields), the
 //! screen and function that handle it, and its help text — then write that function in the
 //! screen's `update.rs`, e.g. `ToggleGrid => frames::toggle_grid, "show or hide the grid";`
-//! and `pub fn toggle_grid(app: &mut App)`. The enum, the name keymap files bind it by, the
-//! help overlay's line and the dispatch all come from the entry. Give it a key in
-//! `data/keymap.toml`; a user's `--keymap` file can bind it by the same name. A handler
-//! returns `()`, or `Option<Action>` for a follow-up `update` applies next.
+//! and `pub fn toggle_grid(app: &mut App)` (fields come as arguments, in order). The enum,
+//! the name keymap files bind it by, the help overlay's line and the dispatch all come from
+//! the entry. Give it a key in `data/keymap.toml`; a user's `--keymap` file can bind it by the
+//! same name. A handler returns `()`, or `Option<Action>` for a follow-up `update` applies
+//! next.
 
 pub mod action;
 pub mod app;

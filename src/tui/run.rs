@@ -1,5 +1,8 @@
 //! The event loop: terminal events and job replies become actions, `update` applies them,
-//! effects go to the jobs and the session, and the screen is redrawn when something changed.
+//! the effects it queued go to the jobs and the session, and the screen is redrawn when
+//! something changed. The loop changes no state itself: what it learns (the terminal's size,
+//! a journal error, the graphics note, how the previous clip was looked at) reaches the `App`
+//! as an action too.
 //!
 //! Graphics: a `GraphicsState` (the terminal's image protocol, if any, and its cached
 //! encoding) is owned here, not by the `App`, and drawn over the half-block image.
@@ -12,7 +15,7 @@
 
 use super::action::Action;
 use super::draw::draw;
-use super::global::request_images;
+use super::global::Carried;
 use super::input::{key_to_action, mouse_to_action};
 use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
 use super::keymap::Keymap;
@@ -22,7 +25,6 @@ use super::update::apply;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
 use crate::tui::app::{App, Effect};
-use crate::tui::screens::analysis::update::request_analysis;
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -87,7 +89,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let signals = Signals::register(session_path)?;
     let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
     if app.status.is_empty() && !gfx.note.is_empty() {
-        app.status = gfx.note.clone();
+        apply(&mut app, Action::Status(gfx.note.clone()));
     }
     loop {
         // A channel and jobs per clip: replies of the previous clip's jobs go nowhere.
@@ -103,9 +105,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             jobs.start_side_frames(side, tx);
         }
         let size = guard.terminal.size()?;
-        app.term_size = (size.width, size.height);
-        request_images(&mut app);
-        request_analysis(&mut app);
+        apply(&mut app, Action::Opened { width: size.width, height: size.height });
         let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
         let result =
             event_loop(&mut guard.terminal, &mut app, &mut bridge, &jobs, &mut gfx, inputs);
@@ -145,7 +145,8 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
                 return Err(e);
             }
         };
-        app.continue_from(&previous, &bridge.clip_name());
+        let carried = Carried::of(&previous, &bridge.clip_name());
+        apply(&mut app, Action::Carry { from: Box::new(carried) });
     }
 }
 
@@ -279,14 +280,14 @@ where
         if app.save.changes() != journaled && !app.frames.dragging {
             journaled = app.save.changes();
             if let Err(e) = bridge.journal(app) {
-                app.status = format!("edits not journaled: {e:#}");
+                apply(app, Action::Status(format!("edits not journaled: {e:#}")));
                 redraw = true;
             }
         }
         if app.save.is_clean()
             && let Err(e) = bridge.clear_journal()
         {
-            app.status = format!("journal not removed: {e:#}");
+            apply(app, Action::Status(format!("journal not removed: {e:#}")));
         }
         if app.save.unsaved() != seen_edits {
             seen_edits = app.save.unsaved();
@@ -373,28 +374,14 @@ fn frame_interval(fps: f64) -> Duration {
 
 /// Carries out queued effects.
 fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
-    for effect in std::mem::take(&mut app.effects) {
+    for effect in app.take_effects() {
         match effect {
             Effect::LoadFrames(frames) => jobs.request_frames(frames),
             Effect::LoadSideFrame(frame) => jobs.request_side_frame(frame),
             Effect::Fit { generation, frames } => {
-                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
-                    continue;
-                };
-                let input = app.fit_input_track();
-                let landmarks = match &frames {
-                    Some(list) => list.iter().filter_map(|f| input.get(*f).cloned()).collect(),
-                    None => input.frames,
-                };
-                let image_height = f64::from(app.frame_dims().1);
-                jobs.request_fit(FitJob {
-                    generation,
-                    model,
-                    map,
-                    settings: app.fit_settings.clone(),
-                    frames: landmarks,
-                    image_height,
-                });
+                if let Some(job) = FitJob::of(app, generation, frames.as_deref()) {
+                    jobs.request_fit(job);
+                }
             }
             Effect::Save { generation } => {
                 // Written on the saver thread; `Saved` comes back through the channel.
@@ -425,21 +412,9 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
                 apply(app, Action::Status(msg));
             }
             Effect::Analyse { generation } => {
-                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
-                    continue;
-                };
-                jobs.request_analysis(AnalysisJob {
-                    generation,
-                    name: bridge.clip_name(),
-                    model,
-                    map,
-                    track: app.fit_input_track(),
-                    alignment: app.alignment.clone().unwrap_or_default(),
-                    fps: app.fps,
-                    fits: app.fits.by_frame.values().cloned().collect(),
-                    head: app.mesh.clone(),
-                    side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
-                });
+                if let Some(job) = AnalysisJob::of(app, generation, bridge.clip_name()) {
+                    jobs.request_analysis(job);
+                }
             }
             Effect::AssessQuality => {
                 // The job reads the session as last written back, with every correction.
@@ -456,13 +431,8 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
                 }
             },
             Effect::TransferFrame { head, frame } => {
-                let prepared = match app.head.heads.setups.get(head) {
-                    Some(crate::tui::screens::head::HeadSetup::Ready(p)) => p.clone(),
-                    _ => continue,
-                };
-                let fit = app.fits.by_frame.get(&frame).filter(|f| f.failed.is_none()).cloned();
-                if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
-                    jobs.request_head_frame(HeadFrameJob { head, prepared, model, fit });
+                if let Some(job) = HeadFrameJob::of(app, head, frame) {
+                    jobs.request_head_frame(job);
                 }
             }
             Effect::Quit => {}

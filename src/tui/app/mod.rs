@@ -288,33 +288,9 @@ impl App {
         self.frames.cache.insert(frame, image, shown);
     }
 
-    /// Opened as the next clip of the same session: keeps how the user looked at the
-    /// previous one (view, image zoom and pan, the head's angle; not a suggestion, which was
-    /// for the other clip) and names the clip in the status line.
-    pub fn continue_from(&mut self, previous: &App, clip_name: &str) {
-        use super::screens::analysis::AnalysisView;
-        use super::screens::head::{HeadView, TransferredHeads};
-        self.view = previous.view;
-        self.frames.image_view = previous.frames.image_view;
-        self.head.view = HeadView { suggested: None, ..previous.head.view };
-        // The heads are the session's, set up once whatever the clip.
-        if self.head.heads.names == previous.head.heads.names {
-            self.head.heads = TransferredHeads { current: None, ..previous.head.heads.clone() };
-        }
-        let (a, before) = (&mut self.analysis, &previous.analysis);
-        a.show_speech = before.show_speech;
-        // The quality tables are the session's: a sentence opened from them keeps them, with
-        // the cursor where it was, so the next sentence is one Enter away.
-        a.quality = before.quality.clone();
-        let own_now = a.data.tables.len();
-        a.data.tables.extend(a.quality.iter().cloned());
-        let own = before.data.tables.len().saturating_sub(before.quality.len());
-        if !before.quality.is_empty() && before.cursor.table >= own {
-            let view = AnalysisView { table: before.cursor.table - own, ..before.cursor };
-            a.cursor = AnalysisView { table: own_now + view.table, ..view };
-            a.quality_cursor = Some(view);
-        }
-        self.status = format!("clip {} of {}: {clip_name}", self.clip + 1, self.clip_names.len());
+    /// The effects `update` queued, for the run loop to perform (it takes them once each).
+    pub fn take_effects(&mut self) -> Vec<Effect> {
+        std::mem::take(&mut self.effects)
     }
 
     /// The top overlay, if any.

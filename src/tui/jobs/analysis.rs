@@ -5,6 +5,7 @@ use crate::alignment::Alignment;
 use crate::fit::FrameFit;
 use crate::landmarks::Track;
 use crate::model::{LandmarkMap, MorphableModel};
+use crate::tui::app::App;
 use crate::tui::screens::analysis::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
 use std::sync::Arc;
 
@@ -23,6 +24,25 @@ pub struct AnalysisJob {
     pub head: Option<Arc<crate::model::Mesh>>,
     /// The side view's P per front frame (corrections applied), when the clip has one.
     pub side_p: Option<Vec<Option<f64>>>,
+}
+
+impl AnalysisJob {
+    /// The analysis of the app's clip (named `name`) and fits, as request `generation`;
+    /// `None` without a model or a map.
+    pub fn of(app: &App, generation: u64, name: String) -> Option<Self> {
+        Some(Self {
+            generation,
+            name,
+            model: app.model.clone()?,
+            map: app.map.clone()?,
+            track: app.fit_input_track(),
+            alignment: app.alignment.clone().unwrap_or_default(),
+            fps: app.fps,
+            fits: app.fits.by_frame.values().cloned().collect(),
+            head: app.mesh.clone(),
+            side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
+        })
+    }
 }
 
 /// Rows of the worst-frame tables shown in the analysis view.

@@ -2,6 +2,8 @@
 
 use crate::fit::FrameFit;
 use crate::model::MorphableModel;
+use crate::tui::app::App;
+use crate::tui::screens::head::HeadSetup;
 use crate::tui::screens::head::{HeadFrame, PreparedHead};
 use std::sync::Arc;
 
@@ -38,6 +40,19 @@ pub struct HeadFrameJob {
     pub prepared: Arc<PreparedHead>,
     pub model: Arc<MorphableModel>,
     pub fit: FrameFit,
+}
+
+impl HeadFrameJob {
+    /// Frame `frame` of transferred head `head`, when the head is set up and the frame has a
+    /// usable fit.
+    pub fn of(app: &App, head: usize, frame: usize) -> Option<Self> {
+        let prepared = match app.head.heads.setups.get(head)? {
+            HeadSetup::Ready(p) => p.clone(),
+            _ => return None,
+        };
+        let fit = app.fits.by_frame.get(&frame).filter(|f| f.failed.is_none()).cloned()?;
+        Some(Self { head, prepared, model: app.model.clone()?, fit })
+    }
 }
 
 /// The transferred head's shape for the job's fit, as `workflow::transfer::transfer_fits`

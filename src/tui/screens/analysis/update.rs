@@ -229,7 +229,8 @@ mod tests {
         let mut next = synthetic_app(10, 320, 240, true);
         next.clip = 2;
         let own_at_start = next.analysis.data.tables.len();
-        next.continue_from(&app, "s3");
+        let from = Box::new(crate::tui::global::Carried::of(&app, "s3"));
+        apply(&mut next, Action::Carry { from });
         assert_eq!(next.analysis.data.tables.len(), own_at_start + 1);
         assert_eq!(next.analysis.cursor.table, own_at_start);
         let generation = next.analysis.generation;

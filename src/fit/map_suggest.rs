@@ -12,9 +12,14 @@
 //! spacing of the vertices there. So the tracked points are first carried onto the head's
 //! proportions by a thin-plate spline ([`super::thin_plate`]) through the hand labels (each
 //! labelled landmark's tracked point to its vertex's projection), and matched after that.
+//!
+//! The jaw (iBUG 1–17) is placed differently ([`super::jaw_contour`]): on the head's frontal
+//! jaw silhouette, symmetric, the tracked points giving only where along the jaw each lies;
+//! a jaw suggestion far from its neighbours along the jaw is left out.
 
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
+use super::jaw_contour::{far_from_neighbours, place_jaw};
 use super::suggest::{
     SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head,
 };
@@ -32,6 +37,9 @@ pub const MIN_CONFIDENCE: Real = 0.3;
 pub const ROUNDS: usize = 3;
 /// Candidate vertices per landmark (the nearest ones within reach).
 const CANDIDATES: usize = 24;
+/// A jaw suggestion farther than this many median jaw spacings from both its neighbours
+/// along the jaw is implausible (the spacing of iBUG's jaw points varies by about 2×).
+const JAW_NEIGHBOUR_FACTOR: Real = 2.5;
 
 /// One landmark's suggested vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +62,9 @@ pub enum LeftOut {
     LowConfidence(MapSuggestion),
     /// The suggestion would make the map break this rule.
     Anatomy(MapSuggestion, MapProblem),
+    /// A jaw suggestion this far (head units) from its nearest neighbour along the jaw,
+    /// against the jaw's median spacing.
+    FarFromNeighbours(MapSuggestion, Real, Real),
 }
 
 impl fmt::Display for LeftOut {
@@ -67,6 +78,11 @@ impl fmt::Display for LeftOut {
                 s.vertex, s.distance_px, s.confidence
             ),
             Self::Anatomy(s, p) => write!(f, "vertex {} would break anatomy: {p}", s.vertex),
+            Self::FarFromNeighbours(s, d, median) => write!(
+                f,
+                "vertex {} is {d:.3} from its nearest jaw neighbour (jaw spacing {median:.3})",
+                s.vertex
+            ),
         }
     }
 }
@@ -101,6 +117,7 @@ impl MapProposal {
                     LeftOut::NoVertex => "no free vertex",
                     LeftOut::LowConfidence(_) => "too far off",
                     LeftOut::Anatomy(..) => "anatomy",
+                    LeftOut::FarFromNeighbours(..) => "far from jaw neighbours",
                 })
                 .or_default() += 1;
         }
@@ -182,6 +199,9 @@ fn propose_once(
             None => left.push((l, LeftOut::NotVisible)),
         }
     }
+    // The jaw is placed on the head's silhouette once the rest is known (its axes, nose
+    // tip, eye corners); until then it takes no vertex from the others.
+    let (jaw_wanted, wanted): (Vec<_>, Vec<_>) = wanted.into_iter().partition(|(l, _)| *l < 17);
     let assigned = assign_unique(&seen, &taken, &wanted, 4.0 * sigma);
     let mut suggestions = Vec::new();
     for ((l, target), vertex) in wanted.iter().zip(assigned) {
@@ -200,6 +220,40 @@ fn propose_once(
             suggestions.push(s);
         } else {
             left.push((*l, LeftOut::LowConfidence(s)));
+        }
+    }
+    let known = MapProposal { accepted: suggestions.clone(), left: Vec::new() }.applied_to(map);
+    let used: BTreeSet<usize> = known.to_vertex.values().copied().collect();
+    let placed = place_jaw(head, &known, pose, image_height, &jaw_wanted, &used);
+    let mut jaw = Vec::new();
+    for (l, _) in &jaw_wanted {
+        let Some(p) = placed.iter().find(|p| p.landmark == *l) else {
+            left.push((*l, LeftOut::NoVertex));
+            continue;
+        };
+        let d = p.asymmetry_px;
+        jaw.push(MapSuggestion {
+            landmark: *l,
+            vertex: p.vertex,
+            distance_px: d,
+            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
+        });
+    }
+    let jaw_points: Vec<(usize, Point3)> = map
+        .pairs()
+        .filter(|(l, _)| *l < 17)
+        .chain(jaw.iter().map(|s| (s.landmark, s.vertex)))
+        .filter_map(|(l, v)| Some((l, *head.vertices.get(v)?)))
+        .collect();
+    let suggested: BTreeSet<usize> = jaw.iter().map(|s| s.landmark).collect();
+    let far = far_from_neighbours(&jaw_points, &suggested, JAW_NEIGHBOUR_FACTOR);
+    for s in jaw {
+        match far.iter().find(|f| f.0 == s.landmark) {
+            Some(&(_, d, median)) => {
+                left.push((s.landmark, LeftOut::FarFromNeighbours(s, d, median)))
+            }
+            None if s.confidence >= MIN_CONFIDENCE => suggestions.push(s),
+            None => left.push((s.landmark, LeftOut::LowConfidence(s))),
         }
     }
     let (accepted, rejected) = screen_by_anatomy(head.vertices, map, pose, suggestions);

@@ -70,7 +70,8 @@ fn six_labels_on_the_sfm_mean_put_the_jaw_on_its_frontal_contour() {
     for l in [8, 30, 36, 45, 48, 54] {
         labels.to_vertex.insert(l, eos_map.vertex(l).unwrap());
     }
-    let head = SuggestHead { vertices: &mesh.vertices, triangles: &model.triangles, eligible: None };
+    let head =
+        SuggestHead { vertices: &mesh.vertices, triangles: &model.triangles, eligible: None };
     let proposal = suggest_map(&head, &labels, &track.frames[0], IMAGE_HEIGHT, None).unwrap();
     let map = proposal.applied_to(&labels);
     eprintln!("{}", proposal.summary());
@@ -95,11 +96,8 @@ fn six_labels_on_the_sfm_mean_put_the_jaw_on_its_frontal_contour() {
     // The jaw: distance to the model's frontal contour (its side), and left–right symmetry
     // (a point and its mirror partner at the same height and the same distance from the
     // chin's vertical).
-    let jaw: Vec<(usize, Point3)> = map
-        .pairs()
-        .filter(|(l, _)| *l < 17)
-        .map(|(l, v)| (l, mesh.vertices[v]))
-        .collect();
+    let jaw: Vec<(usize, Point3)> =
+        map.pairs().filter(|(l, _)| *l < 17).map(|(l, v)| (l, mesh.vertices[v])).collect();
     let on_contour: Vec<f64> = jaw
         .iter()
         .filter(|(l, _)| *l != 8)

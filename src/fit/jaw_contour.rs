@@ -9,7 +9,10 @@
 //! proportions by the labels' warp) is taken into the face's frontal plane, its direction
 //! from the nose tip is averaged with its mirror partner's (left–right symmetry), and along
 //! that direction the head's frontal depth map is followed outward from the face to its
-//! silhouette (the first drop steeper than [`SILHOUETTE_SLOPE`]). The landmark takes the
+//! silhouette (the first drop steeper than [`SILHOUETTE_SLOPE`]). The jaw's ends (1 and 17)
+//! are put at the height of the outer eye corners, as 3D annotators put them (a 2D
+//! tracker's ends, warped from the labels' hull, fell 20 mm lower on a scan), and the other
+//! directions are stretched from the chin in proportion, keeping the tracker's spacing. The landmark takes the
 //! free vertex nearest that point, set [`BEHIND_SILHOUETTE`] behind the silhouette's front
 //! edge (the side of the jaw is seen edge-on there, and annotators click on it, not on its
 //! front rim).
@@ -27,9 +30,11 @@ use std::collections::BTreeSet;
 const CELLS_PER_EYE_SPAN: Real = 200.0;
 /// A drop in depth of more than this many cells over one cell ends the face (≈ 80°).
 pub const SILHOUETTE_SLOPE: Real = 6.0;
-/// How far behind the silhouette's front edge a jaw landmark sits, in eye spans. Measured on
-/// two faces with human 3D landmarks (menpo3d's scan and template): 5–14 mm there.
-pub const BEHIND_SILHOUETTE: Real = 0.05;
+/// How far behind the silhouette's front edge a jaw landmark sits, in eye spans: the side
+/// of the jaw is seen edge-on there, and on two faces with human 3D landmarks (menpo3d's
+/// scan and template) the annotators' points lie 0–25 mm behind that edge; 0.1 (≈ 9 mm)
+/// splits them.
+pub const BEHIND_SILHOUETTE: Real = 0.1;
 
 /// One jaw landmark placed on the contour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -165,11 +170,23 @@ pub fn place_jaw(
             .map(|(_, q)| angle(*q))
             .or_else(|| at(l).map(|p| angle(frame.local(&p).xy() - centre)))
     };
+    // The ends' direction: where the silhouette reaches the eye corners' height.
+    let eye_height = 0.5 * (frame.local(&eye_r).y + frame.local(&eye_l).y) - centre.y;
+    let symmetric = |l: usize, own: Real| angle_of(16 - l).map_or(own, |m| 0.5 * (own - m));
+    let end_tracked = offsets
+        .iter()
+        .find(|(l, _)| *l == 0 || *l == 16)
+        .map(|&(l, q)| symmetric(l, angle(q)).abs());
+    let end = end_angle(&view, centre, eye_height, span);
+    let stretch = match (end, end_tracked) {
+        (Some(e), Some(t)) if t > 0.0 => e / t,
+        _ => 1.0,
+    };
     let mut used = taken.clone();
     let mut placed = Vec::new();
     for &(l, q) in &offsets {
         let own = angle(q);
-        let theta = angle_of(16 - l).map_or(own, |mirror| 0.5 * (own - mirror));
+        let theta = stretch * symmetric(l, own);
         let dir = Vector2::new(theta.sin(), -theta.cos());
         let reach = q.norm();
         let Some((r, z)) = view.silhouette(centre, dir, 0.5 * reach, 2.0 * span) else {
@@ -193,6 +210,25 @@ pub fn place_jaw(
         placed.push(JawPlacement { landmark: l, vertex, asymmetry_px });
     }
     placed
+}
+
+/// The angle (from straight down, unsigned) of the direction from `centre` along which the
+/// face's silhouette lies at `height` above it: the mean over the two sides of the first
+/// silhouette point at or above that height, scanning from the chin upward. `None` when
+/// neither side reaches it.
+fn end_angle(view: &FrontalView, centre: Vector2, height: Real, span: Real) -> Option<Real> {
+    let steps = 180;
+    let mut ends = Vec::new();
+    for side in [-1.0, 1.0] {
+        let found = (1..steps).find_map(|k| {
+            let theta = side * std::f64::consts::PI * k as Real / steps as Real;
+            let dir = Vector2::new(theta.sin(), -theta.cos());
+            let (r, _) = view.silhouette(centre, dir, 0.3 * span, 2.0 * span)?;
+            (r * dir.y >= height).then_some(theta.abs())
+        });
+        ends.extend(found);
+    }
+    (!ends.is_empty()).then(|| ends.iter().sum::<Real>() / ends.len() as Real)
 }
 
 /// Jaw suggestions farther from their neighbours along the jaw than `factor` times the

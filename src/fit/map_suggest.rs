@@ -27,7 +27,7 @@ use super::thin_plate::ThinPlate;
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
 use crate::model::LandmarkMap;
-use crate::model::map_check::{MapProblem, check_layout};
+use crate::model::map_check::{MapProblem, check_layout, face_axes};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
@@ -231,12 +231,14 @@ fn propose_once(
             left.push((*l, LeftOut::NoVertex));
             continue;
         };
+        // The two sides of a turned head disagree by a few σ by nature (the far side's
+        // tracked points lie on the cheek): three times the reach of the other landmarks.
         let d = p.asymmetry_px;
         jaw.push(MapSuggestion {
             landmark: *l,
             vertex: p.vertex,
             distance_px: d,
-            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
+            confidence: (-0.5 * (d / (3.0 * sigma)).powi(2)).exp(),
         });
     }
     let jaw_points: Vec<(usize, Point3)> = map
@@ -328,7 +330,7 @@ fn assign_unique(
 }
 
 /// Drops suggestions until the map (hand labels plus what is kept) passes
-/// [`check_layout`] in the camera's axes, blaming for each problem the least confident
+/// [`check_layout`] in the face's axes, blaming for each problem the least confident
 /// suggestion it involves (hand labels are never blamed).
 fn screen_by_anatomy(
     vertices: &[Point3],
@@ -336,9 +338,17 @@ fn screen_by_anatomy(
     pose: &OrthoPose,
     mut kept: Vec<MapSuggestion>,
 ) -> (Vec<MapSuggestion>, Vec<(usize, LeftOut)>) {
-    // Camera axes are face axes for a face turned towards the camera: x to the image's
-    // right (the subject's left), y up, z towards the viewer.
-    let in_camera = |v: usize| vertices.get(v).map(|p| Point3::from(pose.r * p.coords));
+    // In the face's own axes (from the map with every suggestion), as `map check` does: the
+    // camera's axes are the face's only for a face turned towards the camera, and a turned
+    // head's far jaw, placed on the jaw line, folds back in them. Camera axes (x to the
+    // image's right, the subject's left; y up) when the map gives no face axes.
+    let all: BTreeMap<usize, Point3> = map
+        .pairs()
+        .chain(kept.iter().map(|s| (s.landmark, s.vertex)))
+        .filter_map(|(l, v)| Some((l, *vertices.get(v)?)))
+        .collect();
+    let axes = face_axes(&all).unwrap_or(pose.r);
+    let in_camera = |v: usize| vertices.get(v).map(|p| Point3::from(axes * p.coords));
     let mut dropped = Vec::new();
     loop {
         let points: BTreeMap<usize, Point3> = map

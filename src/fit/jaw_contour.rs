@@ -30,11 +30,12 @@ use std::collections::BTreeSet;
 const CELLS_PER_EYE_SPAN: Real = 200.0;
 /// A drop in depth of more than this many cells over one cell ends the face (≈ 80°).
 pub const SILHOUETTE_SLOPE: Real = 6.0;
-/// How far behind the silhouette's front edge a jaw landmark sits, in eye spans: the side
-/// of the jaw is seen edge-on there, and on two faces with human 3D landmarks (menpo3d's
-/// scan and template) the annotators' points lie 0–25 mm behind that edge; 0.1 (≈ 9 mm)
-/// splits them.
-pub const BEHIND_SILHOUETTE: Real = 0.1;
+/// How far behind the silhouette's front edge a jaw landmark on the side of the face sits,
+/// in eye spans, scaled by sin² of its direction's angle from straight down: the side of the
+/// jaw is seen edge-on, and on two faces with human 3D landmarks (menpo3d's scan and
+/// template) the annotators' points lie 10–20 mm behind that edge on the sides and on or
+/// in front of it around the chin, where the jaw turns under.
+pub const BEHIND_SILHOUETTE: Real = 0.2;
 
 /// One jaw landmark placed on the contour.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -195,7 +196,7 @@ pub fn place_jaw(
         let local = centre + r * dir;
         let target = Point3::from(
             view.frame.axes.transpose()
-                * Vector3::new(local.x, local.y, z - BEHIND_SILHOUETTE * span),
+                * Vector3::new(local.x, local.y, z - BEHIND_SILHOUETTE * span * theta.sin().powi(2)),
         );
         let vertex = (0..vertices.len())
             .filter(|&v| !used.contains(&v) && eligible.is_none_or(|e| e.get(v) == Some(&true)))

@@ -7,13 +7,13 @@
 //! source's seals must be at most 10 % of its widest opening; with the relative displacement
 //! (`LipGap::Relative`) a head with parted lips keeps its rest gap, which the test also shows.
 
+mod common;
+
 use lipmap::demo::demo_head;
 use lipmap::demo::visemes::Articulation;
-use lipmap::io::{landmark_map_toml::read_landmark_map, obj};
 use lipmap::math::{DVector, Point3};
 use lipmap::model::{LandmarkMap, Mesh};
 use lipmap::transfer::{HeadFrame, LipGap, SourceFace, TargetHead, Transfer, TransferOptions};
-use std::path::Path;
 
 const INNER_LIP_PAIRS: [(usize, usize); 3] = [(61, 67), (62, 66), (63, 65)];
 
@@ -120,17 +120,8 @@ fn a_demo_head_with_parted_lips_closes_when_the_source_does() {
 
 #[test]
 fn makehuman_closes_when_the_source_does() {
-    let Some(dir) = lipmap::testdata::shared("data/makehuman") else {
-        eprintln!("skipped: ../shared/data/makehuman is absent");
-        return;
-    };
+    let Some((_, mesh, skin, map)) = common::makehuman() else { return };
     let s = source();
-    let path = dir.join("base.obj");
-    let mesh = obj::read_obj(&path).unwrap();
-    let skin = obj::labelable_vertices(&path).unwrap().unwrap();
-    let fixture =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
-    let map = read_landmark_map(&fixture).unwrap().with_commissures_completed();
     let (absolute, rest) = sealed_gap_ratio(&s, &mesh, &skin, &map, LipGap::Absolute);
     let (relative, _) = sealed_gap_ratio(&s, &mesh, &skin, &map, LipGap::Relative);
     eprintln!(

@@ -6,10 +6,11 @@
 //! MakeHuman (`../shared/data/makehuman/`, skipped when absent) in the same three
 //! orientations. Loose parts far from the mouth stay with the head, near ones follow the jaw.
 
+mod common;
+
 use lipmap::demo::demo_head;
 use lipmap::demo::visemes::Articulation;
 use lipmap::io::makehuman_target::read_target;
-use lipmap::io::{landmark_map_toml::read_landmark_map, obj};
 use lipmap::math::{DVector, Point3, Vector3};
 use lipmap::model::{LandmarkMap, Mesh};
 use lipmap::transfer::projection::frontal_face_vertices;
@@ -17,7 +18,6 @@ use lipmap::transfer::surface::bounding_diagonal;
 use lipmap::transfer::{SourceFace, TargetHead, Transfer, TransferOptions};
 use nalgebra::{Rotation3, Unit};
 use proptest::prelude::*;
-use std::path::Path;
 
 /// A rigid motion: rotation then translation.
 #[derive(Clone, Copy, Debug)]
@@ -216,16 +216,7 @@ proptest! {
 
 #[test]
 fn makehuman_result_turns_with_the_head() {
-    let Some(dir) = lipmap::testdata::shared("data/makehuman") else {
-        eprintln!("skipped: ../shared/data/makehuman is absent");
-        return;
-    };
-    let path = dir.join("base.obj");
-    let mesh = obj::read_obj(&path).unwrap();
-    let skin = obj::labelable_vertices(&path).unwrap().unwrap();
-    let fixture =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
-    let map = read_landmark_map(&fixture).unwrap().with_commissures_completed();
+    let Some((dir, mesh, skin, map)) = common::makehuman() else { return };
     let triangles: Vec<[u32; 3]> =
         mesh.triangles().into_iter().filter(|t| t.iter().all(|&v| skin[v as usize])).collect();
     let face = frontal_face_vertices(&mesh.vertices, &skin, &map).unwrap();

@@ -196,7 +196,11 @@ pub fn place_jaw(
         let local = centre + r * dir;
         let target = Point3::from(
             view.frame.axes.transpose()
-                * Vector3::new(local.x, local.y, z - BEHIND_SILHOUETTE * span * theta.sin().powi(2)),
+                * Vector3::new(
+                    local.x,
+                    local.y,
+                    z - BEHIND_SILHOUETTE * span * theta.sin().powi(2),
+                ),
         );
         let vertex = (0..vertices.len())
             .filter(|&v| !used.contains(&v) && eligible.is_none_or(|e| e.get(v) == Some(&true)))

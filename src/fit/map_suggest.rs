@@ -202,6 +202,15 @@ fn propose_once(
     // The jaw is placed on the head's silhouette once the rest is known (its axes, nose
     // tip, eye corners); until then it takes no vertex from the others.
     let (jaw_wanted, wanted): (Vec<_>, Vec<_>) = wanted.into_iter().partition(|(l, _)| *l < 17);
+    let nearest = |l: usize, target: Point2, vertex: usize| {
+        let d = (seen.projected[vertex].0 - target).norm();
+        MapSuggestion {
+            landmark: l,
+            vertex,
+            distance_px: d,
+            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
+        }
+    };
     let assigned = assign_unique(&seen, &taken, &wanted, 4.0 * sigma);
     let mut suggestions = Vec::new();
     for ((l, target), vertex) in wanted.iter().zip(assigned) {
@@ -209,13 +218,7 @@ fn propose_once(
             left.push((*l, LeftOut::NoVertex));
             continue;
         };
-        let d = (seen.projected[vertex].0 - target).norm();
-        let s = MapSuggestion {
-            landmark: *l,
-            vertex,
-            distance_px: d,
-            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
-        };
+        let s = nearest(*l, *target, vertex);
         if s.confidence >= MIN_CONFIDENCE {
             suggestions.push(s);
         } else {
@@ -223,23 +226,37 @@ fn propose_once(
         }
     }
     let known = MapProposal { accepted: suggestions.clone(), left: Vec::new() }.applied_to(map);
-    let used: BTreeSet<usize> = known.to_vertex.values().copied().collect();
+    let mut used: BTreeSet<usize> = known.to_vertex.values().copied().collect();
     let placed = place_jaw(head, &known, pose, image_height, &jaw_wanted, &used);
+    used.extend(placed.iter().map(|p| p.vertex));
+    // A head with no surface to find a silhouette on (a bare point set), or labels that do
+    // not yet give the face's axes: those jaw points are matched like every other landmark.
+    let unplaced: Vec<(usize, Point2)> = jaw_wanted
+        .iter()
+        .filter(|(l, _)| !placed.iter().any(|p| p.landmark == *l))
+        .copied()
+        .collect();
+    let fallback = assign_unique(&seen, &used, &unplaced, 4.0 * sigma);
     let mut jaw = Vec::new();
     for (l, _) in &jaw_wanted {
-        let Some(p) = placed.iter().find(|p| p.landmark == *l) else {
-            left.push((*l, LeftOut::NoVertex));
+        if let Some(p) = placed.iter().find(|p| p.landmark == *l) {
+            // The two sides of a turned head disagree by a few σ by nature (the far side's
+            // tracked points lie on the cheek): three times the reach of the other landmarks.
+            let d = p.asymmetry_px;
+            jaw.push(MapSuggestion {
+                landmark: *l,
+                vertex: p.vertex,
+                distance_px: d,
+                confidence: (-0.5 * (d / (3.0 * sigma)).powi(2)).exp(),
+            });
             continue;
-        };
-        // The two sides of a turned head disagree by a few σ by nature (the far side's
-        // tracked points lie on the cheek): three times the reach of the other landmarks.
-        let d = p.asymmetry_px;
-        jaw.push(MapSuggestion {
-            landmark: *l,
-            vertex: p.vertex,
-            distance_px: d,
-            confidence: (-0.5 * (d / (3.0 * sigma)).powi(2)).exp(),
-        });
+        }
+        let i =
+            unplaced.iter().position(|(k, _)| k == l).expect("every unplaced jaw point is listed");
+        match fallback[i] {
+            Some(vertex) => jaw.push(nearest(*l, unplaced[i].1, vertex)),
+            None => left.push((*l, LeftOut::NoVertex)),
+        }
     }
     let jaw_points: Vec<(usize, Point3)> = map
         .pairs()

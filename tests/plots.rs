@@ -52,11 +52,12 @@ fn trajectory_labels(clip: &str, with_p: bool) -> Vec<(String, f32, bool)> {
         ("time (s)".to_string(), LABEL_PX, false),
         ("video".to_string(), LABEL_PX, false),
         ("3D head".to_string(), LABEL_PX, false),
-        ("W mouth width (min–max scaled, 0–1)".to_string(), LABEL_PX, true),
-        ("H mouth height (min–max scaled, 0–1)".to_string(), LABEL_PX, true),
+        ("W mouth width".to_string(), LABEL_PX, true),
+        ("H mouth height".to_string(), LABEL_PX, true),
+        ("min–max scaled, 0–1".to_string(), LABEL_PX, true),
     ];
     if with_p {
-        t.push(("P protrusion (min–max scaled, 0–1)".to_string(), LABEL_PX, true));
+        t.push(("P protrusion".to_string(), LABEL_PX, true));
     }
     t
 }
@@ -168,7 +169,8 @@ fn saqp_figure_8_labels_its_axes_and_each_synthesizer() {
             false,
         ),
         ("held-out sentence, ranked by ground-truth score (rank)".into(), LABEL_PX, false),
-        ("Likert score (1 worst – 5 best)".into(), LABEL_PX, true),
+        ("Likert score".into(), LABEL_PX, true),
+        ("1 worst – 5 best".into(), LABEL_PX, true),
         ("ground truth".into(), LABEL_PX, false),
         ("predicted ± σ".into(), LABEL_PX, false),
     ];
@@ -177,6 +179,6 @@ fn saqp_figure_8_labels_its_axes_and_each_synthesizer() {
         let pearson = r["r"].as_f64().unwrap_or_else(|| panic!("no `r` in {r}"));
         texts.push((format!("{name} synthesizer: Pearson r {pearson:.2}"), LABEL_PX, false));
     }
-    assert_eq!(texts.len(), 5 + 3);
+    assert_eq!(texts.len(), 6 + 3);
     assert_drawn(&img, &file, &borrowed(&texts));
 }

@@ -24,7 +24,9 @@ pub struct Series {
 /// One measure's panel.
 #[derive(Clone, Debug)]
 pub struct Panel {
-    /// The y axis's label: the measure and its unit or normalisation ("W (min–max scaled)").
+    /// The y axis's label: the measure and its unit or normalisation, one turned line per
+    /// `\n`-separated part ("W mouth width\nmin–max scaled, 0–1"); a line longer than the
+    /// panel is drawn smaller to fit.
     pub y_label: String,
     /// A note written inside the panel's top-left corner (e.g. a fit statistic), if any.
     pub caption: Option<String>,
@@ -93,7 +95,9 @@ pub fn draw_trajectories_with_layout(plot: &TrajectoryPlot) -> (RgbImage, ChartL
         plot.panels.iter().map(|p| y_ticks(value_range(p))).collect();
     let tick_w = ticks.iter().flatten().map(|(_, s)| text_width(s, TICK_PX)).max().unwrap_or(0);
     let label_h = text_height(LABEL_PX);
-    let plot_left = PAD + label_h + PAD + tick_w + PAD;
+    let y_lines = plot.panels.iter().map(|p| p.y_label.lines().count()).max().unwrap_or(1).max(1);
+    let y_band = y_lines as u32 * label_h;
+    let plot_left = PAD + y_band + PAD + tick_w + PAD;
     let plot_w = plot.width.saturating_sub(plot_left + MARGIN_RIGHT).max(1);
     let x_of = |t: f64| plot_left as f64 + t / duration * plot_w as f64;
 
@@ -168,10 +172,7 @@ pub fn draw_trajectories_with_layout(plot: &TrajectoryPlot) -> (RgbImage, ChartL
             draw_text(&mut img, cx, cy, caption, LABEL_PX, INK);
         }
         draw_rect_outline(&mut img, plot_left, top, plot_w, plot.panel_height, INK);
-        // The y label turned up, centred on its panel, in the margin's leftmost band.
-        let lw = text_width(&panel.y_label, LABEL_PX);
-        let ly = i64::from(top) + (i64::from(plot.panel_height) - i64::from(lw)) / 2;
-        draw_text_up(&mut img, i64::from(PAD), ly, &panel.y_label, LABEL_PX, INK);
+        draw_y_label(&mut img, &panel.y_label, top, plot.panel_height);
     }
 
     let step = nice_step(duration, 8.0);
@@ -200,6 +201,21 @@ pub fn draw_trajectories_with_layout(plot: &TrajectoryPlot) -> (RgbImage, ChartL
         INK,
     );
     (img, layout)
+}
+
+/// A panel's y label turned up in the margin's leftmost band, one column per line, each
+/// centred on the panel and drawn smaller when longer than it.
+fn draw_y_label(img: &mut RgbImage, label: &str, top: u32, panel_h: u32) {
+    let label_h = text_height(LABEL_PX);
+    for (k, line) in label.lines().enumerate() {
+        let room = panel_h.saturating_sub(4).max(1);
+        let w = text_width(line, LABEL_PX);
+        let px = if w > room { (LABEL_PX * room as f32 / w as f32).max(8.0) } else { LABEL_PX };
+        let lw = text_width(line, px);
+        let ly = i64::from(top) + (i64::from(panel_h) - i64::from(lw)) / 2;
+        let lx = i64::from(PAD + k as u32 * label_h + (label_h - text_height(px)));
+        draw_text_up(img, lx, ly, line, px, INK);
+    }
 }
 
 /// One swatch and name per distinct series (name and colour) of the first panel.
@@ -356,7 +372,7 @@ mod tests {
             fps: 10.0,
             alignment: Some(&al),
             panels: vec![Panel {
-                y_label: "W (min–max scaled)".into(),
+                y_label: "W mouth width\nmin–max scaled".into(),
                 caption: Some("r 0.93".into()),
                 series: vec![Series { name: "video".into(), colour: [200, 0, 0], values }],
             }],
@@ -393,8 +409,10 @@ mod tests {
         assert!(find_text(&img, "s1: video vs 3D head", TITLE_PX, INK, false).is_some());
         assert!(find_text(&img, "r 0.93", LABEL_PX, INK, false).is_some());
         assert!(find_text(&img, "video", LABEL_PX, INK, false).is_some());
-        let (x, y) = find_text(&img, "W (min–max scaled)", LABEL_PX, INK, true).unwrap();
+        let (x, y) = find_text(&img, "W mouth width", LABEL_PX, INK, true).unwrap();
         assert!(x < layout.plot_left && y > layout.panels[0].0, "y label at ({x}, {y})");
+        let (x2, _) = find_text(&img, "min–max scaled", LABEL_PX, INK, true).unwrap();
+        assert!(x < x2 && x2 < layout.plot_left, "second line right of the first");
         // The x label is centred under the axis, not at the far left.
         let (x, y) = find_text(&img, "time (s)", LABEL_PX, INK, false).unwrap();
         let centre = layout.plot_left + layout.plot_width / 2;
@@ -408,6 +426,35 @@ mod tests {
         }
         assert_eq!(layout.phones_drawn, ["m", "ə", "θ", "œ", "i", "o", "AA1"]);
         assert_eq!(layout.phones_left_out, 0);
+    }
+
+    #[test]
+    fn a_y_label_longer_than_its_panel_is_drawn_smaller_inside_it() {
+        let long = "a y label longer than its panel";
+        let plot = TrajectoryPlot {
+            title: "t".into(),
+            fps: 1.0,
+            alignment: None,
+            panels: vec![Panel {
+                y_label: long.into(),
+                caption: None,
+                series: vec![Series {
+                    name: "s".into(),
+                    colour: [0, 0, 200],
+                    values: vec![Some(1.0)],
+                }],
+            }],
+            width: 300,
+            panel_height: 150,
+            x_label: "x".into(),
+        };
+        let (img, layout) = draw_trajectories_with_layout(&plot);
+        assert!(find_text(&img, long, LABEL_PX, INK, true).is_none());
+        let px = LABEL_PX * 146.0 / text_width(long, LABEL_PX) as f32;
+        assert!((8.0..LABEL_PX).contains(&px), "{px}");
+        let (_, y) = find_text(&img, long, px, INK, true).expect("drawn smaller");
+        let (top, bottom) = layout.panels[0];
+        assert!(y >= top && y + text_width(long, px) <= bottom, "{y} in {top}..{bottom}");
     }
 
     #[test]

@@ -404,7 +404,7 @@ pub fn trajectory_chart(
     })
 }
 
-/// A measure's y-axis label: the measure in words and the scale it is compared on.
+/// A measure's y-axis label, two lines: the measure in words, the scale it is compared on.
 fn measure_axis_label(m: Measure, normalisation: Normalisation) -> String {
     let name = match m {
         Measure::W => "W mouth width",
@@ -412,9 +412,9 @@ fn measure_axis_label(m: Measure, normalisation: Normalisation) -> String {
         Measure::P => "P protrusion",
     };
     match (normalisation, m) {
-        (Normalisation::MinMax, _) => format!("{name} (min–max scaled, 0–1)"),
-        (Normalisation::None, Measure::P) => format!("{name} (÷ nasion–nose tip)"),
-        (Normalisation::None, _) => format!("{name} (÷ eye–nose length)"),
+        (Normalisation::MinMax, _) => format!("{name}\nmin–max scaled, 0–1"),
+        (Normalisation::None, Measure::P) => format!("{name}\n÷ nasion–nose tip length"),
+        (Normalisation::None, _) => format!("{name}\n÷ eye–nose length"),
     }
 }
 

@@ -758,7 +758,7 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
                     values: std::iter::once(None).chain(held.iter().map(|h| Some(f(h)))).collect(),
                 };
             Panel {
-                y_label: "Likert score (1 worst – 5 best)".into(),
+                y_label: "Likert score\n1 worst – 5 best".into(),
                 caption: Some(format!(
                     "{} synthesizer: Pearson r {:.2}",
                     s.synth.name(),

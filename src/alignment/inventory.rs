@@ -100,6 +100,7 @@ impl PhoneInventory {
         let mut inv =
             Self { phones: Vec::new(), by_ipa: BTreeMap::new(), by_label: BTreeMap::new() };
         let mut last_line = hl;
+        let mut lines = Vec::new();
         for (line, row) in rows {
             last_line = line;
             let f: Vec<&str> = row.splitn(3, ',').map(str::trim).collect();
@@ -123,6 +124,14 @@ impl PhoneInventory {
             let names = std::iter::once(("phone", key))
                 .chain(phone.labels.iter().map(|l| ("label", l.as_str())));
             for (what, name) in names {
+                if name.ends_with(|c: char| c.is_ascii_digit()) {
+                    return Err(err(
+                        line,
+                        format!(
+                            "{what} `{name}` ends in a digit (stress digits are dropped before lookup)"
+                        ),
+                    ));
+                }
                 inv.claim(Lookup::Label, &name.to_lowercase(), i)
                     .map_err(|whose| err(line, says(what, name, whose)))?;
             }
@@ -131,6 +140,22 @@ impl PhoneInventory {
                     .map_err(|whose| err(line, says("IPA symbol", s, whose)))?;
             }
             inv.phones.push(phone);
+            lines.push(line);
+        }
+        // IPA symbols are looked up first, so one that spells another phone's key or label
+        // would take that label away from it.
+        for (i, p) in inv.phones.iter().enumerate() {
+            for name in std::iter::once(&p.key).chain(&p.labels) {
+                if let Some(&o) = inv.by_ipa.get(name.as_str()).filter(|&&o| o != i) {
+                    let line = lines[i].max(lines[o]);
+                    let owner = &inv.phones[o].key;
+                    let msg = format!(
+                        "`{name}` is a label of `{}` and an IPA symbol of `{owner}`",
+                        p.key
+                    );
+                    return Err(err(line, msg));
+                }
+            }
         }
         if inv.phones.is_empty() {
             return Err(err(last_line, "no phones".into()));
@@ -310,6 +335,33 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+
+        /// Any label gets a key, and a label the table names keeps its phone's key.
+        #[test]
+        fn any_label_gets_a_key(label in "\\PC{0,12}") {
+            let t = PhoneInventory::default();
+            let key = t.key_of(&label);
+            if let Some(p) = t.phone_of(&label) {
+                proptest::prop_assert_eq!(&p.key, &key);
+            } else {
+                proptest::prop_assert_eq!(key.as_str(), label.trim());
+            }
+        }
+
+        /// Any text parses into a table or an error, and a parsed table's keys are their own.
+        #[test]
+        fn any_table_text_parses_or_errs(rows in proptest::collection::vec("[a-zA-Zɑə#0-9 ,:+-]{0,16}", 0..8)) {
+            let text = format!("phone,ipa,labels\nsil,,\n{}", rows.join("\n"));
+            if let Ok(t) = PhoneInventory::from_csv_str(&text) {
+                for p in t.phones() {
+                    proptest::prop_assert_eq!(&t.key_of(&p.key), &p.key);
+                }
+            }
+        }
+    }
+
     #[test]
     fn silences_and_unknown_labels() {
         let t = PhoneInventory::default();
@@ -348,5 +400,16 @@ mod tests {
         );
         assert_eq!(e("phone,ipa,labels\nAA,ɑ,\n"), "line 2: no `sil` row (silences need a key)");
         assert!(e("phone,ipa,labels\n,ɑ,\n").contains("a key is one non-empty word"));
+        assert_eq!(
+            e("phone,ipa,labels\nsil,,\nAA,ɑ A,\nA,,\n"),
+            "line 4: `A` is a label of `A` and an IPA symbol of `AA`"
+        );
+        assert_eq!(
+            e("phone,ipa,labels\nsil,,\nT,,t2\n"),
+            "line 3: label `t2` ends in a digit (stress digits are dropped before lookup)"
+        );
+        // Case tells IPA from ARPAbet: IPA `a` and label `A` may name two phones.
+        let t = PhoneInventory::from_csv_str("phone,ipa,labels\nsil,,\nAE,a,\nAA,,A\n").unwrap();
+        assert_eq!((t.key_of("a"), t.key_of("A")), ("AE".to_string(), "AA".to_string()));
     }
 }

@@ -151,20 +151,38 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let foreign = dir.path().join("foreign.csv");
     std::fs::write(
         &foreign,
-        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,ə\n0.45,0.6,N\n0.6,0.8,sil\n",
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,œ\n0.45,0.6,N\n0.6,0.8,sil\n",
     )
     .unwrap();
-    let out = lipmap(&["saqp", "predict", s(&model), "--phones", s(&known), s(&foreign), "--json"]);
+    // The known phones in IPA: the same phones to the predictor.
+    let ipa = dir.path().join("ipa.csv");
+    std::fs::write(
+        &ipa,
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,b\n0.3,0.45,ɪ\n0.45,0.6,n\n0.6,0.8,sil\n",
+    )
+    .unwrap();
+    let out = lipmap(&[
+        "saqp",
+        "predict",
+        s(&model),
+        "--phones",
+        s(&known),
+        s(&foreign),
+        s(&ipa),
+        "--json",
+    ]);
     assert!(out.status.success(), "predict: {}", text(&out.stderr));
     let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = tables.as_object().unwrap().values().next().unwrap().as_array().unwrap().clone();
-    assert_eq!(rows.len(), 2);
+    assert_eq!(rows.len(), 3);
     for r in &rows {
         let p = r["predicted"].as_f64().unwrap();
         assert!(p.is_finite() && p > 0.0 && p < 6.0, "{r}");
     }
     assert_eq!(rows[0]["unseen phones"], "");
-    assert_eq!(rows[1]["unseen phones"], "ə");
+    assert_eq!(rows[1]["unseen phones"], "œ");
+    assert_eq!(rows[2]["unseen phones"], "");
+    assert_eq!(rows[2]["predicted"], rows[0]["predicted"]);
 
     // Bad inputs: one line naming the place.
     let first = std::fs::read_dir(&ext).unwrap().next().unwrap().unwrap().path();

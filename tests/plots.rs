@@ -154,13 +154,7 @@ fn saqp_figure_8_labels_its_axes_and_each_synthesizer() {
     let session = demo.join("demo.lipmap.json");
     let out = lipmap(&["saqp", "cv", s(&session), "--plot", s(&file), "--json"]);
     ok(&out, "saqp cv");
-    let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let (_, rows) = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
-        .expect("the synthesizer table");
+    let rows = common::synth_rows(&out.stdout);
     let img = png(&file);
     let mut texts: Vec<(String, f32, bool)> = vec![
         (
@@ -174,7 +168,7 @@ fn saqp_figure_8_labels_its_axes_and_each_synthesizer() {
         ("ground truth".into(), LABEL_PX, false),
         ("predicted ± σ".into(), LABEL_PX, false),
     ];
-    for r in rows.as_array().unwrap() {
+    for r in &rows {
         let name = r["synthesizer"].as_str().unwrap();
         let pearson = r["r"].as_f64().unwrap_or_else(|| panic!("no `r` in {r}"));
         texts.push((format!("{name} synthesizer: Pearson r {pearson:.2}"), LABEL_PX, false));

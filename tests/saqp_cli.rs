@@ -3,6 +3,8 @@
 //! motion CSVs, a trained predictor scoring phone files, and the bad inputs a researcher can
 //! give it, each a one-line error naming the file or folder.
 
+mod common;
+
 use lipmap::io::motion_csv::{VertexMotion, format_motion_csv};
 use lipmap::math::Point3;
 use lipmap::workflow::saqp::{CorpusOptions, marker_vertices, session_corpus};
@@ -79,17 +81,6 @@ fn write_lagged_motion(session: &Path, dir: &Path, lag: usize) {
     }
 }
 
-fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
-    let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
-    let (_, rows) = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
-        .expect("the synthesizer table");
-    rows.as_array().unwrap().clone()
-}
-
 #[test]
 fn cross_validate_train_predict_and_every_bad_input() {
     let dir = tempfile::tempdir().unwrap();
@@ -99,7 +90,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let png = dir.path().join("quality.png");
     let out = lipmap(&["saqp", "cv", s(&session), "--plot", s(&png), "--json"]);
     assert!(out.status.success(), "cv: {}", text(&out.stderr));
-    let rows = synth_rows(&out.stdout);
+    let rows = common::synth_rows(&out.stdout);
     let names: Vec<&str> = rows.iter().map(|r| r["synthesizer"].as_str().unwrap()).collect();
     assert_eq!(names, ["keyframe", "trajectory", "concat"]);
     for r in &rows {
@@ -131,7 +122,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
         "--json",
     ]);
     assert!(out.status.success(), "external cv: {}", text(&out.stderr));
-    let rows = synth_rows(&out.stdout);
+    let rows = common::synth_rows(&out.stdout);
     assert_eq!(rows.len(), 1);
     assert_eq!(rows[0]["synthesizer"], "external");
     assert_eq!(rows[0]["held out"].as_i64(), Some(6), "{}", rows[0]);

@@ -73,8 +73,9 @@ impl PhoneInventory {
     ///
     /// # Errors
     /// An [`InventoryError`] naming the line: a wrong header, a row without three fields, an
-    /// empty or repeated key, a symbol or label given to two phones (it could then mean
-    /// either), no `sil` row (silences need a key), or no phones at all.
+    /// empty or repeated key, a symbol or label given to two phones or an IPA symbol spelling
+    /// another phone's key or label (it could then mean either), a key or label ending in a
+    /// digit (lookup drops stress digits), no `sil` row (silences need a key), or no phones.
     ///
     /// ```
     /// let t = lipmap::alignment::PhoneInventory::from_csv_str(
@@ -87,22 +88,13 @@ impl PhoneInventory {
     /// ```
     pub fn from_csv_str(text: &str) -> Result<Self, InventoryError> {
         let err = |line: usize, message: String| InventoryError { line, message };
-        let mut rows = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (hl, header) = rows.next().ok_or_else(|| err(1, "empty file".into()))?;
-        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-        if cols != ["phone", "ipa", "labels"] {
-            return Err(err(hl, format!("expected the header `phone,ipa,labels`, got `{header}`")));
-        }
+        let crate::table_text::CsvRows { rows, last_line } =
+            crate::table_text::csv_rows(text, "phone,ipa,labels")
+                .map_err(|(line, message)| err(line, message))?;
         let mut inv =
             Self { phones: Vec::new(), by_ipa: BTreeMap::new(), by_label: BTreeMap::new() };
-        let mut last_line = hl;
         let mut lines = Vec::new();
         for (line, row) in rows {
-            last_line = line;
             let f: Vec<&str> = row.splitn(3, ',').map(str::trim).collect();
             let [key, ipa, labels] = f[..] else {
                 return Err(err(line, "expected three fields: phone,ipa,labels".into()));
@@ -265,6 +257,12 @@ mod tests {
     const CMU: &str = "AA AE AH AO AW AY B CH D DH EH ER EY F G HH IH IY JH K L M N NG OW OY P R \
                        S SH T TH UH UW V W Y Z ZH";
 
+    fn assert_keys(t: &PhoneInventory, cases: &[(&str, &str)]) {
+        for &(label, key) in cases {
+            assert_eq!(t.key_of(label), key, "{label}");
+        }
+    }
+
     #[test]
     fn every_cmu_phone_is_a_key_with_an_ipa_name() {
         let t = PhoneInventory::default();
@@ -280,9 +278,7 @@ mod tests {
     #[test]
     fn arpabet_stress_and_case_are_dropped_for_lookup() {
         let t = PhoneInventory::default();
-        for (label, key) in [("AA1", "AA"), ("uw0", "UW"), ("Ah2", "AH"), ("ZH", "ZH")] {
-            assert_eq!(t.key_of(label), key, "{label}");
-        }
+        assert_keys(&t, &[("AA1", "AA"), ("uw0", "UW"), ("Ah2", "AH"), ("ZH", "ZH")]);
     }
 
     #[test]
@@ -292,22 +288,23 @@ mod tests {
         let mary: Vec<String> =
             "m ə r i r o l d θ ə b œ r l".split(' ').map(|l| t.key_of(l)).collect();
         assert_eq!(mary.join(" "), "M AH R IY R OW L D TH AH B œ R L");
-        for (label, key) in [
-            ("ˈuː", "UW"),
-            ("iː", "IY"),
-            ("ɪ", "IH"),
-            ("eɪ", "EY"),
-            ("aʊ", "AW"),
-            ("t͡ʃ", "CH"),
-            ("pʰ", "P"),
-            ("n̩", "N"),
-            ("ɜ˞", "ER"),
-            ("ɾ", "T"),
-            ("j", "Y"),
-            ("ʔ", "Q"),
-        ] {
-            assert_eq!(t.key_of(label), key, "{label}");
-        }
+        assert_keys(
+            &t,
+            &[
+                ("ˈuː", "UW"),
+                ("iː", "IY"),
+                ("ɪ", "IH"),
+                ("eɪ", "EY"),
+                ("aʊ", "AW"),
+                ("t͡ʃ", "CH"),
+                ("pʰ", "P"),
+                ("n̩", "N"),
+                ("ɜ˞", "ER"),
+                ("ɾ", "T"),
+                ("j", "Y"),
+                ("ʔ", "Q"),
+            ],
+        );
     }
 
     #[test]
@@ -317,22 +314,23 @@ mod tests {
         let festival: Vec<String> =
             "pau b ih n b l uw ae t eh f t uw n aw pau".split(' ').map(|l| t.key_of(l)).collect();
         assert_eq!(festival.join(" "), "sil B IH N B L UW AE T EH F T UW N AW sil");
-        for (label, key) in [
-            ("ax", "AH"),
-            ("axr", "ER"),
-            ("ix", "IH"),
-            ("dx", "T"),
-            ("bcl", "B"),
-            ("h#", "sil"),
-            ("SIL", "sil"),
-            ("+NSN+", "sil"),
-            ("ax-h", "AH"),
-            ("s-ih+n", "IH"),
-            ("sil-b+ih", "B"),
-            ("x^x-pau+b=ih@x_x/A:0_0_0", "sil"),
-        ] {
-            assert_eq!(t.key_of(label), key, "{label}");
-        }
+        assert_keys(
+            &t,
+            &[
+                ("ax", "AH"),
+                ("axr", "ER"),
+                ("ix", "IH"),
+                ("dx", "T"),
+                ("bcl", "B"),
+                ("h#", "sil"),
+                ("SIL", "sil"),
+                ("+NSN+", "sil"),
+                ("ax-h", "AH"),
+                ("s-ih+n", "IH"),
+                ("sil-b+ih", "B"),
+                ("x^x-pau+b=ih@x_x/A:0_0_0", "sil"),
+            ],
+        );
     }
 
     proptest::proptest! {

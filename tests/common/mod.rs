@@ -56,6 +56,18 @@ pub fn makehuman() -> Option<(PathBuf, lipmap::model::Mesh, Vec<bool>, lipmap::m
     Some((dir, mesh, skin, map))
 }
 
+/// The rows of the per-synthesizer table in `lipmap saqp cv --json`'s output.
+pub fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
+    let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
+    let (_, rows) = tables
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
+        .expect("the synthesizer table");
+    rows.as_array().unwrap().clone()
+}
+
 /// `lipmap demo --no-tui --sentences 1 --out DIR/demo` run by the binary under test; returns
 /// the demo session's path.
 pub fn demo_session(dir: &Path) -> PathBuf {

@@ -119,20 +119,37 @@ impl Journal {
     }
 }
 
-/// Applies the journal left beside `session_path` (by an editor that crashed) to `session`:
-/// the last whole line of each clip replaces that clip's edit layer. Returns how many clips
-/// were restored (0 when there is no journal). A torn last line is skipped; the journal
-/// stays until a save clears it.
+/// What [`replay`] applied.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Replayed {
+    /// Whole lines in the journal: one per edit the editor finished.
+    pub edits: usize,
+    /// Clips whose edit layer the journal replaced.
+    pub clips: usize,
+}
+
+impl Replayed {
+    /// Whether there was anything to replay.
+    pub fn is_empty(&self) -> bool {
+        self.edits == 0
+    }
+}
+
+/// Applies the journal left beside `session_path` (by an editor that crashed, or one still
+/// editing) to `session`: the last whole line of each clip replaces that clip's edit layer.
+/// Returns how many edits the journal holds and how many clips they touched (nothing when
+/// there is no journal). A torn last line is skipped; the journal stays until a save clears
+/// it.
 ///
 /// # Errors
 /// `Io` for an unreadable journal; `Invalid` naming the journal and line when a whole line
 /// is not an entry, or when the restored session breaks a rule (the journal is as untrusted
 /// as the session file).
-pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, SessionError> {
+pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, SessionError> {
     let path = journal_path(&super::absolute(session_path));
     let bytes = match std::fs::read(&path) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Replayed::default()),
         Err(source) => return Err(SessionError::Io { path, source }),
     };
     let invalid = |line: usize, message: String| SessionError::Invalid {
@@ -140,6 +157,7 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, Sessi
         message: format!("line {line}: {message}"),
     };
     let mut last: BTreeMap<String, JournalEntry> = BTreeMap::new();
+    let mut edits = 0;
     let mut lines = bytes.split(|&b| b == b'\n').enumerate().peekable();
     while let Some((i, line)) = lines.next() {
         let whole = lines.peek().is_some();
@@ -149,6 +167,7 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, Sessi
         match serde_json::from_slice::<JournalEntry>(line) {
             Ok(e) => {
                 last.insert(e.clip.clone(), e);
+                edits += 1;
             }
             // The line being written when the editor died: that edit is the one lost.
             Err(_) if !whole => break,
@@ -157,7 +176,7 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, Sessi
     }
     // Applied to a copy: a refused journal leaves the session as loaded.
     let mut next = session.clone();
-    let mut restored = 0;
+    let clips = last.len();
     for (name, e) in last {
         let Some(i) = next.clip_index(&name) else {
             return Err(invalid(0, format!("no clip {name:?} in the session")));
@@ -168,11 +187,10 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, Sessi
         if let Some(map) = e.landmark_map {
             next.landmark_map.inline = Some(map);
         }
-        restored += 1;
     }
     next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
     *session = next;
-    Ok(restored)
+    Ok(Replayed { edits, clips })
 }
 
 #[cfg(test)]
@@ -215,12 +233,12 @@ mod tests {
         let torn = serde_json::to_string(&entry(4)).unwrap();
         let mut f = OpenOptions::new().append(true).open(j.path()).unwrap();
         f.write_all(&torn.as_bytes()[..torn.len() / 2]).unwrap();
-        assert_eq!(replay(&mut s, &path).unwrap(), 1);
+        assert_eq!(replay(&mut s, &path).unwrap(), Replayed { edits: 3, clips: 1 });
         assert_eq!(s.clips[0].corrections.points.len(), 3);
         j.clear().unwrap();
         assert!(!j.path().exists());
         let (mut fresh, _) = session(dir.path());
-        assert_eq!(replay(&mut fresh, &path).unwrap(), 0);
+        assert!(replay(&mut fresh, &path).unwrap().is_empty());
     }
 
     #[test]

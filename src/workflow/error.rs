@@ -106,6 +106,15 @@ impl<T, E: Into<Error>> Context<T> for std::result::Result<T, E> {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Warning(pub String);
 
+impl Warning {
+    /// The line without the command line's `lipmap: ` and `note: `/`warning: ` prefixes, for
+    /// a status line that has no room for them.
+    pub fn status_text(&self) -> &str {
+        let s = self.0.strip_prefix("lipmap: ").unwrap_or(&self.0);
+        s.strip_prefix("note: ").or_else(|| s.strip_prefix("warning: ")).unwrap_or(s)
+    }
+}
+
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(&self.0)

@@ -751,48 +751,17 @@ pub fn write_quality_chart(path: &Path, report: &CvReport) -> Result<()> {
 mod tests {
     use super::*;
 
-    fn fit(frame: usize, value: f64) -> FrameFit {
-        FrameFit { identity: vec![1.0], expression: vec![value], ..FrameFit::unposed(frame) }
-    }
-
-    fn values(frames: &[DVector]) -> Vec<f64> {
-        frames.iter().map(|c| c[1]).collect()
-    }
-
     #[test]
-    fn skipped_and_failed_frames_are_bridged_linearly_and_held_at_the_ends() {
-        let mut fits: Vec<FrameFit> =
-            [(0, 9.0), (1, 0.0), (2, 2.0), (3, 50.0), (4, 6.0)].map(|(f, v)| fit(f, v)).to_vec();
-        fits[1].failed = Some("too few landmarks".into());
-        // Frame 5 is missing from the fits; frame 3 is flagged, frame 0 too.
-        let (frames, bridged) = bridged_coefficients(&fits, 7, 25.0, &[0, 3]).unwrap();
-        assert_eq!(values(&frames), vec![2.0, 2.0, 2.0, 4.0, 6.0, 6.0, 6.0]);
-        assert_eq!(bridged, 5);
-        assert!(frames.iter().all(|c| c[0] == 1.0));
-        // A skip list that would leave nothing is ignored; no good fit at all is `None`.
-        let (frames, bridged) = bridged_coefficients(&fits[..1], 2, 25.0, &[0]).unwrap();
-        assert_eq!((values(&frames), bridged), (vec![9.0, 9.0], 1));
-        fits.iter_mut().for_each(|f| f.failed = Some("x".into()));
-        assert_eq!(bridged_coefficients(&fits, 5, 25.0, &[]), Err(GapError::NoUsableFit));
-    }
-
-    #[test]
-    fn a_gap_longer_than_a_second_is_not_bridged() {
-        let fits: Vec<FrameFit> = [0, 1, 27].map(|f| fit(f, 1.0)).to_vec();
-        // 25 missing frames at 25 fps are a second: bridged.
-        assert!(bridged_coefficients(&fits, 28, 25.0, &[]).is_ok());
-        // One more, or a flag that widens the gap, is not.
-        let Err(why) = bridged_coefficients(&fits, 28, 24.0, &[]) else {
-            panic!("a 1.04 s gap was bridged")
+    fn bridged_frames_are_the_filled_fits_coefficients() {
+        // The policy itself is tested in `fit::gaps`; here, what a sentence takes of it.
+        let fit = |frame, value| FrameFit {
+            identity: vec![1.0],
+            expression: vec![value],
+            ..FrameFit::unposed(frame)
         };
-        let why = why.to_string();
-        assert!(why.contains("frames 2–26"), "{why}");
-        assert!(bridged_coefficients(&fits, 28, 25.0, &[1]).is_err());
-        // A last frame far past the fits (a hand-edited session) is refused at once.
-        let Err(why) = bridged_coefficients(&fits, 1 << 20, 25.0, &[]) else {
-            panic!("bridged to frame 2^20")
-        };
-        let why = why.to_string();
-        assert!(why.contains("frames 28–1048575"), "{why}");
+        let (frames, bridged) =
+            bridged_coefficients(&[fit(0, 0.0), fit(2, 4.0)], 3, 25.0, &[]).unwrap();
+        let values: Vec<[f64; 2]> = frames.iter().map(|c| [c[0], c[1]]).collect();
+        assert_eq!((values, bridged), (vec![[1.0, 0.0], [1.0, 2.0], [1.0, 4.0]], 1));
     }
 }

@@ -342,4 +342,88 @@ mod tests {
         assert!(!crate::session::store::lock_path(&path).exists(), "a lock file was created");
         opened.save_if_locked().unwrap();
     }
+
+    /// A session of one clip at `dir/s.lipmap.json`, and a journal entry correcting point
+    /// 48 of frames `0..n` of it.
+    fn session_and_edit(dir: &Path, n: usize) -> (PathBuf, journal::JournalEntry) {
+        use crate::landmarks::{FrameLandmarks, LandmarkPoint};
+        use crate::session::{Clip, FramesRef, View};
+        let path = dir.join("s.lipmap.json");
+        let mut s = Session::new(&path);
+        let mut clip = Clip::new("a", View::new(FramesRef::Images { dir: dir.join("f") }, 25.0));
+        for f in 0..n {
+            clip.tracked
+                .frames
+                .push(FrameLandmarks::new(f, vec![LandmarkPoint::tracked(1.0, 1.0); 68]));
+        }
+        s.clips.push(clip);
+        s.save(&path).unwrap();
+        let mut corrections = crate::session::Corrections::default();
+        for f in 0..n {
+            corrections.set(f, 48, LandmarkPoint::tracked(5.0, f as f64)).unwrap();
+        }
+        let entry = journal::JournalEntry {
+            clip: "a".into(),
+            corrections,
+            profile_corrections: Default::default(),
+            landmark_map: None,
+        };
+        (path, entry)
+    }
+
+    #[test]
+    fn readers_beside_a_live_editor_see_its_journal_and_save_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, entry) = session_and_edit(dir.path(), 3);
+        // This process is the live editor: it holds the lock and journals an edit.
+        let editor = open_for_edit_at(&path).unwrap();
+        let mut j = Journal::new(&path);
+        j.record(&entry).unwrap();
+        assert!(matches!(
+            open_for_edit_at(&path),
+            Err(Error::Session(SessionError::Locked { .. }))
+        ));
+        let mut read = open_for_read_at(&path).unwrap();
+        assert!(!read.is_locked());
+        assert_eq!(read.session.clips[0].corrections, entry.corrections);
+        let notes: Vec<&str> = read.notices.iter().map(|w| w.0.as_str()).collect();
+        assert!(notes[0].contains("open in another editor"), "{notes:?}");
+        assert!(notes[1].contains("holds 1 edit not saved"), "{notes:?}");
+        read.save_if_locked().unwrap();
+        assert!(Session::load(&path).unwrap().clips[0].corrections.points.is_empty());
+        assert!(j.is_present() && journal::journal_path(&path).exists());
+        let read = read_session(&path).unwrap();
+        assert_eq!(read.session.clips[0].corrections, entry.corrections);
+        drop(editor);
+    }
+
+    #[test]
+    fn an_editor_after_a_crash_restores_the_journal_and_its_save_retires_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, entry) = session_and_edit(dir.path(), 2);
+        let mut j = Journal::new(&path);
+        j.record(&entry).unwrap();
+        j.record(&entry).unwrap();
+        let mut edit = open_for_edit_at(&path).unwrap();
+        assert_eq!(edit.restored, Replayed { edits: 2, clips: 1 });
+        assert!(edit.notices[0].0.contains("restored the edits"), "{:?}", edit.notices);
+        assert_eq!(edit.session.clips[0].corrections, entry.corrections);
+        edit.save().unwrap();
+        assert!(!journal::journal_path(&path).exists());
+        assert_eq!(Session::load(&path).unwrap().clips[0].corrections, entry.corrections);
+    }
+
+    #[test]
+    fn a_journal_that_cannot_be_replayed_is_set_aside_by_an_editor_and_left_by_a_reader() {
+        let dir = tempfile::tempdir().unwrap();
+        let (path, _) = session_and_edit(dir.path(), 1);
+        let journal = journal::journal_path(&path);
+        std::fs::write(&journal, "not json\n{}\n").unwrap();
+        let read = read_session(&path).unwrap();
+        assert!(read.notices[0].0.contains("journal not applied"), "{:?}", read.notices);
+        assert!(journal.exists());
+        let edit = open_for_edit_at(&path).unwrap();
+        assert!(edit.notices[0].0.contains("journal not replayed"), "{:?}", edit.notices);
+        assert!(!journal.exists() && journal.with_extension("journal.bad").exists());
+    }
 }

@@ -31,6 +31,7 @@ pub mod speech;
 pub mod speech_session;
 pub mod transfer;
 pub mod untrusted;
+pub mod validate;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,

@@ -37,10 +37,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// What a quality-model file says it is.
-pub const SAQP_MODEL_FORMAT: &str = "lipmap saqp model";
+/// What a quality-model file says it is (`io::json_model`).
+pub const SAQP_MODEL_FORMAT: &str = crate::io::json_model::QUALITY_MODEL.format;
 /// The version this lipmap writes and reads.
-pub const SAQP_MODEL_VERSION: u32 = 1;
+pub const SAQP_MODEL_VERSION: u32 = crate::io::json_model::QUALITY_MODEL.version;
 
 /// Where a corpus sentence came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -550,21 +550,7 @@ pub fn save_predictor(path: &Path, file: &SaqpModelFile) -> Result<()> {
 /// One line naming the file: unreadable, not a quality model, another version.
 pub fn load_predictor(path: &Path) -> Result<SaqpModelFile> {
     let fail = |msg: String| Error::Invalid(format!("{}: {msg}", path.display()));
-    let bytes = crate::io::input::read_input(path)?;
-    let head: serde_json::Value = serde_json::from_slice(&bytes)
-        .map_err(|e| fail(format!("not a quality model file: {e}")))?;
-    if head.get("format").and_then(|f| f.as_str()) != Some(SAQP_MODEL_FORMAT) {
-        return Err(fail(format!(
-            "not a quality model file (no `format: \"{SAQP_MODEL_FORMAT}\"`); make one with `lipmap saqp train`"
-        )));
-    }
-    let version = head.get("version").and_then(serde_json::Value::as_u64);
-    if version != Some(u64::from(SAQP_MODEL_VERSION)) {
-        return Err(fail(format!(
-            "quality model version {} is not the version {SAQP_MODEL_VERSION} this lipmap reads",
-            version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
-        )));
-    }
+    let head = crate::io::json_model::read_json_model(path, &crate::io::json_model::QUALITY_MODEL)?;
     let model: SaqpModelFile =
         serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))?;
     model.predictor.validate().map_err(|e| fail(format!("bad quality model: {e}")))?;

@@ -35,10 +35,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// What a speech model file says it is.
-pub const SPEECH_MODEL_FORMAT: &str = "lipmap speech model";
+/// What a speech model file says it is (`io::json_model`).
+pub const SPEECH_MODEL_FORMAT: &str = crate::io::json_model::SPEECH_MODEL.format;
 /// The version this lipmap writes and reads.
-pub const SPEECH_MODEL_VERSION: u32 = 1;
+pub const SPEECH_MODEL_VERSION: u32 = crate::io::json_model::SPEECH_MODEL.version;
 /// The audio rate models are trained at (audio recorded faster is downsampled).
 pub const SPEECH_SAMPLE_RATE: u32 = 16_000;
 /// Relative ridge of [`MouthDriver`]: small, so reachable mouth shapes are reproduced.
@@ -114,22 +114,7 @@ impl HeadBinding {
 /// One line naming the file: unreadable, not a speech model, another version, inconsistent.
 pub fn load_speech_model(path: &Path) -> Result<SpeechModelFile> {
     let fail = |msg: String| Error::Invalid(format!("{}: {msg}", path.display()));
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
-    let head: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| fail(format!("not a speech model file: {e}")))?;
-    if head.get("format").and_then(|f| f.as_str()) != Some(SPEECH_MODEL_FORMAT) {
-        return Err(fail(format!(
-            "not a speech model file (no `format: \"{SPEECH_MODEL_FORMAT}\"`); make one with `lipmap speech train`"
-        )));
-    }
-    let version = head.get("version").and_then(serde_json::Value::as_u64);
-    if version != Some(u64::from(SPEECH_MODEL_VERSION)) {
-        return Err(fail(format!(
-            "speech model version {} is not the version {SPEECH_MODEL_VERSION} this lipmap reads",
-            version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
-        )));
-    }
+    let head = crate::io::json_model::read_json_model(path, &crate::io::json_model::SPEECH_MODEL)?;
     let file: SpeechModelFile =
         serde_json::from_value(head).map_err(|e| fail(format!("bad speech model: {e}")))?;
     file.speech.validate().map_err(|e| fail(format!("inconsistent speech model: {e}")))?;

@@ -174,7 +174,7 @@ pub fn rms_text(rms_px: Option<f64>) -> String {
 pub fn median_reprojection(fits: &[crate::fit::FrameFit]) -> Option<f64> {
     let mut rms: Vec<f64> = fits
         .iter()
-        .filter(|f| f.failed.is_none() && f.reproj_rms_px.is_finite())
+        .filter(|f| f.is_usable() && f.reproj_rms_px.is_finite())
         .map(|f| f.reproj_rms_px)
         .collect();
     rms.sort_by(f64::total_cmp);

@@ -177,7 +177,7 @@ impl DemoCorpus {
             fits[i]
                 .iter()
                 .map(|f| {
-                    if f.failed.is_none() {
+                    if f.is_usable() {
                         last = LinearShapes::coefficients_of_fit(f);
                     }
                     last.clone()

@@ -10,7 +10,6 @@
 
 use crate::eval::VisemeTable;
 use crate::landmarks::LandmarkNames;
-use crate::landmarks::ibug::DEFAULT_NAMES_CSV;
 use crate::measure::BoundsTable;
 use std::sync::{LazyLock, OnceLock};
 
@@ -30,8 +29,7 @@ impl ReferenceTables {
         Self {
             visemes: VisemeTable::default(),
             bounds: BoundsTable::default(),
-            names: LandmarkNames::from_csv_str(DEFAULT_NAMES_CSV)
-                .expect("the embedded table parses (tested)"),
+            names: LandmarkNames::builtin(),
         }
     }
 }

@@ -72,7 +72,7 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
                 writeln!(out, "left {}: {why}", l + 1)?;
             }
             writeln!(out, "{}", s.check.summary())?;
-            write_landmark_map(&a.out, &s.map)?;
+            write_landmark_map(&a.out, &s.map, &crate::reference::current().names)?;
             writeln!(
                 out,
                 "wrote {} ({} landmarks); use it with: lipmap import {} --mapping {}",

@@ -440,7 +440,8 @@ impl SessionBridge {
         if std::fs::metadata(&target).is_ok_and(|m| m.permissions().readonly()) {
             anyhow::bail!("{} is read-only", target.display());
         }
-        crate::io::landmark_map_toml::write_landmark_map(&target, map)?;
+        let names = &crate::reference::current().names;
+        crate::io::landmark_map_toml::write_landmark_map(&target, map, names)?;
         self.session.landmark_map.file = Some(target.clone());
         self.session.landmark_map.set_inline(map);
         self.loaded_map = Some(map.clone());

@@ -8,7 +8,6 @@
 //! The drawing is in functions ([`draw_shaded_mesh`], [`draw_wireframe`]) that take the
 //! mesh and the viewport, so another head (a transferred one) draws the same way.
 
-use crate::landmarks::landmark_name;
 use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
 use crate::render::{HeadShot, HeadViewport};
@@ -388,7 +387,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let current = app.map.as_ref().and_then(|m| m.vertex(h.label));
     let mut lines = vec![
         Line::from("labelling").bold(),
-        Line::from(format!("{} {}", h.label, landmark_name(h.label))).fg(Color::Yellow),
+        Line::from(format!("{} {}", h.label, crate::reference::current().names.name(h.label)))
+            .fg(Color::Yellow),
         Line::from(match current {
             Some(v) => format!("now vertex {v}"),
             None => "not mapped".into(),

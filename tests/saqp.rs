@@ -171,19 +171,26 @@ fn bad_input_gets_a_one_line_error_naming_what() {
             })
             .collect()
     };
-    let err = predictor.predict("new", &phones(&["sil", "XX", "QQ", "sil"])).unwrap_err();
+    let err = predictor
+        .predict("new", &phones(&["sil", "XX", "QQ", "sil"]), &Default::default())
+        .unwrap_err();
     assert_eq!(err, SaqpError::AllPhonesUnseen("new".into()));
-    let q = predictor.predict("new", &phones(&["sil", "B", "IH", "N", "sil"])).unwrap();
+    let q = predictor
+        .predict("new", &phones(&["sil", "B", "IH", "N", "sil"]), &Default::default())
+        .unwrap();
     let (e, p) = (q.e, q.prediction);
     assert!(e.is_finite() && p.mean.is_finite() && p.std() > 0.0);
     assert!(q.unseen.is_empty(), "{:?}", q.unseen);
     // A phone of another phone set is named, not silently scored as if it were known.
-    let mixed = predictor.predict("new", &phones(&["sil", "B", "ə", "N", "sil"])).unwrap();
+    let mixed = predictor
+        .predict("new", &phones(&["sil", "B", "ə", "N", "sil"]), &Default::default())
+        .unwrap();
     assert_eq!(mixed.unseen, vec!["ə".to_string()]);
     // The predictor survives serde.
     let json = serde_json::to_string(&predictor).unwrap();
     let back: saqp::Predictor = serde_json::from_str(&json).unwrap();
-    let q2 = back.predict("new", &phones(&["sil", "B", "IH", "N", "sil"])).unwrap();
+    let q2 =
+        back.predict("new", &phones(&["sil", "B", "IH", "N", "sil"]), &Default::default()).unwrap();
     let (e2, p2) = (q2.e, q2.prediction);
     assert!((e - e2).abs() < 1e-9 * e.abs().max(1.0) && (p.mean - p2.mean).abs() < 1e-9);
 }

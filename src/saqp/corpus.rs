@@ -82,6 +82,9 @@ pub struct Corpus {
     pub shapes: LinearShapes,
     pub landmarks: LandmarkMap,
     pub sentences: Vec<Sentence>,
+    /// The phoneme → viseme classes a rare phone backs off to (the reader's table, passed
+    /// in like every other input).
+    pub visemes: crate::eval::VisemeTable,
 }
 
 impl Corpus {

@@ -18,27 +18,25 @@ use serde::{Deserialize, Serialize};
 pub struct PhoneSet {
     labels: Vec<String>,
     visemes: Vec<Option<u16>>,
-    #[serde(skip)]
-    table: Option<VisemeTable>,
 }
 
 impl PhoneSet {
-    /// The id of `label`, added when new.
-    pub fn intern(&mut self, label: &str) -> u16 {
+    /// The id of `label`, added when new with its class in `table` (the corpus's, or the one
+    /// a saved predictor is used with).
+    pub fn intern(&mut self, label: &str, table: &VisemeTable) -> u16 {
         let g = grouping_label(label);
         if let Some(i) = self.labels.iter().position(|l| *l == g) {
             return i as u16;
         }
-        let table = self.table.get_or_insert_with(|| crate::reference::current().visemes.clone());
         let vis = table.class_of(&g).and_then(|id| table.classes.iter().position(|c| c.id == id));
         self.labels.push(g);
         self.visemes.push(vis.map(|v| v as u16));
         (self.labels.len() - 1) as u16
     }
 
-    /// The ids of a phone sequence, interning new labels.
-    pub fn intern_all(&mut self, phones: &[Phone]) -> Vec<u16> {
-        phones.iter().map(|p| self.intern(&p.label)).collect()
+    /// The ids of a phone sequence, interning new labels (classed by `table`).
+    pub fn intern_all(&mut self, phones: &[Phone], table: &VisemeTable) -> Vec<u16> {
+        phones.iter().map(|p| self.intern(&p.label, table)).collect()
     }
 
     pub fn label(&self, id: u16) -> &str {
@@ -113,7 +111,7 @@ impl Prepared {
                 let samples = phone_midpoint_samples(&coefficients, s.fps, &s.phones);
                 PreparedSentence {
                     name: s.name.clone(),
-                    ids: phones.intern_all(&s.phones),
+                    ids: phones.intern_all(&s.phones, &corpus.visemes),
                     phones: s.phones.clone(),
                     fps: s.fps,
                     coefficients,

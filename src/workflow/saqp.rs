@@ -247,8 +247,12 @@ impl Gathering {
                 s.name = format!("{stem}:{}", s.name);
             }
         }
-        let corpus =
-            Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
+        let corpus = Corpus {
+            shapes: LinearShapes::from_model(&res.model),
+            landmarks: res.map,
+            sentences,
+            visemes: crate::reference::current().visemes.clone(),
+        };
         corpus.validate().map_err(saqp_error)?;
         Ok(SessionCorpus { corpus, origins, frames, bridged, warnings })
     }
@@ -577,7 +581,8 @@ pub fn predict_phones(
     name: &str,
     phones: &[Phone],
 ) -> Result<QualityEstimate> {
-    model.predictor.predict(name, phones).map_err(saqp_error)
+    let visemes = &crate::reference::current().visemes;
+    model.predictor.predict(name, phones, visemes).map_err(saqp_error)
 }
 
 /// The region PCA of a cross-validation: vertices, dimensions and variance kept per region.

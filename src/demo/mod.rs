@@ -1,4 +1,4 @@
-//! The built-in synthetic speaker (DESIGN.md §9): from a fixed seed, a head with a modelled
+//! The built-in synthetic speaker (`docs/design.md`, "The demo speaker"): from a fixed seed, a head with a modelled
 //! lip region, its 161 viseme poses and their PCA model, GRID sentences with phone timings,
 //! coarticulated mouth motion, rendered front and side frames, "tracked" landmarks with noise
 //! and injected gross errors, and the truth (W, H, P, pose) of every frame.
@@ -281,7 +281,8 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         let sdir = out.join(format!("speaker_{si:02}"));
         std::fs::create_dir_all(&sdir).with_context(|| format!("creating {}", sdir.display()))?;
         // Each reshaped speaker also gets its own head and pose model, so a speaker can be
-        // fitted onto its own (corresponding) head or onto another (issue 6).
+        // fitted onto its own (corresponding) head or onto another, as `eval --heads`
+        // compares them.
         let (speaker_head, speaker_model) = if si == 0 || pose_set.is_empty() {
             (head_obj.clone(), model_path.clone())
         } else {

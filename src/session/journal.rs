@@ -147,6 +147,7 @@ impl Replayed {
 /// as the session file).
 pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, SessionError> {
     let path = journal_path(&super::absolute(session_path));
+    super::refuse_special_file(&path)?;
     let bytes = match std::fs::read(&path) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Replayed::default()),

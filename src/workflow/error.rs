@@ -102,7 +102,8 @@ impl<T, E: Into<Error>> Context<T> for std::result::Result<T, E> {
 }
 
 /// Something a use case noticed but worked around; the result is still valid. The text is
-/// the whole line as the command line prints it on stderr (`lipmap: warning: …`).
+/// the line the command line prints on stderr as it is (mostly `lipmap: warning: …` or
+/// `lipmap: note: …`; [`Warning::status_text`] drops that prefix for the TUI's status line).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Warning(pub String);
 

@@ -181,7 +181,7 @@ mod tests {
         assert_eq!(map.vertex(61), Some(416));
         assert_eq!(map.vertex(60), None);
         let written = format_landmark_map(&map, &LandmarkNames::builtin());
-        assert!(written.contains("62 =   416  # inner lip top"), "{written}");
+        assert!(written.contains("62 =   416  # inner lip 2"), "{written}");
         assert!(written.contains("# 61 not mapped"), "{written}");
         assert_eq!(parse_landmark_map(&written, Path::new("w.txt")).unwrap(), map);
     }

@@ -465,7 +465,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     Some(super::app::HeadSetup::Ready(p)) => p.clone(),
                     _ => continue,
                 };
-                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
+                let fit = app.fit.fits.get(&frame).filter(|f| f.is_usable()).cloned();
                 if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
                     workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
                 }

@@ -426,7 +426,7 @@ fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
         vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
     match app.heads.setups.get(index) {
         Some(HeadSetup::Ready(p)) => {
-            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());
+            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.is_usable());
             let current = app.heads.current.as_ref().filter(|c| c.head == index);
             let (shape, note) = match current.map(|c| (&c.shape, c.frame)) {
                 Some((Err(e), _)) => (p.mesh.clone(), format!("frame {f}: {e}")),

@@ -189,8 +189,9 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
     session.add_clip(clip)?;
     session.save(path)?;
-    // A journal of the session this one replaces (`--force`) holds edits of other clips:
-    // replayed onto this one, it would be refused or, worse, fit.
+    // A journal of the session this one replaces (`--force`) holds that session's edits:
+    // replayed onto this one it would be refused, or replace the edits of a clip that
+    // happens to have the same name.
     crate::session::journal::Journal::new(path).clear()?;
     let map = match &map {
         None => MapState::Missing,

@@ -109,7 +109,7 @@ pub fn format_landmark_map(map: &LandmarkMap, names: &LandmarkNames<'_>) -> Stri
         let name = names.name(l);
         match map.vertex(l) {
             Some(v) => {
-                let _ = writeln!(s, "{:>2} = {v:>5}  # {name}", l + 1);
+                let _ = writeln!(s, "{} = {v}  # {name}", l + 1);
             }
             None => {
                 let _ = writeln!(s, "            # {} not mapped ({name})", l + 1);
@@ -181,7 +181,7 @@ mod tests {
         assert_eq!(map.vertex(61), Some(416));
         assert_eq!(map.vertex(60), None);
         let written = format_landmark_map(&map, &LandmarkNames::builtin());
-        assert!(written.contains("62 =   416  # inner lip 2"), "{written}");
+        assert!(written.contains("\n62 = 416  # inner lip 2\n"), "{written}");
         assert!(written.contains("# 61 not mapped"), "{written}");
         assert_eq!(parse_landmark_map(&written, Path::new("w.txt")).unwrap(), map);
     }

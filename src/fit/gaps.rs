@@ -116,7 +116,8 @@ fn longest_gap(good: &[usize], n: usize, fps: f64) -> Option<GapError> {
     }
     let (a, b) = worst;
     let seconds = (b - a) as f64 / fps;
-    (seconds > MAX_FILLED_S).then_some(GapError::TooLong { first: a, last: b - 1, seconds })
+    // Lazily: with no gap at all, `b` is 0.
+    (seconds > MAX_FILLED_S).then(|| GapError::TooLong { first: a, last: b - 1, seconds })
 }
 
 #[cfg(test)]
@@ -164,6 +165,9 @@ mod tests {
         assert!(e.to_string().starts_with("frames 0–26 (2.7 s)"), "{e}");
         let e = fill_gaps(&fits, 1 << 20, 25.0, &[]).unwrap_err();
         assert!(e.to_string().starts_with("frames 28–1048575"), "{e}");
+        // Nothing to fill: the fits as they are.
+        let all = fill_gaps(&fits[..2], 2, 1.0, &[]).unwrap();
+        assert_eq!((all.fits, all.filled), (fits[..2].to_vec(), 0));
         // Fits past n are not frames of this clip.
         let e = fill_gaps(&[fit(0, 1.0), fit(500, 1.0)], 5, 1.0, &[]).unwrap_err();
         assert_eq!(e, GapError::TooLong { first: 1, last: 4, seconds: 4.0 });

@@ -122,17 +122,42 @@ impl Journal {
 /// What [`replay`] applied.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Replayed {
-    /// Whole lines in the journal: one per edit the editor finished.
+    /// Edits the journal holds that the session file lacks: corrected points, reviewed
+    /// frames, side-view corrections and map labels that differ between the two.
     pub edits: usize,
-    /// Clips whose edit layer the journal replaced.
+    /// Clips whose edit layer differs.
     pub clips: usize,
 }
 
 impl Replayed {
-    /// Whether there was anything to replay.
+    /// Whether the journal held nothing the session file lacks.
     pub fn is_empty(&self) -> bool {
         self.edits == 0
     }
+}
+
+/// How many entries differ between two maps: added, removed or changed.
+fn differing<K: Ord, V: PartialEq>(a: &BTreeMap<K, V>, b: &BTreeMap<K, V>) -> usize {
+    let changed = a.iter().filter(|(k, v)| b.get(k) != Some(v)).count();
+    changed + b.keys().filter(|k| !a.contains_key(k)).count()
+}
+
+/// The edits `next` holds that `old` does not, counted per corrected point, reviewed frame,
+/// side-view correction and map label.
+fn edits_between(old: &JournalEntry, next: &JournalEntry) -> usize {
+    let points = |c: &Corrections| -> BTreeMap<(usize, usize), crate::landmarks::LandmarkPoint> {
+        c.points.iter().flat_map(|(&f, ps)| ps.iter().map(move |(&i, p)| ((f, i), *p))).collect()
+    };
+    let reviewed = old.corrections.reviewed.symmetric_difference(&next.corrections.reviewed);
+    let map = match (&old.landmark_map, &next.landmark_map) {
+        (_, None) => 0,
+        (None, Some(m)) => m.len(),
+        (Some(a), Some(b)) => differing(a, b),
+    };
+    differing(&points(&old.corrections), &points(&next.corrections))
+        + reviewed.count()
+        + differing(&old.profile_corrections, &next.profile_corrections)
+        + map
 }
 
 /// Applies the journal left beside `session_path` (by an editor that crashed, or one still
@@ -158,7 +183,6 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
         message: format!("line {line}: {message}"),
     };
     let mut last: BTreeMap<String, JournalEntry> = BTreeMap::new();
-    let mut edits = 0;
     let mut lines = bytes.split(|&b| b == b'\n').enumerate().peekable();
     while let Some((i, line)) = lines.next() {
         let whole = lines.peek().is_some();
@@ -168,7 +192,6 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
         match serde_json::from_slice::<JournalEntry>(line) {
             Ok(e) => {
                 last.insert(e.clip.clone(), e);
-                edits += 1;
             }
             // The line being written when the editor died: that edit is the one lost.
             Err(_) if !whole => break,
@@ -177,12 +200,21 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
     }
     // Applied to a copy: a refused journal leaves the session as loaded.
     let mut next = session.clone();
-    let clips = last.len();
+    let mut replayed = Replayed::default();
     for (name, e) in last {
         let Some(i) = next.clip_index(&name) else {
             return Err(invalid(0, format!("no clip {name:?} in the session")));
         };
         let clip = &mut next.clips[i];
+        let saved = JournalEntry {
+            clip: name,
+            corrections: clip.corrections.clone(),
+            profile_corrections: clip.profile_corrections.clone(),
+            landmark_map: next.landmark_map.inline.clone(),
+        };
+        let edits = edits_between(&saved, &e);
+        replayed.edits += edits;
+        replayed.clips += usize::from(edits > 0);
         clip.corrections = e.corrections;
         clip.profile_corrections = e.profile_corrections;
         if let Some(map) = e.landmark_map {
@@ -191,7 +223,7 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
     }
     next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
     *session = next;
-    Ok(Replayed { edits, clips })
+    Ok(replayed)
 }
 
 #[cfg(test)]
@@ -234,7 +266,10 @@ mod tests {
         let torn = serde_json::to_string(&entry(4)).unwrap();
         let mut f = OpenOptions::new().append(true).open(j.path()).unwrap();
         f.write_all(&torn.as_bytes()[..torn.len() / 2]).unwrap();
+        // Three points corrected (the last whole line), each an edit.
         assert_eq!(replay(&mut s, &path).unwrap(), Replayed { edits: 3, clips: 1 });
+        let mut again = s.clone();
+        assert!(replay(&mut again, &path).unwrap().is_empty(), "nothing new the second time");
         assert_eq!(s.clips[0].corrections.points.len(), 3);
         j.clear().unwrap();
         assert!(!j.path().exists());

@@ -388,7 +388,7 @@ mod tests {
         assert_eq!(read.session.clips[0].corrections, entry.corrections);
         let notes: Vec<&str> = read.notices.iter().map(|w| w.0.as_str()).collect();
         assert!(notes[0].contains("open in another editor"), "{notes:?}");
-        assert!(notes[1].contains("holds 1 edit not saved"), "{notes:?}");
+        assert!(notes[1].contains("holds 3 edits not saved"), "{notes:?}");
         read.save_if_locked().unwrap();
         assert!(Session::load(&path).unwrap().clips[0].corrections.points.is_empty());
         assert!(j.is_present() && journal::journal_path(&path).exists());

@@ -77,7 +77,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     };
     let clip = match &options.clip {
         Some(name) => {
-            let s = crate::session::Session::load(session_path)?;
+            let s = crate::workflow::read_session(session_path)?.session;
             crate::workflow::find_clip(&s, name)
                 .map_err(|e| anyhow::Error::new(e).context(session_path.display().to_string()))?
         }

@@ -240,12 +240,13 @@ impl App {
 
     /// The points the current scope moves, around the selected point.
     pub fn scope_indices(&self) -> Vec<usize> {
-        use crate::landmarks::ibug::{INNER_LIP, OUTER_LIP, group_of};
+        use crate::landmarks::ibug::{INNER_LIP, OUTER_LIP};
         let selected = self.frames.selected;
         match self.frames.scope {
             Scope::Point => vec![selected],
             Scope::Group => {
-                group_of(selected).map_or_else(|| vec![selected], |g| g.range.clone().collect())
+                let names = &crate::reference::current().names;
+                names.group_of(selected).map_or_else(|| vec![selected], |g| g.range.clone().collect())
             }
             Scope::Mouth => (OUTER_LIP.start..INNER_LIP.end).collect(),
             Scope::All => (0..N_LANDMARKS).collect(),

@@ -50,7 +50,7 @@ impl HeadFrameJob {
             HeadSetup::Ready(p) => p.clone(),
             _ => return None,
         };
-        let fit = app.fits.by_frame.get(&frame).filter(|f| f.failed.is_none()).cloned()?;
+        let fit = app.fits.by_frame.get(&frame).filter(|f| f.is_usable()).cloned()?;
         Some(Self { head, prepared, model: app.model.clone()?, fit })
     }
 }

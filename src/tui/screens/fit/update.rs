@@ -56,7 +56,7 @@ pub fn fit_done(app: &mut App, generation: u64, fits: Vec<FrameFit>) {
     app.fit.running = false;
     app.fit.error = None;
     let n = fits.len();
-    let failed = fits.iter().filter(|f| f.failed.is_some()).count();
+    let failed = fits.iter().filter(|f| !f.is_usable()).count();
     if app.fits.stale.is_empty() {
         app.effects.push(Effect::StoreFits { fits: fits.clone() });
     }

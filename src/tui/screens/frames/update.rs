@@ -3,7 +3,7 @@
 //! arriving from their job.
 
 use crate::landmarks::edit;
-use crate::landmarks::{LandmarkPoint, N_LANDMARKS, ibug};
+use crate::landmarks::{LandmarkPoint, N_LANDMARKS};
 use crate::tui::app::history::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::tui::app::{App, Edit, FrameImage};
 use crate::tui::screens;
@@ -43,7 +43,10 @@ pub fn cycle_scope(app: &mut App) {
         Scope::Group => {
             format!(
                 "moving: group ({})",
-                ibug::group_of(app.frames.selected).map_or("point", |g| g.name)
+                crate::reference::current()
+                    .names
+                    .group_of(app.frames.selected)
+                    .map_or("point", |g| g.name)
             )
         }
         s => format!("moving: {}", s.label()),

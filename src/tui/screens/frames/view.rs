@@ -4,7 +4,7 @@
 //! `landmark_markers` is shared with the fit view; `draw_graphics` puts a terminal graphics
 //! protocol image over the half-blocks of either view when one is in use.
 
-use crate::landmarks::{LandmarkPoint, PointSource, landmark_name};
+use crate::landmarks::{LandmarkPoint, PointSource};
 use crate::tui::app::App;
 use crate::tui::overlays::Overlay;
 use crate::tui::screens::View;
@@ -147,7 +147,11 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     });
     lines.push(Line::from(""));
     let sel = app.frames.selected;
-    lines.push(Line::from(format!("{sel} {}", landmark_name(sel))).bold().fg(Color::LightMagenta));
+    lines.push(
+        Line::from(format!("{sel} {}", crate::reference::current().names.name(sel)))
+            .bold()
+            .fg(Color::LightMagenta),
+    );
     if let Some(p) = app.track.frames.get(app.frame_pos).and_then(|fr| fr.points.get(sel)) {
         lines.push(Line::from(vec![
             Span::from(p.source.as_str()).fg(source_colour(p.source)),

@@ -77,6 +77,7 @@ fn args(out: &Path) -> ExportRequest {
         normalisation: Normalisation::MinMax,
         worst: 10,
         plot_width: 1200,
+        pose: Default::default(),
     }
 }
 

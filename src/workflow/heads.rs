@@ -297,7 +297,14 @@ pub fn head_utterances(
         progress(Progress::Stage { what, total });
         let report = |done: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip(&res.model, &res.map, &track.frames, height, settings, Some(&report));
-        let (u, w) = utterance_of_clip(session, res, c, &fits, &MeshMeasureOptions::default())?;
+        let (u, w) = utterance_of_clip(
+            session,
+            res,
+            c,
+            &fits,
+            &MeshMeasureOptions::default(),
+            crate::measure::PoseComparison::default(),
+        )?;
         utterances.push(driver.measure(u, &fits)?);
         warnings.extend(w);
     }

@@ -468,7 +468,7 @@ pub fn drive_clip(
     };
     let opts = MeshMeasureOptions::default();
     let utterance = |fits: &[FrameFit]| -> Result<Utterance> {
-        Ok(utterance_of_clip(session, res, d.clip, fits, &opts)?.0)
+        Ok(utterance_of_clip(session, res, d.clip, fits, &opts, Default::default())?.0)
     };
     let utterance_hmm = utterance(&drive(&hmm)?)?;
     let utterance_linear = utterance(&drive(&linear)?)?;

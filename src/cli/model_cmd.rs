@@ -132,11 +132,10 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(r) = &reach {
         writeln!(
             out,
-            "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} ({:.0} % of rest){}",
+            "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
+             β ≥ 0)",
             r.neutral,
             r.smallest,
-            100.0 * r.smallest / r.neutral.max(f64::MIN_POSITIVE),
-            if r.smallest > 0.1 * r.neutral { "; this model cannot seal its lips" } else { "" }
         )?;
     }
     if !cumulative.is_empty() {

@@ -113,7 +113,8 @@ fn profile_stores_its_setup_and_measures_every_frame() {
         let o = eval(how);
         assert!(o.status.success(), "{how:?}: {}", String::from_utf8_lossy(&o.stderr));
         let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let sentences = doc["RMSE per sentence (video vs head) — W/H frontal ≤15°"].as_array().unwrap();
+        let sentences =
+            doc["RMSE per sentence (video vs head) — W/H frontal ≤15°"].as_array().unwrap();
         let p = sentences[0]["RMSE P"].as_f64().unwrap();
         assert!(p > 0.0 && p < 0.3, "{how:?}: RMSE P {p}");
     }

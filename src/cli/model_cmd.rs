@@ -134,8 +134,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             out,
             "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
              β ≥ 0)",
-            r.neutral,
-            r.smallest,
+            r.neutral, r.smallest,
         )?;
     }
     if !cumulative.is_empty() {

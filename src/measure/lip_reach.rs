@@ -35,30 +35,14 @@ impl InnerLipGap {
     /// The gap vector with identity α only.
     fn at_identity(&self, identity: &[f64]) -> DVector {
         let mut g = self.mean.clone();
-        let k = identity.len().min(self.identity.ncols());
-        if k > 0 {
-            g.gemv(
-                1.0,
-                &self.identity.columns(0, k),
-                &DVector::from_column_slice(&identity[..k]),
-                1.0,
-            );
-        }
+        add_columns(&mut g, &self.identity, identity);
         g
     }
 
     /// The gap's length (model units) of a shape with identity α and expressions β.
     pub fn length(&self, identity: &[f64], expression: &[f64]) -> f64 {
         let mut g = self.at_identity(identity);
-        let e = expression.len().min(self.expressions.ncols());
-        if e > 0 {
-            g.gemv(
-                1.0,
-                &self.expressions.columns(0, e),
-                &DVector::from_column_slice(&expression[..e]),
-                1.0,
-            );
-        }
+        add_columns(&mut g, &self.expressions, expression);
         g.norm()
     }
 
@@ -82,6 +66,14 @@ impl InnerLipGap {
         let beta = crate::fit::shape::nonnegative_quadratic(&n, &g, &mut free)?;
         let gap = (g0 + d * &beta).norm();
         Some((gap, beta.iter().copied().collect()))
+    }
+}
+
+/// `g += m·c` over the first columns of `m` that `c` has values for.
+fn add_columns(g: &mut DVector, m: &DMatrix, c: &[f64]) {
+    let k = c.len().min(m.ncols());
+    if k > 0 {
+        g.gemv(1.0, &m.columns(0, k), &DVector::from_column_slice(&c[..k]), 1.0);
     }
 }
 

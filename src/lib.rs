@@ -23,6 +23,7 @@ pub mod session;
 pub mod speech;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
+pub mod track;
 pub mod transfer;
 pub mod tui;
 pub mod workflow;

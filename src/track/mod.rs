@@ -1,0 +1,16 @@
+//! Landmark tracking inside lipmap with dlib's ensemble-of-regression-trees shape predictor
+//! (Kazemi & Sullivan 2014), read from the user's own `shape_predictor_68_face_landmarks.dat`.
+//!
+//! One step per module: [`predictor_file`] reads dlib's serialized predictor, [`similarity`]
+//! is the normalisation to the mean shape, [`cascade`] runs the trees.
+//! Start at [`cascade::run_cascade`].
+
+pub mod cascade;
+pub mod predictor_file;
+pub mod similarity;
+
+pub use cascade::{CascadeStart, GrayView, gray_from_rgb, run_cascade};
+pub use predictor_file::{
+    DEBIAN_PREDICTOR_PATH, ShapePredictor, parse_shape_predictor, read_shape_predictor,
+};
+pub use similarity::{FaceBox, box_from_shape, similarity_scaled_rotation};

@@ -6,11 +6,15 @@
 //! Start at [`cascade::run_cascade`].
 
 pub mod cascade;
+pub mod haar_file;
 pub mod predictor_file;
 pub mod similarity;
+pub mod viola_jones;
 
 pub use cascade::{CascadeStart, GrayView, gray_from_rgb, run_cascade};
 pub use predictor_file::{
     DEBIAN_PREDICTOR_PATH, ShapePredictor, parse_shape_predictor, read_shape_predictor,
 };
+pub use haar_file::{DEBIAN_CASCADE_PATH, HaarCascade, parse_haar_cascade, read_haar_cascade};
 pub use similarity::{FaceBox, box_from_shape, similarity_scaled_rotation};
+pub use viola_jones::{DetectOptions, Detection, detect_faces};

@@ -40,6 +40,25 @@ impl GrayView<'_> {
     }
 }
 
+/// A grey 8-bit image owned row-major.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GrayImage {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<u8>,
+}
+
+impl GrayImage {
+    /// An RGB image (3 bytes per pixel, row-major) in dlib's grey levels.
+    pub fn from_rgb(width: usize, height: usize, rgb: &[u8]) -> Self {
+        Self { width, height, pixels: gray_from_rgb(rgb) }
+    }
+
+    pub fn view(&self) -> GrayView<'_> {
+        GrayView { width: self.width, height: self.height, pixels: &self.pixels }
+    }
+}
+
 /// An RGB image's grey levels as dlib computes them: `(r + g + b) / 3`, rounded down.
 pub fn gray_from_rgb(rgb: &[u8]) -> Vec<u8> {
     rgb.chunks_exact(3)
@@ -67,14 +86,13 @@ pub fn run_cascade(
 ) -> Vec<Vector2<f64>> {
     let n = predictor.num_parts();
     let mut shape: Vec<f32> = match start.shape {
-        Some(s) if s.len() == n => {
-            s.iter()
-                .flat_map(|&p| {
-                    let q = face.to_normalised(p);
-                    [q.x, q.y]
-                })
-                .collect()
-        }
+        Some(s) if s.len() == n => s
+            .iter()
+            .flat_map(|&p| {
+                let q = face.to_normalised(p);
+                [q.x, q.y]
+            })
+            .collect(),
         _ => predictor.mean_shape.iter().flat_map(|p| [p.x, p.y]).collect(),
     };
     let held: Vec<(usize, Vector2<f32>)> = start

@@ -106,15 +106,13 @@ impl Element {
 /// a feature index or rectangle out of range, each naming the line.
 pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, FormatError> {
     let root = parse_tree(text, path)?;
-    let cascade = root
-        .child("cascade")
-        .ok_or_else(|| {
-            FormatError::whole(
-                path,
-                "no <cascade> element under <opencv_storage> (not an OpenCV cascade in the \
+    let cascade = root.child("cascade").ok_or_else(|| {
+        FormatError::whole(
+            path,
+            "no <cascade> element under <opencv_storage> (not an OpenCV cascade in the \
                  format of OpenCV 2.4 and later)",
-            )
-        })?;
+        )
+    })?;
     let need = |e: &Element, name: &str| -> Result<String, FormatError> {
         e.child(name).map(|c| c.text.trim().to_string()).ok_or_else(|| {
             FormatError::at_line(path, e.line, format!("<{}> has no <{name}>", e.name))
@@ -133,7 +131,11 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
     let dim = |field: &str| -> Result<u32, FormatError> {
         let v = need(cascade, field)?;
         v.parse::<u32>().ok().filter(|v| (3..=MAX_WINDOW).contains(v)).ok_or_else(|| {
-            FormatError::at_field(path, field, format!("`{v}` is not a window side of 3 to {MAX_WINDOW}"))
+            FormatError::at_field(
+                path,
+                field,
+                format!("`{v}` is not a window side of 3 to {MAX_WINDOW}"),
+            )
         })
     };
     let window = [dim("width")?, dim("height")?];
@@ -163,7 +165,9 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
         let mut rects = Vec::with_capacity(rects_el.children.len());
         for r in &rects_el.children {
             let v = numbers(&r.text, 5, path, r.line)?;
-            let int = |x: f64| (x >= 0.0 && x.fract() == 0.0 && x <= f64::from(MAX_WINDOW)).then_some(x as u32);
+            let int = |x: f64| {
+                (x >= 0.0 && x.fract() == 0.0 && x <= f64::from(MAX_WINDOW)).then_some(x as u32)
+            };
             let (Some(x), Some(y), Some(w), Some(h)) = (int(v[0]), int(v[1]), int(v[2]), int(v[3]))
             else {
                 return Err(FormatError::at_line(
@@ -176,7 +180,10 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
                 return Err(FormatError::at_line(
                     path,
                     r.line,
-                    format!("rectangle {x} {y} {w} {h} is not inside the {}×{} window", window[0], window[1]),
+                    format!(
+                        "rectangle {x} {y} {w} {h} is not inside the {}×{} window",
+                        window[0], window[1]
+                    ),
                 ));
             }
             rects.push(HaarRect { x, y, w, h, weight: v[4] as f32 });
@@ -215,17 +222,21 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
             for q in nv.chunks_exact(4) {
                 let child_ok = |v: f64| {
                     v.fract() == 0.0
-                        && ((v > 0.0 && v < n_nodes as f64) || (v <= 0.0 && -v < leaves.len() as f64))
+                        && ((v > 0.0 && v < n_nodes as f64)
+                            || (v <= 0.0 && -v < leaves.len() as f64))
                 };
-                let feature_ok =
-                    q[2].fract() == 0.0 && q[2] >= 0.0 && q[2] < features.len() as f64;
+                let feature_ok = q[2].fract() == 0.0 && q[2] >= 0.0 && q[2] < features.len() as f64;
                 if !child_ok(q[0]) || !child_ok(q[1]) || !feature_ok {
                     return Err(FormatError::at_line(
                         path,
                         c.line,
                         format!(
                             "node `{} {} {} …` names a child or feature that does not exist ({n_nodes} nodes, {} leaves, {} features)",
-                            q[0], q[1], q[2], leaves.len(), features.len()
+                            q[0],
+                            q[1],
+                            q[2],
+                            leaves.len(),
+                            features.len()
                         ),
                     ));
                 }
@@ -240,7 +251,11 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
             if nodes.iter().enumerate().any(|(i, n)| {
                 (n.left > 0 && n.left as usize <= i) || (n.right > 0 && n.right as usize <= i)
             }) {
-                return Err(FormatError::at_line(path, c.line, "a tree node points back to itself or an earlier node"));
+                return Err(FormatError::at_line(
+                    path,
+                    c.line,
+                    "a tree node points back to itself or an earlier node",
+                ));
             }
             classifiers.push(WeakClassifier { nodes, leaves });
         }
@@ -253,7 +268,11 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
 fn numbers(text: &str, n: usize, path: &Path, line: usize) -> Result<Vec<f64>, FormatError> {
     let v = numbers_any(text, path, line)?;
     if v.len() != n {
-        return Err(FormatError::at_line(path, line, format!("{} numbers where {n} are needed", v.len())));
+        return Err(FormatError::at_line(
+            path,
+            line,
+            format!("{} numbers where {n} are needed", v.len()),
+        ));
     }
     Ok(v)
 }
@@ -286,13 +305,21 @@ fn parse_tree(text: &str, path: &Path) -> Result<Element, FormatError> {
     loop {
         let at = reader.buffer_position();
         let event = reader.read_event().map_err(|e| {
-            FormatError::at_line(path, line_at(reader.error_position()), format!("malformed XML: {e}"))
+            FormatError::at_line(
+                path,
+                line_at(reader.error_position()),
+                format!("malformed XML: {e}"),
+            )
         })?;
         match event {
             Event::Start(e) => {
                 count += 1;
                 if stack.len() > 32 || count > MAX_ELEMENTS {
-                    return Err(FormatError::at_line(path, line_at(at), "XML nested too deeply or too large"));
+                    return Err(FormatError::at_line(
+                        path,
+                        line_at(at),
+                        "XML nested too deeply or too large",
+                    ));
                 }
                 let name = String::from_utf8_lossy(e.local_name().as_ref()).into_owned();
                 stack.push(Element { name, line: line_at(at), ..Default::default() });
@@ -369,7 +396,10 @@ pub(crate) mod tests {
         let c = parse_haar_cascade(TINY, Path::new("c.xml")).unwrap();
         assert_eq!(c.window, [4, 4]);
         assert_eq!(c.stages.len(), 1);
-        assert_eq!(c.stages[0].classifiers[0].nodes[0], HaarNode { left: 0, right: -1, feature: 0, threshold: -0.1 });
+        assert_eq!(
+            c.stages[0].classifiers[0].nodes[0],
+            HaarNode { left: 0, right: -1, feature: 0, threshold: -0.1 }
+        );
         assert_eq!(c.features[0][1], HaarRect { x: 2, y: 0, w: 2, h: 4, weight: -1.0 });
     }
 

@@ -84,10 +84,8 @@ pub fn box_from_shape(mean: &[Vector2<f32>], shape: &[Vector2<f64>]) -> Option<F
         return None;
     }
     let fit_axis = |m: &dyn Fn(usize) -> f64, s: &dyn Fn(usize) -> f64| {
-        let (mm, ms) = (
-            (0..n).map(m).sum::<f64>() / n as f64,
-            (0..n).map(s).sum::<f64>() / n as f64,
-        );
+        let (mm, ms) =
+            ((0..n).map(m).sum::<f64>() / n as f64, (0..n).map(s).sum::<f64>() / n as f64);
         let var: f64 = (0..n).map(|i| (m(i) - mm).powi(2)).sum();
         let cov: f64 = (0..n).map(|i| (m(i) - mm) * (s(i) - ms)).sum();
         (var > 0.0).then(|| {
@@ -95,10 +93,8 @@ pub fn box_from_shape(mean: &[Vector2<f32>], shape: &[Vector2<f64>]) -> Option<F
             (ms - scale * mm, scale)
         })
     };
-    let (left, width) =
-        fit_axis(&|i| f64::from(mean[i].x), &|i| shape[i].x)?;
-    let (top, height) =
-        fit_axis(&|i| f64::from(mean[i].y), &|i| shape[i].y)?;
+    let (left, width) = fit_axis(&|i| f64::from(mean[i].x), &|i| shape[i].x)?;
+    let (top, height) = fit_axis(&|i| f64::from(mean[i].y), &|i| shape[i].y)?;
     let b = FaceBox { left, top, width, height };
     b.is_valid().then_some(b)
 }

@@ -229,7 +229,9 @@ pub fn group_detections(hits: &[FaceBox], min_neighbors: usize, eps: f64) -> Vec
     let mut clusters: std::collections::BTreeMap<usize, (FaceBox, usize)> = Default::default();
     for (i, h) in hits.iter().enumerate() {
         let r = root(&mut parent, i);
-        let e = clusters.entry(r).or_insert((FaceBox { left: 0.0, top: 0.0, width: 0.0, height: 0.0 }, 0));
+        let e = clusters
+            .entry(r)
+            .or_insert((FaceBox { left: 0.0, top: 0.0, width: 0.0, height: 0.0 }, 0));
         e.0.left += h.left;
         e.0.top += h.top;
         e.0.width += h.width;
@@ -281,7 +283,10 @@ mod tests {
     fn rectangle_sums_are_exact() {
         let px: Vec<u8> = (0..30).map(|i| (i * 7 % 256) as u8).collect();
         let ii = Integral::new(&px, 6, 5);
-        let direct: i64 = (1..4).flat_map(|y| (2..5).map(move |x| (x, y))).map(|(x, y)| i64::from(px[y * 6 + x])).sum();
+        let direct: i64 = (1..4)
+            .flat_map(|y| (2..5).map(move |x| (x, y)))
+            .map(|(x, y)| i64::from(px[y * 6 + x]))
+            .sum();
         assert_eq!(ii.rect(2, 1, 3, 3), direct);
     }
 
@@ -296,7 +301,8 @@ mod tests {
             }
         }
         let img = GrayView { width: w, height: h, pixels: &px };
-        let found = detect_faces(&cascade, img, &DetectOptions { min_neighbors: 0, ..Default::default() });
+        let found =
+            detect_faces(&cascade, img, &DetectOptions { min_neighbors: 0, ..Default::default() });
         assert!(!found.is_empty());
         let c = &found[0].face;
         let (cx, cy) = (c.left + c.width / 2.0, c.top + c.height / 2.0);

@@ -29,9 +29,9 @@ pub fn realign_shape(
     }
     let mut start = current.to_vec();
     let n = start.len();
-    for &(i, p) in held.iter().filter(|(i, _)| *i < n) {
-        start[i] = p;
-    }
+    let held: Vec<(usize, Vector2<f64>)> = held.iter().copied().filter(|(i, _)| *i < n).collect();
+    let held = held.as_slice();
+    carry_corrections(&mut start, held, DRAG_RADIUS_EYE_DISTANCES);
     let face = box_from_shape(&predictor.mean_shape, &start)?;
     let mut out = run_cascade(predictor, image, &face, &CascadeStart { shape: Some(&start), held });
     // The box round trip (pixels → normalised f32 → pixels) moves a held point by ~1e-5 px;
@@ -40,6 +40,44 @@ pub fn realign_shape(
         out[i] = p;
     }
     Some(out)
+}
+
+/// Radius of the neighbourhood a corrected point drags along before the cascade runs, in
+/// outer eye-corner distances: a quarter reaches a lip's own points from its midline (half a
+/// mouth width is ≈ 0.3) and leaves the eyes and the jaw's sides alone.
+pub const DRAG_RADIUS_EYE_DISTANCES: f64 = 0.25;
+
+/// Moves every point not held by the held points' displacements, each weighted by a
+/// Gaussian of its distance to the held point (σ = `radius` eye-corner distances; the sum
+/// of weights capped at 1): a lip point next to the corrected ones moves almost as they did,
+/// a point far away stays. This is the cascade's start; its stages then fit the points to
+/// the image. A departure from dlib, whose cascade always starts from the mean shape: the
+/// trees were trained from starts near the truth, and a start that keeps the tracker's
+/// error in the uncorrected points (a whole lip on the tongue) is far from it.
+pub fn carry_corrections(shape: &mut [Vector2<f64>], held: &[(usize, Vector2<f64>)], radius: f64) {
+    let scale = if shape.len() == 68 { (shape[36] - shape[45]).norm() } else { 0.0 };
+    if held.is_empty() || scale <= 0.0 || !scale.is_finite() {
+        for &(i, p) in held {
+            shape[i] = p;
+        }
+        return;
+    }
+    let sigma2 = (radius * scale).powi(2);
+    let moves: Vec<(Vector2<f64>, Vector2<f64>)> =
+        held.iter().map(|&(i, p)| (shape[i], p - shape[i])).collect();
+    for (i, q) in shape.iter_mut().enumerate() {
+        if let Some(&(_, p)) = held.iter().find(|(h, _)| *h == i) {
+            *q = p;
+            continue;
+        }
+        let (mut w_sum, mut m) = (0.0, Vector2::zeros());
+        for (from, d) in &moves {
+            let w = (-(*q - from).norm_squared() / (2.0 * sigma2)).exp();
+            w_sum += w;
+            m += w * d;
+        }
+        *q += m / w_sum.max(1.0);
+    }
 }
 
 /// When a propagated frame is close enough to the tracker's to stop.

@@ -121,6 +121,9 @@ pub fn shape_disagreement(a: &[Vector2<f64>], b: &[Vector2<f64>]) -> f64 {
     if scale > 1e-9 { mean / scale } else { f64::INFINITY }
 }
 
+/// Most detections a frame's cascade is tried in when looking for the face.
+pub const MAX_CANDIDATES: usize = 5;
+
 /// A predictor, a detector and the settings, tracking one clip at a time.
 pub struct FaceTracker<'a> {
     pub predictor: &'a ShapePredictor,
@@ -129,17 +132,26 @@ pub struct FaceTracker<'a> {
 }
 
 impl FaceTracker<'_> {
-    /// The largest face the detector finds in `image` (within `region` when given), as the
-    /// predictor's box. `None` without a detector or a face.
-    pub fn detect(&self, image: GrayView<'_>, region: Option<FaceBox>) -> Option<FaceBox> {
-        let cascade = self.detector?;
+    /// The faces the detector finds in `image` (within `region` when given), as the
+    /// predictor's boxes, best supported first; empty without a detector.
+    pub fn detect(&self, image: GrayView<'_>, region: Option<FaceBox>) -> Vec<FaceBox> {
+        let Some(cascade) = self.detector else { return Vec::new() };
         let opts = DetectOptions { region, ..self.options.detect.clone() };
         detect_faces(cascade, image, &opts)
             .into_iter()
-            .max_by(|a, b| {
-                (a.face.width * a.face.height).total_cmp(&(b.face.width * b.face.height))
-            })
             .map(|d| self.options.mapping.apply(&d.face))
+            .collect()
+    }
+
+    /// The cascade's fit in the detected box where it agrees best with its own re-run (at
+    /// most [`MAX_CANDIDATES`] detections tried): a false detection on texture gives a
+    /// shape the re-run does not reproduce, a face one it does. `None` without a face.
+    pub fn detect_and_fit(&self, image: GrayView<'_>, region: Option<FaceBox>) -> Option<TrackedFrame> {
+        self.detect(image, region)
+            .into_iter()
+            .take(MAX_CANDIDATES)
+            .map(|face| self.fit_in_box(image, face, StartKind::Detected))
+            .min_by(|a, b| a.disagreement.total_cmp(&b.disagreement))
     }
 
     /// Runs the cascade from `face` and re-runs it from the box of its result; returns the
@@ -184,18 +196,13 @@ impl FaceTracker<'_> {
                     width: 3.0 * t.face.width,
                     height: 3.0 * t.face.height,
                 };
-                let again = self
-                    .detect(image, Some(near))
-                    .map(|face| self.fit_in_box(image, face, StartKind::Detected));
+                let again = self.detect_and_fit(image, Some(near));
                 match again {
                     Some(d) if d.disagreement < t.disagreement => Some(d),
                     _ => Some(t),
                 }
             }
-            None => {
-                let face = self.detect(image, None)?;
-                Some(self.fit_in_box(image, face, StartKind::Detected))
-            }
+            None => self.detect_and_fit(image, None),
         }
     }
 }

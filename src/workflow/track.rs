@@ -124,9 +124,30 @@ pub fn frame_landmarks(frame: usize, t: &TrackedFrame) -> FrameLandmarks {
 ///
 /// # Errors
 /// A frame that cannot be decoded; no face found in any frame.
-pub fn track_frames(
+pub fn track_frames(tracker: &Tracker, frames: &FrameSource, progress: ProgressFn) -> Result<Tracked> {
+    progress(Progress::Stage { what: format!("tracking {}", frames.path().display()), total: frames.len() });
+    let tracked = track_images(tracker, frames.len(), |i| gray_of(frames, i), progress);
+    progress(Progress::Finished);
+    match tracked {
+        Ok(t) if t.lost.len() == frames.len() => Err(Error::Invalid(format!(
+            "{}: no face found in any of its {} frames (the detector looks for frontal faces of at least {} px)",
+            frames.path().display(),
+            frames.len(),
+            tracker.detector.window[0]
+        ))),
+        other => other,
+    }
+}
+
+/// Tracks `n` frames, frame `i` given by `frame(i)` in order: the loop of [`track_frames`]
+/// without the decoding (benchmarks time it on decoded frames).
+///
+/// # Errors
+/// The first error `frame` returns.
+pub fn track_images(
     tracker: &Tracker,
-    frames: &FrameSource,
+    n: usize,
+    mut frame: impl FnMut(usize) -> Result<GrayImage>,
     progress: ProgressFn,
 ) -> Result<Tracked> {
     let ft = FaceTracker {
@@ -134,13 +155,11 @@ pub fn track_frames(
         detector: Some(&tracker.detector),
         options: tracker.options.clone(),
     };
-    let n = frames.len();
-    progress(Progress::Stage { what: format!("tracking {}", frames.path().display()), total: n });
     let mut out = Vec::with_capacity(n);
     let (mut lost, mut detected) = (Vec::new(), Vec::new());
     let mut previous: Option<TrackedFrame> = None;
     for i in 0..n {
-        let gray = gray_of(frames, i)?;
+        let gray = frame(i)?;
         match ft.track_frame(gray.view(), previous.as_ref()) {
             Some(t) => {
                 if t.start != StartKind::Previous {
@@ -156,14 +175,6 @@ pub fn track_frames(
             }
         }
         progress(Progress::Steps { done: i + 1, total: n });
-    }
-    progress(Progress::Finished);
-    if lost.len() == n {
-        return Err(Error::Invalid(format!(
-            "{}: no face found in any of its {n} frames (the detector looks for frontal faces of at least {} px)",
-            frames.path().display(),
-            tracker.detector.window[0]
-        )));
     }
     Ok(Tracked { track: Track::new(out), lost, detected })
 }

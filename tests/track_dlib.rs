@@ -125,7 +125,6 @@ fn photos_error_is_within_a_hundredth_of_dlibs() {
             detector: Some(&t.detector),
             options: t.options.clone(),
         };
-        for d in ft.detect(gray.view(), None) { let t = ft.fit_in_box(gray.view(), d, lipmap::track::tracker::StartKind::Detected); eprintln!("DEBUG {name} {d:?} dis {:.4} err {:.4}", t.disagreement, normalised_error(&t.points, &human)); }
         let own = ft.track_frame(gray.view(), None).expect("a face");
         let e_own = normalised_error(&own.points, &human);
         println!(

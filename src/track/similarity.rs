@@ -74,29 +74,41 @@ pub fn similarity_scaled_rotation(from: &[Vector2<f32>], to: &[Vector2<f32>]) ->
     Matrix2::new(a, -b, b, a)
 }
 
-/// The box that places `mean` (box-normalised) closest to `shape` (pixels) in least squares,
-/// fitted per axis (`x = left + width·m_x`, `y = top + height·m_y`): the box a detector
-/// would have had to give for the cascade's start to sit on this face. `None` when the mean
-/// shape has no spread on an axis or the fit is not a positive box.
+/// The box that places `mean` (box-normalised) on `shape` (pixels) as the least-squares
+/// similarity between them does, rotation left out: `shape ≈ s·R·m + t` gives a square box of
+/// side `s` centred where the unit box's centre goes. This is the box a detector would have
+/// had to draw for the cascade's start to sit on this face; leaving the roll to the
+/// cascade's own warp keeps a rolled head's box from shrinking (a per-axis fit would take
+/// the roll for a smaller face). `None` when `mean` has no spread or the sets differ.
 pub fn box_from_shape(mean: &[Vector2<f32>], shape: &[Vector2<f64>]) -> Option<FaceBox> {
     let n = mean.len();
     if n < 2 || shape.len() != n {
         return None;
     }
-    let fit_axis = |m: &dyn Fn(usize) -> f64, s: &dyn Fn(usize) -> f64| {
-        let (mm, ms) =
-            ((0..n).map(m).sum::<f64>() / n as f64, (0..n).map(s).sum::<f64>() / n as f64);
-        let var: f64 = (0..n).map(|i| (m(i) - mm).powi(2)).sum();
-        let cov: f64 = (0..n).map(|i| (m(i) - mm) * (s(i) - ms)).sum();
-        (var > 0.0).then(|| {
-            let scale = cov / var;
-            (ms - scale * mm, scale)
-        })
+    let m: Vec<Vector2<f64>> = mean.iter().map(|p| p.cast::<f64>()).collect();
+    let (mm, ms) =
+        (m.iter().sum::<Vector2<f64>>() / n as f64, shape.iter().sum::<Vector2<f64>>() / n as f64);
+    let (mut sxx, mut dot, mut cross) = (0.0, 0.0, 0.0);
+    for (a, b) in m.iter().zip(shape) {
+        let (x, y) = (a - mm, b - ms);
+        sxx += x.norm_squared();
+        dot += x.dot(&y);
+        cross += x.x * y.y - x.y * y.x;
+    }
+    if sxx <= 0.0 {
+        return None;
+    }
+    let (a, b) = (dot / sxx, cross / sxx);
+    let side = a.hypot(b);
+    let sr = Matrix2::new(a, -b, b, a);
+    let centre = sr * (Vector2::new(0.5, 0.5) - mm) + ms;
+    let face = FaceBox {
+        left: centre.x - side / 2.0,
+        top: centre.y - side / 2.0,
+        width: side,
+        height: side,
     };
-    let (left, width) = fit_axis(&|i| f64::from(mean[i].x), &|i| shape[i].x)?;
-    let (top, height) = fit_axis(&|i| f64::from(mean[i].y), &|i| shape[i].y)?;
-    let b = FaceBox { left, top, width, height };
-    b.is_valid().then_some(b)
+    face.is_valid().then_some(face)
 }
 
 #[cfg(test)]
@@ -137,13 +149,20 @@ mod tests {
             Vector2::new(0.5, 0.9),
             Vector2::new(0.3, 0.6),
         ];
-        let b = FaceBox { left: 30.0, top: 12.0, width: 80.0, height: 81.0 };
+        let b = FaceBox { left: 30.0, top: 12.0, width: 80.0, height: 80.0 };
         let shape: Vec<Vector2<f64>> = mean.iter().map(|&m| b.to_image(m)).collect();
         let got = box_from_shape(&mean, &shape).unwrap();
-        for (g, w) in [(got.left, b.left), (got.top, b.top), (got.width, 80.0), (got.height, 81.0)]
+        for (g, w) in [(got.left, b.left), (got.top, b.top), (got.width, 80.0), (got.height, 80.0)]
         {
             assert!((g - w).abs() < 1e-4, "{got:?}");
         }
+        // The same face rolled about the box centre keeps the box.
+        let (sin, cos) = 0.4f64.sin_cos();
+        let c = Vector2::new(70.0, 52.0);
+        let rolled: Vec<Vector2<f64>> =
+            shape.iter().map(|p| c + Matrix2::new(cos, -sin, sin, cos) * (p - c)).collect();
+        let got = box_from_shape(&mean, &rolled).unwrap();
+        assert!((got.width - 80.0).abs() < 1e-6 && (got.left - 30.0).abs() < 1e-6, "{got:?}");
         let p = b.to_normalised(Vector2::new(70.0, 52.5));
         assert!((b.to_image(p) - Vector2::new(70.0, 52.5)).norm() < 1e-4);
         assert!(box_from_shape(&mean, &shape[..2]).is_none());

@@ -13,7 +13,7 @@
 //! Start at [`FaceTracker::track_frame`]; [`agreement_confidence`] maps the disagreement to
 //! the frame's confidence that the flags read.
 
-use super::cascade::{CascadeStart, GrayView, run_cascade};
+use super::cascade::{CascadeStart, GrayImage, GrayView, run_cascade};
 use super::haar_file::HaarCascade;
 use super::predictor_file::ShapePredictor;
 use super::similarity::{FaceBox, box_from_shape};
@@ -54,6 +54,8 @@ pub struct TrackOptions {
     pub redetect_disagreement: f64,
     /// The disagreement at which the frame's confidence reaches 0 (linear from 1 at 0).
     pub zero_confidence_disagreement: f64,
+    /// Roll angles (degrees) the image is also scanned at when looking for a face.
+    pub roll_degrees: Vec<f64>,
 }
 
 impl Default for TrackOptions {
@@ -63,6 +65,7 @@ impl Default for TrackOptions {
             mapping: BoxMapping { scale: 0.864, dx: 0.0, dy: 0.042 },
             redetect_disagreement: 0.05,
             zero_confidence_disagreement: 0.1,
+            roll_degrees: vec![-15.0, 15.0],
         }
     }
 }
@@ -121,8 +124,46 @@ pub fn shape_disagreement(a: &[Vector2<f64>], b: &[Vector2<f64>]) -> f64 {
     if scale > 1e-9 { mean / scale } else { f64::INFINITY }
 }
 
+/// Times the cascade is re-run from the box of its own result after starting from a
+/// detection (the start the detector's box gives is rougher than the previous frame's).
+pub const DETECTION_REFITS: usize = 2;
+
 /// Most detections a frame's cascade is tried in when looking for the face.
-pub const MAX_CANDIDATES: usize = 5;
+pub const MAX_CANDIDATES: usize = 12;
+
+/// `image` turned by `angle` radians about its centre (bilinear; outside reads 0).
+fn rotate_about_centre(image: GrayView<'_>, angle: f64) -> GrayImage {
+    let (w, h) = (image.width, image.height);
+    let c = Vector2::new((w as f64 - 1.0) / 2.0, (h as f64 - 1.0) / 2.0);
+    let (sin, cos) = angle.sin_cos();
+    let mut pixels = vec![0u8; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            // The source of output pixel (x, y) is it turned back by −angle.
+            let d = Vector2::new(x as f64, y as f64) - c;
+            let s = c + Vector2::new(cos * d.x + sin * d.y, -sin * d.x + cos * d.y);
+            let (x0, y0) = (s.x.floor(), s.y.floor());
+            if x0 < 0.0 || y0 < 0.0 || x0 + 1.0 >= w as f64 || y0 + 1.0 >= h as f64 {
+                continue;
+            }
+            let (tx, ty) = (s.x - x0, s.y - y0);
+            let (xi, yi) = (x0 as usize, y0 as usize);
+            let p = |xx: usize, yy: usize| f64::from(image.pixels[yy * w + xx]);
+            let v = (p(xi, yi) * (1.0 - tx) + p(xi + 1, yi) * tx) * (1.0 - ty)
+                + (p(xi, yi + 1) * (1.0 - tx) + p(xi + 1, yi + 1) * tx) * ty;
+            pixels[y * w + x] = v.round() as u8;
+        }
+    }
+    GrayImage { width: w, height: h, pixels }
+}
+
+/// A point of `image` turned by `angle` (as [`rotate_about_centre`]) turned back.
+fn turn_back(image: GrayView<'_>, p: Vector2<f64>, angle: f64) -> Vector2<f64> {
+    let c = Vector2::new((image.width as f64 - 1.0) / 2.0, (image.height as f64 - 1.0) / 2.0);
+    let (sin, cos) = angle.sin_cos();
+    let d = p - c;
+    c + Vector2::new(cos * d.x + sin * d.y, -sin * d.x + cos * d.y)
+}
 
 /// A predictor, a detector and the settings, tracking one clip at a time.
 pub struct FaceTracker<'a> {
@@ -132,39 +173,87 @@ pub struct FaceTracker<'a> {
 }
 
 impl FaceTracker<'_> {
-    /// The faces the detector finds in `image` (within `region` when given), as the
-    /// predictor's boxes, best supported first; empty without a detector.
+    /// The faces the detector finds in `image` (centres within `region` when given), as the
+    /// predictor's boxes, best supported first within each roll angle; empty without a
+    /// detector. The frontal cascades miss a head rolled by more than ~10°, so the image is
+    /// also scanned turned by each of [`TrackOptions::roll_degrees`] and the hits turned
+    /// back (boxes stay upright: the cascade's similarity warp takes up the roll).
     pub fn detect(&self, image: GrayView<'_>, region: Option<FaceBox>) -> Vec<FaceBox> {
         let Some(cascade) = self.detector else { return Vec::new() };
-        let opts = DetectOptions { region, ..self.options.detect.clone() };
-        detect_faces(cascade, image, &opts)
-            .into_iter()
-            .map(|d| self.options.mapping.apply(&d.face))
-            .collect()
+        let mut out = Vec::new();
+        for &deg in std::iter::once(&0.0).chain(&self.options.roll_degrees) {
+            let turned;
+            let (view, angle) = if deg == 0.0 {
+                (image, 0.0)
+            } else {
+                turned = rotate_about_centre(image, deg.to_radians());
+                (turned.view(), deg.to_radians())
+            };
+            let opts = DetectOptions { region: None, ..self.options.detect.clone() };
+            for d in detect_faces(cascade, view, &opts) {
+                let b = self.options.mapping.apply(&d.face);
+                let c = turn_back(
+                    image,
+                    Vector2::new(b.left + b.width / 2.0, b.top + b.height / 2.0),
+                    angle,
+                );
+                let inside = region.is_none_or(|r| {
+                    c.x >= r.left
+                        && c.y >= r.top
+                        && c.x <= r.left + r.width
+                        && c.y <= r.top + r.height
+                });
+                if inside {
+                    out.push(FaceBox { left: c.x - b.width / 2.0, top: c.y - b.height / 2.0, ..b });
+                }
+            }
+        }
+        out
     }
 
-    /// The cascade's fit in the detected box where it agrees best with its own re-run (at
-    /// most [`MAX_CANDIDATES`] detections tried): a false detection on texture gives a
-    /// shape the re-run does not reproduce, a face one it does. `None` without a face.
-    pub fn detect_and_fit(&self, image: GrayView<'_>, region: Option<FaceBox>) -> Option<TrackedFrame> {
-        self.detect(image, region)
+    /// The cascade's fit in the detected boxes (at most [`MAX_CANDIDATES`] tried): the
+    /// largest face among the fits that agree with their own re-run (a false detection on
+    /// texture gives a shape the re-run does not reproduce), else the best agreeing fit.
+    /// `None` without a face.
+    pub fn detect_and_fit(
+        &self,
+        image: GrayView<'_>,
+        region: Option<FaceBox>,
+    ) -> Option<TrackedFrame> {
+        let fits: Vec<TrackedFrame> = self
+            .detect(image, region)
             .into_iter()
             .take(MAX_CANDIDATES)
             .map(|face| self.fit_in_box(image, face, StartKind::Detected))
-            .min_by(|a, b| a.disagreement.total_cmp(&b.disagreement))
+            .collect();
+        let limit = self.options.redetect_disagreement;
+        let largest_agreeing = fits
+            .iter()
+            .filter(|t| t.disagreement <= limit)
+            .max_by(|a, b| a.face.width.total_cmp(&b.face.width));
+        largest_agreeing
+            .or_else(|| fits.iter().min_by(|a, b| a.disagreement.total_cmp(&b.disagreement)))
+            .cloned()
     }
 
-    /// Runs the cascade from `face` and re-runs it from the box of its result; returns the
-    /// re-run (the box's fixed point is where dlib's detector box would have put it) and
-    /// the two runs' disagreement.
+    /// Runs the cascade from `face`, then again from the box of its result, `refits` times
+    /// (at least once); returns the last run (the box's fixed point is where dlib's
+    /// detector box would have put it) and the last two runs' disagreement. A detection
+    /// box is a rougher start than the previous frame's, so it gets [`DETECTION_REFITS`].
     pub fn fit_in_box(&self, image: GrayView<'_>, face: FaceBox, start: StartKind) -> TrackedFrame {
-        let first = run_cascade(self.predictor, image, &face, &CascadeStart::default());
-        let refit = box_from_shape(&self.predictor.mean_shape, &first).unwrap_or(face);
-        let second = run_cascade(self.predictor, image, &refit, &CascadeStart::default());
-        let disagreement = shape_disagreement(&first, &second);
+        let refits = if start == StartKind::Previous { 1 } else { DETECTION_REFITS };
+        let mut face = face;
+        let mut last = run_cascade(self.predictor, image, &face, &CascadeStart::default());
+        let mut disagreement = f64::INFINITY;
+        for _ in 0..refits.max(1) {
+            face = box_from_shape(&self.predictor.mean_shape, &last).unwrap_or(face);
+            let next = run_cascade(self.predictor, image, &face, &CascadeStart::default());
+            disagreement = shape_disagreement(&last, &next);
+            last = next;
+        }
         TrackedFrame {
-            points: second,
-            face: refit,
+            points: last,
+            face,
             start,
             disagreement,
             confidence: agreement_confidence(
@@ -224,6 +313,21 @@ mod tests {
         let m = BoxMapping { scale: 0.5, dx: 0.0, dy: 0.1 };
         let b = m.apply(&FaceBox { left: 0.0, top: 0.0, width: 100.0, height: 100.0 });
         assert_eq!(b, FaceBox { left: 25.0, top: 35.0, width: 50.0, height: 50.0 });
+    }
+
+    #[test]
+    fn a_point_turned_with_the_image_turns_back_to_where_it_was() {
+        let px: Vec<u8> = (0..40 * 30).map(|i| (i % 251) as u8).collect();
+        let img = GrayView { width: 40, height: 30, pixels: &px };
+        let turned = rotate_about_centre(img, 0.3);
+        // The pixel at the centre stays; a point's value is found where it was turned to.
+        assert_eq!(turned.pixels[15 * 40 + 20].abs_diff(px[15 * 40 + 20]), 0, "centre");
+        let c = Vector2::new(19.5, 14.5);
+        let p = Vector2::new(25.0, 18.0);
+        let (sin, cos) = 0.3f64.sin_cos();
+        let d = p - c;
+        let q = c + Vector2::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y);
+        assert!((turn_back(img, q, 0.3) - p).norm() < 1e-9);
     }
 
     #[test]

@@ -124,8 +124,15 @@ pub fn frame_landmarks(frame: usize, t: &TrackedFrame) -> FrameLandmarks {
 ///
 /// # Errors
 /// A frame that cannot be decoded; no face found in any frame.
-pub fn track_frames(tracker: &Tracker, frames: &FrameSource, progress: ProgressFn) -> Result<Tracked> {
-    progress(Progress::Stage { what: format!("tracking {}", frames.path().display()), total: frames.len() });
+pub fn track_frames(
+    tracker: &Tracker,
+    frames: &FrameSource,
+    progress: ProgressFn,
+) -> Result<Tracked> {
+    progress(Progress::Stage {
+        what: format!("tracking {}", frames.path().display()),
+        total: frames.len(),
+    });
     let tracked = track_images(tracker, frames.len(), |i| gray_of(frames, i), progress);
     progress(Progress::Finished);
     match tracked {

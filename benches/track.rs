@@ -7,7 +7,10 @@
 
 use lipmap::demo::{DemoOptions, generate};
 use lipmap::io::frames::{FrameOptions, FrameSource};
-use lipmap::track::{CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, box_from_shape, run_cascade};
+use lipmap::track::{
+    CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, box_from_shape,
+    run_cascade,
+};
 use lipmap::workflow::no_progress;
 use lipmap::workflow::track::{TrackerFiles, load_tracker, track_images};
 use std::path::Path;
@@ -34,22 +37,35 @@ fn main() {
     let out = generate(&opts).expect("demo");
     let mut frames: Vec<GrayImage> = Vec::new();
     for clip in &out.speakers[0].clips {
-        let src = FrameSource::open(clip.front_dir.as_ref().expect("front frames"), &FrameOptions::default())
-            .expect("demo frames");
+        let src = FrameSource::open(
+            clip.front_dir.as_ref().expect("front frames"),
+            &FrameOptions::default(),
+        )
+        .expect("demo frames");
         for i in 0..src.len() {
             let img = src.get(i).expect("decodes");
-            frames.push(GrayImage::from_rgb(img.width() as usize, img.height() as usize, img.as_raw()));
+            frames.push(GrayImage::from_rgb(
+                img.width() as usize,
+                img.height() as usize,
+                img.as_raw(),
+            ));
         }
     }
     let (w, h) = (frames[0].width, frames[0].height);
     // Grey conversion is inside the timing, as in `lipmap track`: keep RGB copies.
-    let rgb: Vec<Vec<u8>> = frames.iter().map(|g| g.pixels.iter().flat_map(|&v| [v, v, v]).collect()).collect();
+    let rgb: Vec<Vec<u8>> =
+        frames.iter().map(|g| g.pixels.iter().flat_map(|&v| [v, v, v]).collect()).collect();
     let mut best = f64::INFINITY;
     let mut tracked = None;
     for _ in 0..3 {
         let t = Instant::now();
-        let r = track_images(&tracker, rgb.len(), |i| Ok(GrayImage::from_rgb(w, h, &rgb[i])), &no_progress)
-            .expect("tracks");
+        let r = track_images(
+            &tracker,
+            rgb.len(),
+            |i| Ok(GrayImage::from_rgb(w, h, &rgb[i])),
+            &no_progress,
+        )
+        .expect("tracks");
         best = best.min(t.elapsed().as_secs_f64());
         tracked = Some(r);
     }
@@ -64,12 +80,21 @@ fn main() {
         r.lost.len()
     );
     // One cascade run alone (the tracker makes two per frame).
-    let shape: Vec<_> = r.track.frames[0].points.iter().map(|p| nalgebra::Vector2::new(p.x, p.y)).collect();
+    let shape: Vec<_> =
+        r.track.frames[0].points.iter().map(|p| nalgebra::Vector2::new(p.x, p.y)).collect();
     let face = box_from_shape(&tracker.predictor.mean_shape, &shape).expect("a box");
     let reps = 500;
     let t = Instant::now();
     for _ in 0..reps {
-        std::hint::black_box(run_cascade(&tracker.predictor, frames[0].view(), &face, &CascadeStart::default()));
+        std::hint::black_box(run_cascade(
+            &tracker.predictor,
+            frames[0].view(),
+            &face,
+            &CascadeStart::default(),
+        ));
     }
-    println!("track: one cascade run (15 stages × 500 trees) {:.3} ms", t.elapsed().as_secs_f64() * 1e3 / reps as f64);
+    println!(
+        "track: one cascade run (15 stages × 500 trees) {:.3} ms",
+        t.elapsed().as_secs_f64() * 1e3 / reps as f64
+    );
 }

@@ -403,6 +403,30 @@ pub(crate) mod tests {
         assert_eq!(c.features[0][1], HaarRect { x: 2, y: 0, w: 2, h: 4, weight: -1.0 });
     }
 
+    proptest::proptest! {
+        /// Mutated cascades give a one-line error or a cascade that scans an image.
+        #[test]
+        fn mutated_cascades_give_an_error_or_a_usable_cascade(
+            edits in proptest::collection::vec((0usize..2000, 32u8..127), 1..6),
+        ) {
+            let mut bytes = TINY.as_bytes().to_vec();
+            for (at, b) in edits {
+                let i = at % bytes.len();
+                bytes[i] = b;
+            }
+            let text = String::from_utf8(bytes).expect("ASCII");
+            match parse_haar_cascade(&text, Path::new("c.xml")) {
+                Ok(c) => {
+                    let px = [9u8; 24 * 24];
+                    let img = crate::track::GrayView { width: 24, height: 24, pixels: &px };
+                    let opts = crate::track::DetectOptions { min_neighbors: 0, ..Default::default() };
+                    let _ = crate::track::detect_faces(&c, img, &opts);
+                }
+                Err(e) => proptest::prop_assert!(!e.to_string().contains('\n'), "{}", e),
+            }
+        }
+    }
+
     #[test]
     fn bad_cascades_are_one_line_errors_naming_the_file_and_line() {
         for (from, to, want) in [

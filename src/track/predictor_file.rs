@@ -582,6 +582,28 @@ mod tests {
         assert!(e.to_string().contains("field `version`: 2"), "{e}");
     }
 
+    proptest::proptest! {
+        /// What the fuzz target checks, on mutations of a valid file: an error or a
+        /// predictor whose cascade runs.
+        #[test]
+        fn mutated_files_give_an_error_or_a_runnable_predictor(
+            edits in proptest::collection::vec((0usize..1000, proptest::num::u8::ANY), 1..6),
+        ) {
+            let mut bytes = encode::predictor(&tiny());
+            for (at, b) in edits {
+                let i = at % bytes.len();
+                bytes[i] = b;
+            }
+            if let Ok(p) = parse_shape_predictor(&bytes, Path::new("m.dat")) {
+                let px = [7u8; 64];
+                let img = crate::track::GrayView { width: 8, height: 8, pixels: &px };
+                let face = crate::track::FaceBox { left: 1.0, top: 1.0, width: 5.0, height: 5.0 };
+                let out = crate::track::run_cascade(&p, img, &face, &Default::default());
+                proptest::prop_assert_eq!(out.len(), p.num_parts());
+            }
+        }
+    }
+
     #[test]
     fn non_finite_floats_are_refused() {
         let mut bytes = Vec::new();

@@ -113,13 +113,14 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
                  format of OpenCV 2.4 and later)",
         )
     })?;
-    let need = |e: &Element, name: &str| -> Result<String, FormatError> {
-        e.child(name).map(|c| c.text.trim().to_string()).ok_or_else(|| {
+    // A child's text and the line of its tag, so that a bad number names its own line.
+    let need = |e: &Element, name: &str| -> Result<(String, usize), FormatError> {
+        e.child(name).map(|c| (c.text.trim().to_string(), c.line)).ok_or_else(|| {
             FormatError::at_line(path, e.line, format!("<{}> has no <{name}>", e.name))
         })
     };
     for (field, want) in [("stageType", "BOOST"), ("featureType", "HAAR")] {
-        let got = need(cascade, field)?;
+        let (got, _) = need(cascade, field)?;
         if got != want {
             return Err(FormatError::at_field(
                 path,
@@ -129,7 +130,7 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
         }
     }
     let dim = |field: &str| -> Result<u32, FormatError> {
-        let v = need(cascade, field)?;
+        let (v, _) = need(cascade, field)?;
         v.parse::<u32>().ok().filter(|v| (3..=MAX_WINDOW).contains(v)).ok_or_else(|| {
             FormatError::at_field(
                 path,
@@ -199,17 +200,20 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
     }
     let mut stages = Vec::with_capacity(stages_el.children.len());
     for s in &stages_el.children {
-        let threshold = numbers(&need(s, "stageThreshold")?, 1, path, s.line)?[0] as f32;
+        let (threshold_text, threshold_line) = need(s, "stageThreshold")?;
+        let threshold = numbers(&threshold_text, 1, path, threshold_line)?[0] as f32;
         let weak = s.child("weakClassifiers").ok_or_else(|| {
             FormatError::at_line(path, s.line, "a stage without <weakClassifiers>")
         })?;
         let mut classifiers = Vec::with_capacity(weak.children.len());
         for c in &weak.children {
-            let nodes_text = need(c, "internalNodes")?;
-            let leaves_text = need(c, "leafValues")?;
-            let nv = numbers_any(&nodes_text, path, c.line)?;
-            let leaves: Vec<f32> =
-                numbers_any(&leaves_text, path, c.line)?.into_iter().map(|v| v as f32).collect();
+            let (nodes_text, nodes_line) = need(c, "internalNodes")?;
+            let (leaves_text, leaves_line) = need(c, "leafValues")?;
+            let nv = numbers_any(&nodes_text, path, nodes_line)?;
+            let leaves: Vec<f32> = numbers_any(&leaves_text, path, leaves_line)?
+                .into_iter()
+                .map(|v| v as f32)
+                .collect();
             if nv.is_empty() || nv.len() % 4 != 0 || leaves.is_empty() {
                 return Err(FormatError::at_line(
                     path,
@@ -229,7 +233,7 @@ pub fn parse_haar_cascade(text: &str, path: &Path) -> Result<HaarCascade, Format
                 if !child_ok(q[0]) || !child_ok(q[1]) || !feature_ok {
                     return Err(FormatError::at_line(
                         path,
-                        c.line,
+                        nodes_line,
                         format!(
                             "node `{} {} {} …` names a child or feature that does not exist ({n_nodes} nodes, {} leaves, {} features)",
                             q[0],
@@ -296,9 +300,18 @@ fn numbers_any(text: &str, path: &Path, line: usize) -> Result<Vec<f64>, FormatE
 /// size.
 fn parse_tree(text: &str, path: &Path) -> Result<Element, FormatError> {
     let mut reader = quick_xml::Reader::from_str(text);
+    // Offsets arrive in order: count newlines forward from the last one (counting from the
+    // start each time made a large file quadratic).
+    let counted = std::cell::Cell::new((0usize, 1usize));
     let line_at = |offset: u64| {
         let end = (offset as usize).min(text.len());
-        1 + text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count()
+        let (mut pos, mut line) = counted.get();
+        if end < pos {
+            (pos, line) = (0, 1);
+        }
+        line += text.as_bytes()[pos..end].iter().filter(|&&b| b == b'\n').count();
+        counted.set((end, line));
+        line
     };
     let mut stack = vec![Element::default()];
     let mut count = 0usize;
@@ -308,7 +321,11 @@ fn parse_tree(text: &str, path: &Path) -> Result<Element, FormatError> {
             FormatError::at_line(
                 path,
                 line_at(reader.error_position()),
-                format!("malformed XML: {e}"),
+                // quick-xml quotes the offending text, newlines and all: keep one line.
+                format!(
+                    "malformed XML: {}",
+                    e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
+                ),
             )
         })?;
         match event {
@@ -430,7 +447,7 @@ pub(crate) mod tests {
     #[test]
     fn bad_cascades_are_one_line_errors_naming_the_file_and_line() {
         for (from, to, want) in [
-            ("0 -1 0 -0.1", "0 -1 3 -0.1", "c.xml:15: node"),
+            ("0 -1 0 -0.1", "0 -1 3 -0.1", "c.xml:13: node"),
             ("2 0 2 4 -1.", "3 0 2 4 -1.", "c.xml:22: rectangle 3 0 2 4"),
             ("<featureType>HAAR", "<featureType>LBP", "c.xml: field `featureType`: `LBP`"),
             ("0.5</stageThreshold>", "x</stageThreshold>", "c.xml:10: `x` is not a number"),

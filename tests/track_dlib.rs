@@ -222,3 +222,85 @@ fn correcting_two_lip_points_brings_the_rest_of_the_lip_along() {
     );
     assert!(fall >= 0.5, "the other lip points' error fell by only {:.0} %", 100.0 * fall);
 }
+
+/// Mean distance over `idx` between two shapes.
+fn mean_error(a: &[Vector2<f64>], b: &[Vector2<f64>], idx: &[usize]) -> f64 {
+    idx.iter().map(|&i| (a[i] - b[i]).norm()).sum::<f64>() / idx.len() as f64
+}
+
+/// Re-alignment on the real clip, against dlib's tracks (carphone has no human landmarks):
+/// (a) on the frames where lipmap's tracker flags itself (confidence < 0.8), the user moves
+/// the two lip points farthest from dlib's to dlib's positions; (b) on every frame, dlib's
+/// lower lip is dragged up onto the tongue by 0.1 eye distance (≈ 3 px, the size of the bias
+/// `docs/flags.md` describes) and its two midline points are corrected. Reported: the other
+/// lip points' mean distance to dlib's before and after.
+#[test]
+fn realigning_carphone_frames_from_corrected_lip_points() {
+    let (Some(t), Some(frames_dir), Some(pts)) = (
+        tracker(),
+        lipmap::testdata::shared("data/carphone/frames"),
+        lipmap::testdata::shared("data/carphone/dlib68_pts"),
+    ) else {
+        return;
+    };
+    let dlib = read_track(&pts).unwrap();
+    let shift = Vector2::new(2.0 / 3.0, 2.0 / 3.0);
+    let frames = FrameSource::open(&frames_dir, &FrameOptions::default()).unwrap();
+    let ours = track_frames(t, &frames, &no_progress).unwrap();
+    let lips: Vec<usize> = (48..68).collect();
+    let (mut flagged, mut flagged_before, mut flagged_after) = (Vec::new(), 0.0, 0.0);
+    let (mut dragged_before, mut dragged_after) = (0.0, 0.0);
+    for f in 0..frames.len() {
+        let reference: Vec<Vector2<f64>> = points(&dlib, f).iter().map(|p| p + shift).collect();
+        let gray = gray_of(&frames, f).unwrap();
+        // (a) lipmap's own low-confidence frames.
+        let tracked = points(&ours.track, f);
+        if ours.track.frames[f].confidence.is_some_and(|c| c < 0.8) {
+            let mut worst: Vec<(f64, usize)> =
+                lips.iter().map(|&i| ((tracked[i] - reference[i]).norm(), i)).collect();
+            worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+            let held: Vec<(usize, Vector2<f64>)> =
+                worst[..2].iter().map(|&(_, i)| (i, reference[i])).collect();
+            let others: Vec<usize> =
+                lips.iter().copied().filter(|i| held.iter().all(|h| h.0 != *i)).collect();
+            let re = realign_shape(&t.predictor, gray.view(), &tracked, &held).unwrap();
+            let (b, a) =
+                (mean_error(&tracked, &reference, &others), mean_error(&re, &reference, &others));
+            println!("carphone frame {f} (flagged): other lip points {b:.2} -> {a:.2} px");
+            flagged.push(f);
+            flagged_before += b;
+            flagged_after += a;
+        }
+        // (b) a lower lip dragged onto the tongue.
+        let up = Vector2::new(0.0, -0.1 * (reference[36] - reference[45]).norm());
+        let mut shape = reference.clone();
+        for &i in &LOWER_LIP {
+            shape[i] += up;
+        }
+        let held: Vec<(usize, Vector2<f64>)> =
+            LOWER_FIXED.iter().map(|&i| (i, reference[i])).collect();
+        let others: Vec<usize> =
+            LOWER_LIP.iter().copied().filter(|i| !LOWER_FIXED.contains(i)).collect();
+        let re = realign_shape(&t.predictor, gray.view(), &shape, &held).unwrap();
+        dragged_before += mean_error(&shape, &reference, &others);
+        dragged_after += mean_error(&re, &reference, &others);
+    }
+    let n = frames.len() as f64;
+    let k = flagged.len().max(1) as f64;
+    println!(
+        "carphone, {} flagged frames {flagged:?}: other lip points' mean distance to dlib's \
+         {:.2} -> {:.2} px; lower lip dragged up 0.1 eye distance on all {n} frames, midline \
+         corrected: other lower-lip points {:.2} -> {:.2} px ({:.0} % less)",
+        flagged.len(),
+        flagged_before / k,
+        flagged_after / k,
+        dragged_before / n,
+        dragged_after / n,
+        100.0 * (1.0 - dragged_after / dragged_before)
+    );
+    assert!(
+        dragged_after <= 0.5 * dragged_before,
+        "a dragged lower lip's error fell by only {:.0} %",
+        100.0 * (1.0 - dragged_after / dragged_before)
+    );
+}

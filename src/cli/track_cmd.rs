@@ -67,13 +67,17 @@ pub fn run_track(args: &TrackArgs, out: &mut impl Write) -> Result<crate::cli::O
     }
     let tracker = load_tracker(&args.tracker.files())?;
     let bar = frames_bar(0, "tracking");
+    let started = std::time::Instant::now();
     let tracked = track_path(&tracker, &args.frames, args.fps, &show_on(&bar))?;
+    let seconds = started.elapsed().as_secs_f64();
     landmark_format::write_track(&tracked.track, &args.out, format)?;
     let n = tracked.track.len();
     writeln!(
         out,
-        "{} tracked -> {} ({format}); face detected on {}, lost on {}",
+        "{} tracked in {seconds:.2} s ({:.1} ms a frame, decoding included) -> {} ({format}); \
+         face detected on {}, lost on {}",
         plural(n, "frame"),
+        1e3 * seconds / n.max(1) as f64,
         args.out.display(),
         plural(tracked.detected.len(), "frame"),
         tracked.lost.len()

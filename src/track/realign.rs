@@ -98,9 +98,10 @@ impl Default for PropagateOptions {
 
 /// Re-aligns the frames after a corrected one: frame k+1 runs the cascade from frame k's
 /// re-aligned shape (in its box, nothing held). `frames` yields each following frame's image
-/// and the tracker's shape there, in order (lazily: only the frames walked are decoded); the walk stops at the first frame whose result
-/// agrees with the tracker's (that frame is not returned: the tracker already had it) or
-/// after `max_frames`. Returns the re-aligned shapes, one per frame changed.
+/// and the tracker's shape there, in order (lazily: only the frames walked are decoded); the
+/// walk stops at the first frame whose result agrees with the tracker's (that frame is not
+/// returned: the tracker already had it) or after `max_frames`. Returns the re-aligned
+/// shapes, one per frame changed.
 pub fn propagate_realignment<I>(
     predictor: &ShapePredictor,
     corrected: &[Vector2<f64>],

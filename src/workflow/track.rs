@@ -2,13 +2,16 @@
 //! re-alignment commands use it: load the predictor and the detector once, track a clip's
 //! frames into a [`Track`], re-align a corrected frame, propagate a correction forward.
 //!
-//! Start at [`load_tracker`], then [`track_frames`]; [`realign_frame`] and
-//! [`propagate_session_correction`] are the re-alignment use cases.
+//! Start at [`load_tracker`], then [`track_frames`]. Re-alignment: [`realign_session_frame`]
+//! and [`propagate_correction`] compute on a session in memory (the TUI's edits),
+//! [`apply_realigned`] stores their result, [`propagate_session_correction`] is `lipmap
+//! propagate` on a session file.
 
 use super::error::{Error, Progress, ProgressFn, Result};
 use super::session::{clip_or_first, open_for_edit};
 use crate::io::frames::{FrameOptions, FrameSource};
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, PointSource, Track};
+use crate::session::Session;
 use crate::track::realign::{PropagateOptions, propagate_realignment, realign_shape};
 use crate::track::tracker::{FaceTracker, StartKind, TrackOptions, TrackedFrame};
 use crate::track::{
@@ -269,39 +272,62 @@ pub struct Propagated {
     pub held: Vec<usize>,
 }
 
-/// Re-aligns frame `frame` of a session's clip from its corrected points, then the
-/// following frames, each from the one before, until the cascade agrees with the tracker
-/// again; stores the results as corrections (marked `Interpolated`; reverting a point
-/// restores the tracker's) and saves the session.
+/// A frame of a session's clip re-aligned from its corrected points, without changing the
+/// session: the frame's landmarks with every other point moved and marked `Interpolated`.
+/// A front that keeps the session in memory (the TUI's re-align key) applies the
+/// `Interpolated` points as edits with [`apply_realigned`], so that they undo like any edit.
 ///
 /// # Errors
-/// The session cannot be opened, locked or saved; an unknown clip or frame; a frame with no
-/// corrected point; frames that cannot be read.
-pub fn propagate_session_correction(
-    session: &str,
-    clip: Option<&str>,
+/// An unknown clip or frame; a frame with no corrected point; a frame that cannot be read.
+pub fn realign_session_frame(
+    session: &Session,
+    index: usize,
+    frame: usize,
+    tracker: &Tracker,
+) -> Result<FrameLandmarks> {
+    let frames = session.open_frames(index, 16)?;
+    let effective = session.effective_track(index)?;
+    let current = corrected_frame(session, index, &effective, frame)?;
+    realign_frame(tracker, gray_of(&frames, frame)?.view(), current, &corrected_points(current))
+}
+
+/// The frame's effective landmarks, when it has at least one corrected point.
+fn corrected_frame<'t>(
+    session: &Session,
+    index: usize,
+    effective: &'t Track,
+    frame: usize,
+) -> Result<&'t FrameLandmarks> {
+    let name = &session.clip(index)?.name;
+    let Some(current) = effective.get(frame) else {
+        return Err(Error::Invalid(format!("clip `{name}` has no landmarks on frame {frame}")));
+    };
+    if corrected_points(current).is_empty() {
+        return Err(Error::Invalid(format!(
+            "clip `{name}` frame {frame} has no corrected point to re-align from (move some in `lipmap tui`)"
+        )));
+    }
+    Ok(current)
+}
+
+/// Re-aligns frame `frame` of a session's clip from its corrected points, then the
+/// following frames, each from the one before, until the cascade agrees with the tracker
+/// again. Returns the changed frames (the corrected one first), their derived points marked
+/// `Interpolated`; the session is not changed ([`apply_realigned`] stores them).
+///
+/// # Errors
+/// As [`realign_session_frame`]; a following frame that cannot be read.
+pub fn propagate_correction(
+    session: &Session,
+    index: usize,
     frame: usize,
     tracker: &Tracker,
     opts: &PropagateOptions,
-) -> Result<Propagated> {
-    let mut edit = open_for_edit(session)?;
-    let index = clip_or_first(&edit.session, clip)?;
-    let clip_ref = edit.session.clip(index)?.clone();
-    let effective = edit.session.effective_track(index)?;
-    let Some(corrected) = effective.get(frame) else {
-        return Err(Error::Invalid(format!(
-            "clip `{}` has no landmarks on frame {frame}",
-            clip_ref.name
-        )));
-    };
+) -> Result<Vec<FrameLandmarks>> {
+    let effective = session.effective_track(index)?;
+    let corrected = corrected_frame(session, index, &effective, frame)?;
+    let frames = session.open_frames(index, 64)?;
     let held = corrected_points(corrected);
-    if held.is_empty() {
-        return Err(Error::Invalid(format!(
-            "clip `{}` frame {frame} has no corrected point to re-align from (move some in `lipmap tui`)",
-            clip_ref.name
-        )));
-    }
-    let frames = edit.session.open_frames(index, 64)?;
     let realigned = realign_frame(tracker, gray_of(&frames, frame)?.view(), corrected, &held)?;
     let following: Vec<usize> = (frame + 1..frames.len())
         .take(opts.max_frames)
@@ -325,14 +351,50 @@ pub fn propagate_session_correction(
         let tracked = effective.get(f).expect("frames with landmarks");
         changed.push(with_derived_points(tracked, shape, &corrected_points(tracked)));
     }
-    let corrections = &mut edit.session.clips[index].corrections;
-    for fl in &changed {
+    Ok(changed)
+}
+
+/// Stores the `Interpolated` points of re-aligned frames as corrections of clip `index`.
+///
+/// # Errors
+/// An unknown clip; a point the corrections refuse.
+pub fn apply_realigned(
+    session: &mut Session,
+    index: usize,
+    frames: &[FrameLandmarks],
+) -> Result<()> {
+    session.clip(index)?;
+    let corrections = &mut session.clips[index].corrections;
+    for fl in frames {
         for (i, p) in fl.points.iter().enumerate() {
             if p.source == PointSource::Interpolated {
                 corrections.set(fl.frame, i, *p).map_err(Error::Invalid)?;
             }
         }
     }
+    Ok(())
+}
+
+/// `lipmap propagate`: [`propagate_correction`] on a session file, stored and saved.
+///
+/// # Errors
+/// The session cannot be opened, locked or saved; as [`propagate_correction`].
+pub fn propagate_session_correction(
+    session: &str,
+    clip: Option<&str>,
+    frame: usize,
+    tracker: &Tracker,
+    opts: &PropagateOptions,
+) -> Result<Propagated> {
+    let mut edit = open_for_edit(session)?;
+    let index = clip_or_first(&edit.session, clip)?;
+    let changed = propagate_correction(&edit.session, index, frame, tracker, opts)?;
+    let held = changed.first().map(corrected_points).unwrap_or_default();
+    apply_realigned(&mut edit.session, index, &changed)?;
     edit.session.save(&edit.path)?;
-    Ok(Propagated { clip: clip_ref.name, frames: changed.iter().map(|f| f.frame).collect(), held })
+    Ok(Propagated {
+        clip: edit.session.clip(index)?.name.clone(),
+        frames: changed.iter().map(|f| f.frame).collect(),
+        held,
+    })
 }

@@ -304,3 +304,74 @@ fn realigning_carphone_frames_from_corrected_lip_points() {
         100.0 * (1.0 - dragged_after / dragged_before)
     );
 }
+
+/// The session use cases the TUI's key and `lipmap propagate` call: a demo clip whose tracked
+/// lower lip is dragged on one frame; the user corrects its midline; the frame re-aligned in
+/// memory brings the other lower-lip points toward the truth without changing the session,
+/// and `propagate_session_correction` stores them (marked interpolated) and saves.
+#[test]
+fn session_realignment_moves_the_lip_and_propagate_saves_it() {
+    use lipmap::landmarks::{LandmarkPoint, PointSource};
+    use lipmap::session::{Clip, FramesRef, Session, View};
+    use lipmap::track::realign::PropagateOptions;
+    use lipmap::workflow::track::{propagate_session_correction, realign_session_frame};
+    let Some(t) = tracker() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = generate(&DemoOptions {
+        out_dir: dir.path().join("demo"),
+        sentences: 1,
+        side_view: false,
+        write_model: false,
+        max_frames: Some(8),
+        ..DemoOptions::default()
+    })
+    .unwrap();
+    let c = &out.speakers[0].clips[0];
+    let truth = read_track(&c.true_csv).unwrap();
+    let f = 3;
+    let drag = 12.0;
+    let mut tracked = truth.clone();
+    for &i in &LOWER_LIP {
+        tracked.frames[f].points[i].y -= drag;
+    }
+    let path = dir.path().join("s.lipmap.json");
+    let mut session = Session::new(&path);
+    let mut view = View::new(FramesRef::Images { dir: c.dir.join("front") }, c.fps);
+    view.size = Some([c.width, c.height]);
+    let mut clip = Clip::new(c.name.clone(), view);
+    clip.tracked = tracked;
+    for &i in &LOWER_FIXED {
+        let p = truth.frames[f].points[i];
+        clip.corrections.set(f, i, LandmarkPoint::tracked(p.x, p.y)).unwrap();
+    }
+    session.add_clip(clip).unwrap();
+    session.save(&path).unwrap();
+
+    let others: Vec<usize> =
+        LOWER_LIP.iter().copied().filter(|i| !LOWER_FIXED.contains(i)).collect();
+    let truth_pts = points(&truth, f);
+    let realigned = realign_session_frame(&session, 0, f, t).unwrap();
+    let got: Vec<Vector2<f64>> = realigned.points.iter().map(|p| Vector2::new(p.x, p.y)).collect();
+    let after = mean_error(&got, &truth_pts, &others);
+    println!("demo frame {f}, lower lip dragged {drag} px: other lower-lip points -> {after:.2} px");
+    assert!(after < 0.5 * drag, "other lower-lip points still {after:.2} px off");
+    for &i in &LOWER_FIXED {
+        assert_eq!(realigned.points[i].source, PointSource::Corrected);
+        assert_eq!(got[i], truth_pts[i]);
+    }
+    assert!(others.iter().all(|&i| realigned.points[i].source == PointSource::Interpolated));
+    // In memory only: the session file still has only the user's two points.
+    let on_disk = Session::load(&path).unwrap();
+    assert!(on_disk.clips[0].corrections.get(f, others[0]).is_none());
+
+    let p = propagate_session_correction(path.to_str().unwrap(), None, f, t, &PropagateOptions::default())
+        .unwrap();
+    assert_eq!(p.frames[0], f);
+    assert_eq!(p.held, LOWER_FIXED.to_vec());
+    let saved = Session::load(&path).unwrap();
+    let stored = saved.clips[0].corrections.get(f, others[0]).expect("stored");
+    assert_eq!(stored.source, PointSource::Interpolated);
+    // A frame without corrected points is a clear error.
+    let e = realign_session_frame(&saved, 0, f + 1, t).unwrap_err().to_string();
+    assert!(e.contains("no corrected point"), "{e}");
+}

@@ -353,7 +353,9 @@ fn session_realignment_moves_the_lip_and_propagate_saves_it() {
     let realigned = realign_session_frame(&session, 0, f, t).unwrap();
     let got: Vec<Vector2<f64>> = realigned.points.iter().map(|p| Vector2::new(p.x, p.y)).collect();
     let after = mean_error(&got, &truth_pts, &others);
-    println!("demo frame {f}, lower lip dragged {drag} px: other lower-lip points -> {after:.2} px");
+    println!(
+        "demo frame {f}, lower lip dragged {drag} px: other lower-lip points -> {after:.2} px"
+    );
     assert!(after < 0.5 * drag, "other lower-lip points still {after:.2} px off");
     for &i in &LOWER_FIXED {
         assert_eq!(realigned.points[i].source, PointSource::Corrected);
@@ -364,8 +366,14 @@ fn session_realignment_moves_the_lip_and_propagate_saves_it() {
     let on_disk = Session::load(&path).unwrap();
     assert!(on_disk.clips[0].corrections.get(f, others[0]).is_none());
 
-    let p = propagate_session_correction(path.to_str().unwrap(), None, f, t, &PropagateOptions::default())
-        .unwrap();
+    let p = propagate_session_correction(
+        path.to_str().unwrap(),
+        None,
+        f,
+        t,
+        &PropagateOptions::default(),
+    )
+    .unwrap();
     assert_eq!(p.frames[0], f);
     assert_eq!(p.held, LOWER_FIXED.to_vec());
     let saved = Session::load(&path).unwrap();

@@ -15,7 +15,9 @@ use lipmap::track::{
     run_cascade,
 };
 use lipmap::workflow::no_progress;
-use lipmap::workflow::track::{Tracker, TrackerFiles, gray_of, load_tracker, track_frames};
+use lipmap::workflow::track::{
+    Tracked, Tracker, TrackerFiles, gray_of, load_tracker, track_frames,
+};
 use nalgebra::Vector2;
 use std::path::Path;
 use std::sync::OnceLock;
@@ -50,14 +52,24 @@ fn image(path: &Path) -> GrayImage {
     GrayImage::from_rgb(img.width() as usize, img.height() as usize, img.as_raw())
 }
 
-#[test]
-fn carphone_agrees_with_dlibs_own_tracks() {
-    let (Some(t), Some(frames_dir), Some(pts)) = (
+/// The carphone clip, dlib's tracks of it and lipmap's.
+struct Carphone {
+    tracker: &'static Tracker,
+    dlib: Track,
+    /// What to add to a point of `dlib` to put it in the frame's pixel coordinates.
+    shift: Vector2<f64>,
+    frames: FrameSource,
+    ours: Tracked,
+}
+
+/// `None` (with a notice) without the predictor, the detector or `../shared`.
+fn carphone() -> Option<Carphone> {
+    let (Some(tracker), Some(frames_dir), Some(pts)) = (
         tracker(),
         lipmap::testdata::shared("data/carphone/frames"),
         lipmap::testdata::shared("data/carphone/dlib68_pts"),
     ) else {
-        return;
+        return None;
     };
     // The .pts files hold dlib's points on a 3× enlarged frame divided by 3, with no 1-based
     // shift (dlib 20 on a 3× bicubic enlargement reproduces them to ±1 px of that image);
@@ -65,9 +77,14 @@ fn carphone_agrees_with_dlibs_own_tracks() {
     // (pixel centres at integers, enlargement centre-aligned: x = X/3 − 1/3) is the read
     // value + 2/3.
     let dlib = read_track(&pts).unwrap();
-    let shift = Vector2::new(2.0 / 3.0, 2.0 / 3.0);
     let frames = FrameSource::open(&frames_dir, &FrameOptions::default()).unwrap();
-    let ours = track_frames(t, &frames, &no_progress).unwrap();
+    let ours = track_frames(tracker, &frames, &no_progress).unwrap();
+    Some(Carphone { tracker, dlib, shift: Vector2::new(2.0 / 3.0, 2.0 / 3.0), frames, ours })
+}
+
+#[test]
+fn carphone_agrees_with_dlibs_own_tracks() {
+    let Some(Carphone { tracker: t, dlib, shift, frames, ours }) = carphone() else { return };
     assert!(ours.lost.is_empty(), "lost frames {:?}", ours.lost);
     let (mut from_detector, mut from_dlib_box, mut as_read) = (Vec::new(), Vec::new(), Vec::new());
     for f in 0..frames.len() {
@@ -236,17 +253,7 @@ fn mean_error(a: &[Vector2<f64>], b: &[Vector2<f64>], idx: &[usize]) -> f64 {
 /// lip points' mean distance to dlib's before and after.
 #[test]
 fn realigning_carphone_frames_from_corrected_lip_points() {
-    let (Some(t), Some(frames_dir), Some(pts)) = (
-        tracker(),
-        lipmap::testdata::shared("data/carphone/frames"),
-        lipmap::testdata::shared("data/carphone/dlib68_pts"),
-    ) else {
-        return;
-    };
-    let dlib = read_track(&pts).unwrap();
-    let shift = Vector2::new(2.0 / 3.0, 2.0 / 3.0);
-    let frames = FrameSource::open(&frames_dir, &FrameOptions::default()).unwrap();
-    let ours = track_frames(t, &frames, &no_progress).unwrap();
+    let Some(Carphone { tracker: t, dlib, shift, frames, ours }) = carphone() else { return };
     let lips: Vec<usize> = (48..68).collect();
     let (mut flagged, mut flagged_before, mut flagged_after) = (Vec::new(), 0.0, 0.0);
     let (mut dragged_before, mut dragged_after) = (0.0, 0.0);

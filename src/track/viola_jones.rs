@@ -269,7 +269,7 @@ pub fn group_detections(hits: &[FaceBox], min_neighbors: usize, eps: f64) -> Vec
         })
         .copied()
         .collect();
-    out.sort_by(|a, b| b.neighbors.cmp(&a.neighbors));
+    out.sort_by_key(|b| std::cmp::Reverse(b.neighbors));
     out
 }
 

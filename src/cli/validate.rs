@@ -184,9 +184,8 @@ pub fn validate_file(path: &Path) -> Result<String> {
             format!("blendshape target, {}", plural(t.len(), "vertex offset"))
         }
         FileKind::Audio => {
-            let a = crate::io::wav::read_wav(path)?;
-            let seconds = a.samples.len() as f64 / f64::from(a.sample_rate);
-            format!("audio, {seconds:.2} s at {} Hz", a.sample_rate)
+            let a = crate::io::wav::check_wav(path)?;
+            format!("audio, {:.2} s at {} Hz", a.seconds(), a.sample_rate)
         }
         FileKind::SpeechModel => {
             let m = crate::workflow::speech::load_speech_model(path)?;

@@ -134,6 +134,41 @@ pub fn held_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
     )
 }
 
+/// `n` fits, frame f's where it succeeded and is not in `skip` (ascending), else its
+/// coefficients interpolated linearly between the nearest such frames on either side (held
+/// at the clip's ends) with the pose of the frame's own fit when it has one (the held fit's
+/// otherwise); `None` without any usable fit. When `skip` leaves none, it is ignored.
+pub fn bridged_fits(fits: &[FrameFit], n: usize, skip: &[usize]) -> Option<Vec<FrameFit>> {
+    let held = held_fits(fits, n)?;
+    let good: Vec<usize> =
+        fits.iter().filter(|f| f.failed.is_none() && f.frame < n).map(|f| f.frame).collect();
+    let kept: Vec<usize> = good.iter().copied().filter(|f| skip.binary_search(f).is_err()).collect();
+    let known = if kept.is_empty() { good } else { kept };
+    let blend = |a: &[f64], b: &[f64], t: f64| -> Vec<f64> {
+        a.iter().zip(b).map(|(x, y)| x * (1.0 - t) + y * t).collect()
+    };
+    Some(
+        (0..n)
+            .map(|f| {
+                let after = known.partition_point(|&k| k < f);
+                let (before, next) = (after.checked_sub(1).map(|i| known[i]), known.get(after).copied());
+                let (a, b, t) = match (before, next) {
+                    (_, Some(b)) if b == f => return held[f].clone(),
+                    (Some(a), Some(b)) => (a, b, (f - a) as f64 / (b - a) as f64),
+                    (Some(a), None) => (a, a, 0.0),
+                    (None, Some(b)) => (b, b, 0.0),
+                    (None, None) => return held[f].clone(),
+                };
+                FrameFit {
+                    identity: blend(&held[a].identity, &held[b].identity, t),
+                    expression: blend(&held[a].expression, &held[b].expression, t),
+                    ..held[f].clone()
+                }
+            })
+            .collect(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,5 +187,24 @@ mod tests {
         // Frames past n are not fits of this clip.
         assert!(unfillable_run(&[0, 500], 5, 1.0).unwrap().starts_with("frames 1–4"));
         assert_eq!(unfillable_run(&[0, 1, 2], 3, 1.0), None);
+    }
+
+    #[test]
+    fn discredited_frames_are_bridged_linearly_between_usable_ones() {
+        let fit = |frame: usize, a: f64| FrameFit {
+            identity: vec![a, 2.0 * a],
+            failed: None,
+            ..FrameFit::unposed(frame)
+        };
+        let fits = vec![fit(0, 0.0), fit(1, 9.0), fit(2, 9.0), fit(3, 3.0), fit(4, 5.0)];
+        let b = bridged_fits(&fits, 6, &[1, 2]).unwrap();
+        let ids: Vec<f64> = b.iter().map(|f| f.identity[0]).collect();
+        assert_eq!(ids, vec![0.0, 1.0, 2.0, 3.0, 5.0, 5.0]);
+        assert_eq!(b[2].identity[1], 4.0);
+        assert_eq!(b.iter().map(|f| f.frame).collect::<Vec<_>>(), vec![0, 1, 2, 3, 4, 5]);
+        // Skipping every good frame leaves them as they are.
+        let all = bridged_fits(&fits, 5, &[0, 1, 2, 3, 4]).unwrap();
+        assert_eq!(all[1].identity[0], 9.0);
+        assert!(bridged_fits(&[], 3, &[]).is_none());
     }
 }

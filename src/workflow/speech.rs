@@ -476,8 +476,7 @@ fn reference_binding(
     fits: &[ClipFits],
     model_path: (PathBuf, Option<PathBuf>),
 ) -> Result<HeadBinding> {
-    let neutrals: Vec<Coefficients> = fits.iter().map(|c| c.neutral.clone()).collect();
-    let mean = neutral_coefficients(&neutrals, &[]).map_err(speech_error)?;
+    let mean = speaker_neutral(fits)?;
     let mesh = points_of(&o.res.model.shape_at(&mean.identity, &mean.expression));
     let width = (mesh[o.mouth[MOUTH_CORNERS.0]] - mesh[o.mouth[MOUTH_CORNERS.1]]).norm();
     let region =
@@ -542,8 +541,12 @@ pub fn train_speech(
                 .map_err(|e| e.context(s))?;
             binding = Some((b, o.read.path.clone()));
         }
-        if let Some((head, _)) = &binding {
+        if let Some((head, _)) = &binding
+            && !fits.is_empty()
+        {
             let reference = head.reference_mouth();
+            let neutral = speaker_neutral(&fits).map_err(|e| e.context(s))?;
+            let normaliser = normaliser_of(head, &o.res.model, &neutral).map_err(|e| e.context(s))?;
             for c in &fits {
                 let rate = *fps.get_or_insert(c.fps);
                 if (c.fps - rate).abs() > 1e-9 {
@@ -552,13 +555,11 @@ pub fn train_speech(
                         c.name, c.fps
                     )));
                 }
-                let normaliser = normaliser_of(head, &o.res.model, &c.neutral)
-                    .map_err(|e| e.context(format!("{s}: clip `{}`", c.name)))?;
                 let mouth = reference_mouth_frames(
                     &o.res.model,
                     &o.mouth,
                     &c.bridged,
-                    &c.neutral,
+                    &neutral,
                     &normaliser,
                     &reference,
                 )?;
@@ -803,6 +804,23 @@ pub fn drive_clip(
     progress: ProgressFn<'_>,
     warnings: &mut Vec<Warning>,
 ) -> Result<Option<DrivenClip>> {
+    check_session_model(model, res, session)?;
+    // The speaker's neutral is the whole session's; the other clips' warnings are theirs.
+    let mut others = Vec::new();
+    let mut fits = Vec::new();
+    for k in 0..session.clips.len() {
+        let said = if k == clip { &mut *warnings } else { &mut others };
+        fits.extend(clip_fits(session, res, k, progress, said)?);
+    }
+    let Some(c) = fits.iter().find(|c| c.clip == clip) else {
+        return Ok(None);
+    };
+    let neutral = speaker_neutral(&fits)?;
+    drive_fitted(model, session, res, c, &neutral, warnings).map(Some)
+}
+
+/// `Ok` when `res`' model and map are those `model` was trained on.
+fn check_session_model(model: &SpeechModelFile, res: &Resources, session: &Session) -> Result<()> {
     let mouth = mouth_vertices(&res.map)?;
     if mouth != model.head.mouth_vertices {
         return Err(Error::Invalid(
@@ -810,20 +828,37 @@ pub fn drive_clip(
                 .into(),
         ));
     }
-    model.head.check_model(&res.model, session.base_dir())?;
-    let Some(c) = clip_fits(session, res, clip, progress, warnings)? else {
-        return Ok(None);
-    };
+    model.head.check_model(&res.model, session.base_dir())
+}
+
+/// A speaker's neutral: the mean of the neutrals of the speaker's clips (a clip's own, from
+/// its few silent frames, carries its fit's noise; every clip of a session is one speaker).
+fn speaker_neutral(fits: &[ClipFits]) -> Result<Coefficients> {
+    let neutrals: Vec<Coefficients> = fits.iter().map(|c| c.neutral.clone()).collect();
+    neutral_coefficients(&neutrals, &[]).map_err(speech_error)
+}
+
+/// [`drive_clip`] of a clip's fits, with its speaker's neutral.
+fn drive_fitted(
+    model: &SpeechModelFile,
+    session: &Session,
+    res: &Resources,
+    c: &ClipFits,
+    neutral: &Coefficients,
+    warnings: &mut Vec<Warning>,
+) -> Result<DrivenClip> {
+    let mouth = &model.head.mouth_vertices;
+    let clip = c.clip;
     let sm = &model.speech;
     let here = crate::speech::FeatureDescription { mfcc: mfcc_options(c.fps), ..sm.features.clone() };
     sm.features.check_matches(&here).map_err(speech_error)?;
     let audio = session.clip(clip)?.audio.clone().ok_or_else(|| Error::Invalid("the clip has no audio".into()))?;
     let sound = clip_log_mel(&c.name, &audio, &sm.features.mfcc, c.held.len())?;
     warnings.extend(sound.warning);
-    let normaliser = normaliser_of(&model.head, &res.model, &c.neutral)?;
+    let normaliser = normaliser_of(&model.head, &res.model, neutral)?;
     let reference = model.head.reference_mouth();
     let frames =
-        reference_mouth_frames(&res.model, &mouth, &c.bridged, &c.neutral, &normaliser, &reference)?;
+        reference_mouth_frames(&res.model, mouth, &c.bridged, neutral, &normaliser, &reference)?;
     let truth = sm
         .visual_features(&MouthClip { frames: &frames, neutral: &reference })
         .map_err(speech_error)?;
@@ -833,9 +868,9 @@ pub fn drive_clip(
         .and_then(|inv| sm.estimate_visual(&inv, &features))
         .map_err(speech_error)?;
     let linear = sm.estimate_linear(&features).map_err(speech_error)?;
-    let driver = MouthDriver::new(&res.model, &mouth, DRIVER_RIDGE).map_err(speech_error)?;
+    let driver = MouthDriver::new(&res.model, mouth, DRIVER_RIDGE).map_err(speech_error)?;
     let drive = |estimate: &DMatrix| -> Result<Vec<FrameFit>> {
-        let coefficients = drive_coefficients(sm, &driver, &c.neutral, estimate, Some(&normaliser))?;
+        let coefficients = drive_coefficients(sm, &driver, neutral, estimate, Some(&normaliser))?;
         Ok(c.held
             .iter()
             .zip(coefficients)
@@ -850,7 +885,7 @@ pub fn drive_clip(
     let utterance_linear = utterance(&drive(&linear)?)?;
     let utterance_fitted = utterance(&c.held)?;
     let trained_on = model.trained_on.iter().any(|t| t.audio_hash == sound.hash);
-    Ok(Some(DrivenClip {
+    Ok(DrivenClip {
         truth,
         hmm,
         linear,
@@ -858,7 +893,7 @@ pub fn drive_clip(
         utterance_hmm,
         utterance_linear,
         utterance_fitted,
-    }))
+    })
 }
 
 /// Coefficients per frame that move the neutral's mouth as `features` (T × K, on the
@@ -904,13 +939,24 @@ pub fn evaluate_speech(
 ) -> Result<SpeechEvaluation> {
     let mut o = open(session)?;
     let mut warnings: Vec<Warning> = o.read.notice.take().into_iter().collect();
-    let mut driven = Vec::new();
+    check_session_model(model, &o.res, &o.read.session).map_err(|e| e.context(session))?;
+    let mut fits = Vec::new();
     for clip in 0..o.read.session.clips.len() {
-        let d = drive_clip(model, &mut o.read.session, &o.res, clip, progress, &mut warnings)
+        let f = clip_fits(&mut o.read.session, &o.res, clip, progress, &mut warnings)
             .map_err(|e| e.context(session))?;
-        driven.extend(d);
+        fits.extend(f);
     }
     o.read.save_if_locked()?;
+    if fits.is_empty() {
+        return Err(Error::Invalid(format!("{session}: no clip with audio and fits")));
+    }
+    let neutral = speaker_neutral(&fits)?;
+    let mut driven = Vec::new();
+    for c in &fits {
+        let d = drive_fitted(model, &o.read.session, &o.res, c, &neutral, &mut warnings)
+            .map_err(|e| e.context(session))?;
+        driven.push(d);
+    }
     progress(Progress::Finished);
     if driven.is_empty() {
         return Err(Error::Invalid(format!("{session}: no clip with audio and fits")));

@@ -12,7 +12,7 @@ use super::activity::ActivityOptions;
 use super::baum_welch::{TrainOptions, TrainReport, improve_hmm, train_hmm};
 use super::context::stack_context;
 use super::error::{SpeechError, bad, check_finite_within, field_error};
-use super::features::{frame_dim, frame_features};
+use super::features::{LEVEL_SCALE, frame_dim, frame_features};
 use super::hmm::{Hmm, MAX_PARAMETER};
 use super::inversion::{InversionOptions, Inverter};
 use super::mfcc::MfccOptions;
@@ -402,18 +402,60 @@ impl SpeechModel {
         audio: &DMatrix,
     ) -> Result<DMatrix, SpeechError> {
         let raw = inverter.invert(audio, &InversionOptions::default())?;
-        finite_estimate(smooth_rows(&raw, self.features.smoothing_frames()), "AV-HMM")
+        self.finish_estimate(raw, audio, "AV-HMM")
     }
 
-    /// The linear baseline's estimate (T × K), smoothed as the AV-HMM's is.
+    /// The linear baseline's estimate (T × K), at rest in silence and smoothed as the
+    /// AV-HMM's is.
     ///
     /// # Errors
     /// Audio of the wrong width; a non-finite estimate.
     pub fn estimate_linear(&self, audio: &DMatrix) -> Result<DMatrix, SpeechError> {
         let raw = self.baseline.predict(audio)?;
-        finite_estimate(smooth_rows(&raw, self.features.smoothing_frames()), "linear baseline")
+        self.finish_estimate(raw, audio, "linear baseline")
+    }
+
+    /// An estimate brought to rest where the audio has no speech, then smoothed.
+    ///
+    /// Each frame is blended with the rest pose (the reference face's neutral, whose visual
+    /// features are the projection of no displacement) by `1 − a'_t`, `a'_t` the largest
+    /// speech activity ([`super::activity`], read from the centre frame of the stacked
+    /// features) within [`REST_MARGIN_S`] of it. The model sees silence too, but through a
+    /// context window that reaches into the neighbouring words; a frame with no speech near
+    /// it is a mouth at rest, while the margin leaves the model the lips' anticipation of
+    /// the next sound and the release of the last.
+    fn finish_estimate(
+        &self,
+        mut estimate: DMatrix,
+        audio: &DMatrix,
+        who: &str,
+    ) -> Result<DMatrix, SpeechError> {
+        let fd = frame_dim(&self.features.mfcc);
+        let column = self.features.context * fd + fd - 1;
+        if audio.ncols() <= column || audio.nrows() != estimate.nrows() {
+            return Err(bad("audio features", format!("{} columns", audio.ncols())));
+        }
+        let activity: Vec<f64> =
+            audio.column(column).iter().map(|v| (v / LEVEL_SCALE).clamp(0.0, 1.0)).collect();
+        let reach = (REST_MARGIN_S * self.features.mfcc.frame_rate).round() as usize;
+        let rest = self.visual.rest();
+        let t_len = activity.len();
+        for t in 0..t_len {
+            let near = activity[t.saturating_sub(reach)..(t + reach + 1).min(t_len)]
+                .iter()
+                .copied()
+                .fold(0.0, f64::max);
+            for k in 0..estimate.ncols() {
+                estimate[(t, k)] = near * estimate[(t, k)] + (1.0 - near) * rest[k];
+            }
+        }
+        finite_estimate(smooth_rows(&estimate, self.features.smoothing_frames()), who)
     }
 }
+
+/// How far from speech a frame's estimate is left to the model rather than brought to rest
+/// ([`SpeechModel::estimate_visual`]): about the lips' anticipation of a sound.
+pub const REST_MARGIN_S: f64 = 0.04;
 
 /// `m`, or an error naming the first frame where `who`'s estimate is not finite.
 fn finite_estimate(m: DMatrix, who: &str) -> Result<DMatrix, SpeechError> {

@@ -25,7 +25,7 @@ use super::session::{ReadSession, clip_length, open_for_read};
 use super::{Progress, ProgressFn};
 use crate::alignment::grouping_label;
 use crate::eval::Utterance;
-use crate::fit::{FrameFit, fitted_shape};
+use crate::fit::FrameFit;
 use crate::io::npy_model;
 use crate::io::wav::WavStream;
 use crate::landmarks::flags::FlagThresholds;
@@ -325,10 +325,11 @@ struct ClipFits {
     clip: usize,
     name: String,
     fps: f64,
-    /// Per frame 0..n: the fit used (failed frames hold the last good one).
+    /// Per frame 0..n: the fit used (failed frames hold the last good one), without the
+    /// per-landmark residuals (1.6 KB a frame that nothing here reads).
     held: Vec<FrameFit>,
-    /// The same with failed and discredited frames bridged: the visual truth.
-    bridged: Vec<FrameFit>,
+    /// The coefficients with failed and discredited frames bridged: the visual truth.
+    bridged: Vec<Coefficients>,
     neutral: Coefficients,
 }
 
@@ -368,7 +369,7 @@ fn clip_fits(
         warnings.push(Warning(format!("lipmap: warning: clip `{name}`: {why}; not used")));
         return Ok(None);
     }
-    let Some(held) = held_fits(&fits, n) else {
+    let Some(mut held) = held_fits(&fits, n) else {
         warnings.push(Warning(format!(
             "lipmap: warning: clip `{name}` has no successful fit; not used"
         )));
@@ -381,12 +382,13 @@ fn clip_fits(
         .map(|f| f.frame)
         .collect();
     discredited.sort_unstable();
-    let bridged = bridged_fits(&fits, n, &discredited).unwrap_or_else(|| held.clone());
-    let coefficients: Vec<Coefficients> = bridged
-        .iter()
-        .map(|f| Coefficients { identity: f.identity.clone(), expression: f.expression.clone() })
+    let bridged: Vec<Coefficients> = bridged_fits(&fits, n, &discredited)
+        .unwrap_or_else(|| held.clone())
+        .into_iter()
+        .map(|f| Coefficients { identity: f.identity, expression: f.expression })
         .collect();
-    let neutral = neutral_coefficients(&coefficients, &silent).map_err(speech_error)?;
+    held.iter_mut().for_each(|f| f.residuals = Vec::new());
+    let neutral = neutral_coefficients(&bridged, &silent).map_err(speech_error)?;
     Ok(Some(ClipFits { clip, name, fps, held, bridged, neutral }))
 }
 
@@ -417,12 +419,13 @@ fn normaliser_of(
         .map_err(speech_error)
 }
 
-/// The clip's mouth per frame (from `fits`) carried onto the reference face: the reference
-/// neutral mouth plus each frame's normalised displacement from the clip's neutral.
+/// The clip's mouth per frame (from its coefficients) carried onto the reference face: the
+/// reference neutral mouth plus each frame's normalised displacement from the speaker's
+/// neutral.
 fn reference_mouth_frames(
     model: &MorphableModel,
     mouth: &[usize],
-    fits: &[FrameFit],
+    frames: &[Coefficients],
     neutral: &Coefficients,
     normaliser: &SpeakerNormaliser,
     reference: &[Point3],
@@ -430,9 +433,11 @@ fn reference_mouth_frames(
     let neutral_mouth =
         mouth_points(&model.shape_at(&neutral.identity, &neutral.expression), mouth)
             .map_err(speech_error)?;
-    fits.iter()
+    frames
+        .iter()
         .map(|f| {
-            let m = mouth_points(&fitted_shape(model, f), mouth).map_err(speech_error)?;
+            let m = mouth_points(&model.shape_at(&f.identity, &f.expression), mouth)
+                .map_err(speech_error)?;
             Ok(m.iter()
                 .zip(&neutral_mouth)
                 .zip(reference)

@@ -16,7 +16,7 @@
 #[allow(dead_code)]
 mod speech_corpus;
 
-use lipmap::alignment::{Alignment, grouping_label};
+use lipmap::alignment::{Alignment, PhoneInventory};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -133,16 +133,12 @@ fn other_speakers_meet_the_targets() {
     assert!(failures.is_empty(), "below target: {failures:?}");
 }
 
-/// Labels of vowels: ARPAbet (stress digits dropped), Festival's radio phoneset, and IPA
-/// (mary's TextGrid). Mapped here until the phone inventory lands in `alignment`.
-fn is_vowel(label: &str) -> bool {
-    const ARPABET: [&str; 18] = [
-        "AA", "AE", "AH", "AO", "AW", "AY", "EH", "ER", "EY", "IH", "IY", "OW", "OY", "UH", "UW",
-        "AX", "AXR", "IX",
-    ];
-    let g = grouping_label(label);
-    ARPABET.contains(&g.to_ascii_uppercase().as_str())
-        || g.chars().any(|c| "aeiouɑɐɒæɛɜəɘɚɝɞɪʊʌɔøœɶɤɯɨʉyʏ".contains(c))
+/// Whether a label (any spelling the phone inventory knows) is a vowel: its key is one of
+/// CMUdict's vowels.
+fn is_vowel(phones: &PhoneInventory, label: &str) -> bool {
+    const VOWELS: [&str; 15] =
+        ["AA", "AE", "AH", "AO", "AW", "AY", "EH", "ER", "EY", "IH", "IY", "OW", "OY", "UH", "UW"];
+    VOWELS.contains(&phones.key_of(label).as_str())
 }
 
 /// (mean opening in silence, median opening on vowels), each as a fraction of the
@@ -167,13 +163,14 @@ fn rest_and_open(wav: &Path, alignment: &Alignment, out: &Path) -> (f64, f64) {
     let lo = opening.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = opening.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let fps = 24.0;
+    let phones = PhoneInventory::default();
     let (mut silence, mut vowels) = (Vec::new(), Vec::new());
     for (f, o) in opening.iter().enumerate() {
         let relative = (o - lo) / (hi - lo);
         match alignment.phone_at(f as f64 / fps) {
-            Some(p) if grouping_label(&p.label) == "sil" => silence.push(relative),
+            Some(p) if phones.is_silence(&p.label) => silence.push(relative),
             None => silence.push(relative),
-            Some(p) if is_vowel(&p.label) => vowels.push(relative),
+            Some(p) if is_vowel(&phones, &p.label) => vowels.push(relative),
             Some(_) => {}
         }
     }

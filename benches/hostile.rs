@@ -91,7 +91,8 @@ fn hour_of_audio(tmp: &Path) {
     let loaded = lipmap::session::Session::load(&session).expect("demo session");
     let mut voice = Vec::new();
     for c in &loaded.clips {
-        let a = lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
+        let a =
+            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
         voice.extend(a.samples);
     }
     let anim = tmp.join("anim_hour");

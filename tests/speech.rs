@@ -28,7 +28,10 @@ struct Scores {
 
 /// The log mel energies of each sentence, one row per mouth frame.
 fn log_mels(sentences: &[Sentence], opts: &SpeechOptions) -> Vec<DMatrix> {
-    sentences.iter().map(|s| compute_log_mel(&s.samples, &opts.mfcc, s.mouth.len()).unwrap()).collect()
+    sentences
+        .iter()
+        .map(|s| compute_log_mel(&s.samples, &opts.mfcc, s.mouth.len()).unwrap())
+        .collect()
 }
 
 fn evaluate(train: &[Sentence], test: &[Sentence], fps: f64) -> Scores {

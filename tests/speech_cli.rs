@@ -55,7 +55,11 @@ fn trained(dir: &Path) -> (PathBuf, PathBuf) {
     assert!(said.contains("trained on 3 clips"), "{said}");
     // 3 sentences are too few for 4 states of 43-dimensional Gaussians: shrunk, and said.
     assert!(said.contains("2 states × 1 mixtures"), "{said}");
-    assert!(text(&out.stderr).contains("too few for 4 states × 1 mixtures"), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stderr).contains("too few for 4 states × 1 mixtures"),
+        "{}",
+        text(&out.stderr)
+    );
     // Why Baum–Welch stopped, and why there is no held-out estimate.
     assert!(said.contains("Baum-Welch (last run): stopped"), "{said}");
     assert!(said.contains("no held-out estimate: fewer than 10 clips"), "{said}");
@@ -109,7 +113,14 @@ fn train_eval_animate_and_every_bad_input() {
     assert_eq!(coefficients.shape[0], mouth.shape[0]);
     assert!(mouth.data.iter().chain(&coefficients.data).all(|v| v.is_finite()));
     let out = lipmap(&[
-        "speech", "animate", s(&model), "--audio", s(&voice), "--shapes", "--out", s(&anim),
+        "speech",
+        "animate",
+        s(&model),
+        "--audio",
+        s(&voice),
+        "--shapes",
+        "--out",
+        s(&anim),
     ]);
     assert!(out.status.success(), "animate --shapes: {}", text(&out.stderr));
     let shapes = lipmap::io::npy_model::read_npy(&anim.join("shapes.npy")).unwrap();
@@ -190,7 +201,10 @@ fn short_audio(dir: &Path, session: &Path) {
     let out = lipmap(&["speech", "train", s(&path), "--out", s(&dir.join("short.json"))]);
     assert_eq!(out.status.code(), Some(2));
     let e = one_error(&out);
-    assert!(e.contains(&format!("clip `{name}`")) && e.contains("25 %") && e.contains("one_sample.wav"), "{e}");
+    assert!(
+        e.contains(&format!("clip `{name}`")) && e.contains("25 %") && e.contains("one_sample.wav"),
+        "{e}"
+    );
     let out = lipmap(&["import", s(&path), "--audio", s(&one), "--clip", &name]);
     let e = one_error(&out);
     assert!(e.contains("25 %"), "{e}");
@@ -300,16 +314,44 @@ fn bad_models(dir: &Path, model: &Path, session: &Path) {
     let e = eval(&broken);
     assert!(e.contains("broken.json") && e.contains("hmm.states[0][0]"), "{e}");
     for (name, edit, field) in [
-        ("mean.json", &(|v: &mut serde_json::Value| v["speech"]["visual"]["mean"][0][0] = 1e308.into()) as &dyn Fn(&mut serde_json::Value), "speech.visual.mean[0]"),
-        ("gauss.json", &|v: &mut serde_json::Value| v["speech"]["hmm"]["states"][1][0]["gaussian"]["mean"][0][2] = 1e300.into(), "hmm.states[1][0].gaussian.mean[2]"),
-        ("neutral.json", &|v: &mut serde_json::Value| v["head"]["neutral_identity"][0] = (-1e12).into(), "head.neutral_identity[0]"),
-        ("baseline.json", &|v: &mut serde_json::Value| v["speech"]["baseline"]["weights"][0][3] = 1e307.into(), "speech.baseline.weights"),
-        ("rows.json", &|v: &mut serde_json::Value| v["speech"]["hmm"]["transitions"][0][0] = 7.0.into(), "hmm.transitions row 0"),
+        (
+            "mean.json",
+            &(|v: &mut serde_json::Value| v["speech"]["visual"]["mean"][0][0] = 1e308.into())
+                as &dyn Fn(&mut serde_json::Value),
+            "speech.visual.mean[0]",
+        ),
+        (
+            "gauss.json",
+            &|v: &mut serde_json::Value| {
+                v["speech"]["hmm"]["states"][1][0]["gaussian"]["mean"][0][2] = 1e300.into()
+            },
+            "hmm.states[1][0].gaussian.mean[2]",
+        ),
+        (
+            "neutral.json",
+            &|v: &mut serde_json::Value| v["head"]["neutral_identity"][0] = (-1e12).into(),
+            "head.neutral_identity[0]",
+        ),
+        (
+            "baseline.json",
+            &|v: &mut serde_json::Value| v["speech"]["baseline"]["weights"][0][3] = 1e307.into(),
+            "speech.baseline.weights",
+        ),
+        (
+            "rows.json",
+            &|v: &mut serde_json::Value| v["speech"]["hmm"]["transitions"][0][0] = 7.0.into(),
+            "hmm.transitions row 0",
+        ),
     ] {
         let e = eval(&edited(name, edit));
         assert!(e.contains(name) && e.contains(field), "{name}: {e}");
         let e = one_error(&lipmap(&[
-            "speech", "animate", s(&dir.join(name)), "--audio", s(&first_voice(session)), "--out",
+            "speech",
+            "animate",
+            s(&dir.join(name)),
+            "--audio",
+            s(&first_voice(session)),
+            "--out",
             s(&dir.join("never")),
         ]));
         assert!(e.contains(field), "{name}: {e}");

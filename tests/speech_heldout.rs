@@ -13,7 +13,6 @@
 //! `cargo test --release --test speech_heldout -- --ignored --nocapture`.
 
 #[path = "speech_corpus.rs"]
-#[allow(dead_code)]
 mod speech_corpus;
 
 use lipmap::alignment::{Alignment, PhoneInventory};
@@ -89,10 +88,7 @@ fn eval(session: &Path) -> ([f64; 4], bool) {
     let row = |i: usize| (scores[i]["ACC"].as_f64().unwrap(), scores[i]["AMSE"].as_f64().unwrap());
     let ((acc, amse), (lacc, lamse)) = (row(0), row(1));
     let eval_text = ok(lipmap(&["speech", "eval", s(model()), s(session)]), "speech eval");
-    (
-        [acc, amse, lacc, lamse],
-        eval_text.contains("held out: none of the"),
-    )
+    ([acc, amse, lacc, lamse], eval_text.contains("held out: none of the"))
 }
 
 #[test]
@@ -127,7 +123,9 @@ fn other_speakers_meet_the_targets() {
             "{speaker}: AV-HMM ACC {acc:.3} AMSE {amse:.3}; linear ACC {lacc:.3} AMSE {lamse:.3}"
         );
         if !(acc >= 0.8 && amse < 0.6 && acc > lacc && amse < lamse) {
-            failures.push(format!("{speaker}: ACC {acc:.3} AMSE {amse:.3} (baseline {lacc:.3}, {lamse:.3})"));
+            failures.push(format!(
+                "{speaker}: ACC {acc:.3} AMSE {amse:.3} (baseline {lacc:.3}, {lamse:.3})"
+            ));
         }
     }
     assert!(failures.is_empty(), "below target: {failures:?}");
@@ -199,7 +197,9 @@ fn unseen_voices_rest_in_silence_and_open_on_vowels() {
         .collect();
     let words = speech_corpus::grid_sentences(4, 99);
     match speech_corpus::festival_wavs(&words) {
-        Some(w) => voices.extend(w.into_iter().map(|(text, wav, a)| (format!("festival: {text}"), wav, a))),
+        Some(w) => {
+            voices.extend(w.into_iter().map(|(text, wav, a)| (format!("festival: {text}"), wav, a)))
+        }
         None => eprintln!("festival is not installed: its voice is skipped"),
     }
     let mut failures = Vec::new();

@@ -259,7 +259,8 @@ fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
     let progress = crate::cli::progress::show_on(&bar);
     let files = animate_speech(&model, &a.audio, &outputs, &a.out, &progress)?;
     bar.finish_and_clear();
-    let mut wrote = vec![files.coefficients.display().to_string(), files.mouth.display().to_string()];
+    let mut wrote =
+        vec![files.coefficients.display().to_string(), files.mouth.display().to_string()];
     wrote.extend(files.shapes.as_ref().map(|p| p.display().to_string()));
     writeln!(
         out,

@@ -100,7 +100,10 @@ impl<R: Read> WavStream<R> {
         let reader = hound::WavReader::new(reader).map_err(|e| bad_wav(path, &e))?;
         let spec = reader.spec();
         if spec.channels == 0 || spec.sample_rate == 0 {
-            return Err(FormatError::whole(path, "WAV header has no channels or a zero sample rate"));
+            return Err(FormatError::whole(
+                path,
+                "WAV header has no channels or a zero sample rate",
+            ));
         }
         match (spec.sample_format, spec.bits_per_sample) {
             (hound::SampleFormat::Float, 32) | (hound::SampleFormat::Int, 8 | 16 | 24 | 32) => {}
@@ -272,7 +275,12 @@ pub fn check_wav(path: &Path) -> Result<WavSummary> {
         return Err(FormatError::whole(path, "WAV file has no audio samples"));
     }
     let (sample_rate, channels) = stream.spec();
-    Ok(WavSummary { sample_rate, channels, frames: stream.frames_read(), hash: stream.content_hash() })
+    Ok(WavSummary {
+        sample_rate,
+        channels,
+        frames: stream.frames_read(),
+        hash: stream.content_hash(),
+    })
 }
 
 /// Reads a WAV file as mono at `sample_rate` Hz, downsampling when it was recorded faster.

@@ -44,7 +44,7 @@ pub(crate) fn check_finite_within(
     values: impl IntoIterator<Item = f64>,
     bound: f64,
 ) -> Result<(), SpeechError> {
-    match values.into_iter().enumerate().find(|(_, v)| !(v.abs() <= bound)) {
+    match values.into_iter().enumerate().find(|(_, v)| !v.is_finite() || v.abs() > bound) {
         Some((i, v)) => Err(field_error(
             format!("{field}[{i}]"),
             format!(

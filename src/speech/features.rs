@@ -125,9 +125,8 @@ mod tests {
         // log gain to every frame of each band: a constant cepstral offset, which the
         // normalisation removes, and a level, which the loudness is relative to.
         let x = bursts(32_000, 1e-3, 12_345);
-        let y: Vec<f32> = (0..x.len())
-            .map(|n| 0.1 * (x[n] + if n > 0 { 0.8 * x[n - 1] } else { 0.0 }))
-            .collect();
+        let y: Vec<f32> =
+            (0..x.len()).map(|n| 0.1 * (x[n] + if n > 0 { 0.8 * x[n - 1] } else { 0.0 })).collect();
         let opts = MfccOptions::new(16_000.0, 25.0);
         let raw = |v: &[f32]| cepstra(&compute_log_mel(v, &opts, 50).unwrap(), opts.n_ceps);
         let (fx, fy) = (features_of(&x), features_of(&y));

@@ -60,7 +60,9 @@ impl Gaussian {
         // A Cholesky factorisation does not see NaN (every comparison with it is false), and
         // an asymmetric matrix is factorised from its lower half only.
         if self.mean.iter().chain(self.cov.iter()).any(|v| !v.is_finite()) {
-            return Err(SpeechError::Degenerate("Gaussian (a mean or covariance value is not finite)".into()));
+            return Err(SpeechError::Degenerate(
+                "Gaussian (a mean or covariance value is not finite)".into(),
+            ));
         }
         let scale = self.cov.diagonal().abs().max().max(f64::MIN_POSITIVE);
         if (&self.cov - self.cov.transpose()).abs().max() > 1e-9 * scale {

@@ -58,8 +58,16 @@ impl TryFrom<HmmParams> for Hmm {
             let mut comps = Vec::with_capacity(state.len());
             for (k, c) in state.into_iter().enumerate() {
                 let at = format!("hmm.states[{j}][{k}]");
-                check_finite_within(&format!("{at}.gaussian.mean"), c.gaussian.mean.iter().copied(), MAX_PARAMETER)?;
-                check_finite_within(&format!("{at}.gaussian.cov"), c.gaussian.cov.iter().copied(), MAX_PARAMETER)?;
+                check_finite_within(
+                    &format!("{at}.gaussian.mean"),
+                    c.gaussian.mean.iter().copied(),
+                    MAX_PARAMETER,
+                )?;
+                check_finite_within(
+                    &format!("{at}.gaussian.cov"),
+                    c.gaussian.cov.iter().copied(),
+                    MAX_PARAMETER,
+                )?;
                 let gaussian = Gaussian::new(c.gaussian.mean, c.gaussian.cov)
                     .map_err(|e| field_error(format!("{at}.gaussian"), e.to_string()))?;
                 comps.push(Component { weight: c.weight, gaussian });

@@ -292,11 +292,8 @@ impl LogMelAnalyser {
         }
         self.fft.process(&mut self.spectrum);
         for (first, weights) in &self.filters {
-            let e: f64 = weights
-                .iter()
-                .zip(&self.spectrum[*first..])
-                .map(|(w, b)| w * b.norm_sqr())
-                .sum();
+            let e: f64 =
+                weights.iter().zip(&self.spectrum[*first..]).map(|(w, b)| w * b.norm_sqr()).sum();
             self.rows.push(e.max(ENERGY_FLOOR).ln());
         }
         self.next_frame += 1;
@@ -324,7 +321,11 @@ impl LogMelAnalyser {
         while self.next_frame < total {
             self.analyse_next();
         }
-        DMatrix::from_row_slice(total, self.opts.n_filters, &self.rows[..total * self.opts.n_filters])
+        DMatrix::from_row_slice(
+            total,
+            self.opts.n_filters,
+            &self.rows[..total * self.opts.n_filters],
+        )
     }
 }
 

@@ -40,12 +40,12 @@ pub use baum_welch::{TrainOptions, TrainReport, improve_hmm, train_hmm};
 pub use context::stack_context;
 pub use drive::{Coefficients, MouthDriver, mouth_points, neutral_coefficients};
 pub use error::SpeechError;
+pub use features::{audio_features, frame_features};
 pub use forward_backward::{Posteriors, forward_backward};
 pub use gaussian::Gaussian;
 pub use hmm::{Component, Hmm};
 pub use inversion::{InversionOptions, Inverter};
 pub use measures::{average_correlation, average_mse};
-pub use features::{audio_features, frame_features};
 pub use mfcc::{LogMelAnalyser, MfccOptions, compute_log_mel, frame_count};
 pub use model::{
     FeatureDescription, SpeechModel, SpeechOptions, TrainingClip, compute_audio_features,

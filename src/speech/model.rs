@@ -207,7 +207,10 @@ pub fn compute_audio_features(
     log_mel: &DMatrix,
     features: &FeatureDescription,
 ) -> Result<DMatrix, SpeechError> {
-    Ok(stack_context(&frame_features(log_mel, &features.mfcc, &features.activity)?, features.context))
+    Ok(stack_context(
+        &frame_features(log_mel, &features.mfcc, &features.activity)?,
+        features.context,
+    ))
 }
 
 /// The audio and visual feature matrices of `clips`, the visual ones by `visual` (projected
@@ -357,7 +360,11 @@ impl SpeechModel {
         if self.baseline.weights.shape() != (da + 1, dv) {
             return Err(mismatch("baseline rows", da + 1, self.baseline.weights.nrows()));
         }
-        check_finite_within("baseline.weights", self.baseline.weights.iter().copied(), MAX_PARAMETER)?;
+        check_finite_within(
+            "baseline.weights",
+            self.baseline.weights.iter().copied(),
+            MAX_PARAMETER,
+        )?;
         check_finite_within(
             "report.log_likelihood_per_frame",
             self.report.log_likelihood_per_frame.iter().copied(),
@@ -516,7 +523,10 @@ mod tests {
         assert!(ok.validate().is_ok());
         for (wrong, field) in [
             (FeatureDescription { context: 1_000_000, ..ok.clone() }, "features.context"),
-            (FeatureDescription { visual_components: 0, ..ok.clone() }, "features.visual_components"),
+            (
+                FeatureDescription { visual_components: 0, ..ok.clone() },
+                "features.visual_components",
+            ),
             (FeatureDescription { smoothing_s: f64::NAN, ..ok.clone() }, "features.smoothing_s"),
             (
                 FeatureDescription {

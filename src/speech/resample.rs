@@ -98,7 +98,8 @@ impl Resampler {
     }
 
     fn polyphase(&self, l: u64, m: u64) -> Polyphase {
-        let (mut first, mut taps) = (Vec::with_capacity(l as usize), Vec::with_capacity(l as usize));
+        let (mut first, mut taps) =
+            (Vec::with_capacity(l as usize), Vec::with_capacity(l as usize));
         for p in 0..l {
             let frac = p as f64 / l as f64;
             let lo = (frac - self.half_width).ceil() as i64;

@@ -13,7 +13,7 @@ use crate::math::DMatrix;
 /// constant stays constant and a clip's edges are not pulled towards zero). σ ≤ 0 returns
 /// `m` unchanged.
 pub fn smooth_rows(m: &DMatrix, sigma_frames: f64) -> DMatrix {
-    if !(sigma_frames > 0.0) || m.nrows() < 2 {
+    if sigma_frames.is_nan() || sigma_frames <= 0.0 || m.nrows() < 2 {
         return m.clone();
     }
     let radius = (3.0 * sigma_frames).ceil() as usize;

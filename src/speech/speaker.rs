@@ -61,13 +61,12 @@ impl FaceRegion {
             return Err(bad("region radius", radius.to_string()));
         }
         let vertices: Vec<usize> = (0..mesh.len())
-            .filter(|&u| mouth.contains(&u) || mouth.iter().any(|&v| (mesh[u] - mesh[v]).norm() < radius))
+            .filter(|&u| {
+                mouth.contains(&u) || mouth.iter().any(|&v| (mesh[u] - mesh[v]).norm() < radius)
+            })
             .collect();
         let points = vertices.iter().map(|&u| mesh[u]).collect();
-        let mouth = mouth
-            .iter()
-            .map(|v| vertices.binary_search(v).unwrap_or_default())
-            .collect();
+        let mouth = mouth.iter().map(|v| vertices.binary_search(v).unwrap_or_default()).collect();
         Ok(Self { vertices, points, mouth })
     }
 
@@ -87,8 +86,13 @@ impl FaceRegion {
         if let Some(i) = self.mouth.iter().position(|&m| m >= self.points.len()) {
             return Err(bad("region mouth", format!("entry {i} is past the region's vertices")));
         }
-        if let Some(i) = self.points.iter().position(|p| p.iter().any(|c| !(c.abs() <= bound))) {
-            return Err(bad("region points", format!("point {i} is not finite or beyond ±{bound}")));
+        if let Some(i) =
+            self.points.iter().position(|p| p.iter().any(|c| !c.is_finite() || c.abs() > bound))
+        {
+            return Err(bad(
+                "region points",
+                format!("point {i} is not finite or beyond ±{bound}"),
+            ));
         }
         Ok(())
     }
@@ -135,7 +139,8 @@ impl SpeakerNormaliser {
         if speaker.iter().any(|p| p.iter().any(|c| !c.is_finite())) {
             return Err(bad("speaker face", "a vertex is not finite"));
         }
-        let mouth = |pts: &[Point3]| -> Vec<Point3> { reference.mouth.iter().map(|&i| pts[i]).collect() };
+        let mouth =
+            |pts: &[Point3]| -> Vec<Point3> { reference.mouth.iter().map(|&i| pts[i]).collect() };
         let ratio = spread(&mouth(speaker)) / spread(&mouth(&reference.points));
         if !(ratio.is_finite() && ratio > 0.0) {
             return Err(SpeechError::Degenerate("speaker's mouth (no extent)".into()));
@@ -171,7 +176,10 @@ impl SpeakerNormaliser {
 
     /// No normalisation, for `n` mouth vertices.
     pub fn identity(n: usize) -> Self {
-        Self { to_reference: vec![Matrix3::identity(); n], from_reference: vec![Matrix3::identity(); n] }
+        Self {
+            to_reference: vec![Matrix3::identity(); n],
+            from_reference: vec![Matrix3::identity(); n],
+        }
     }
 
     /// Mouth vertices it maps.

@@ -97,9 +97,8 @@ pub fn clip_log_mel(
     let mut analyser = LogMelAnalyser::new(mfcc, Some(n_frames))
         .map_err(|e| Error::Invalid(format!("clip `{name}`: {e}")))?;
     let shift = (audio.offset_s * f64::from(rate)).round();
-    let fail = |e: crate::speech::SpeechError| {
-        Error::Invalid(format!("{}: {e}", audio.file.display()))
-    };
+    let fail =
+        |e: crate::speech::SpeechError| Error::Invalid(format!("{}: {e}", audio.file.display()));
     // Silence before a late start, in blocks: never more than the clip's length.
     let mut lead = if shift > 0.0 { shift as usize } else { 0 };
     let zeros = vec![0.0f32; 8192];
@@ -124,7 +123,12 @@ pub fn clip_log_mel(
         }
     }
     let audio_s = delivered as f64 / f64::from(rate);
-    let warning = check_coverage(name, &audio.file, covered_seconds(audio.offset_s, audio_s, clip_s), clip_s)?;
+    let warning = check_coverage(
+        name,
+        &audio.file,
+        covered_seconds(audio.offset_s, audio_s, clip_s),
+        clip_s,
+    )?;
     Ok(ClipSound { log_mel: analyser.finish(), hash: stream.content_hash(), warning })
 }
 
@@ -182,7 +186,12 @@ pub fn read_clip_audio(clip: &Clip, session_file: &Path, input: &AudioInput) -> 
     }
     if let Some(last) = clip.tracked.frames.last() {
         let clip_s = (last.frame + 1) as f64 / clip.front.fps;
-        check_coverage(&clip.name, &file, covered_seconds(offset_s, audio.seconds(), clip_s), clip_s)?;
+        check_coverage(
+            &clip.name,
+            &file,
+            covered_seconds(offset_s, audio.seconds(), clip_s),
+            clip_s,
+        )?;
     }
     Ok(ClipAudio { file, sample_rate: audio.sample_rate, channels: audio.channels, offset_s })
 }

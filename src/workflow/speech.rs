@@ -34,9 +34,9 @@ use crate::model::{LandmarkMap, MorphableModel};
 use crate::session::Session;
 use crate::speech::{
     Coefficients, FaceRegion, LogMelAnalyser, MfccOptions, MouthClip, MouthDriver,
-    SpeakerNormaliser, SpeechError, SpeechModel, SpeechOptions, TrainingClip,
-    average_correlation, average_mse, frame_features, mouth_points, neutral_coefficients,
-    stack_context, stack_rows, visual_basis_of,
+    SpeakerNormaliser, SpeechError, SpeechModel, SpeechOptions, TrainingClip, average_correlation,
+    average_mse, frame_features, mouth_points, neutral_coefficients, stack_context, stack_rows,
+    visual_basis_of,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -184,13 +184,18 @@ impl HeadBinding {
             return Err(field("region.vertices", past(v)));
         }
         if self.region.mouth.len() != self.mouth_vertices.len()
-            || self.region.mouth.iter().zip(&self.mouth_vertices).any(|(&i, &v)| {
-                self.region.vertices.get(i) != Some(&v)
-            })
+            || self
+                .region
+                .mouth
+                .iter()
+                .zip(&self.mouth_vertices)
+                .any(|(&i, &v)| self.region.vertices.get(i) != Some(&v))
         {
             return Err(field("region.mouth", "does not name the mouth vertices".into()));
         }
-        self.region.validate(crate::speech::hmm::MAX_PARAMETER).map_err(|e| field("region", e.to_string()))?;
+        self.region
+            .validate(crate::speech::hmm::MAX_PARAMETER)
+            .map_err(|e| field("region", e.to_string()))?;
         crate::speech::error::check_finite_within(
             "head.neutral_identity",
             self.neutral_identity.iter().copied(),
@@ -537,7 +542,8 @@ pub fn train_speech(
         {
             let reference = head.reference_mouth();
             let neutral = speaker_neutral(&fits).map_err(|e| e.context(s))?;
-            let normaliser = normaliser_of(head, &o.res.model, &neutral).map_err(|e| e.context(s))?;
+            let normaliser =
+                normaliser_of(head, &o.res.model, &neutral).map_err(|e| e.context(s))?;
             for c in &fits {
                 let rate = *fps.get_or_insert(c.fps);
                 if (c.fps - rate).abs() > 1e-9 {
@@ -554,9 +560,13 @@ pub fn train_speech(
                     &normaliser,
                     &reference,
                 )?;
-                let audio = o.read.session.clip(c.clip)?.audio.clone().ok_or_else(|| {
-                    Error::Invalid(format!("clip `{}` has no audio", c.name))
-                })?;
+                let audio = o
+                    .read
+                    .session
+                    .clip(c.clip)?
+                    .audio
+                    .clone()
+                    .ok_or_else(|| Error::Invalid(format!("clip `{}` has no audio", c.name)))?;
                 let sound = clip_log_mel(&c.name, &audio, &mfcc_options(rate), mouth.len())
                     .map_err(|e| e.context(s))?;
                 warnings.extend(sound.warning);
@@ -573,9 +583,10 @@ pub fn train_speech(
         }
         o.read.save_if_locked()?;
     }
-    let (head, _) = binding
-        .ok_or_else(|| Error::Invalid("no clip with audio and fits to train on".into()))?;
-    let fps = fps.ok_or_else(|| Error::Invalid("no clip with audio and fits to train on".into()))?;
+    let (head, _) =
+        binding.ok_or_else(|| Error::Invalid("no clip with audio and fits to train on".into()))?;
+    let fps =
+        fps.ok_or_else(|| Error::Invalid("no clip with audio and fits to train on".into()))?;
     let mut opts = SpeechOptions::new(f64::from(SPEECH_SAMPLE_RATE), fps);
     opts.context = settings.context;
     opts.train.n_states = settings.states;
@@ -647,7 +658,10 @@ fn fit_model_size(opts: &mut SpeechOptions, frames: usize) -> Option<(usize, usi
 }
 
 /// AMSE and ACC of `model` (HMM and baseline) on `clips`.
-fn score_clips(model: &SpeechModel, clips: &[TrainingClip]) -> Result<(SpeechScores, SpeechScores, usize)> {
+fn score_clips(
+    model: &SpeechModel,
+    clips: &[TrainingClip],
+) -> Result<(SpeechScores, SpeechScores, usize)> {
     let inverter = model.inverter().map_err(speech_error)?;
     let mut truth = Vec::new();
     let mut hmm = Vec::new();
@@ -669,17 +683,20 @@ fn train_with_held_out(
     opts: &SpeechOptions,
     progress: ProgressFn<'_>,
 ) -> Result<(SpeechModel, Option<HeldOutEstimate>)> {
-    let training = |what: String, clips: &[TrainingClip], model: Option<(crate::speech::VisualBasis, crate::speech::Hmm)>| {
-        let total = opts.train.max_iterations;
-        progress(Progress::Stage { what, total });
-        let mut step = |i: usize, _: f64| progress(Progress::Steps { done: i, total });
-        match model {
-            Some((basis, hmm)) => SpeechModel::train(clips, opts, basis, Some(hmm), &mut step),
-            None => visual_basis_of(clips, opts)
-                .and_then(|basis| SpeechModel::train(clips, opts, basis, None, &mut step)),
-        }
-        .map_err(|e| Error::Invalid(format!("training: {e}")))
-    };
+    let training =
+        |what: String,
+         clips: &[TrainingClip],
+         model: Option<(crate::speech::VisualBasis, crate::speech::Hmm)>| {
+            let total = opts.train.max_iterations;
+            progress(Progress::Stage { what, total });
+            let mut step = |i: usize, _: f64| progress(Progress::Steps { done: i, total });
+            match model {
+                Some((basis, hmm)) => SpeechModel::train(clips, opts, basis, Some(hmm), &mut step),
+                None => visual_basis_of(clips, opts)
+                    .and_then(|basis| SpeechModel::train(clips, opts, basis, None, &mut step)),
+            }
+            .map_err(|e| Error::Invalid(format!("training: {e}")))
+        };
     let frames: usize = clips.iter().map(|c| c.mouth.frames.len()).sum();
     if clips.len() < MIN_CLIPS_FOR_HELD_OUT {
         let model = training(
@@ -689,10 +706,11 @@ fn train_with_held_out(
         )?;
         return Ok((model, None));
     }
-    let (held, kept): (Vec<(usize, &TrainingClip)>, Vec<(usize, &TrainingClip)>) =
-        clips.iter().enumerate().partition(|(i, _)| i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1);
-    let held: Vec<TrainingClip> = held.into_iter().map(|(_, c)| *c).collect();
-    let kept: Vec<TrainingClip> = kept.into_iter().map(|(_, c)| *c).collect();
+    let part_of = |held: bool| -> Vec<TrainingClip> {
+        let is_held = |i: usize| i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1;
+        clips.iter().enumerate().filter(|(i, _)| is_held(*i) == held).map(|(_, c)| *c).collect()
+    };
+    let (held, kept) = (part_of(true), part_of(false));
     let part = training(
         format!("training on {} clips ({} held out)", kept.len(), held.len()),
         &kept,
@@ -841,9 +859,14 @@ fn drive_fitted(
     let mouth = &model.head.mouth_vertices;
     let clip = c.clip;
     let sm = &model.speech;
-    let here = crate::speech::FeatureDescription { mfcc: mfcc_options(c.fps), ..sm.features.clone() };
+    let here =
+        crate::speech::FeatureDescription { mfcc: mfcc_options(c.fps), ..sm.features.clone() };
     sm.features.check_matches(&here).map_err(speech_error)?;
-    let audio = session.clip(clip)?.audio.clone().ok_or_else(|| Error::Invalid("the clip has no audio".into()))?;
+    let audio = session
+        .clip(clip)?
+        .audio
+        .clone()
+        .ok_or_else(|| Error::Invalid("the clip has no audio".into()))?;
     let sound = clip_log_mel(&c.name, &audio, &sm.features.mfcc, c.held.len())?;
     warnings.extend(sound.warning);
     let normaliser = normaliser_of(&model.head, &res.model, neutral)?;
@@ -854,10 +877,8 @@ fn drive_fitted(
         .visual_features(&MouthClip { frames: &frames, neutral: &reference })
         .map_err(speech_error)?;
     let features = sm.audio_features(&sound.log_mel).map_err(speech_error)?;
-    let hmm = sm
-        .inverter()
-        .and_then(|inv| sm.estimate_visual(&inv, &features))
-        .map_err(speech_error)?;
+    let hmm =
+        sm.inverter().and_then(|inv| sm.estimate_visual(&inv, &features)).map_err(speech_error)?;
     let linear = sm.estimate_linear(&features).map_err(speech_error)?;
     let driver = MouthDriver::new(&res.model, mouth, DRIVER_RIDGE).map_err(speech_error)?;
     let drive = |estimate: &DMatrix| -> Result<Vec<FrameFit>> {
@@ -1061,7 +1082,8 @@ pub fn animate_speech(
     if n < 1 {
         return Err(Error::Invalid(format!("{}: shorter than one video frame", audio.display())));
     }
-    let frame_rows = frame_features(&log_mel, &sm.features.mfcc, &sm.features.activity).map_err(fail)?;
+    let frame_rows =
+        frame_features(&log_mel, &sm.features.mfcc, &sm.features.activity).map_err(fail)?;
     drop(log_mel);
     let mm = model.head.load_model()?;
     // The head is checked before the long inversion, so a wrong path fails at once.
@@ -1080,7 +1102,8 @@ pub fn animate_speech(
     };
     let (coefficients_path, mut coefficients_npy) = writer("coefficients.npy", n_coefficients)?;
     let (mouth_path, mut mouth_npy) = writer("mouth.npy", 3 * model.head.mouth_vertices.len())?;
-    let mut shapes = outputs.shapes.then(|| writer("shapes.npy", 3 * mm.num_vertices())).transpose()?;
+    let mut shapes =
+        outputs.shapes.then(|| writer("shapes.npy", 3 * mm.num_vertices())).transpose()?;
     // The transferred head's writer, with what names it in errors.
     let mut on_head = match (transfer, &outputs.head) {
         (Some((transfer, vertices)), Some(h)) => {
@@ -1165,7 +1188,8 @@ fn estimate_window(
 ) -> std::result::Result<DMatrix, SpeechError> {
     let from = start.saturating_sub(margin);
     let to = (end + margin).min(frame_rows.nrows());
-    let audio = stack_context(&frame_rows.rows(from, to - from).into_owned(), model.features.context);
+    let audio =
+        stack_context(&frame_rows.rows(from, to - from).into_owned(), model.features.context);
     let estimate = model.estimate_visual(inverter, &audio)?;
     Ok(estimate.rows(start - from, end - start).into_owned())
 }

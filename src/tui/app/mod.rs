@@ -246,7 +246,9 @@ impl App {
             Scope::Point => vec![selected],
             Scope::Group => {
                 let names = &crate::reference::current().names;
-                names.group_of(selected).map_or_else(|| vec![selected], |g| g.range.clone().collect())
+                names
+                    .group_of(selected)
+                    .map_or_else(|| vec![selected], |g| g.range.clone().collect())
             }
             Scope::Mouth => (OUTER_LIP.start..INNER_LIP.end).collect(),
             Scope::All => (0..N_LANDMARKS).collect(),

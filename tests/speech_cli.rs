@@ -101,7 +101,12 @@ fn train_eval_animate_and_every_bad_input() {
     // Animate from the demo voice, and from a stereo 48 kHz copy (resampled, mixed).
     let voice = first_voice(&session);
     let anim = dir.path().join("anim");
-    let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&voice), "--out", s(&anim)]);
+    let animate = |more: &[&str]| {
+        let mut args = vec!["speech", "animate", s(&model), "--audio", s(&voice)];
+        args.extend_from_slice(more);
+        lipmap(&args)
+    };
+    let out = animate(&["--out", s(&anim)]);
     assert!(out.status.success(), "animate: {}", text(&out.stderr));
     let mouth = lipmap::io::npy_model::read_npy(&anim.join("mouth.npy")).unwrap();
     let coefficients = lipmap::io::npy_model::read_npy(&anim.join("coefficients.npy")).unwrap();
@@ -112,16 +117,7 @@ fn train_eval_animate_and_every_bad_input() {
     assert_eq!(mouth.shape[1], 3 * 23);
     assert_eq!(coefficients.shape[0], mouth.shape[0]);
     assert!(mouth.data.iter().chain(&coefficients.data).all(|v| v.is_finite()));
-    let out = lipmap(&[
-        "speech",
-        "animate",
-        s(&model),
-        "--audio",
-        s(&voice),
-        "--shapes",
-        "--out",
-        s(&anim),
-    ]);
+    let out = animate(&["--shapes", "--out", s(&anim)]);
     assert!(out.status.success(), "animate --shapes: {}", text(&out.stderr));
     let shapes = lipmap::io::npy_model::read_npy(&anim.join("shapes.npy")).unwrap();
     assert_eq!(shapes.shape[0], mouth.shape[0]);
@@ -135,12 +131,7 @@ fn train_eval_animate_and_every_bad_input() {
     // the animation, the head's vertex count wide, and the mouth moves.
     let demo = session.parent().unwrap();
     let on_head = dir.path().join("on_head");
-    let out = lipmap(&[
-        "speech",
-        "animate",
-        s(&model),
-        "--audio",
-        s(&voice),
+    let out = animate(&[
         "--head",
         s(&demo.join("head.obj")),
         "--mapping",

@@ -11,7 +11,7 @@
 use super::camera::{self, OrthoPose};
 use super::result::Solver;
 use super::shape::{
-    FrameObservations, LandmarkBasis, dot, gradient_rhs, nonnegative_quadratic, normal_matrix,
+    FrameObservations, LandmarkBasis, gradient_rhs, nonnegative_quadratic, normal_matrix,
 };
 use super::{alternating, joint};
 use crate::math::{DVector, Matrix3, Point3, Real, Vector3};
@@ -148,12 +148,7 @@ pub(crate) fn landmark_point(
     beta: &[Real],
     i: usize,
 ) -> Vector3 {
-    let kid = basis.k_id;
-    let mut q = id_pts[i];
-    for j in 0..3 {
-        q[j] += dot(&basis.row(i, j)[kid..], beta);
-    }
-    q
+    id_pts[i] + basis.expression_offset(i, beta)
 }
 
 /// What the objective and the noise estimate are made of, summed over the unfailed frames.

@@ -14,17 +14,16 @@
 //!
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
-use super::camera::{OrthoPose, PoseResidual};
+use super::camera::{OrthoPose, PoseResidual, PoseSums};
 use super::clip::{
     FrameState, Group, ResidualSums, SolverParams, identity_points, in_parallel, landmark_point,
-    map_frames,
 };
 use super::shape::{
     FrameObservations, GRAM_PAIRS, LandmarkBasis, axpy, back_substitute_rows, cholesky_in_place,
     cholesky_solve_in_place, dot, projector,
 };
-use crate::math::{DMatrix, DVector, Matrix3, Real, Vector3};
-use nalgebra::{DMatrixView, Matrix6, Rotation3, Vector6};
+use crate::math::{DMatrix, DVector, Matrix3, Point2, Real, Vector3};
+use nalgebra::{DMatrixView, Rotation3};
 use rayon::prelude::*;
 
 /// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
@@ -51,12 +50,11 @@ pub(crate) fn solve(
     let base = *group.params;
     let mut params = base;
     // The observations' part of the coefficient gradient does not change during the solve.
-    let moments = map_frames(observations.len(), |f| {
-        observation_moments(basis, &observations[f], image_height)
-    });
+    let moments = observation_moments(basis, observations, image_height);
     let mut sums = group.residual_sums(&states, &id_pts);
     let mut cost = sums.objective(&alpha, &params);
     let mut mu = INITIAL_DAMPING;
+    let mut lin = Linearisation::default();
     let mut buffers = StepBuffers::default();
     let mut candidate = states.clone();
     for it in 0..params.iterations {
@@ -73,7 +71,7 @@ pub(crate) fn solve(
             lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
             cost = sums.objective(&alpha, &params);
         }
-        let lin = linearise(group, &moments, &states, &alpha, &id_pts, &params);
+        lin.update(group, &moments, &states, &alpha, &id_pts, &params);
         let mut accepted = false;
         for _ in 0..MAX_DAMPING_TRIES {
             copy_states(&mut candidate, &states);
@@ -141,24 +139,29 @@ fn noise_factor(basis: &LandmarkBasis, sums: &ResidualSums) -> Option<Real> {
     Some(variance / (ASSUMED_NOISE_PX * ASSUMED_NOISE_PX))
 }
 
-/// `Σᵢ wᵢ·uᵢ·Bᵢ[b,:]` (rows 0–2) and `Σᵢ wᵢ·ṽᵢ·Bᵢ[b,:]` (rows 3–5) over a frame's used
-/// landmarks (ṽ = H − v): with them the observations' part of the coefficient gradient is
-/// a combination of six rows instead of a sum over the landmarks, in every iteration.
+/// Per frame (a column of 6K), `Σᵢ wᵢ·uᵢ·Bᵢ[b,:]` (rows bK..) and `Σᵢ wᵢ·ṽᵢ·Bᵢ[b,:]`
+/// (rows (3 + b)K..) over its used landmarks (ṽ = H − v): with them the observations' part
+/// of the coefficient gradient is a combination of six rows instead of a sum over the
+/// landmarks, in every iteration. Made for all frames at once, one matrix product per row
+/// block: `B_bᵀ·[wᵢ·uᵢ,f]`.
 fn observation_moments(
     basis: &LandmarkBasis,
-    obs: &FrameObservations,
+    observations: &[FrameObservations],
     image_height: Real,
-) -> Vec<Real> {
-    let k = basis.num_coefficients();
-    let mut m = vec![0.0; 6 * k];
-    let (u_rows, v_rows) = m.split_at_mut(3 * k);
-    for i in (0..basis.len()).filter(|&i| obs.active[i]) {
-        let w = basis.weights[i];
-        let (u, v) = (obs.points[i].x, image_height - obs.points[i].y);
-        for b in 0..3 {
-            axpy(w * u, basis.row(i, b), &mut u_rows[b * k..(b + 1) * k]);
-            axpy(w * v, basis.row(i, b), &mut v_rows[b * k..(b + 1) * k]);
-        }
+) -> DMatrix {
+    let (k, l, frames) = (basis.num_coefficients(), basis.len(), observations.len());
+    let weighted = |coordinate: &dyn Fn(&Point2) -> Real| {
+        DMatrix::from_fn(l, frames, |i, f| {
+            let obs = &observations[f];
+            if obs.active[i] { basis.weights[i] * coordinate(&obs.points[i]) } else { 0.0 }
+        })
+    };
+    let (wu, wv) = (weighted(&|p| p.x), weighted(&|p| image_height - p.y));
+    let mut m = DMatrix::zeros(6 * k, frames);
+    for b in 0..3 {
+        let bt = basis.axis_rows_transposed(b);
+        m.rows_mut(b * k, k).gemm(1.0, &bt, &wu, 0.0);
+        m.rows_mut((3 + b) * k, k).gemm(1.0, &bt, &wv, 0.0);
     }
     m
 }
@@ -177,17 +180,24 @@ fn point_moments(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
     m
 }
 
-/// `out = c₀·x₀ + c₁·x₁ + c₂·x₂`.
+/// `out = c₀·x₀ + c₁·x₁ + c₂·x₂` (rows of equal length).
 #[inline]
 fn combine3(out: &mut [Real], c: [Real; 3], x: [&[Real]; 3]) {
-    for (j, o) in out.iter_mut().enumerate() {
-        *o = c[0] * x[0][j] + c[1] * x[1][j] + c[2] * x[2][j];
+    for (((o, &a), &b), &d) in out.iter_mut().zip(x[0]).zip(x[1]).zip(x[2]) {
+        *o = c[0] * a + c[1] * b + c[2] * d;
     }
+}
+
+/// Row `j` (of length k) of `m`.
+#[inline]
+fn row(m: &[Real], j: usize, k: usize) -> &[Real] {
+    &m[j * k..(j + 1) * k]
 }
 
 /// The linearised problem at the current state. Frame f's unknowns (6 pose parameters, then
 /// its free expressions) are rows `rows[f]..rows[f + 1]` of the stacked `c` and `b`; its
 /// block of A is `a[blocks[f]..blocks[f + 1]]` (row-major). Failed frames have no rows.
+#[derive(Default)]
 pub(crate) struct Linearisation {
     rows: Vec<usize>,
     blocks: Vec<usize>,
@@ -275,7 +285,7 @@ struct BlockScratch {
     cam: Vec<Real>,
     /// `Σᵢ wᵢ·Bᵢ[b,:]` over the frame's used landmarks (3 rows).
     y: Vec<Real>,
-    /// Rotated: `(R·Σᵢ wᵢ·Bᵢ)[b,:]` for b = x, y; the observation rows `(R·U)₀ + (R·V)₁`.
+    /// Rotated: `(R·Σᵢ wᵢ·Bᵢ)[b,:]` for b = x, y; the observation rows `(R·U)₀`, `(R·V)₁`.
     ry: Vec<Real>,
     obs: Vec<Real>,
     /// `H_pc` (6 rows) and `g_c`.
@@ -294,7 +304,7 @@ impl BlockScratch {
             cam: vec![0.0; 6 * k],
             y: vec![0.0; 3 * k],
             ry: vec![0.0; 2 * k],
-            obs: vec![0.0; k],
+            obs: vec![0.0; 2 * k],
             hpc: vec![0.0; 6 * k],
             gc: vec![0.0; k],
             hb: vec![0.0; k_exp * k],
@@ -326,17 +336,13 @@ fn frame_blocks(
     let beta = st.beta.as_slice();
     let inv = 1.0 / params.sigma2;
     // Pose block and gradient.
-    let mut hpp = Matrix6::<Real>::zeros();
-    let mut gp = Vector6::<Real>::zeros();
+    let mut sums = PoseSums::default();
     for i in (0..basis.len()).filter(|&i| obs.active[i]) {
         let x = landmark_point(basis, sh.id_pts, beta, i);
         let res = PoseResidual::new(pose, &x, &obs.points[i], sh.image_height);
-        let om = basis.weights[i] * inv;
-        let (ju, jv) = res.jacobian(pose);
-        hpp.ger(om, &ju, &ju, 1.0);
-        hpp.ger(om, &jv, &jv, 1.0);
-        gp += (ju * res.u + jv * res.v) * om;
+        sums.add(&res, basis.weights[i] * inv);
     }
+    let (hpp, gp) = sums.normal_equations(pose);
     // Moments of this frame's points: the shared identity part, plus the expressions, minus
     // the landmarks it does not use.
     let x = &mut scr.x;
@@ -350,56 +356,56 @@ fn frame_blocks(
     for i in (0..basis.len()).filter(|&i| !obs.active[i]) {
         let p = landmark_point(basis, sh.id_pts, beta, i);
         let w = basis.weights[i];
-        for (ab, row) in x.chunks_exact_mut(k).enumerate() {
+        for (ab, row) in x.chunks_exact_mut(k.max(1)).enumerate() {
             axpy(-w * p[ab / 3], basis.row(i, ab % 3), row);
         }
-        for (b, row) in scr.y.chunks_exact_mut(k).enumerate() {
+        for (b, row) in scr.y.chunks_exact_mut(k.max(1)).enumerate() {
             axpy(-w, basis.row(i, b), row);
         }
     }
     // t = R·X over the first index, cam = t·Rᵀ over the second (b = x, y only).
     let rr = |a: usize| [r[(a, 0)], r[(a, 1)], r[(a, 2)]];
     for a in 0..3 {
-        for b in 0..3 {
-            let xs = [0, 1, 2].map(|a2| &x[(3 * a2 + b) * k..(3 * a2 + b + 1) * k]);
-            combine3(&mut scr.t[(3 * a + b) * k..(3 * a + b + 1) * k], rr(a), xs);
+        for (b, t) in scr.t[3 * a * k..3 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
+            combine3(t, rr(a), [0, 1, 2].map(|a2| row(x, 3 * a2 + b, k)));
         }
-        for b in 0..2 {
-            let ts = [0, 1, 2].map(|b2| &scr.t[(3 * a + b2) * k..(3 * a + b2 + 1) * k]);
-            combine3(&mut scr.cam[(2 * a + b) * k..(2 * a + b + 1) * k], rr(b), ts);
+        for (b, cam) in scr.cam[2 * a * k..2 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
+            combine3(cam, rr(b), [0, 1, 2].map(|b2| row(&scr.t, 3 * a + b2, k)));
         }
     }
-    let ys = [0, 1, 2].map(|b| &scr.y[b * k..(b + 1) * k]);
+    let ys = [0, 1, 2].map(|b| row(&scr.y, b, k));
     let (ry0, ry1) = scr.ry.split_at_mut(k);
     combine3(ry0, rr(0), ys);
     combine3(ry1, rr(1), ys);
-    let mrow = |j: usize| &moments[j * k..(j + 1) * k];
-    let (c0, c1) = (rr(0), rr(1));
-    for (j, o) in scr.obs.iter_mut().enumerate() {
-        *o = c0[0] * mrow(0)[j] + c0[1] * mrow(1)[j] + c0[2] * mrow(2)[j]
-            + c1[0] * mrow(3)[j]
-            + c1[1] * mrow(4)[j]
-            + c1[2] * mrow(5)[j];
-    }
+    // (R·U)₀ + (R·V)₁: the observations' part of the gradient.
+    let (obs_u, obs_v) = scr.obs.split_at_mut(k);
+    combine3(obs_u, rr(0), [0, 1, 2].map(|b| row(moments, b, k)));
+    combine3(obs_v, rr(1), [3, 4, 5].map(|b| row(moments, b, k)));
     // H_pc rows from the Jacobian's entries (see `PoseResidual::jacobian`):
     // ∂ω: (0, s·c_z, −s·c_y | −s·c_z, 0, s·c_x), ∂s: (c_x + t_x | c_y + t_y), ∂t: s.
-    let cam = |a: usize, b: usize| &scr.cam[(2 * a + b) * k..(2 * a + b + 1) * k];
+    let cam = |a: usize, b: usize| row(&scr.cam, 2 * a + b, k);
+    let (c00, c01, c10, c11, c20, c21) = (cam(0, 0), cam(0, 1), cam(1, 0), cam(1, 1), cam(2, 0), cam(2, 1));
+    let (y0, y1) = scr.ry.split_at(k);
+    let (u, v) = scr.obs.split_at(k);
     let (s2, s1) = (s * s * inv, s * inv);
     let (tx, ty) = (pose.tx, pose.ty);
-    let (hpc, gc) = (&mut scr.hpc, &mut scr.gc);
+    let [h0, h1, h2, h3, h4, h5]: [&mut [Real]; 6] = {
+        let mut it = scr.hpc.chunks_exact_mut(k.max(1));
+        std::array::from_fn(|_| it.next().unwrap_or_default())
+    };
+    let gc = &mut scr.gc[..k];
     for j in 0..k {
-        let (c00, c01, c10, c11) = (cam(0, 0)[j], cam(0, 1)[j], cam(1, 0)[j], cam(1, 1)[j]);
-        let (c20, c21) = (cam(2, 0)[j], cam(2, 1)[j]);
-        let (y0, y1) = (scr.ry[j], scr.ry[k + j]);
-        let h3 = s1 * (c00 + c11 + tx * y0 + ty * y1);
-        hpc[j] = -s2 * c21;
-        hpc[k + j] = s2 * c20;
-        hpc[2 * k + j] = s2 * (c01 - c10);
-        hpc[3 * k + j] = h3;
-        hpc[4 * k + j] = s2 * y0;
-        hpc[5 * k + j] = s2 * y1;
-        gc[j] = s * h3 - s1 * scr.obs[j];
+        let d = s1 * (c00[j] + c11[j] + tx * y0[j] + ty * y1[j]);
+        h0[j] = -s2 * c21[j];
+        h1[j] = s2 * c20[j];
+        h2[j] = s2 * (c01[j] - c10[j]);
+        h3[j] = d;
+        h4[j] = s2 * y0[j];
+        h5[j] = s2 * y1[j];
+        gc[j] = s * d - s1 * (u[j] + v[j]);
     }
+    let hpc = &scr.hpc;
+    let gc = &scr.gc;
     // Coefficient rows of the free expressions: Gram blocks, minus unused landmarks.
     scr.free.clear();
     scr.free.extend((0..basis.k_exp).filter(|&e| st.free[e]));
@@ -459,56 +465,64 @@ fn frame_blocks(
     corr
 }
 
-/// Linearises the objective at the current state (failed frames are left out).
-pub(crate) fn linearise(
-    group: &Group<'_>,
-    moments: &[Vec<Real>],
-    states: &[FrameState],
-    alpha: &DVector,
-    id_pts: &[Vector3],
-    params: &SolverParams,
-) -> Linearisation {
-    let basis = group.basis;
-    let (kid, k, k_exp) = (basis.k_id, basis.num_coefficients(), basis.k_exp);
-    let counts: Vec<usize> = states
-        .iter()
-        .map(|st| if st.failed.is_some() { 0 } else { 6 + st.free.iter().filter(|f| **f).count() })
-        .collect();
-    let (rows, blocks) = offsets(&counts);
-    let mut a = vec![0.0; blocks[counts.len()]];
-    let mut c = vec![0.0; rows[counts.len()] * kid];
-    let mut b = vec![0.0; rows[counts.len()]];
-    let mut g_frames = vec![0.0; states.len() * kid];
-    let id_moments = point_moments(basis, id_pts);
-    let sh = Shared { basis, id_pts, id_moments: &id_moments, image_height: group.image_height, params };
-    let items: Vec<(usize, FrameOut<'_>)> = split_at_offsets(&mut a, &blocks, 1)
-        .into_iter()
-        .zip(split_at_offsets(&mut c, &rows, kid))
-        .zip(split_at_offsets(&mut b, &rows, 1))
-        .zip(g_frames.chunks_mut(kid.max(1)))
-        .map(|(((a, c), b), g_alpha)| FrameOut { a, c, b, g_alpha })
-        .enumerate()
-        .filter(|(f, _)| states[*f].failed.is_none())
-        .collect();
-    let corrections = each_frame_with(
-        items,
-        || BlockScratch::new(k, k_exp),
-        |scr, (f, out)| frame_blocks(&sh, &group.observations[f], &states[f], &moments[f], scr, out),
-    );
-    let mut q_sum = Matrix3::zeros();
-    for st in states.iter().filter(|s| s.failed.is_none()) {
-        q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
+impl Linearisation {
+    /// Linearises the objective at the current state (failed frames are left out) into this
+    /// linearisation's buffers, which are reused from one iteration to the next.
+    fn update(
+        &mut self,
+        group: &Group<'_>,
+        moments: &DMatrix,
+        states: &[FrameState],
+        alpha: &DVector,
+        id_pts: &[Vector3],
+        params: &SolverParams,
+    ) {
+        let basis = group.basis;
+        let (kid, k, k_exp) = (basis.k_id, basis.num_coefficients(), basis.k_exp);
+        let counts: Vec<usize> = states
+            .iter()
+            .map(|st| if st.failed.is_some() { 0 } else { 6 + st.free.iter().filter(|f| **f).count() })
+            .collect();
+        (self.rows, self.blocks) = offsets(&counts);
+        let total_rows = self.rows[counts.len()];
+        self.a.resize(self.blocks[counts.len()], 0.0);
+        self.c.resize(total_rows * kid, 0.0);
+        self.b.resize(total_rows, 0.0);
+        let mut g_frames = vec![0.0; states.len() * kid];
+        let id_moments = point_moments(basis, id_pts);
+        let sh =
+            Shared { basis, id_pts, id_moments: &id_moments, image_height: group.image_height, params };
+        let items: Vec<(usize, FrameOut<'_>)> = split_at_offsets(&mut self.a, &self.blocks, 1)
+            .into_iter()
+            .zip(split_at_offsets(&mut self.c, &self.rows, kid))
+            .zip(split_at_offsets(&mut self.b, &self.rows, 1))
+            .zip(g_frames.chunks_mut(kid.max(1)))
+            .map(|(((a, c), b), g_alpha)| FrameOut { a, c, b, g_alpha })
+            .enumerate()
+            .filter(|(f, _)| states[*f].failed.is_none())
+            .collect();
+        let corrections = each_frame_with(
+            items,
+            || BlockScratch::new(k, k_exp),
+            |scr, (f, out)| {
+                let m = moments.column(f);
+                frame_blocks(&sh, &group.observations[f], &states[f], m.as_slice(), scr, out)
+            },
+        );
+        let mut q_sum = Matrix3::zeros();
+        for st in states.iter().filter(|s| s.failed.is_none()) {
+            q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
+        }
+        self.s = DMatrix::identity(kid, kid) * params.lambda_identity;
+        basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut self.s);
+        for corr in corrections.iter().flatten() {
+            self.s += corr;
+        }
+        self.g = alpha * params.lambda_identity;
+        for g_alpha in g_frames.chunks(kid.max(1)) {
+            axpy(1.0, g_alpha, self.g.as_mut_slice());
+        }
     }
-    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
-    for corr in corrections.iter().flatten() {
-        s += corr;
-    }
-    let mut g = alpha * params.lambda_identity;
-    for g_alpha in g_frames.chunks(kid.max(1)) {
-        axpy(1.0, g_alpha, g.as_mut_slice());
-    }
-    Linearisation { rows, blocks, a, c, b, s, g }
 }
 
 /// The buffers of a step's elimination, reused by every try: per frame the Cholesky factor
@@ -597,9 +611,20 @@ pub(crate) fn step(
         let mut r = lin.g.clone();
         if nrows > 0 {
             // Wᵀ is the stacked row-major W read column-major; W itself has row stride k_id.
+            // The solve below reads one triangle of S (its upper one, S being column-major),
+            // so only the blocks on and above the diagonal of a 2×2 split are made: ¾ of the
+            // product.
             let wt = DMatrixView::from_slice(&buf.w, kid, nrows);
             let w = DMatrixView::from_slice_with_strides(&buf.w, nrows, kid, kid, 1);
-            s.gemm(-1.0, &wt, &w, 1.0);
+            let h = kid / 2;
+            for (r0, c0, nr, nc) in [(0, 0, h, h), (0, h, h, kid - h), (h, h, kid - h, kid - h)] {
+                s.view_mut((r0, c0), (nr, nc)).gemm(
+                    -1.0,
+                    &wt.rows(r0, nr),
+                    &w.columns(c0, nc),
+                    1.0,
+                );
+            }
             for (wr, &zr) in buf.w.chunks_exact(kid).zip(&buf.z) {
                 axpy(-zr, wr, r.as_mut_slice());
             }
@@ -662,6 +687,7 @@ mod tests {
     use crate::landmarks::{FrameLandmarks, LandmarkPoint, LandmarkSet, N_LANDMARKS};
     use crate::math::Point3;
     use crate::model::{Expressions, LandmarkMap, MorphableModel, PcaModel};
+    use nalgebra::Vector6;
 
     /// 68 vertices on a curved sheet, 5 identity modes, 3 expressions; landmark i ↦ vertex i,
     /// weights that differ between landmarks.
@@ -846,9 +872,9 @@ mod tests {
         let p = params();
         let id_pts = identity_points(&basis, &alpha);
         let group = Group::new(&basis, &observations, 720.0, &p);
-        let moments: Vec<Vec<Real>> =
-            observations.iter().map(|o| observation_moments(&basis, o, 720.0)).collect();
-        let lin = linearise(&group, &moments, &states, &alpha, &id_pts, &p);
+        let moments = observation_moments(&basis, &observations, 720.0);
+        let mut lin = Linearisation::default();
+        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
         let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, 0.0);
         let kid = basis.k_id;
         let a0 = m.nrows() - kid;
@@ -881,9 +907,9 @@ mod tests {
         let mu = 1e-3;
         let id_pts = identity_points(&basis, &alpha);
         let group = Group::new(&basis, &observations, 720.0, &p);
-        let moments: Vec<Vec<Real>> =
-            observations.iter().map(|o| observation_moments(&basis, o, 720.0)).collect();
-        let lin = linearise(&group, &moments, &states, &alpha, &id_pts, &p);
+        let moments = observation_moments(&basis, &observations, 720.0);
+        let mut lin = Linearisation::default();
+        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
         let mut out = states.clone();
         let new_alpha =
             step(&lin, &mut out, &alpha, mu, true, &p, &mut StepBuffers::default()).unwrap();

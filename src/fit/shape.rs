@@ -11,6 +11,7 @@
 use crate::landmarks::{LandmarkSet, N_LANDMARKS};
 use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
+use nalgebra::Dyn;
 
 use super::camera::{OrthoPose, PoseResidual};
 
@@ -43,6 +44,9 @@ pub struct LandmarkBasis {
     expression_moments: Vec<Real>,
     /// `Σᵢ wᵢ·Bᵢ[b,:]` for b = x, y, z (3 rows of K).
     row_sums: Vec<Real>,
+    /// The expression part of `rows` alone (landmark i, axis j at `[(3i + j)·k_exp..]`):
+    /// a frame's points are evaluated from it many times per iteration.
+    expression_rows: Vec<Real>,
 }
 
 /// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
@@ -134,6 +138,7 @@ impl LandmarkBasis {
                 axpy(weights[i], &rows[(3 * i + b) * k..(3 * i + b + 1) * k], row);
             }
         }
+        let expression_rows = rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
         Self {
             landmarks: pairs.iter().map(|p| p.0).collect(),
             vertices: pairs.iter().map(|p| p.1).collect(),
@@ -145,6 +150,7 @@ impl LandmarkBasis {
             gram,
             expression_moments,
             row_sums,
+            expression_rows,
         }
     }
 
@@ -169,6 +175,30 @@ impl LandmarkBasis {
         &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
     }
 
+    /// Rows of axis `b` (0 x, 1 y, 2 z) of every landmark as one K×L view (column i =
+    /// `Bᵢ[b,:]`), for products over all landmarks at once.
+    pub(crate) fn axis_rows_transposed(
+        &self,
+        b: usize,
+    ) -> nalgebra::MatrixView<'_, Real, Dyn, Dyn, Dyn, Dyn> {
+        let k = self.num_coefficients();
+        let start = (b * k).min(self.rows.len());
+        nalgebra::MatrixView::<Real, Dyn, Dyn, Dyn, Dyn>::from_slice_with_strides(
+            &self.rows[start..],
+            k,
+            self.len(),
+            1,
+            3 * k,
+        )
+    }
+
+    /// The expression part of row `axis` of landmark `i` (k_exp coefficients).
+    #[inline]
+    pub(crate) fn expression_row(&self, i: usize, axis: usize) -> &[Real] {
+        let ke = self.k_exp;
+        &self.expression_rows[(3 * i + axis) * ke..(3 * i + axis + 1) * ke]
+    }
+
     /// The nine rows `Σᵢ wᵢ·Eᵢ[a,e]·Bᵢ[b,:]` of expression `e` (row 3a + b, K each).
     pub(crate) fn expression_moments(&self, e: usize) -> &[Real] {
         let k9 = 9 * self.num_coefficients();
@@ -189,6 +219,22 @@ impl LandmarkBasis {
     /// Mean position of landmark `i`'s vertex.
     pub fn mean(&self, i: usize) -> Vector3 {
         self.mean[i]
+    }
+
+    /// The expression offset `Eᵢ·β` of landmark `i` (β of length k_exp).
+    #[inline]
+    pub(crate) fn expression_offset(&self, i: usize, beta: &[Real]) -> Vector3 {
+        let ke = self.k_exp;
+        let r = &self.expression_rows[3 * i * ke..3 * (i + 1) * ke];
+        let (rx, rest) = r.split_at(ke);
+        let (ry, rz) = rest.split_at(ke);
+        let mut o = Vector3::zeros();
+        for (((&b, &x), &y), &z) in beta.iter().zip(rx).zip(ry).zip(rz) {
+            o.x += x * b;
+            o.y += y * b;
+            o.z += z * b;
+        }
+        o
     }
 
     /// Landmark `i`'s vertex for coefficients `c` (length K; identity then expression).
@@ -381,14 +427,15 @@ pub(crate) fn apply_forces(
     cols: std::ops::Range<usize>,
 ) -> DVector {
     let mut g = DVector::zeros(cols.len());
+    let gs = g.as_mut_slice();
+    // The expression columns alone are read from their own contiguous copy.
+    let expressions = cols == (basis.k_id..basis.num_coefficients());
     for (i, h) in forces.iter().enumerate() {
         for j in 0..3 {
-            let hj = h[j];
-            if hj == 0.0 {
-                continue;
-            }
-            for (gv, r) in g.iter_mut().zip(&basis.row(i, j)[cols.clone()]) {
-                *gv -= hj * r;
+            if h[j] != 0.0 {
+                let row =
+                    if expressions { basis.expression_row(i, j) } else { &basis.row(i, j)[cols.clone()] };
+                axpy(-h[j], row, gs);
             }
         }
     }

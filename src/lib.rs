@@ -21,6 +21,7 @@ pub mod render;
 pub mod saqp;
 pub mod session;
 pub mod speech;
+pub mod table_text;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
 pub mod transfer;

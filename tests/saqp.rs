@@ -177,9 +177,13 @@ fn bad_input_gets_a_one_line_error_naming_what() {
     let (e, p) = (q.e, q.prediction);
     assert!(e.is_finite() && p.mean.is_finite() && p.std() > 0.0);
     assert!(q.unseen.is_empty(), "{:?}", q.unseen);
-    // A phone of another phone set is named, not silently scored as if it were known.
-    let mixed = predictor.predict("new", &phones(&["sil", "B", "ə", "N", "sil"])).unwrap();
-    assert_eq!(mixed.unseen, vec!["ə".to_string()]);
+    // The same phones written in IPA are the same phones (the phone inventory's keys).
+    let ipa = predictor.predict("new", &phones(&["", "b", "ɪ", "n", ""])).unwrap();
+    assert!(ipa.unseen.is_empty(), "{:?}", ipa.unseen);
+    assert_eq!(ipa.e, e);
+    // A phone outside the inventory is named, not silently scored as if it were known.
+    let mixed = predictor.predict("new", &phones(&["sil", "B", "œ", "N", "sil"])).unwrap();
+    assert_eq!(mixed.unseen, vec!["œ".to_string()]);
     // The predictor survives serde.
     let json = serde_json::to_string(&predictor).unwrap();
     let back: saqp::Predictor = serde_json::from_str(&json).unwrap();

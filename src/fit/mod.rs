@@ -10,6 +10,7 @@ pub mod assignment;
 pub mod camera;
 pub mod clip;
 mod flags;
+pub mod jaw_contour;
 mod joint;
 pub mod map_suggest;
 pub mod pipeline;

@@ -23,6 +23,7 @@ pub mod names_table;
 pub mod npy_model;
 pub mod obj;
 pub mod openface;
+pub mod phone_table;
 pub mod phones_csv;
 pub mod pts;
 pub mod textgrid;

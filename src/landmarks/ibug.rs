@@ -93,21 +93,12 @@ impl<'a> LandmarkNames<'a> {
     /// order, an empty group, a group split in two runs, or not 68 rows.
     pub fn from_csv_str(text: &'a str) -> Result<Self, NamesError> {
         let err = |line: usize, message: String| NamesError { line, message };
-        let mut rows = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (hl, header) = rows.next().ok_or_else(|| err(1, "empty file".into()))?;
-        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-        if cols != ["index", "group", "name"] {
-            return Err(err(hl, format!("expected the header `index,group,name`, got `{header}`")));
-        }
+        let crate::table_text::CsvRows { rows, last_line } =
+            crate::table_text::csv_rows(text, "index,group,name")
+                .map_err(|(line, message)| err(line, message))?;
         let mut groups: Vec<Group<'a>> = Vec::new();
         let mut names = Vec::new();
-        let mut last_line = hl;
         for (line, row) in rows {
-            last_line = line;
             let mut f = row.splitn(3, ',').map(str::trim);
             let (Some(index), Some(group), Some(name)) = (f.next(), f.next(), f.next()) else {
                 return Err(err(line, "expected three fields: index,group,name".into()));

@@ -7,13 +7,14 @@ use super::corpus::Corpus;
 use super::motion::MotionBasis;
 use super::quality::MarkerSet;
 use super::sampling::phone_midpoint_samples;
-use crate::alignment::{Phone, grouping_label};
+use crate::alignment::Phone;
 use crate::eval::VisemeTable;
 use crate::math::DVector;
 use serde::{Deserialize, Serialize};
 
-/// Phone labels (grouping labels: stress stripped, silences folded) as small ids, with each
-/// phone's viseme class.
+/// Phones (their keys in the phone inventory: IPA, ARPAbet with or without stress digits and
+/// Festival/HTK labels of one phone share a key, silences fold to `sil`) as small ids, with
+/// each phone's viseme class.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhoneSet {
     labels: Vec<String>,
@@ -23,13 +24,14 @@ pub struct PhoneSet {
 }
 
 impl PhoneSet {
-    /// The id of `label`, added when new.
+    /// The id of `label`'s phone, added when new.
     pub fn intern(&mut self, label: &str) -> u16 {
-        let g = grouping_label(label);
+        let tables = crate::reference::current();
+        let g = tables.phones.key_of(label);
         if let Some(i) = self.labels.iter().position(|l| *l == g) {
             return i as u16;
         }
-        let table = self.table.get_or_insert_with(|| crate::reference::current().visemes.clone());
+        let table = self.table.get_or_insert_with(|| tables.visemes.clone());
         let vis = table.class_of(&g).and_then(|id| table.classes.iter().position(|c| c.id == id));
         self.labels.push(g);
         self.visemes.push(vis.map(|v| v as u16));

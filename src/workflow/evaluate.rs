@@ -207,17 +207,18 @@ pub fn evaluate(
     n_worst: usize,
 ) -> EvalReport {
     let compared = normalisation.apply(utterances);
-    let visemes = &crate::reference::current().visemes;
+    let tables = crate::reference::current();
+    let (phones, visemes) = (&tables.phones, &tables.visemes);
     let mut worst: Vec<_> =
         Measure::ALL.iter().flat_map(|&m| worst_frames_by_error(&compared, m, n_worst)).collect();
     worst.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
     worst.truncate(n_worst);
     EvalReport {
         sentences: sentence_table(&compared),
-        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared), None),
+        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared, phones), None),
         visemes: group_table(
             "RMSE per viseme class",
-            &viseme_rmse(&compared, visemes),
+            &viseme_rmse(&compared, phones, visemes),
             Some(visemes),
         ),
         worst_frames: worst_error_table(&worst),

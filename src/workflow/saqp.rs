@@ -754,27 +754,37 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
                 |name: &str, colour: [u8; 3], f: &dyn Fn(&crate::saqp::HeldOut) -> f64| Series {
                     name: name.into(),
                     colour,
-                    values: held.iter().map(|h| Some(f(h))).collect(),
+                    // Ranks count from 1: nothing at x = 0.
+                    values: std::iter::once(None).chain(held.iter().map(|h| Some(f(h)))).collect(),
                 };
             Panel {
-                label: format!("{} R {:.2}", s.synth.name(), s.pearson_r),
+                y_label: "Likert score\n1 worst – 5 best".into(),
+                caption: Some(format!(
+                    "{} synthesizer: Pearson r {:.2}",
+                    s.synth.name(),
+                    s.pearson_r
+                )),
                 series: vec![
                     series("ground truth", [31, 119, 180], &|h| h.likert),
                     series("predicted", [255, 127, 14], &|h| h.predicted.mean),
-                    series("+SD", [250, 200, 150], &|h| h.predicted.mean + h.predicted.std()),
-                    series("-SD", [250, 200, 150], &|h| h.predicted.mean - h.predicted.std()),
+                    series("predicted ± σ", [250, 200, 150], &|h| {
+                        h.predicted.mean + h.predicted.std()
+                    }),
+                    series("predicted ± σ", [250, 200, 150], &|h| {
+                        h.predicted.mean - h.predicted.std()
+                    }),
                 ],
             }
         })
         .collect();
     draw_trajectories(&TrajectoryPlot {
-        title: "Quality of held-out sentences, sorted by ground truth".into(),
+        title: "Quality of held-out sentences (cross-validation): ground truth vs predicted".into(),
         fps: 1.0,
         alignment: None,
         panels,
         width,
         panel_height: 180,
-        x_unit: "RANK",
+        x_label: "held-out sentence, ranked by ground-truth score (rank)".into(),
     })
 }
 

@@ -17,7 +17,6 @@ use super::fit::{fit_clip_cached, held_fits, unfillable_run};
 use super::resources::Resources;
 use super::session::{ReadSession, clip_length, open_for_read};
 use super::{Progress, ProgressFn};
-use crate::alignment::grouping_label;
 use crate::eval::Utterance;
 use crate::fit::{FrameFit, fitted_shape};
 use crate::io::npy_model;
@@ -246,7 +245,7 @@ fn clip_data(
         c.alignment
             .as_ref()
             .and_then(|a| a.phone_at(t))
-            .is_some_and(|p| grouping_label(&p.label) == "sil")
+            .is_some_and(|p| crate::reference::current().phones.is_silence(&p.label))
     };
     let n = clip_length(session, clip)?;
     let silent: Vec<bool> = (0..n).map(|f| silent_of(f as f64 / fps)).collect();

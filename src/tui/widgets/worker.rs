@@ -139,11 +139,12 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         N_WORST,
     );
     let first_frame_of = |label: &str| {
-        let key = crate::alignment::grouping_label(label);
+        let phones = &crate::reference::current().phones;
+        let key = phones.key_of(label);
         job.alignment
             .phones
             .iter()
-            .find(|p| crate::alignment::grouping_label(&p.label) == key)
+            .find(|p| phones.key_of(&p.label) == key)
             .map(|p| Alignment::frames_of(p, job.fps).start)
     };
     // The facial indices of speaker and head from what the app holds (no disk reads), when

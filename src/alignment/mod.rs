@@ -1,9 +1,15 @@
-//! Phoneme alignments: timed phone intervals from a forced aligner, ARPAbet normalisation
-//! for grouping, and which video frames each phone covers.
+//! Phoneme alignments: timed phone intervals from a forced aligner, which video frames each
+//! phone covers, and the phone inventory ([`inventory`]) that groups labels written in any
+//! symbol set under one key.
 
+pub mod inventory;
+
+pub use inventory::{DEFAULT_PHONES_CSV, InventoryPhone, PhoneInventory, SILENCE_KEY};
 use serde::{Deserialize, Serialize};
 
-/// One phone interval, times in seconds, covering `[start, end)`.
+/// One phone interval, times in seconds, covering `[start, end)`. The label is kept as the
+/// aligner wrote it (stress digits, IPA marks); grouping goes through
+/// [`PhoneInventory::key_of`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Phone {
     pub start: f64,
@@ -52,24 +58,6 @@ impl Alignment {
     }
 }
 
-/// Labels aligners use for silence and pauses; grouped together as `sil`.
-pub const SILENCE_LABELS: [&str; 8] = ["", "sil", "sp", "spn", "pau", "#", "<sil>", "h#"];
-
-/// The label used for grouping: ARPAbet stress digits stripped (`AA1` -> `AA`), upper-cased
-/// when it is ARPAbet, silence variants folded to `sil`; IPA and other labels pass through.
-pub fn grouping_label(label: &str) -> String {
-    let trimmed = label.trim();
-    if SILENCE_LABELS.iter().any(|s| s.eq_ignore_ascii_case(trimmed)) {
-        return "sil".to_string();
-    }
-    let is_arpabet = !trimmed.is_empty() && trimmed.chars().all(|c| c.is_ascii_alphanumeric());
-    if is_arpabet {
-        trimmed.trim_end_matches(|c: char| c.is_ascii_digit()).to_ascii_uppercase()
-    } else {
-        trimmed.to_string()
-    }
-}
-
 impl Alignment {
     /// The phone interval containing time `t` (seconds), if any.
     pub fn phone_at(&self, t: f64) -> Option<&Phone> {
@@ -93,14 +81,6 @@ impl Alignment {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn grouping_strips_stress_and_folds_silence() {
-        assert_eq!(grouping_label("AA1"), "AA");
-        assert_eq!(grouping_label("uw0"), "UW");
-        assert_eq!(grouping_label("sp"), "sil");
-        assert_eq!(grouping_label("ɪ"), "ɪ");
-    }
 
     #[test]
     fn frames_cover_half_open_interval() {

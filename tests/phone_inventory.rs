@@ -93,11 +93,13 @@ fn arpabet_with_stress_matches_a_second_aligner_and_ipa_keeps_english_phones() {
 #[test]
 fn saqp_phone_ids_join_ipa_and_arpabet_spellings() {
     let mut set = PhoneSet::default();
-    let corpus: Vec<u16> = ["AH0", "IY1", "OW0", "TH", "sil", "M"].map(|l| set.intern(l)).to_vec();
-    let ipa: Vec<u16> = ["ə", "i", "o", "θ", "", "m"].map(|l| set.intern(l)).to_vec();
+    let (inv, visemes) = (PhoneInventory::default(), lipmap::eval::VisemeTable::default());
+    let mut intern = |l: &str| set.intern(l, &inv, &visemes);
+    let corpus: Vec<u16> = ["AH0", "IY1", "OW0", "TH", "sil", "M"].map(&mut intern).to_vec();
+    let ipa: Vec<u16> = ["ə", "i", "o", "θ", "", "m"].map(&mut intern).to_vec();
+    let oe = intern("œ");
     assert_eq!(ipa, corpus);
     assert_eq!(set.label(ipa[0]), "AH");
-    let oe = set.intern("œ");
     assert!(!corpus.contains(&oe));
     assert_eq!(set.label(oe), "œ");
 }

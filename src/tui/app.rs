@@ -544,10 +544,12 @@ impl App {
 
     /// The points the current scope moves, around the selected point.
     pub fn scope_indices(&self) -> Vec<usize> {
-        use crate::landmarks::ibug::{INNER_LIP, OUTER_LIP, group_of};
+        use crate::landmarks::ibug::{INNER_LIP, OUTER_LIP};
         match self.scope {
             Scope::Point => vec![self.selected],
-            Scope::Group => group_of(self.selected)
+            Scope::Group => crate::reference::current()
+                .names
+                .group_of(self.selected)
                 .map_or_else(|| vec![self.selected], |g| g.range.clone().collect()),
             Scope::Mouth => (OUTER_LIP.start..INNER_LIP.end).collect(),
             Scope::All => (0..N_LANDMARKS).collect(),

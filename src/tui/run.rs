@@ -72,7 +72,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     };
     let clip = match &options.clip {
         Some(name) => {
-            let s = crate::session::Session::load(session_path)?;
+            let s = crate::workflow::read_session(session_path)?.session;
             crate::workflow::find_clip(&s, name)
                 .map_err(|e| anyhow::Error::new(e).context(session_path.display().to_string()))?
         }
@@ -465,7 +465,7 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                     Some(super::app::HeadSetup::Ready(p)) => p.clone(),
                     _ => continue,
                 };
-                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
+                let fit = app.fit.fits.get(&frame).filter(|f| f.is_usable()).cloned();
                 if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
                     workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
                 }

@@ -12,7 +12,7 @@ use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
-use crate::session::journal::{self, Journal, JournalEntry};
+use crate::session::journal::{Journal, JournalEntry};
 use crate::session::{Session, SessionLock};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -84,20 +84,13 @@ impl SessionBridge {
     /// # Errors
     /// When the session cannot be locked or read, or has no clip `clip`.
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
-        let lock = SessionLock::acquire(path)?;
-        let mut session = Session::load(path)?;
-        let mut problems: Vec<String> = Vec::new();
-        // Edits a crashed editor left in the journal come back first; a journal that cannot
-        // be replayed is set aside (kept for the user) so new edits start a clean one.
-        let restored = match journal::replay(&mut session, path) {
-            Ok(n) => n > 0,
-            Err(e) => {
-                let aside = journal::set_aside(path);
-                problems.push(format!("journal not replayed: {e} (moved to {})", aside.display()));
-                false
-            }
-        };
-        let journal = Journal::new(path);
+        // Locked, loaded, a crashed editor's journal replayed (or set aside when it cannot
+        // be): the one way a session is opened for editing.
+        let opened = crate::workflow::open_for_edit_at(path)?;
+        let crate::workflow::EditSession { lock, session, journal, restored, notices, .. } = opened;
+        let restored = !restored.is_empty();
+        let mut problems: Vec<String> =
+            notices.iter().map(|w| w.status_text().to_string()).collect();
         let c = session.clip(clip)?;
         let tracked = c.tracked.clone();
         let track = c.corrections.effective_track(&c.tracked);
@@ -110,10 +103,6 @@ impl SessionBridge {
         if restored {
             // Not on disk in the session file yet: autosave writes them.
             app.save.edit_made();
-            problems.push(format!(
-                "restored the edits of an editor that stopped without saving (from {})",
-                journal.path().display()
-            ));
         }
 
         let provider: Arc<dyn FrameProvider> = match session.open_frames(clip, FRAME_CACHE_MB) {
@@ -451,7 +440,8 @@ impl SessionBridge {
         if std::fs::metadata(&target).is_ok_and(|m| m.permissions().readonly()) {
             anyhow::bail!("{} is read-only", target.display());
         }
-        crate::io::landmark_map_toml::write_landmark_map(&target, map)?;
+        let names = &crate::reference::current().names;
+        crate::io::landmark_map_toml::write_landmark_map(&target, map, names)?;
         self.session.landmark_map.file = Some(target.clone());
         self.session.landmark_map.set_inline(map);
         self.loaded_map = Some(map.clone());

@@ -246,20 +246,18 @@ pub fn export(
     let (res, warnings) = load_resources(&opened.session, &opened.path)?;
     report.warnings.extend(warnings);
     let settings = opened.session.fit_settings.clone();
-    // Save only when something is fitted now: an up-to-date session stays untouched.
-    let any_stale =
-        clips.iter().any(|&c| !opened.session.stale_frames_with(c, &settings).is_empty());
     let done =
         utterances_with(&mut opened.session, &res, &clips, &settings, HeadP::Mesh, progress)?;
     report.warnings.extend(done.warnings.iter().cloned());
-    if any_stale {
+    // Save only when something is fitted now: an up-to-date session stays untouched.
+    if done.refitted > 0 {
         opened.save_if_locked()?;
     }
     report.failed_fits = done
         .fits
         .iter()
         .map(|(clip, fits)| {
-            (clip.clone(), fits.iter().filter(|f| f.failed.is_some()).cloned().collect::<Vec<_>>())
+            (clip.clone(), fits.iter().filter(|f| !f.is_usable()).cloned().collect::<Vec<_>>())
         })
         .filter(|(_, failed)| !failed.is_empty())
         .collect();
@@ -337,7 +335,7 @@ fn write_meshes(
     let mut written = 0;
     for (i, fit) in fits.iter().enumerate() {
         progress(Progress::Steps { done: done_before + i + 1, total });
-        if fit.failed.is_some() {
+        if !fit.is_usable() {
             continue;
         }
         let shape = fitted_shape(&res.model, fit);

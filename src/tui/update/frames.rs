@@ -4,7 +4,7 @@
 use super::MAX_ZOOM;
 use super::edits::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::landmarks::edit;
-use crate::landmarks::{LandmarkPoint, N_LANDMARKS, ibug};
+use crate::landmarks::{LandmarkPoint, N_LANDMARKS};
 use crate::tui::action::Action;
 use crate::tui::app::{App, Edit, Scope};
 use crate::tui::views;
@@ -37,7 +37,10 @@ pub(super) fn update(app: &mut App, action: Action) {
             app.status = match app.scope {
                 Scope::Group => format!(
                     "moving: group ({})",
-                    ibug::group_of(app.selected).map_or("point", |g| g.name)
+                    crate::reference::current()
+                        .names
+                        .group_of(app.selected)
+                        .map_or("point", |g| g.name)
                 ),
                 s => format!("moving: {}", s.label()),
             };

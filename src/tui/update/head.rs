@@ -110,7 +110,7 @@ fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
     let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
         crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
     };
-    let fit = app.fit.fits.get(&app.frame()).filter(|f| f.failed.is_none());
+    let fit = app.fit.fits.get(&app.frame()).filter(|f| f.is_usable());
     if let (Some(model), Some(fit)) = (&app.model, fit) {
         let shape = crate::fit::fitted_shape(model, fit);
         let tris = match &app.mesh {

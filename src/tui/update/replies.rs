@@ -133,7 +133,7 @@ fn fit_done(app: &mut App, fits: Vec<crate::fit::FrameFit>) {
     app.fit.running = false;
     app.fit.error = None;
     let n = fits.len();
-    let failed = fits.iter().filter(|f| f.failed.is_some()).count();
+    let failed = fits.iter().filter(|f| !f.is_usable()).count();
     if app.fit.stale.is_empty() {
         app.effects.push(Effect::StoreFits { fits: fits.clone() });
     }

@@ -77,7 +77,7 @@ pub fn request_head_frame(app: &mut App) {
     if app.heads.current.as_ref().is_some_and(|c| c.head == head && c.frame == frame) {
         return;
     }
-    if app.fit.fits.get(&frame).is_some_and(|f| f.failed.is_none()) {
+    if app.fit.fits.get(&frame).is_some_and(|f| f.is_usable()) {
         app.effects.push(Effect::TransferFrame { head, frame });
     }
 }

@@ -121,7 +121,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     y += text_h;
     // Front and side views of the fitted mesh in the fitted pose, shaded, when there is room.
     let room = bottom.saturating_sub(y);
-    if let Some(fit) = fit.filter(|f| f.failed.is_none())
+    if let Some(fit) = fit.filter(|f| f.is_usable())
         && room >= 6
         && let Some((shown, framing)) = fitted_mesh(app, fit)
     {

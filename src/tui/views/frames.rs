@@ -5,7 +5,7 @@
 //! protocol image over the half-blocks of either view when one is in use.
 
 use super::image_and_side;
-use crate::landmarks::{LandmarkPoint, PointSource, landmark_name};
+use crate::landmarks::{LandmarkPoint, PointSource};
 use crate::tui::app::{App, Overlay, View};
 use crate::tui::widgets::graphics::GraphicsState;
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
@@ -145,7 +145,11 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     });
     lines.push(Line::from(""));
     let sel = app.selected;
-    lines.push(Line::from(format!("{sel} {}", landmark_name(sel))).bold().fg(Color::LightMagenta));
+    lines.push(
+        Line::from(format!("{sel} {}", crate::reference::current().names.name(sel)))
+            .bold()
+            .fg(Color::LightMagenta),
+    );
     if let Some(p) = app.track.frames.get(app.frame_pos).and_then(|fr| fr.points.get(sel)) {
         lines.push(Line::from(vec![
             Span::from(p.source.as_str()).fg(source_colour(p.source)),

@@ -8,7 +8,6 @@
 //! The drawing is in functions ([`draw_shaded_mesh`], [`draw_wireframe`]) that take the
 //! mesh and the viewport, so another head (a transferred one) draws the same way.
 
-use crate::landmarks::landmark_name;
 use crate::math::{Matrix3, Vector3};
 use crate::model::Mesh;
 use crate::render::{HeadShot, HeadViewport};
@@ -388,7 +387,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let current = app.map.as_ref().and_then(|m| m.vertex(h.label));
     let mut lines = vec![
         Line::from("labelling").bold(),
-        Line::from(format!("{} {}", h.label, landmark_name(h.label))).fg(Color::Yellow),
+        Line::from(format!("{} {}", h.label, crate::reference::current().names.name(h.label)))
+            .fg(Color::Yellow),
         Line::from(match current {
             Some(v) => format!("now vertex {v}"),
             None => "not mapped".into(),
@@ -426,7 +426,7 @@ fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
         vec![Line::from("transferred head").bold(), Line::from(name).fg(Color::LightGreen)];
     match app.heads.setups.get(index) {
         Some(HeadSetup::Ready(p)) => {
-            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.failed.is_none());
+            let fitted = app.fit.fits.get(&f).is_some_and(|x| x.is_usable());
             let current = app.heads.current.as_ref().filter(|c| c.head == index);
             let (shape, note) = match current.map(|c| (&c.shape, c.frame)) {
                 Some((Err(e), _)) => (p.mesh.clone(), format!("frame {f}: {e}")),

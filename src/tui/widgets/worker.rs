@@ -104,40 +104,24 @@ pub struct AnalysisJob {
     pub side_p: Option<Vec<Option<f64>>>,
 }
 
-/// Rows of the worst-frame tables shown in the analysis view.
-const N_WORST: usize = 20;
-
-/// Measures the video and the fitted head, evaluates them with `crate::workflow::evaluate`
-/// (min–max normalised, as the published method) and turns the report into the analysis
-/// view's tables and trajectories. The one call into `eval`, kept here so changes stay local.
+/// Measures the video and the fitted head and evaluates them with
+/// `crate::workflow::evaluate_clip` (min–max normalised, as the published method), then turns
+/// the report into the analysis view's tables and trajectories.
 pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
-    use crate::measure::{Measure, MeshMeasureOptions};
-    use crate::workflow::{Normalisation, evaluate, head_p_options, utterance_from_parts};
-    // With a side view, the head's P is its whole upper lip's foremost point, as a profile
-    // shows it (the same rule as the CLI's `eval`; a model without a lip band keeps the
-    // landmark vertices there too).
-    let (options, warning) =
-        head_p_options(&job.model, &job.map, job.side_p.is_some(), &MeshMeasureOptions::default());
-    let mut u = utterance_from_parts(
-        &job.name,
-        &job.alignment,
-        job.fps,
-        &job.track,
-        &job.model,
-        &job.map,
-        &job.fits,
-        &options,
-    );
-    if let Some(p) = &job.side_p {
-        u.video.p = p.clone();
-        u.video.p.resize(u.head.p.len(), None);
-    }
-    let report = evaluate(
-        std::slice::from_ref(&u),
-        &[(job.name.as_str(), job.fits.as_slice())],
-        Normalisation::MinMax,
-        N_WORST,
-    );
+    use crate::measure::Measure;
+    use crate::workflow::{ClipInput, DEFAULT_WORST_ROWS, Normalisation, evaluate_clip};
+    let input = ClipInput {
+        name: &job.name,
+        alignment: &job.alignment,
+        fps: job.fps,
+        track: &job.track,
+        fits: &job.fits,
+        side_view: job.side_p.is_some(),
+        side_p: job.side_p.as_deref(),
+    };
+    let evaluated =
+        evaluate_clip(&job.model, &job.map, &input, Normalisation::MinMax, DEFAULT_WORST_ROWS);
+    let (u, report) = (&evaluated.utterance, &evaluated.report);
     let first_frame_of = |label: &str| {
         let phones = &crate::reference::current().phones;
         let key = phones.key_of(label);
@@ -184,11 +168,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
             model: frame_points(normalised.head.series(m)),
         })
         .collect();
-    // The status line has no room for the command line's `lipmap: ` prefix.
-    let warnings = warning
-        .into_iter()
-        .map(|w| w.0.strip_prefix("lipmap: ").unwrap_or(&w.0).to_string())
-        .collect();
+    let warnings = evaluated.warnings.iter().map(|w| w.status_text().to_string()).collect();
     AnalysisData { tables, trajectories, warnings }
 }
 

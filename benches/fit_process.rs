@@ -130,10 +130,8 @@ print(json.dumps(dict(frames=len(keys), cpu_median=med(cpu), wall_median=med(wal
 /// The python that has eos-py, if any.
 fn eos_python() -> Option<String> {
     let python = std::env::var("LIPMAP_EOS_PYTHON").unwrap_or_else(|_| "python3".into());
-    let ok = Command::new(&python)
-        .args(["-c", "import eos"])
-        .output()
-        .is_ok_and(|o| o.status.success());
+    let ok =
+        Command::new(&python).args(["-c", "import eos"]).output().is_ok_and(|o| o.status.success());
     ok.then_some(python)
 }
 
@@ -222,8 +220,7 @@ fn main() {
             eos_runs_done.push(parse_eos(&timed(eos_cmd(p)).0));
         }
     }
-    let (cpu_ms, wall_ms) =
-        (median(cpu) * 1e3 / FRAMES as f64, median(wall) * 1e3 / FRAMES as f64);
+    let (cpu_ms, wall_ms) = (median(cpu) * 1e3 / FRAMES as f64, median(wall) * 1e3 / FRAMES as f64);
     let per_frame_ms = median(per_frame_cpu) * 1e3 / FRAMES as f64;
     let shapes = std::fs::metadata(out.join("shapes.npy")).map(|m| m.len()).unwrap_or(0);
     println!(

@@ -75,7 +75,8 @@ pub(crate) fn solve(
         let mut accepted = false;
         for _ in 0..MAX_DAMPING_TRIES {
             copy_states(&mut candidate, &states);
-            let tried = step(&lin, &mut candidate, &alpha, mu, solve_identity, &params, &mut buffers);
+            let tried =
+                step(&lin, &mut candidate, &alpha, mu, solve_identity, &params, &mut buffers);
             if let Some(a) = tried {
                 let ids = identity_points(basis, &a);
                 if group.residual_sums(&candidate, &ids).objective(&a, &params) < cost {
@@ -233,7 +234,11 @@ fn offsets(counts: &[usize]) -> (Vec<usize>, Vec<usize>) {
 
 /// `buf` cut into consecutive pieces of `offsets[f + 1] − offsets[f]` values each
 /// (`per` values per unit).
-fn split_at_offsets<'a>(mut buf: &'a mut [Real], offsets: &[usize], per: usize) -> Vec<&'a mut [Real]> {
+fn split_at_offsets<'a>(
+    mut buf: &'a mut [Real],
+    offsets: &[usize],
+    per: usize,
+) -> Vec<&'a mut [Real]> {
     offsets
         .windows(2)
         .map(|w| {
@@ -386,7 +391,8 @@ fn frame_blocks(
     // H_pc rows from the Jacobian's entries (see `PoseResidual::jacobian`):
     // ∂ω: (0, s·c_z, −s·c_y | −s·c_z, 0, s·c_x), ∂s: (c_x + t_x | c_y + t_y), ∂t: s.
     let cam = |a: usize, b: usize| row(&scr.cam, 2 * a + b, k);
-    let (c00, c01, c10, c11, c20, c21) = (cam(0, 0), cam(0, 1), cam(1, 0), cam(1, 1), cam(2, 0), cam(2, 1));
+    let (c00, c01, c10, c11, c20, c21) =
+        (cam(0, 0), cam(0, 1), cam(1, 0), cam(1, 1), cam(2, 0), cam(2, 1));
     let (y0, y1) = scr.ry.split_at(k);
     let (u, v) = scr.obs.split_at(k);
     let (s2, s1) = (s * s * inv, s * inv);
@@ -481,10 +487,13 @@ impl Linearisation {
     ) {
         let basis = group.basis;
         let (kid, k, k_exp) = (basis.k_id, basis.num_coefficients(), basis.k_exp);
-        let counts: Vec<usize> = states
-            .iter()
-            .map(|st| if st.failed.is_some() { 0 } else { 6 + st.free.iter().filter(|f| **f).count() })
-            .collect();
+        let counts: Vec<usize> =
+            states
+                .iter()
+                .map(|st| {
+                    if st.failed.is_some() { 0 } else { 6 + st.free.iter().filter(|f| **f).count() }
+                })
+                .collect();
         (self.rows, self.blocks) = offsets(&counts);
         let total_rows = self.rows[counts.len()];
         self.a.resize(self.blocks[counts.len()], 0.0);
@@ -493,8 +502,13 @@ impl Linearisation {
         let g_frames = &mut self.g_frames;
         g_frames.resize(states.len() * kid, 0.0);
         let id_moments = point_moments(basis, id_pts);
-        let sh =
-            Shared { basis, id_pts, id_moments: &id_moments, image_height: group.image_height, params };
+        let sh = Shared {
+            basis,
+            id_pts,
+            id_moments: &id_moments,
+            image_height: group.image_height,
+            params,
+        };
         let items: Vec<(usize, FrameOut<'_>)> = split_at_offsets(&mut self.a, &self.blocks, 1)
             .into_iter()
             .zip(split_at_offsets(&mut self.c, &self.rows, kid))
@@ -545,7 +559,15 @@ const SCHUR_CHUNK: usize = 32;
 
 /// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))`, `w = L⁻¹C`, `z = L⁻¹b`
 /// (row-major, n rows). False when the damped block is not positive definite.
-fn eliminate(a: &[Real], c: &[Real], b: &[Real], mu: Real, l: &mut [Real], w: &mut [Real], z: &mut [Real]) -> bool {
+fn eliminate(
+    a: &[Real],
+    c: &[Real],
+    b: &[Real],
+    mu: Real,
+    l: &mut [Real],
+    w: &mut [Real],
+    z: &mut [Real],
+) -> bool {
     let n = b.len();
     if n == 0 {
         return true;
@@ -709,7 +731,6 @@ pub(crate) fn step(
     (fine && new_alpha.iter().all(|v| v.is_finite())).then_some(new_alpha)
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -772,12 +793,7 @@ mod tests {
                 })
                 .collect();
             observations.push(FrameObservations::new(basis, &FrameLandmarks::new(f, points)));
-            states.push(FrameState {
-                pose,
-                beta,
-                free: vec![true, false, f != 2],
-                failed: None,
-            });
+            states.push(FrameState { pose, beta, free: vec![true, false, f != 2], failed: None });
         }
         (observations, states)
     }
@@ -913,8 +929,7 @@ mod tests {
         for (f, u) in unknowns.iter().enumerate() {
             let n = u.len();
             let a = &lin.a[lin.blocks[f]..lin.blocks[f + 1]];
-            let want_a: Vec<Real> =
-                (0..n * n).map(|x| m[(off + x / n, off + x % n)]).collect();
+            let want_a: Vec<Real> = (0..n * n).map(|x| m[(off + x / n, off + x % n)]).collect();
             assert!(relative(a, &want_a) < 1e-10, "frame {f} A");
             let c = &lin.c[lin.rows[f] * kid..lin.rows[f + 1] * kid];
             let want_c: Vec<Real> =

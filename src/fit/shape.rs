@@ -138,7 +138,8 @@ impl LandmarkBasis {
                 axpy(weights[i], &rows[(3 * i + b) * k..(3 * i + b + 1) * k], row);
             }
         }
-        let expression_rows = rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
+        let expression_rows =
+            rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
         Self {
             landmarks: pairs.iter().map(|p| p.0).collect(),
             vertices: pairs.iter().map(|p| p.1).collect(),

@@ -725,7 +725,7 @@ pub(crate) fn step(
     let fine = if in_parallel(out.len()) {
         out.par_iter_mut().zip(vs).enumerate().map(update).all(|ok| ok)
     } else {
-        out.iter_mut().zip(vs).enumerate().map(update).all(|ok| ok)
+        out.iter_mut().zip(vs).enumerate().all(update)
     };
     let new_alpha = alpha + dalpha;
     (fine && new_alpha.iter().all(|v| v.is_finite())).then_some(new_alpha)

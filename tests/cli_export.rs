@@ -44,7 +44,7 @@ fn fixture() -> Option<Fixture> {
         clip: ClipInputs {
             frames,
             fps: Some(25.0),
-            landmarks,
+            landmarks: landmarks.into(),
             alignment: Some((textgrid, None)),
             side: None,
             name: Some("carphone".into()),

@@ -7,8 +7,8 @@ use crate::cli::progress::print_warnings;
 use crate::landmarks::LandmarkSet;
 use crate::workflow::audio::{AudioInput, AudioSource};
 use crate::workflow::create::{
-    ClipInputs, HeadSet, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs,
-    create_session, import_into_session, map_hint,
+    ClipInputs, HeadSet, Import, LandmarkInput, MapSet, MapState, NewSession, ReplacedMap,
+    SideInputs, create_session, import_into_session, map_hint,
 };
 use crate::workflow::session_path;
 use anyhow::{Result, bail};
@@ -21,14 +21,20 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ClipArgs {
     /// Front-view frames: a folder of images (PNG/JPEG/PPM) or a video file (needs ffmpeg).
-    #[arg(long, requires = "landmarks")]
+    #[arg(long, requires = "landmark_source")]
     pub frames: Option<PathBuf>,
     /// Frames per second (default: the video's, or 25 for an image folder, with a notice).
     #[arg(long, requires = "frames")]
     pub fps: Option<f64>,
     /// Tracked landmarks: .pts file or folder, OpenFace CSV, dlib XML, lipmap CSV.
-    #[arg(long, requires = "frames")]
+    #[arg(long, requires = "frames", group = "landmark_source")]
     pub landmarks: Option<PathBuf>,
+    /// Track the landmarks with lipmap's own tracker (dlib's shape predictor) instead of
+    /// reading them (`lipmap track`; --predictor and --detector name its files).
+    #[arg(long, requires = "frames", group = "landmark_source")]
+    pub track: bool,
+    #[command(flatten)]
+    pub tracker: crate::cli::track_cmd::TrackerArgs,
     /// Phone alignment: TextGrid, HTK/Festival .lab, or start,end,phone CSV.
     #[arg(long, requires = "frames")]
     pub alignment: Option<PathBuf>,
@@ -61,7 +67,7 @@ pub struct ClipArgs {
 impl ClipArgs {
     /// Whether a clip was given at all.
     pub fn is_given(&self) -> bool {
-        self.frames.is_some() || self.landmarks.is_some()
+        self.frames.is_some() || self.landmarks.is_some() || self.track
     }
 
     /// The audio flags (`None` without --audio). A file literally named `video` is given as
@@ -85,13 +91,18 @@ impl ClipArgs {
         if !self.is_given() {
             return Ok(None);
         }
-        let (Some(frames), Some(landmarks)) = (&self.frames, &self.landmarks) else {
-            bail!("a clip needs --frames and --landmarks");
+        let landmarks = match (&self.landmarks, self.track) {
+            (Some(file), false) => Some(LandmarkInput::File(file.clone())),
+            (None, true) => Some(LandmarkInput::Track(self.tracker.files())),
+            _ => None,
+        };
+        let (Some(frames), Some(landmarks)) = (&self.frames, landmarks) else {
+            bail!("a clip needs --frames and --landmarks (or --track)");
         };
         Ok(Some(ClipInputs {
             frames: frames.clone(),
             fps: self.fps,
-            landmarks: landmarks.clone(),
+            landmarks,
             alignment: self
                 .alignment
                 .clone()
@@ -155,7 +166,9 @@ pub struct ImportArgs {
 
 /// Creates the session and says what it holds (warnings go to stderr first).
 pub fn run_new(a: &NewArgs) -> Result<String> {
-    let Some(clip) = a.clip.inputs()? else { bail!("a clip needs --frames and --landmarks") };
+    let Some(clip) = a.clip.inputs()? else {
+        bail!("a clip needs --frames and --landmarks (or --track)")
+    };
     let created = create_session(&NewSession {
         path: session_path(&a.session),
         clip,

@@ -8,6 +8,7 @@ use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
 use super::resources::{check_map_for_fit, check_map_vertices};
 use super::session::{clip_or_first, open_for_edit_at};
+use super::track::{TrackerFiles, load_tracker, track_frames};
 use crate::fit::FitSettings;
 use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::textgrid::TierChoice;
@@ -24,8 +25,8 @@ pub struct ClipInputs {
     pub frames: PathBuf,
     /// Frames per second (`None`: the video's, or [`DEFAULT_FOLDER_FPS`] for a folder).
     pub fps: Option<f64>,
-    /// Tracked landmarks in any format lipmap reads.
-    pub landmarks: PathBuf,
+    /// Where the landmarks come from.
+    pub landmarks: LandmarkInput,
     /// A phone alignment and the TextGrid tier to read from it.
     pub alignment: Option<(PathBuf, Option<TierChoice>)>,
     /// Side-view frames, for protrusion.
@@ -34,6 +35,27 @@ pub struct ClipInputs {
     pub name: Option<String>,
     /// The clip's audio (for speech-driven animation).
     pub audio: Option<AudioInput>,
+}
+
+/// A clip's landmarks: a tracker's file, or tracked by lipmap on the clip's frames.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LandmarkInput {
+    /// Landmarks in any format lipmap reads.
+    File(PathBuf),
+    /// Tracked with lipmap's own tracker (`workflow::track`) from these files.
+    Track(TrackerFiles),
+}
+
+impl Default for LandmarkInput {
+    fn default() -> Self {
+        Self::File(PathBuf::new())
+    }
+}
+
+impl From<PathBuf> for LandmarkInput {
+    fn from(p: PathBuf) -> Self {
+        Self::File(p)
+    }
 }
 
 /// A side view's frames and timing.
@@ -315,7 +337,6 @@ fn set_head(session: &mut Session, file: &Path, mesh: &Mesh) -> Result<HeadSet> 
 pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     let mut warnings = Vec::new();
     let frames_path = &inputs.frames;
-    let landmarks = &inputs.landmarks;
     let frames =
         FrameSource::open(frames_path, &FrameOptions { fps: inputs.fps, ..Default::default() })?;
     if frames_path.is_dir() && inputs.fps.is_none() {
@@ -323,6 +344,25 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     }
     let mut front = View::new(frames_ref(frames_path), frames.fps());
     front.size = Some(frames.size());
+    let landmarks = match &inputs.landmarks {
+        LandmarkInput::File(file) => file,
+        LandmarkInput::Track(files) => {
+            let tracked = track_frames(&load_tracker(files)?, &frames, &super::no_progress)?;
+            if let Some(first) = tracked.lost.first() {
+                warnings.push(Warning(format!(
+                    "lipmap: warning: no face found on {} of {} (first: frame {first}); they have no landmarks",
+                    tracked.lost.len(),
+                    frames_path.display()
+                )));
+            }
+            let mut clip = Clip::new(
+                inputs.name.clone().unwrap_or_else(|| default_clip_name(frames_path)),
+                front,
+            );
+            clip.tracked = tracked.track;
+            return finish_clip(clip, inputs, &frames, warnings);
+        }
+    };
     let tracked = landmark_format::read_track(landmarks)?;
     if tracked.is_empty() {
         return Err(Error::Invalid(format!("{}: no frames of landmarks", landmarks.display())));
@@ -356,6 +396,16 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     let mut clip = Clip::new(name, front);
     clip.tracked = tracked;
     clip.landmarks_file = Some(absolute(landmarks));
+    finish_clip(clip, inputs, &frames, warnings)
+}
+
+/// Adds the alignment and the side view to a clip whose landmarks are read.
+fn finish_clip(
+    mut clip: Clip,
+    inputs: &ClipInputs,
+    frames: &FrameSource,
+    warnings: Vec<Warning>,
+) -> Result<(Clip, Vec<Warning>)> {
     if let Some((file, tier)) = &inputs.alignment {
         clip.alignment = Some(alignment_format::read_alignment(file, tier.as_ref())?);
         clip.alignment_file = Some(absolute(file));

@@ -29,6 +29,7 @@ pub mod session;
 pub mod side_view;
 pub mod speech;
 pub mod speech_session;
+pub mod track;
 pub mod transfer;
 pub mod untrusted;
 pub mod validate;

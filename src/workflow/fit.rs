@@ -5,7 +5,7 @@
 
 use super::error::{Progress, ProgressFn, Result, Warning};
 use super::flags::clip_flag_lines;
-use super::resources::{Resources, check_map_for_fit, load_resources};
+use super::resources::{Resources, check_before_fit, load_resources};
 use super::session::{EditSession, image_height, select_clips};
 use crate::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
 use crate::landmarks::FrameLandmarks;
@@ -34,8 +34,8 @@ impl ClipFits {
 /// `progress` receives (frames done, frames to do).
 ///
 /// # Errors
-/// Unknown clip; landmarks missing for a frame the cache names; a map the fit cannot use
-/// ([`check_map_for_fit`]), before anything is fitted.
+/// Unknown clip; landmarks missing for a frame the cache names; when anything needs
+/// fitting, a map the fit refuses ([`check_before_fit`]), before anything is fitted.
 pub fn fit_clip_cached(
     session: &mut Session,
     res: &Resources,
@@ -43,8 +43,10 @@ pub fn fit_clip_cached(
     settings: &FitSettings,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ClipFits> {
-    check_map_for_fit(&res.map, res.model.num_vertices(), settings)?;
     let stale = session.stale_frames_with(clip, settings);
+    if !stale.is_empty() {
+        check_before_fit(&res.model, &res.map, settings, res.accept_map_warnings)?;
+    }
     let height = image_height(session, clip)?;
     let track = session.fit_input_track(clip, settings)?;
     let to_fit: Vec<FrameLandmarks> = if stale.is_empty() {
@@ -104,11 +106,21 @@ pub fn fit_session(
     opened: &mut EditSession,
     settings: &FitSettings,
     only: Option<&str>,
+    accept_map_warnings: bool,
     progress: ProgressFn<'_>,
 ) -> Result<SessionFitted> {
     let session = &mut opened.session;
     session.fit_settings = settings.clone();
-    let (res, warnings) = load_resources(session, &opened.path)?;
+    let (mut res, mut warnings) = load_resources(session, &opened.path)?;
+    res.accept_map_warnings = accept_map_warnings;
+    // Said once, before the fits, rather than refused (the user accepted them).
+    if let Ok(accepted) = check_before_fit(&res.model, &res.map, settings, accept_map_warnings) {
+        warnings.extend(
+            accepted.iter().map(|p| {
+                Warning(format!("lipmap: warning: fitting with a model map problem: {p}"))
+            }),
+        );
+    }
     let mut out = SessionFitted { clips: Vec::new(), warnings };
     for c in select_clips(session, only)? {
         let name = session.clip(c)?.name.clone();

@@ -129,7 +129,10 @@ pub struct App {
 
     // ---- the session's resources and the fits made with them ----
     pub model: Option<Arc<MorphableModel>>,
+    /// The map the head view labels (`head.label_role` says whose).
     pub map: Option<LandmarkMap>,
+    /// The model's map while the head view labels a head's own map; see [`App::fit_map`].
+    pub model_map: Option<LandmarkMap>,
     pub mesh: Option<Arc<Mesh>>,
     pub fit_settings: FitSettings,
     pub fits: Fits,
@@ -178,6 +181,7 @@ impl App {
             switch_clip: None,
             model: None,
             map: None,
+            model_map: None,
             mesh: None,
             fit_settings: FitSettings::default(),
             fits: Fits::default(),
@@ -198,6 +202,15 @@ impl App {
         };
         app.recompute_flags();
         app
+    }
+
+    /// The model's map, what fits use: the labelled map when the head view labels the model,
+    /// else the model's own.
+    pub fn fit_map(&self) -> Option<&LandmarkMap> {
+        match self.head.label_role {
+            crate::session::MapRole::Model => self.map.as_ref(),
+            crate::session::MapRole::Head => self.model_map.as_ref(),
+        }
     }
 
     /// Sets the head mesh and precomputes its unique edges for the wireframe.
@@ -246,7 +259,9 @@ impl App {
             Scope::Point => vec![selected],
             Scope::Group => {
                 let names = &crate::reference::current().names;
-                names.group_of(selected).map_or_else(|| vec![selected], |g| g.range.clone().collect())
+                names
+                    .group_of(selected)
+                    .map_or_else(|| vec![selected], |g| g.range.clone().collect())
             }
             Scope::Mouth => (OUTER_LIP.start..INNER_LIP.end).collect(),
             Scope::All => (0..N_LANDMARKS).collect(),

@@ -12,13 +12,33 @@ pub fn run_fit(app: &mut App) {
         app.status = "cannot fit: the session has no model".into();
         return;
     };
-    let map = app.map.clone().unwrap_or_default();
-    // One message now rather than every frame failing the same way.
-    if let Err(e) =
-        crate::workflow::check_map_for_fit(&map, model.num_vertices(), &app.fit_settings)
-    {
-        app.status = format!("cannot fit: {e}; label more in the head view (2), `O` suggests");
-        return;
+    let map = app.fit_map().cloned().unwrap_or_default();
+    // The CLI's rule, so the TUI refuses and asks exactly where `lipmap fit` does. Asked
+    // once per list of problems: `f` again with the same list is the user's yes.
+    let asked = std::mem::take(&mut app.fit.map_problems);
+    match crate::workflow::check_before_fit(model, &map, &app.fit_settings, false) {
+        Ok(_) => {}
+        Err(crate::workflow::FitRefusal::Implausible { problems }) if problems == asked => {}
+        Err(crate::workflow::FitRefusal::Implausible { problems }) => {
+            app.status = format!(
+                "the model map fails the anatomy check ({} problems, listed in the fit view 3): \
+                 press f again to fit anyway (as `lipmap fit --accept-map-warnings`), or fix \
+                 the map in the head view (2)",
+                problems.len()
+            );
+            app.fit.map_problems = problems;
+            return;
+        }
+        Err(e) => {
+            let fix = match app.head.label_role {
+                crate::session::MapRole::Model => "label more in the head view (2), `O` suggests",
+                crate::session::MapRole::Head => {
+                    "give the model a map: lipmap import SESSION --mapping FILE"
+                }
+            };
+            app.status = format!("cannot fit: {e}; {fix}");
+            return;
+        }
     }
     if app.fits.stale.is_empty()
         && app.track.frames.iter().all(|f| app.fits.by_frame.contains_key(&f.frame))

@@ -28,6 +28,13 @@ pub struct HeadScreen {
     pub occluders: Option<Arc<Vec<bool>>>,
     /// The session's transferred heads the screen can show.
     pub heads: TransferredHeads,
+    /// Whose map the screen labels: the model's (what `fit` uses) or the head's own (what
+    /// transfer and indices use, when the head is another mesh).
+    pub label_role: crate::session::MapRole,
+    /// The file name of the mesh being labelled, shown with the role.
+    pub label_mesh_name: String,
+    /// The session's head is another mesh than the model, so there are two maps.
+    pub head_has_own_map: bool,
 }
 
 /// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the

@@ -223,8 +223,12 @@ impl App {
     /// Frames the head screen on the face (see [`HeadFraming::of_face`]).
     pub fn frame_head(&mut self) {
         if let Some(mesh) = &self.mesh {
-            self.head.framing =
-                HeadFraming::of_face(mesh, self.model.as_deref(), self.map.as_ref());
+            self.head.framing = HeadFraming::of_face(
+                mesh,
+                self.model.as_deref(),
+                self.map.as_ref(),
+                self.head.label_candidates.as_deref().map(Vec::as_slice),
+            );
         }
     }
 

@@ -173,7 +173,7 @@ fn fitted_mesh(app: &App, fit: &crate::fit::FrameFit) -> Option<(Mesh, HeadFrami
         Some(head) => (Mesh::from_flat(shape.as_slice(), head.faces.clone()), app.head.framing),
         None => {
             let mesh = model.to_mesh(&shape);
-            let framing = HeadFraming::of_face(&mesh, Some(model), app.fit_map());
+            let framing = HeadFraming::of_face(&mesh, Some(model), app.fit_map(), None);
             (mesh, framing)
         }
     })

@@ -398,7 +398,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         Line::from(match (app.head.head_has_own_map, app.head.label_role) {
             (false, _) => "(one map: model = head)",
             (true, crate::session::MapRole::Model) => "(fit uses it; head map next)",
-            (true, crate::session::MapRole::Head) => "(transfer, indices use it)",
+            (true, crate::session::MapRole::Head) => "(for transfer, indices)",
         })
         .fg(Color::DarkGray),
         Line::from(format!("{} {}", h.label, crate::reference::current().names.name(h.label)))

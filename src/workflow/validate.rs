@@ -123,9 +123,9 @@ pub fn validate_file(path: &Path) -> Result<FileSummary> {
             FileSummary::Target { offsets: makehuman_target::read_target(path)?.len() }
         }
         FileKind::Audio => {
-            let a = crate::io::wav::read_wav(path)?;
-            let seconds = a.samples.len() as f64 / f64::from(a.sample_rate);
-            FileSummary::Audio { seconds, sample_rate: a.sample_rate }
+            // Read through block by block: an hour's samples are never held.
+            let a = crate::io::wav::check_wav(path)?;
+            FileSummary::Audio { seconds: a.seconds(), sample_rate: a.sample_rate }
         }
         FileKind::SpeechModel => {
             let m = super::speech::load_speech_model(path)?;

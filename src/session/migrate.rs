@@ -141,8 +141,7 @@ mod tests {
   "clips": [],
   "head_mesh": "head.obj",
   "model": {"path": "model.bin"},
-  "landmark_map": {"file": "map.toml", "inline": {"30": 12, "36": 40}},
-  "fit_settings": {}
+  "landmark_map": {"file": "map.toml", "inline": {"30": 12, "36": 40}}
 }"#;
         std::fs::write(&path, old).unwrap();
         let s = crate::session::Session::load(&path).unwrap();

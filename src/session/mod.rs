@@ -18,7 +18,7 @@ pub mod transferred;
 pub use cache::{CachedFrame, FitCacheEntry};
 pub use corrections::Corrections;
 pub use migrate::CURRENT_SCHEMA;
-pub use model::{Clip, ClipAudio, FramesRef, MapRef, ModelRef, Session, View};
+pub use model::{Clip, ClipAudio, FramesRef, MapRef, MapRole, ModelRef, Session, View};
 pub use store::{LockInfo, SessionLock};
 pub use transferred::TransferredHead;
 

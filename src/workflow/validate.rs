@@ -88,7 +88,7 @@ pub fn validate_file(path: &Path) -> Result<FileSummary> {
     Ok(match detect_kind(path) {
         FileKind::Session => {
             let read = read_session(path)?;
-            let map = super::map::check_session_map(&read.session)
+            let map = super::map::check_session_map(&read.session, crate::session::MapRole::Model)
                 .map(|c| c.map(|c| c.summary()))
                 .map_err(|e| e.to_string())
                 .transpose();

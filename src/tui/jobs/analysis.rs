@@ -34,7 +34,7 @@ impl AnalysisJob {
             generation,
             name,
             model: app.model.clone()?,
-            map: app.map.clone()?,
+            map: app.fit_map()?.clone(),
             track: app.fit_input_track(),
             alignment: app.alignment.clone().unwrap_or_default(),
             fps: app.fps,

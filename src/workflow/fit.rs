@@ -184,7 +184,9 @@ mod tests {
             path: path.to_path_buf(),
             clip: ClipInputs {
                 frames: data.join("carphone/frames"),
-                landmarks: data.join("carphone/dlib68_pts"),
+                landmarks: crate::workflow::create::LandmarkInput::File(
+                    data.join("carphone/dlib68_pts"),
+                ),
                 fps: Some(30.0),
                 ..Default::default()
             },

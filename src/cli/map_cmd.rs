@@ -77,16 +77,17 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
             write_landmark_map(&a.out, &s.map, &crate::reference::current().names)?;
             writeln!(
                 out,
-                "wrote {} ({} landmarks, the {} map); use it with: lipmap import {} --{} {}",
+                "wrote {} ({} landmarks, the {} map); use it with: {}",
                 a.out.display(),
                 s.map.len(),
                 role.name(),
-                a.session,
                 match role {
-                    MapRole::Model => "mapping",
-                    MapRole::Head => "head-mapping",
+                    MapRole::Model =>
+                        format!("lipmap import {} --mapping {}", a.session, a.out.display()),
+                    MapRole::Head => {
+                        format!("lipmap import {} --head-mapping {}", a.session, a.out.display())
+                    }
                 },
-                a.out.display()
             )?;
             Ok(true)
         }

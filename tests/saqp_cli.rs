@@ -79,15 +79,13 @@ fn write_lagged_motion(session: &Path, dir: &Path, lag: usize) {
     }
 }
 
+/// The summary's rows of each synthesizer's kept calibration.
 fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
     let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
-    let (_, rows) = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
-        .expect("the synthesizer table");
-    rows.as_array().unwrap().clone()
+    let summary = &tables["summary"];
+    assert!(summary["title"].as_str().unwrap().starts_with("Predicted vs ground-truth"));
+    let rows = summary["rows"].as_array().expect("the synthesizer table");
+    rows.iter().filter(|r| r["kept"] == "yes").cloned().collect()
 }
 
 #[test]
@@ -139,7 +137,23 @@ fn cross_validate_train_predict_and_every_bad_input() {
 
     // A trained predictor scores phone files and names phones the corpus never saw.
     let model = dir.path().join("quality.json");
-    let out = lipmap(&["saqp", "train", s(&session), "--synth", "keyframe", "--out", s(&model)]);
+    let train = |more: &[&str]| {
+        let mut args =
+            vec!["saqp", "train", s(&session), "--synth", "keyframe", "--out", s(&model)];
+        args.extend(more);
+        lipmap(&args)
+    };
+    // A predictor without skill on its held-out sentences is saved only when asked.
+    let out = train(&[]);
+    let skilled = out.status.success();
+    if skilled {
+        assert!(text(&out.stdout).contains(": skill)"), "{}", text(&out.stdout));
+    } else {
+        let e = one_error(&out);
+        assert!(e.contains("no skill") && e.contains("--allow-no-skill"), "{e}");
+        assert!(!model.exists());
+    }
+    let out = train(&["--allow-no-skill"]);
     assert!(out.status.success(), "train: {}", text(&out.stderr));
     assert!(text(&out.stdout).contains("keyframe quality predictor on 30 sentences"));
     let known = dir.path().join("known.csv");
@@ -157,7 +171,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let out = lipmap(&["saqp", "predict", s(&model), "--phones", s(&known), s(&foreign), "--json"]);
     assert!(out.status.success(), "predict: {}", text(&out.stderr));
     let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = tables.as_object().unwrap().values().next().unwrap().as_array().unwrap().clone();
+    let rows = tables["predictions"]["rows"].as_array().unwrap().clone();
     assert_eq!(rows.len(), 2);
     for r in &rows {
         let p = r["predicted"].as_f64().unwrap();
@@ -165,6 +179,9 @@ fn cross_validate_train_predict_and_every_bad_input() {
     }
     assert_eq!(rows[0]["unseen phones"], "");
     assert_eq!(rows[1]["unseen phones"], "ə");
+    // The predictor says whether it has skill.
+    let notes = tables["predictions"]["notes"].to_string();
+    assert_eq!(notes.contains("has NO skill"), !skilled, "{notes}");
 
     // Bad inputs: one line naming the place.
     let first = std::fs::read_dir(&ext).unwrap().next().unwrap().unwrap().path();

@@ -65,6 +65,9 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let sessions = workflow::demo::write_demo_sessions(&generated)?;
     let t_gen = t0.elapsed();
     let mut any_failed = false;
+    // JSON is one document for every speaker: their tables are gathered and written once.
+    let json = a.output.format() == crate::cli::output::TableFormat::Json;
+    let mut gathered: Vec<crate::eval::Table> = Vec::new();
     for (k, path) in sessions.iter().enumerate() {
         let mut session = Session::load(path)?;
         let res = Resources::load(&session)?;
@@ -84,10 +87,19 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
         session.save(path)?;
         any_failed |= done.fits.iter().any(|(_, f)| f.iter().any(|x| x.failed.is_some()));
         let report = workflow::evaluate(&done.utterances, &done.fit_refs(), a.normalise.into(), 10);
+        if json {
+            let speaker = format!("speaker {k}");
+            gathered.push(report.sentences.for_item(&speaker));
+            gathered.push(report.phonemes.for_item(&speaker));
+            continue;
+        }
         if sessions.len() > 1 {
             writeln!(out, "== speaker {k}: {}", path.display())?;
         }
         write_tables(&[&report.sentences, &report.phonemes], a.output.format(), out)?;
+    }
+    if json {
+        write_tables(&gathered.iter().collect::<Vec<_>>(), a.output.format(), out)?;
     }
     eprintln!(
         "lipmap demo: generated in {:.1} s, fitted and evaluated in {:.1} s; session {}",

@@ -31,7 +31,8 @@ impl FormatArgs {
 }
 
 /// Writes tables in `format`: text tables separated by blank lines; CSV blocks each headed
-/// by a `# title` line; JSON as `{title: [records...]}` in order.
+/// by a `# title` line; JSON as one document keyed by the tables' stable keys
+/// ([`json_document`]).
 pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write) -> Result<()> {
     let mut out = out;
     match format {
@@ -53,15 +54,41 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
             }
         }
         TableFormat::Json => {
-            let mut doc = serde_json::Map::new();
-            for t in tables {
-                doc.insert(t.title.clone(), t.to_json_records());
-            }
-            serde_json::to_writer_pretty(&mut out, &serde_json::Value::Object(doc))?;
+            serde_json::to_writer_pretty(&mut out, &json_document(tables))?;
             writeln!(out)?;
         }
     }
     Ok(())
+}
+
+/// The JSON document of some tables (docs/json.md): an object with one member per table
+/// key ([`Table::key`]). A table is `{"title", "columns", "rows", "notes"}`, its
+/// rows objects keyed by column; tables repeated per clip, head or speaker
+/// ([`Table::item`]) are an array under their key, each with an `"item"` member. The key,
+/// not the title, names a table: titles carry counts and names that change from run to run.
+pub fn json_document(tables: &[&Table]) -> serde_json::Value {
+    let mut doc = serde_json::Map::new();
+    for (i, t) in tables.iter().enumerate() {
+        let key = if t.key.is_empty() { format!("table_{}", i + 1) } else { t.key.clone() };
+        let mut object = serde_json::Map::new();
+        if let Some(item) = &t.item {
+            object.insert("item".into(), item.clone().into());
+        }
+        object.insert("title".into(), t.title.clone().into());
+        object.insert("columns".into(), t.headers.clone().into());
+        object.insert("rows".into(), t.to_json_records());
+        object.insert("notes".into(), t.notes.clone().into());
+        let object = serde_json::Value::Object(object);
+        if t.item.is_some() {
+            match doc.entry(key).or_insert_with(|| serde_json::Value::Array(Vec::new())) {
+                serde_json::Value::Array(list) => list.push(object),
+                slot => *slot = object,
+            }
+        } else {
+            doc.insert(key, object);
+        }
+    }
+    serde_json::Value::Object(doc)
 }
 
 /// `text` with every control character (C0, DEL, C1) and bidirectional override spelt as an escape (`\x1b`, `\n`,

@@ -6,13 +6,20 @@
 //! then predicts M_v, scored against M_t.
 //!
 //! Choices the paper makes by cross-validation are made here the same way, inside M_t only,
-//! so the held-out figures stay honest: ω_m by the GP's closed-form leave-one-out RMSE on the
-//! Likert scale; λ and the order of W (which change E for every synthesizer) by how strongly
-//! E tracks Q over the training pairs (mean |Pearson r| across synthesizers), because a GP
-//! fit per candidate per synthesizer costs far more than the cross-validation it serves.
-//! Every random choice comes from one seed.
+//! so the held-out figures stay honest: ω_m by the paper's criterion (§5.3, Fig. 6), the
+//! cross-validated RMSE of the predicted Likert scores — here leaving out one training
+//! sentence at a time, as a sentence scored in several sub-corpora gives near-identical
+//! pairs; λ and the order of W (which change E for every synthesizer) by how strongly E
+//! tracks Q over the training pairs (mean |Pearson r| across synthesizers), because a GP fit
+//! per candidate per synthesizer costs far more than the cross-validation it serves.
+//!
+//! Beside the GP, a straight line on the same inputs is fitted to the same pairs; a trained
+//! predictor keeps whichever has the lower leave-one-sentence-out RMSE, and both are scored
+//! on M_v beside a constant predictor, with the verdict of [`super::skill`]. Every random
+//! choice comes from one seed.
 
 use super::SaqpError;
+use super::calibration::{CalibrationKind, LinearCalibration};
 use super::context::ContextOptions;
 use super::corpus::Corpus;
 use super::gp::{GaussianProcess, GpPrediction};
@@ -20,6 +27,7 @@ use super::motion::RegionSummary;
 use super::prepared::Prepared;
 use super::quality::{QualityParts, likert};
 use super::satf::{SatfParams, fit_trajectory};
+use super::skill::Skill;
 use super::synth::SynthParams;
 use super::synth::{External, SynthKind, TrainingSet};
 use rand::rngs::StdRng;
@@ -85,28 +93,77 @@ impl Default for CvOptions {
 pub struct HeldOut {
     pub sentence: String,
     pub e: f64,
+    /// The predictor's inputs ([`super::satf::INPUT_NAMES`]: E and the coverage).
+    pub inputs: Vec<f64>,
     /// Ground-truth error (eq. 8) and its Likert score.
     pub q: f64,
     pub likert: f64,
+    /// The GP's prediction and the line's.
     pub predicted: GpPrediction,
+    pub linear: GpPrediction,
 }
 
-/// One synthesizer's model and its validation.
+impl HeldOut {
+    /// The prediction of the calibration `kind`.
+    pub fn prediction(&self, kind: CalibrationKind) -> GpPrediction {
+        match kind {
+            CalibrationKind::Gp => self.predicted,
+            CalibrationKind::Linear => self.linear,
+        }
+    }
+}
+
+/// How well one ω_m candidate's scores were predicted inside the training part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OmegaScore {
+    pub omega_m: f64,
+    /// The paper's criterion: RMSE of the GP's leave-one-sentence-out predictions of the
+    /// training scores.
+    pub rmse: f64,
+    /// The training scores' standard deviation (what the training mean would err by).
+    pub spread: f64,
+}
+
+/// One synthesizer's models and their validation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SynthReport {
     pub synth: SynthKind,
     pub omega_m: f64,
-    /// (ω_m, leave-one-out RMSE) of each candidate tried.
-    pub omega_scores: Vec<(f64, f64)>,
+    /// Each candidate tried, in grid order.
+    pub omega_scores: Vec<OmegaScore>,
     /// ξ, the largest training error (the Likert scale's 1).
     pub xi: f64,
     pub gp: GaussianProcess,
+    pub linear: LinearCalibration,
+    /// Leave-one-sentence-out RMSE of the GP's and the line's training predictions.
+    pub gp_training_rmse: f64,
+    pub linear_training_rmse: f64,
+    /// The calibration a trained predictor keeps: the lower training RMSE.
+    pub kept: CalibrationKind,
     pub held_out: Vec<HeldOut>,
-    /// Pearson r, RMSE of the GP's predictions, and RMSE of predicting the training mean,
-    /// all on the held-out Likert scores.
+    /// The GP's and the line's held-out figures against a constant predictor.
+    pub gp_skill: Skill,
+    pub linear_skill: Skill,
+    /// Pearson r, RMSE of the kept calibration's predictions, and RMSE of predicting the
+    /// training mean, all on the held-out Likert scores.
     pub pearson_r: f64,
     pub rmse: f64,
     pub rmse_constant: f64,
+}
+
+impl SynthReport {
+    /// The held-out figures of the calibration `kind`.
+    pub fn skill(&self, kind: CalibrationKind) -> &Skill {
+        match kind {
+            CalibrationKind::Gp => &self.gp_skill,
+            CalibrationKind::Linear => &self.linear_skill,
+        }
+    }
+
+    /// The held-out figures of the calibration a trained predictor keeps.
+    pub fn kept_skill(&self) -> &Skill {
+        self.skill(self.kept)
+    }
 }
 
 /// Everything the cross-validation found.
@@ -141,10 +198,6 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
         sbb += (y - mb).powi(2);
     }
     if saa > 0.0 && sbb > 0.0 { sab / (saa * sbb).sqrt() } else { 0.0 }
-}
-
-fn rmse(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
 }
 
 /// Splits `members` into `k` folds of near-equal size that each cover as many phones as
@@ -189,11 +242,19 @@ pub fn balanced_folds(
     folds
 }
 
-/// One scored sentence of one sub-corpus: E and the quality parts per synthesizer.
+/// One scored sentence of one sub-corpus: the predictor's inputs (E first) and the quality
+/// parts per synthesizer.
 #[derive(Clone, Debug)]
 struct Pair {
-    e: f64,
+    sentence: usize,
+    inputs: Vec<f64>,
     parts: Vec<Option<QualityParts>>,
+}
+
+impl Pair {
+    fn e(&self) -> f64 {
+        self.inputs[0]
+    }
 }
 
 /// A sub-corpus: who trains, who is scored.
@@ -255,7 +316,11 @@ impl Scorer<'_> {
                 Ok(Some(QualityParts::measure(&s.truth, &synth, &markers.mouth, s.fps)))
             })
             .collect::<Result<Vec<_>, SaqpError>>()?;
-        Ok(Some(Pair { e: fit.e, parts }))
+        Ok(Some(Pair {
+            sentence: target,
+            inputs: fit.inputs(&self.prepared.phones, &s.ids),
+            parts,
+        }))
     }
 
     /// Scores every split; pairs in split order.
@@ -282,7 +347,8 @@ fn merge(base: &[Option<Pair>], extra: &[Option<Pair>], which: &[bool]) -> Vec<O
         .zip(extra)
         .map(|(b, x)| match (b, x) {
             (Some(b), Some(x)) => Some(Pair {
-                e: x.e,
+                sentence: x.sentence,
+                inputs: x.inputs.clone(),
                 parts: b
                     .parts
                     .iter()
@@ -422,7 +488,7 @@ pub fn cross_validate_prepared(
                 let (e, q): (Vec<f64>, Vec<f64>) = pairs
                     .iter()
                     .flatten()
-                    .filter_map(|p| p.parts[s].map(|q| (p.e, q.q(1.0))))
+                    .filter_map(|p| p.parts[s].map(|q| (p.e(), q.q(1.0))))
                     .unzip();
                 pearson(&e, &q).abs()
             })
@@ -472,33 +538,40 @@ pub fn cross_validate_prepared(
     })
 }
 
-/// The GP of one synthesizer at a given ω_m: training Likert scores, ξ and the fit.
-fn fit_at(
-    si: usize,
-    pairs: &[Pair],
-    omega: f64,
-    restarts: usize,
-) -> Result<(f64, GaussianProcess), SaqpError> {
-    let (e, q): (Vec<f64>, Vec<f64>) =
-        pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
-    let xi = q.iter().copied().fold(0.0, f64::max);
-    if xi.is_nan() || xi <= 0.0 {
-        return Err(SaqpError::Gp("every training error is 0".into()));
-    }
-    let l: Vec<f64> = q.iter().map(|&x| likert(x, xi)).collect();
-    Ok((xi, GaussianProcess::fit(&e, &l, restarts)?))
+/// The training pairs of one synthesizer at a given ω_m: inputs, Likert scores, each pair's
+/// sentence, and ξ.
+struct Scored {
+    inputs: Vec<Vec<f64>>,
+    scores: Vec<f64>,
+    groups: Vec<usize>,
+    xi: f64,
 }
 
-/// The GP's leave-one-out squared error as a fraction of the targets' variance: how much of
-/// the ground truth E leaves unexplained. Each ω_m rescales the targets differently (Q and ξ
-/// both change), so a plain LOO RMSE would favour whichever ω_m compresses the scores, not
-/// the one E predicts best.
-fn loo_unexplained(gp: &GaussianProcess) -> Result<f64, SaqpError> {
-    let loo = gp.loo_residuals()?;
-    let n = gp.targets.len() as f64;
-    let variance = gp.targets.iter().map(|t| (t - gp.target_mean).powi(2)).sum::<f64>() / n;
-    let mse = loo.iter().map(|r| r * r).sum::<f64>() / loo.len() as f64;
-    Ok(if variance > 0.0 { mse / variance } else { f64::INFINITY })
+fn scored_at(si: usize, pairs: &[Pair], omega: f64) -> Result<Scored, SaqpError> {
+    let mut out = Scored { inputs: Vec::new(), scores: Vec::new(), groups: Vec::new(), xi: 0.0 };
+    let mut q = Vec::new();
+    for p in pairs {
+        if let Some(x) = p.parts[si] {
+            out.inputs.push(p.inputs.clone());
+            out.groups.push(p.sentence);
+            q.push(x.q(omega));
+        }
+    }
+    out.xi = q.iter().copied().fold(0.0, f64::max);
+    if out.xi.is_nan() || out.xi <= 0.0 {
+        return Err(SaqpError::Gp("every training error is 0".into()));
+    }
+    out.scores = q.iter().map(|&x| likert(x, out.xi)).collect();
+    Ok(out)
+}
+
+fn root_mean_square(v: &[f64]) -> f64 {
+    (v.iter().map(|r| r * r).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+fn spread(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    root_mean_square(&v.iter().map(|x| x - mean).collect::<Vec<_>>())
 }
 
 fn fit_synth(
@@ -513,45 +586,80 @@ fn fit_synth(
         Some(w) => vec![w],
         None => options.omega_grid.clone(),
     };
-    let fits: Vec<(f64, f64, GaussianProcess, f64)> = grid
+    let fits: Vec<(OmegaScore, Scored, GaussianProcess)> = grid
         .par_iter()
         .map(|&w| {
-            let (xi, gp) = fit_at(si, pairs, w, options.restarts)?;
-            let score = loo_unexplained(&gp)?;
-            Ok((w, xi, gp, score))
+            let scored = scored_at(si, pairs, w)?;
+            let gp = GaussianProcess::fit(&scored.inputs, &scored.scores, options.restarts)?;
+            let residuals = gp.group_residuals(&scored.groups)?;
+            let score = OmegaScore {
+                omega_m: w,
+                rmse: root_mean_square(&residuals),
+                spread: spread(&scored.scores),
+            };
+            Ok((score, scored, gp))
         })
         .collect::<Result<_, SaqpError>>()?;
-    let omega_scores = fits.iter().map(|f| (f.0, f.3)).collect();
-    let (omega_m, xi, gp, _) = fits
+    let omega_scores: Vec<OmegaScore> = fits.iter().map(|f| f.0).collect();
+    let (chosen, scored, gp) = fits
         .into_iter()
-        .min_by(|a, b| a.3.total_cmp(&b.3))
+        .min_by(|a, b| a.0.rmse.total_cmp(&b.0.rmse))
         .ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
-    let held: Vec<(usize, f64, f64)> =
-        held.iter().filter_map(|(t, p)| p.parts[si].map(|x| (*t, p.e, x.q(omega_m)))).collect();
-    let preds = gp.predict(&held.iter().map(|h| h.1).collect::<Vec<_>>())?;
-    let held_out: Vec<HeldOut> = held
+    let linear = LinearCalibration::fit(&scored.inputs, &scored.scores)?;
+    let linear_training_rmse = root_mean_square(&LinearCalibration::group_residuals(
+        &scored.inputs,
+        &scored.scores,
+        &scored.groups,
+    )?);
+    let gp_training_rmse = chosen.rmse;
+    // The GP must earn its place: on a tie the line, the simpler model, is kept.
+    let kept = if gp_training_rmse < linear_training_rmse {
+        CalibrationKind::Gp
+    } else {
+        CalibrationKind::Linear
+    };
+    let (omega_m, xi) = (chosen.omega_m, scored.xi);
+    let held: Vec<(usize, Vec<f64>, f64)> = held
         .iter()
+        .filter_map(|(t, p)| p.parts[si].map(|x| (*t, p.inputs.clone(), x.q(omega_m))))
+        .collect();
+    let at: Vec<Vec<f64>> = held.iter().map(|h| h.1.clone()).collect();
+    let preds = gp.predict(&at)?;
+    let held_out: Vec<HeldOut> = held
+        .into_iter()
         .zip(preds)
-        .map(|(&(t, e, q), predicted)| HeldOut {
+        .map(|((t, inputs, q), predicted)| HeldOut {
             sentence: prepared.sentences[t].name.clone(),
-            e,
+            e: inputs[0],
+            linear: linear.predict(&inputs),
+            inputs,
             q,
             likert: likert(q, xi),
             predicted,
         })
         .collect();
     let truth: Vec<f64> = held_out.iter().map(|h| h.likert).collect();
-    let pred: Vec<f64> = held_out.iter().map(|h| h.predicted.mean).collect();
-    let constant = vec![gp.target_mean; truth.len()];
+    let assess = |k: CalibrationKind| {
+        let pred: Vec<f64> = held_out.iter().map(|h| h.prediction(k).mean).collect();
+        Skill::assess(&pred, &truth, gp.target_mean, options.seed)
+    };
+    let (gp_skill, linear_skill) = (assess(CalibrationKind::Gp), assess(CalibrationKind::Linear));
+    let kept_skill = if kept == CalibrationKind::Gp { gp_skill } else { linear_skill };
     Ok(SynthReport {
         synth: kind,
         omega_m,
         omega_scores,
         xi,
-        pearson_r: pearson(&pred, &truth),
-        rmse: rmse(&pred, &truth),
-        rmse_constant: rmse(&constant, &truth),
+        pearson_r: kept_skill.pearson_r,
+        rmse: kept_skill.rmse,
+        rmse_constant: kept_skill.rmse_constant,
         gp,
+        linear,
+        gp_training_rmse,
+        linear_training_rmse,
+        kept,
         held_out,
+        gp_skill,
+        linear_skill,
     })
 }

@@ -14,6 +14,7 @@
 //! [`predictor`]. `docs/saqp.md` gives the equations and every departure from the paper.
 
 pub mod banded;
+pub mod calibration;
 pub mod context;
 mod corpus;
 pub mod cv;
@@ -26,16 +27,19 @@ mod prepared;
 pub mod quality;
 pub mod sampling;
 pub mod satf;
+pub mod skill;
 pub mod synth;
 
+pub use calibration::{CalibrationKind, LinearCalibration};
 pub use context::{ContextLevel, ContextOptions, ContextStats, PhoneStats};
 pub use corpus::{Corpus, LinearShapes, Sentence};
-pub use cv::{CvOptions, CvReport, HeldOut, SynthReport, cross_validate};
+pub use cv::{CvOptions, CvReport, HeldOut, OmegaScore, SynthReport, cross_validate};
 pub use error::SaqpError;
 pub use gp::{GaussianProcess, GpHyper, GpPrediction};
 pub use motion::{MotionBasis, Region, RegionSummary};
 pub use predictor::{Predictor, QualityEstimate, TrainOptions, train};
 pub use prepared::{PhoneSet, Prepared};
 pub use quality::{MarkerSet, QualityParts};
-pub use satf::{SatfFit, SatfParams, fit_trajectory};
+pub use satf::{INPUT_NAMES, SatfFit, SatfParams, fit_trajectory};
+pub use skill::{Skill, Verdict};
 pub use synth::{External, SynthKind, SynthParams};

@@ -1,15 +1,18 @@
 //! A trained quality predictor for one synthesizer: the context statistics of the whole
-//! corpus, the SATF parameters, ω_m, ξ and the GP, so a new timed phone sequence gets a
-//! predicted Likert score with its standard deviation. Serde; files are written by the
-//! application layer.
+//! corpus, the SATF parameters, ω_m, ξ, the GP and the line beside it (one of them kept),
+//! and how it fared on held-out sentences, so a new timed phone sequence gets a predicted
+//! Likert score with its standard deviation, and the user hears when the predictor has no
+//! skill. Serde; files are written by the application layer.
 
 use super::SaqpError;
+use super::calibration::{CalibrationKind, LinearCalibration, predict_with};
 use super::context::{ContextLevel, ContextStats};
 use super::corpus::Corpus;
 use super::cv::{CvOptions, CvReport, cross_validate_prepared};
 use super::gp::{GaussianProcess, GpPrediction};
 use super::prepared::{PhoneSet, Prepared};
-use super::satf::{SatfParams, fit_trajectory};
+use super::satf::{INPUT_NAMES, SatfParams, fit_trajectory};
+use super::skill::Skill;
 use super::synth::{External, SynthKind};
 use crate::alignment::Phone;
 use serde::{Deserialize, Serialize};
@@ -33,9 +36,20 @@ pub struct Predictor {
     /// Frame rate durations are counted in (the corpus's).
     pub fps: f64,
     pub gp: GaussianProcess,
+    pub linear: LinearCalibration,
+    /// Which of the two predicts.
+    pub calibration: CalibrationKind,
+    /// How the kept calibration fared on the cross-validation's held-out sentences.
+    pub skill: Skill,
     phones: PhoneSet,
     stats: ContextStats,
 }
+
+/// Largest ω_m a model file may hold (the paper's grid is 1–5).
+pub const MAX_OMEGA_M: f64 = 100.0;
+/// Largest ξ a model file may hold: errors are in model units (millimetres for a model in
+/// millimetres), and a face does not move a kilometre.
+pub const MAX_XI: f64 = 1e6;
 
 impl Predictor {
     /// Checks a predictor read from a file before it is used, so a hand-edited or damaged
@@ -51,11 +65,49 @@ impl Predictor {
                 crate::math::short_number(self.fps)
             ));
         }
-        if ![self.xi, self.omega_m].iter().all(|v| v.is_finite() && *v > 0.0) {
-            return Err("xi and omega_m must be positive".into());
+        if !(self.xi.is_finite() && self.xi > 0.0 && self.xi <= MAX_XI) {
+            return Err(format!(
+                "xi {} is not within 0–{}",
+                crate::math::short_number(self.xi),
+                crate::math::short_number(MAX_XI)
+            ));
+        }
+        if !(self.omega_m.is_finite() && self.omega_m > 0.0 && self.omega_m <= MAX_OMEGA_M) {
+            return Err(format!(
+                "omega_m {} is not within 0–{MAX_OMEGA_M}",
+                crate::math::short_number(self.omega_m)
+            ));
         }
         self.gp.validate()?;
-        self.stats.validate()
+        let inputs = INPUT_NAMES.len();
+        if self.gp.hyper.length_scales.len() != inputs {
+            return Err(format!(
+                "gp.hyper.length_scales: {} values for the {inputs} inputs ({})",
+                self.gp.hyper.length_scales.len(),
+                INPUT_NAMES.join(", ")
+            ));
+        }
+        // Scores are on the 1–5 Likert scale, so are their mean and every prediction.
+        let on_scale = |v: f64| v.is_finite() && (1.0 - 1e-9..=5.0 + 1e-9).contains(&v);
+        if let Some(t) = self.gp.targets.iter().find(|t| !on_scale(**t)) {
+            return Err(format!(
+                "gp.targets: {} is not a 1–5 score",
+                crate::math::short_number(*t)
+            ));
+        }
+        let mean = self.gp.targets.iter().sum::<f64>() / self.gp.targets.len() as f64;
+        if !on_scale(self.gp.target_mean) || (self.gp.target_mean - mean).abs() > 1e-6 {
+            return Err(format!(
+                "gp.target_mean {} is not the mean of the targets ({})",
+                crate::math::short_number(self.gp.target_mean),
+                crate::math::short_number(mean)
+            ));
+        }
+        self.linear.validate(inputs)?;
+        self.skill.validate()?;
+        self.stats.validate()?;
+        self.phones.validate()?;
+        self.stats.validate_ids(self.phones.len())
     }
 }
 
@@ -92,6 +144,9 @@ pub fn train(
         xi: synth.xi,
         fps: corpus.sentences[0].fps,
         gp: synth.gp.clone(),
+        linear: synth.linear.clone(),
+        calibration: synth.kept,
+        skill: *synth.kept_skill(),
         phones: prepared.phones.clone(),
         stats,
     };
@@ -108,7 +163,12 @@ impl Predictor {
         let mut set = self.phones.clone();
         let ids = set.intern_all(phones);
         let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
-        let p = self.gp.predict(&[fit.e])?;
+        let p = predict_with(self.calibration, &self.gp, &self.linear, &[fit.inputs(&set, &ids)])?;
+        if !(p[0].mean.is_finite() && p[0].std().is_finite() && fit.e.is_finite()) {
+            return Err(SaqpError::Gp(format!(
+                "sentence `{name}`: the prediction is not a finite number (a damaged model?)"
+            )));
+        }
         // A phone backed off past its own statistics is fitted to a viseme's or the whole
         // corpus's loose spread, which lowers E: the prediction is then too kind, so say so.
         let mut unseen: Vec<String> = Vec::new();

@@ -85,8 +85,11 @@ fn bench_measure(c: &mut Criterion) {
             utterances: (0..100).map(|k| utterance(&mut rng, k, 25.0, 75)).collect(),
         })
         .collect();
+    let phones = lipmap::alignment::PhoneInventory::default();
     let mut g = c.benchmark_group("eval");
-    g.bench_function("phoneme_rmse_100_sentences", |b| b.iter(|| phoneme_rmse(black_box(&utts))));
+    g.bench_function("phoneme_rmse_100_sentences", |b| {
+        b.iter(|| phoneme_rmse(black_box(&utts), &phones))
+    });
     g.bench_function("compare_5_configs_100_sentences", |b| {
         b.iter(|| compare_configurations(black_box(&configs), 3, RowKey::Sentence))
     });

@@ -4,9 +4,9 @@
 //! the cost of a Sixel or Kitty encoding of the image region (`tui_graphics`).
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use lipmap::tui::draw;
 use lipmap::tui::fixtures::{counting_terminal, synthetic_app};
-use lipmap::tui::update::key_to_action;
-use lipmap::tui::views::draw;
+use lipmap::tui::key_to_action;
 use lipmap::tui::{Action, App, Keymap, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 use std::hint::black_box;
@@ -78,8 +78,8 @@ fn bench_draw(c: &mut Criterion) {
 /// encoded; a marker moves every iteration so the cache never hits. Prints the bytes one
 /// such image sends to the terminal.
 fn bench_graphics(c: &mut Criterion) {
-    use lipmap::tui::app::ImageView;
-    use lipmap::tui::views::frames::landmark_markers;
+    use lipmap::tui::screens::frames::ImageView;
+    use lipmap::tui::screens::frames::view::landmark_markers;
     use lipmap::tui::widgets::graphics::GraphicsState;
     use lipmap::tui::widgets::halfblock::Mapping;
     use ratatui::layout::Rect;

@@ -1,9 +1,21 @@
 //! lipmap: map a speaker's lip motion, tracked as iBUG-68 landmarks in video, onto a 3D head
 //! by fitting a 3D morphable model, and measure how faithfully the 3D lips follow.
 //!
-//! Layers, one way only: the core (`landmarks`, `alignment`, `model`, `fit`, `measure`,
-//! `eval`) never touches files or the terminal; `io` and `session` read and write; `render`,
-//! `demo`, `cli` and `tui` sit on top.
+//! Layers, imports pointing down only (`docs/design.md`; one line per folder in
+//! `docs/layout.md`):
+//!
+//! - fronts: [`cli`] (one file per subcommand) and [`tui`] (the terminal UI), which parse,
+//!   present and edit, and never import each other;
+//! - use cases: [`workflow`] (every session-level use case as a function with typed results:
+//!   opening a session, fitting, evaluating, exporting, validating, indices, heads, side
+//!   view, transfer, SAQP, speech) and [`reference`] (the replaceable tables in use, which
+//!   only fronts and use cases read and then pass down);
+//! - storage and formats: [`session`] (the session file, lock and journal) and [`io`] (one
+//!   reader/writer per format);
+//! - core, plain values in and out: [`landmarks`], [`alignment`], [`model`], [`fit`],
+//!   [`measure`], [`eval`], [`saqp`], [`transfer`], [`speech`], [`render`], [`plot`],
+//!   [`math`];
+//! - [`demo`], the synthetic speaker generator.
 
 pub mod alignment;
 pub mod cli;
@@ -21,6 +33,7 @@ pub mod render;
 pub mod saqp;
 pub mod session;
 pub mod speech;
+pub mod table_text;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
 pub mod transfer;

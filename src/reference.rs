@@ -1,22 +1,25 @@
-//! The reference tables a user may replace — the files in `data/`: the phoneme → viseme
-//! classes, the facial-index class bounds and the iBUG point names. The built-ins are embedded
+//! The reference tables a user may replace — the files in `data/`: the phone inventory, the
+//! phoneme → viseme classes, the facial-index class bounds and the iBUG point names. The built-ins are embedded
 //! at build time; a front may install a user's set once, at start-up, before any table is read
-//! (`lipmap --data DIR`). Everything that groups, classes or names by these tables reads
-//! [`current`], so one installed set reaches every command and the TUI alike.
+//! (`lipmap --data DIR`).
 //!
-//! A process-wide set rather than a parameter threaded through every use case: the tables are
-//! the reader's conventions (like a locale), fixed for the life of the process, and the
-//! functions that consult them sit many calls below the fronts.
+//! The set in use is held here for the whole process, but only the fronts and the use cases
+//! (`cli`, `tui`, `workflow`) read it ([`current`]): they hand the tables down as arguments
+//! (a `VisemeTable` to the evaluation and SAQP, a `BoundsTable` to the indices, the
+//! `LandmarkNames` to whatever names points), so the core computes from what it is given, as
+//! eos's fitting takes every table it uses. A test below keeps it that way.
 
+use crate::alignment::PhoneInventory;
 use crate::eval::VisemeTable;
 use crate::landmarks::LandmarkNames;
-use crate::landmarks::ibug::DEFAULT_NAMES_CSV;
 use crate::measure::BoundsTable;
 use std::sync::{LazyLock, OnceLock};
 
 /// One complete set of reference tables.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReferenceTables {
+    /// Phone labels in any symbol set → one key per phone.
+    pub phones: PhoneInventory,
     pub visemes: VisemeTable,
     pub bounds: BoundsTable,
     /// Names borrowed from text that lives as long as the process (the embedded CSV, or a
@@ -28,10 +31,10 @@ impl ReferenceTables {
     /// The tables shipped in `data/`.
     pub fn builtin() -> Self {
         Self {
+            phones: PhoneInventory::default(),
             visemes: VisemeTable::default(),
             bounds: BoundsTable::default(),
-            names: LandmarkNames::from_csv_str(DEFAULT_NAMES_CSV)
-                .expect("the embedded table parses (tested)"),
+            names: LandmarkNames::builtin(),
         }
     }
 }
@@ -60,10 +63,34 @@ mod tests {
     #[test]
     fn builtin_tables_are_the_defaults_of_each_table() {
         let t = ReferenceTables::builtin();
+        assert_eq!(t.phones, PhoneInventory::default());
         assert_eq!(t.visemes, VisemeTable::default());
         assert_eq!(t.bounds, BoundsTable::default());
         assert_eq!(t.names.name(60), "inner lip right corner");
         assert_eq!(t.names.name(61), "inner lip 2");
         assert_eq!(t.names.groups.len(), 9);
+    }
+
+    #[test]
+    fn only_the_fronts_and_the_use_cases_read_the_installed_tables() {
+        let src = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let allowed = ["cli", "tui", "workflow", "main.rs", "reference.rs"];
+        let mut readers = Vec::new();
+        let mut stack = vec![src.clone()];
+        while let Some(dir) = stack.pop() {
+            for entry in std::fs::read_dir(&dir).unwrap().flatten() {
+                let path = entry.path();
+                let top = path.strip_prefix(&src).unwrap().components().next().unwrap();
+                if allowed.contains(&top.as_os_str().to_str().unwrap()) {
+                    continue;
+                }
+                if path.is_dir() {
+                    stack.push(path);
+                } else if std::fs::read_to_string(&path).unwrap().contains("reference::current") {
+                    readers.push(path);
+                }
+            }
+        }
+        assert!(readers.is_empty(), "the core reads the process's tables: {readers:?}");
     }
 }

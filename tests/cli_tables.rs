@@ -26,9 +26,9 @@ fn an_edited_viseme_table_regroups_the_evaluation() {
     let t = tables.to_str().unwrap();
     let (ok, out, err) = lipmap(&["tables", "--out", t], None);
     assert!(ok, "{err}");
-    assert_eq!(out.matches("wrote ").count(), 4, "{out}");
+    assert_eq!(out.matches("wrote ").count(), 5, "{out}");
     let (ok, _, err) = lipmap(&["tables", "--out", t], None);
-    assert!(!ok && err.contains("visemes.toml: already exists"), "{err}");
+    assert!(!ok && err.contains("phones.csv: already exists"), "{err}");
 
     // One class renamed in the user's copy; the other tables left as written.
     let visemes = tables.join("visemes.toml");
@@ -44,6 +44,18 @@ fn an_edited_viseme_table_regroups_the_evaluation() {
         assert!(ok, "{err}");
         assert!(edited.contains("lips together") && !edited.contains("bilabials"), "{edited}");
     }
+
+    // The user's phone inventory merges EH into AE: the per-phoneme table loses its EH row.
+    let phones = tables.join("phones.csv");
+    let text = std::fs::read_to_string(&phones).unwrap();
+    std::fs::write(&phones, text.replace("EH,ɛ,\n", "").replace("AE,æ a,", "AE,æ a ɛ,eh")).unwrap();
+    let has_row =
+        |table: &str, phone: &str| table.lines().any(|l| l.starts_with(&format!("{phone} ")));
+    assert!(has_row(&builtin, "EH") && has_row(&builtin, "AE"), "{builtin}");
+    let (ok, merged, err) = lipmap(&["--data", t, "eval", session], None);
+    assert!(ok, "{err}");
+    assert!(!has_row(&merged, "EH") && has_row(&merged, "AE"), "{merged}");
+    std::fs::write(&phones, text).unwrap();
 
     // A table that does not parse stops the command with its file and line.
     std::fs::write(&visemes, "[[classes]]\nid = \"S\"\nphones = [\"sil\"\n").unwrap();

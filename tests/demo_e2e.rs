@@ -97,7 +97,7 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
         report.phonemes.formatted_rows().into_iter().map(|r| r[0].clone()).collect();
     for u in &utterances {
         for p in &u.alignment.phones {
-            let label = lipmap::alignment::grouping_label(&p.label);
+            let label = lipmap::alignment::PhoneInventory::default().key_of(&p.label);
             assert!(rows.contains(&label), "phone {label} missing from the table: {rows:?}");
         }
     }

@@ -145,7 +145,11 @@ fn ibug_mapping_reads_writes_and_agrees_with_json() {
     assert_eq!(map.vertex(8), Some(33));
     assert_eq!(map.vertex(60), None, "iBUG 61 is not defined in eos's file");
     assert_eq!(read_landmark_map_json(&json).unwrap(), map);
-    let again = parse_landmark_map(&format_landmark_map(&map), &toml).unwrap();
+    let again = parse_landmark_map(
+        &format_landmark_map(&map, &lipmap::landmarks::LandmarkNames::builtin()),
+        &toml,
+    )
+    .unwrap();
     assert_eq!(again, map);
     let lips = map.restricted_to(LandmarkSet::F1);
     assert_eq!(lips.len(), 18, "48..68 minus the two undefined inner corners");

@@ -3,6 +3,8 @@
 //! motion CSVs, a trained predictor scoring phone files, and the bad inputs a researcher can
 //! give it, each a one-line error naming the file or folder.
 
+mod common;
+
 use lipmap::io::motion_csv::{VertexMotion, format_motion_csv};
 use lipmap::math::Point3;
 use lipmap::workflow::saqp::{CorpusOptions, marker_vertices, session_corpus};
@@ -79,15 +81,6 @@ fn write_lagged_motion(session: &Path, dir: &Path, lag: usize) {
     }
 }
 
-/// The summary's rows of each synthesizer's kept calibration.
-fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
-    let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
-    let summary = &tables["summary"];
-    assert!(summary["title"].as_str().unwrap().starts_with("Predicted vs ground-truth"));
-    let rows = summary["rows"].as_array().expect("the synthesizer table");
-    rows.iter().filter(|r| r["kept"] == "yes").cloned().collect()
-}
-
 #[test]
 fn cross_validate_train_predict_and_every_bad_input() {
     let dir = tempfile::tempdir().unwrap();
@@ -97,7 +90,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let png = dir.path().join("quality.png");
     let out = lipmap(&["saqp", "cv", s(&session), "--plot", s(&png), "--json"]);
     assert!(out.status.success(), "cv: {}", text(&out.stderr));
-    let rows = synth_rows(&out.stdout);
+    let rows = common::synth_rows(&out.stdout);
     let names: Vec<&str> = rows.iter().map(|r| r["synthesizer"].as_str().unwrap()).collect();
     assert_eq!(names, ["keyframe", "trajectory", "concat"]);
     for r in &rows {
@@ -129,7 +122,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
         "--json",
     ]);
     assert!(out.status.success(), "external cv: {}", text(&out.stderr));
-    let rows = synth_rows(&out.stdout);
+    let rows = common::synth_rows(&out.stdout);
     assert_eq!(rows.len(), 1);
     assert_eq!(rows[0]["synthesizer"], "external");
     assert_eq!(rows[0]["held out"].as_i64(), Some(6), "{}", rows[0]);
@@ -165,20 +158,38 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let foreign = dir.path().join("foreign.csv");
     std::fs::write(
         &foreign,
-        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,ə\n0.45,0.6,N\n0.6,0.8,sil\n",
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,B\n0.3,0.45,œ\n0.45,0.6,N\n0.6,0.8,sil\n",
     )
     .unwrap();
-    let out = lipmap(&["saqp", "predict", s(&model), "--phones", s(&known), s(&foreign), "--json"]);
+    // The known phones in IPA: the same phones to the predictor.
+    let ipa = dir.path().join("ipa.csv");
+    std::fs::write(
+        &ipa,
+        "start,end,phone\n0,0.2,sil\n0.2,0.3,b\n0.3,0.45,ɪ\n0.45,0.6,n\n0.6,0.8,sil\n",
+    )
+    .unwrap();
+    let out = lipmap(&[
+        "saqp",
+        "predict",
+        s(&model),
+        "--phones",
+        s(&known),
+        s(&foreign),
+        s(&ipa),
+        "--json",
+    ]);
     assert!(out.status.success(), "predict: {}", text(&out.stderr));
     let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = tables["predictions"]["rows"].as_array().unwrap().clone();
-    assert_eq!(rows.len(), 2);
+    assert_eq!(rows.len(), 3);
     for r in &rows {
         let p = r["predicted"].as_f64().unwrap();
         assert!(p.is_finite() && p > 0.0 && p < 6.0, "{r}");
     }
     assert_eq!(rows[0]["unseen phones"], "");
-    assert_eq!(rows[1]["unseen phones"], "ə");
+    assert_eq!(rows[1]["unseen phones"], "œ");
+    assert_eq!(rows[2]["unseen phones"], "");
+    assert_eq!(rows[2]["predicted"], rows[0]["predicted"]);
     // The predictor says whether it has skill.
     let notes = tables["predictions"]["notes"].to_string();
     assert_eq!(notes.contains("has NO skill"), !skilled, "{notes}");

@@ -1,7 +1,7 @@
 //! Crash safety of the TUI through a real terminal (tmux): bursts of edits then `kill -9`
-//! at random moments lose at most the last edit; TERM, INT and HUP save the edits, release
-//! the lock and restore the terminal; a terminal that closes stops the editor without losing
-//! the edits or leaving the lock.
+//! at random moments lose at most the last edit, and `export` and `eval` run after the crash
+//! see them; TERM, INT and HUP save the edits, release the lock and restore the terminal; a
+//! terminal that closes stops the editor without losing the edits or leaving the lock.
 
 mod common;
 
@@ -97,6 +97,92 @@ fn kill_9_at_random_moments_loses_at_most_the_last_edit() {
     wait_for("lipmap to quit", Duration::from_secs(15), || gone(pid));
     let saved = Session::load(&session).unwrap();
     assert_eq!(saved.clips[0].corrections.reviewed.len(), expected, "the journal was not saved");
+    assert!(!lipmap::session::journal::journal_path(&session).exists(), "journal left behind");
+}
+
+/// Runs the lipmap binary with `args`, failing the test when it does not exit 0; returns its
+/// stderr.
+fn lipmap(args: &[&std::ffi::OsStr]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "lipmap {args:?} failed: {stderr}");
+    stderr
+}
+
+/// Frames with a hand-corrected point in the lipmap CSVs `export` wrote into `out`.
+fn corrected_frames_exported(out: &Path) -> std::collections::BTreeSet<usize> {
+    let mut frames = std::collections::BTreeSet::new();
+    for entry in std::fs::read_dir(out.join("landmarks")).unwrap() {
+        let text = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+        let (frame, source) = (col("frame"), col("source"));
+        for line in lines {
+            let cells: Vec<&str> = line.split(',').collect();
+            if cells[source] == "corrected" {
+                frames.insert(cells[frame].parse().unwrap());
+            }
+        }
+    }
+    frames
+}
+
+/// A copy of the demo session with no edits at all, opened in the TUI, given a burst of
+/// `n` edits on `n` frames (the selected point moved, then the next frame) and killed with
+/// SIGKILL right after, before any autosave.
+fn crashed_after_a_burst(dir: &Path, demo: &Path, name: &str, n: usize) -> PathBuf {
+    let path = demo.with_file_name(format!("{name}.lipmap.json"));
+    let mut s = Session::load(demo).unwrap();
+    for c in &mut s.clips {
+        c.corrections = Default::default();
+    }
+    s.save(&path).unwrap();
+    let term = Term::new(&format!("lipmap-burst-{}-{name}", std::process::id()));
+    let pid = start_tui(&term, &path, &dir.join("pid"));
+    let keys: Vec<&str> = std::iter::repeat_n(["L", "n"], n).flatten().collect();
+    term.send(&keys);
+    // Time to take the keys in, far less than the autosave's pause.
+    std::thread::sleep(Duration::from_millis(300));
+    signal(pid, "-KILL");
+    wait_for("lipmap to die", Duration::from_secs(10), || gone(pid));
+    assert!(lipmap::session::journal::journal_path(&path).exists(), "no journal left");
+    assert!(Session::load(&path).unwrap().clips[0].corrections.points.is_empty(), "autosaved");
+    path
+}
+
+#[test]
+fn export_and_eval_after_kill_9_see_the_edits_of_every_frame_but_the_last() {
+    if !available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let demo = common::demo_session(dir.path());
+    let n = 6;
+
+    // `export` straight after the crash: the landmarks it writes carry the edits.
+    let session = crashed_after_a_burst(dir.path(), &demo, "burst-export", n);
+    let out = dir.path().join("out");
+    lipmap(&["export".as_ref(), session.as_os_str(), "--out".as_ref(), out.as_os_str()]);
+    let corrected = corrected_frames_exported(&out);
+    assert!(corrected.len() + 1 >= n && corrected.len() <= n, "edited frames {corrected:?}");
+    assert!(corrected.iter().all(|&f| f < n), "{corrected:?}");
+
+    // `eval` straight after the crash: says it restored them, and fits and measures them
+    // (the fits it caches are of the edited landmarks).
+    let session = crashed_after_a_burst(dir.path(), &demo, "burst-eval", n);
+    let stderr = lipmap(&["eval".as_ref(), session.as_os_str()]);
+    let restored = stderr
+        .split("restored the edits of an editor that stopped without saving (")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|count| count.parse::<usize>().ok());
+    assert!(restored.is_some_and(|k| k + 1 >= n && k <= n), "{stderr}");
+    let saved = Session::load(&session).unwrap();
+    let edited: std::collections::BTreeSet<usize> =
+        saved.clips[0].corrections.points.keys().copied().collect();
+    assert!(edited.len() + 1 >= n && edited.len() <= n, "edited frames {edited:?}");
+    assert!(saved.stale_frames(0).is_empty(), "eval fitted other landmarks than the edited");
     assert!(!lipmap::session::journal::journal_path(&session).exists(), "journal left behind");
 }
 

@@ -49,7 +49,7 @@ fn edits_round_trip_through_the_session_file() {
     {
         let (mut app, mut bridge, frames) = SessionBridge::open(&path, 0).unwrap();
         assert_eq!(app.n_frames(), 6);
-        assert_eq!(app.image_size, Some((W, H)));
+        assert_eq!(app.frames.cache.size, Some((W, H)));
         let img = frames.load(2).unwrap();
         assert_eq!((img.width, img.height), (W, H));
         // The session is locked while open.

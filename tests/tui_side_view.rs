@@ -4,7 +4,8 @@
 
 use lipmap::demo::{DemoOptions, generate};
 use lipmap::session::{Clip, FramesRef, Session, View as SessionView};
-use lipmap::tui::app::{SideState, View};
+use lipmap::tui::screens::View;
+use lipmap::tui::screens::side::SideState;
 use lipmap::tui::session_bridge::SessionBridge;
 use lipmap::tui::{Action, App, update};
 use ratatui::Terminal;
@@ -75,7 +76,7 @@ fn side_view_corrections_reach_the_session_and_p() {
 
     // It draws: the panel names the side frame and the corrected source.
     let mut t = Terminal::new(TestBackend::new(80, 24)).unwrap();
-    t.draw(|f| lipmap::tui::views::draw(&app, &lipmap::tui::Keymap::default(), f)).unwrap();
+    t.draw(|f| lipmap::tui::draw(&app, &lipmap::tui::Keymap::default(), f)).unwrap();
     let screen = format!("{:?}", t.backend().buffer());
     assert!(screen.contains("side frame 2/12") && screen.contains("corrected"), "{screen}");
 

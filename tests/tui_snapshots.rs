@@ -2,8 +2,8 @@
 //! committed snapshots in tests/snapshots/ (review changes with `cargo insta review`).
 
 use lipmap::tui::app::App;
+use lipmap::tui::draw;
 use lipmap::tui::fixtures::synthetic_app;
-use lipmap::tui::views::draw;
 use lipmap::tui::{Action, Keymap, update};
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
@@ -62,8 +62,8 @@ fn frames_view_on_a_flagged_frame() {
 fn frames_view_while_decoding() {
     for size in SIZES {
         let mut app = app_at(size);
-        app.images.clear();
-        app.cache_order.clear();
+        app.frames.cache.images.clear();
+        app.frames.cache.order.clear();
         let t = render(&app);
         insta::assert_snapshot!(format!("frames_loading_{}x{}", size.0, size.1), t.backend());
     }
@@ -98,7 +98,7 @@ fn fit_view() {
 fn fit_view_running() {
     for size in SIZES {
         let mut app = app_at(size);
-        app.fit.fits.clear();
+        app.fits.by_frame.clear();
         app.fit.running = true;
         app.fit.progress = (7, 24);
         apply(&mut app, &[Action::ShowFit]);
@@ -116,7 +116,7 @@ fn analysis_view() {
 fn analysis_view_empty() {
     for size in SIZES {
         let mut app = app_at(size);
-        app.analysis = Default::default();
+        app.analysis.data = Default::default();
         apply(&mut app, &[Action::ShowAnalysis]);
         let t = render(&app);
         insta::assert_snapshot!(format!("analysis_empty_{}x{}", size.0, size.1), t.backend());
@@ -157,7 +157,7 @@ fn side_view_with_a_corrected_point() {
     for size in SIZES {
         let mut app = app_at(size);
         app.fps = 25.0;
-        app.side = lipmap::tui::app::SideState::Ready(Box::new(
+        app.side = lipmap::tui::screens::side::SideState::Ready(Box::new(
             lipmap::tui::fixtures::synthetic_side(24, 176, 144),
         ));
         apply(&mut app, &[Action::ShowSide, Action::NextFrame]);
@@ -173,7 +173,7 @@ fn side_view_with_a_corrected_point() {
 fn a_long_title_gives_way_to_the_view_tabs() {
     let mut app = app_at((80, 24));
     app.title = "a_session_with_a_long_name · s1_place_red_at_m_zero_soon_and_more".into();
-    app.side = lipmap::tui::app::SideState::Measuring;
+    app.side = lipmap::tui::screens::side::SideState::Measuring;
     let t = render(&app);
     let top: String = (0..80).map(|x| t.backend().buffer()[(x, 0)].symbol().to_string()).collect();
     assert!(top.contains("4 analysis") && top.contains("5 side"), "{top}");
@@ -191,13 +191,13 @@ fn analysis_view_with_the_speech_driven_head() {
 
 #[test]
 fn head_view_showing_a_transferred_head() {
-    use lipmap::tui::app::TransferredHeads;
     use lipmap::tui::fixtures::{synthetic_model, synthetic_prepared_head};
-    use lipmap::tui::widgets::worker::{HeadFrameJob, transfer_frame_for_tui};
+    use lipmap::tui::jobs::{HeadFrameJob, transfer_frame_for_tui};
+    use lipmap::tui::screens::head::TransferredHeads;
     use std::sync::Arc;
     for size in SIZES {
         let mut app = app_at(size);
-        app.heads = TransferredHeads::named(vec!["sphere".into()]);
+        app.head.heads = TransferredHeads::named(vec!["sphere".into()]);
         let prepared = Arc::new(synthetic_prepared_head());
         apply(
             &mut app,
@@ -208,7 +208,7 @@ fn head_view_showing_a_transferred_head() {
             ],
         );
         // The jaw of the source opened all the way at frame 0.
-        let mut fit = app.fit.fits[&0].clone();
+        let mut fit = app.fits.by_frame[&0].clone();
         fit.expression = vec![1.0];
         let job = HeadFrameJob { head: 0, prepared, model: Arc::new(synthetic_model()), fit };
         apply(&mut app, &[Action::HeadFrameReady(transfer_frame_for_tui(&job))]);

@@ -2,10 +2,13 @@
 //! propagation, mouse drags, navigation, fits, labelling, quitting with unsaved edits.
 
 use lipmap::landmarks::PointSource;
-use lipmap::tui::app::{App, Effect, Overlay, Scope, View};
+use lipmap::tui::app::{App, Effect};
 use lipmap::tui::fixtures::{GLITCH_FRAME, synthetic_app};
-use lipmap::tui::update::key_to_action;
-use lipmap::tui::views::image_mapping;
+use lipmap::tui::key_to_action;
+use lipmap::tui::overlays::Overlay;
+use lipmap::tui::screens::View;
+use lipmap::tui::screens::frames::Scope;
+use lipmap::tui::screens::image_mapping;
 use lipmap::tui::{Action, Keymap, update};
 use ratatui::crossterm::event::{KeyCode, KeyEvent, KeyModifiers};
 
@@ -60,16 +63,16 @@ fn zoom_makes_steps_sub_pixel_and_is_kept_across_frames() {
     assert!((coarse / fine - 16.0).abs() < 1e-9);
     assert!(fine < 1.0, "sub-pixel step when zoomed: {fine}");
     run(&mut a, [Action::NextFrame, Action::NextFrame]);
-    assert_eq!(a.image_view.zoom, 16.0);
+    assert_eq!(a.frames.image_view.zoom, 16.0);
     run(&mut a, [Action::ZoomReset]);
-    assert_eq!(a.image_view.zoom, 1.0);
+    assert_eq!(a.frames.image_view.zoom, 1.0);
 }
 
 #[test]
 fn group_scope_moves_the_mouth_together() {
     let mut a = app();
     run(&mut a, [Action::CycleScope, Action::CycleScope]);
-    assert_eq!(a.scope, Scope::Mouth);
+    assert_eq!(a.frames.scope, Scope::Mouth);
     let before: Vec<f64> = (0..68).map(|i| point(&a, 0, i).y).collect();
     run(&mut a, [Action::Nudge { dx: 0, dy: 1 }]);
     for (i, &y0) in before.iter().enumerate() {
@@ -134,7 +137,7 @@ fn prompt_goto_point_and_bad_input() {
             Action::PromptSubmit,
         ],
     );
-    assert_eq!(a.selected, 48);
+    assert_eq!(a.frames.selected, 48);
     run(
         &mut a,
         [
@@ -144,7 +147,7 @@ fn prompt_goto_point_and_bad_input() {
             Action::PromptSubmit,
         ],
     );
-    assert_eq!(a.selected, 48);
+    assert_eq!(a.frames.selected, 48);
     assert!(a.status.contains("no landmark"));
     run(&mut a, [Action::GotoPointPrompt, Action::Cancel]);
     assert!(a.overlays.is_empty());
@@ -203,7 +206,7 @@ fn mouse_click_selects_nearest_and_drag_is_one_undo_step() {
     let p48 = point(&a, 0, 48);
     let (col, row, _) = m.image_to_cell(p48.x, p48.y).unwrap();
     run(&mut a, [Action::MouseDown { col, row }]);
-    assert_eq!(a.selected, 48);
+    assert_eq!(a.frames.selected, 48);
     run(
         &mut a,
         [
@@ -224,8 +227,8 @@ fn mouse_click_selects_nearest_and_drag_is_one_undo_step() {
 #[test]
 fn frame_changes_request_uncached_images_only() {
     let mut a = synthetic_app(10, 32, 24, false);
-    a.images.clear();
-    a.cache_order.clear();
+    a.frames.cache.images.clear();
+    a.frames.cache.order.clear();
     run(&mut a, [Action::NextFrame]);
     assert_eq!(a.effects, vec![Effect::LoadFrames(vec![1, 2, 3, 0])]);
     a.effects.clear();
@@ -263,10 +266,10 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     let mut fits = lipmap::tui::fixtures::synthetic_fits(&a.track);
     fits[1].reproj_rms_px = 42.0;
     run(&mut a, [Action::FitDone { generation: 1, fits: fits.clone() }]);
-    assert_ne!(a.fit.fits[&1].reproj_rms_px, 42.0, "stale generation dropped");
+    assert_ne!(a.fits.by_frame[&1].reproj_rms_px, 42.0, "stale generation dropped");
     a.effects.clear();
     run(&mut a, [Action::FitDone { generation: 2, fits: fits.clone() }]);
-    assert_eq!(a.fit.fits[&1].reproj_rms_px, 42.0);
+    assert_eq!(a.fits.by_frame[&1].reproj_rms_px, 42.0);
     assert!(!a.fit.running);
     // Nothing edited since the request: the fits go to the session's cache, which is then
     // a change to save.
@@ -280,7 +283,7 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     run(&mut a, [Action::RunFit]);
     assert!(a.status.contains("nothing changed"), "{}", a.status);
     assert_eq!(a.fit.generation, 2);
-    a.head.label = 33;
+    a.head.view.label = 33;
     run(&mut a, [Action::ShowHead, Action::ConfirmLabel, Action::RunFit]);
     assert_eq!(
         a.effects.last(),
@@ -302,10 +305,10 @@ fn idle_autosaves_unless_dragging_saving_or_failed() {
     run(&mut a, [Action::Idle]);
     assert!(a.effects.is_empty(), "nothing to save");
     run(&mut a, [Action::Nudge { dx: 1, dy: 0 }]);
-    a.dragging = true;
+    a.frames.dragging = true;
     run(&mut a, [Action::Idle]);
     assert!(a.effects.is_empty(), "never mid-drag");
-    a.dragging = false;
+    a.frames.dragging = false;
     run(&mut a, [Action::Idle]);
     assert_eq!(a.effects, vec![Effect::Save { generation: 1 }]);
     run(&mut a, [Action::Idle]);
@@ -329,12 +332,12 @@ fn head_labelling_assigns_and_undoes() {
             Action::PromptSubmit,
         ],
     );
-    assert_eq!(a.head.label, 33);
+    assert_eq!(a.head.view.label, 33);
     run(&mut a, [Action::ConfirmLabel]);
     let v = a.map.as_ref().unwrap().vertex(33).expect("the cursor at the centre picks a vertex");
     // Facing the viewer, the picked vertex is on the front (+z) side of the head.
     assert!(a.mesh.as_ref().unwrap().vertices[v].z > 0.0);
-    assert_eq!(a.head.label, 34);
+    assert_eq!(a.head.view.label, 34);
     run(&mut a, [Action::Undo]);
     assert_eq!(a.map.as_ref().unwrap().vertex(33), None);
     run(&mut a, [Action::Rotate { yaw: 180, pitch: 0 }, Action::PrevLabel, Action::ConfirmLabel]);
@@ -375,9 +378,9 @@ fn suggestions_label_the_head_from_a_few_labels_and_undo_as_one_step() {
     for &(l, v) in &truth[..4] {
         a.map.get_or_insert_with(Default::default).to_vertex.insert(l, v);
     }
-    a.head.label = truth[5].0;
+    a.head.view.label = truth[5].0;
     run(&mut a, [Action::SuggestLabel]);
-    assert_eq!(a.head.suggested, Some(truth[5]), "{}", a.status);
+    assert_eq!(a.head.view.suggested, Some(truth[5]), "{}", a.status);
     run(&mut a, [Action::ConfirmLabel]);
     assert_eq!(a.map.as_ref().unwrap().vertex(truth[5].0), Some(truth[5].1));
     run(&mut a, [Action::SuggestAllLabels]);
@@ -408,7 +411,7 @@ fn analysis_enter_opens_the_row_frame_in_sorted_order() {
         [Action::ShowAnalysis, Action::SortNextColumn, Action::SortReverse, Action::OpenRow],
     );
     // Sorted by W descending: the last phoneme has the largest W.
-    let last = a.analysis.tables[0].rows.last().unwrap().frame.unwrap();
+    let last = a.analysis.data.tables[0].rows.last().unwrap().frame.unwrap();
     assert_eq!(a.view, View::Frames);
     assert_eq!(a.frame(), last);
 }
@@ -492,8 +495,8 @@ fn loading_the_map_file_replaces_the_labels_as_one_undo_step() {
 
 #[test]
 fn the_mean_row_stays_last_in_either_order() {
-    use lipmap::tui::app::{AnalysisRow, AnalysisTable, AnalysisView};
-    use lipmap::tui::views::analysis::sorted_rows;
+    use lipmap::tui::screens::analysis::view::sorted_rows;
+    use lipmap::tui::screens::analysis::{AnalysisRow, AnalysisTable, AnalysisView};
     let table = AnalysisTable {
         title: "t".into(),
         columns: vec!["sentence".into(), "W".into()],

@@ -23,7 +23,7 @@ pub struct ConvertArgs {
 
 /// Runs the conversion; returns a one-line description of what was written.
 pub fn run(args: &ConvertArgs) -> Result<String> {
-    if is_alignment_path(&args.input) {
+    if crate::io::file_kind::is_alignment_path(&args.input) {
         let alignment = alignment_format::read_alignment(&args.input, None)?;
         let format = match &args.to {
             Some(name) => name.parse::<AlignmentFormat>().map_err(anyhow::Error::msg)?,
@@ -61,28 +61,6 @@ pub fn run(args: &ConvertArgs) -> Result<String> {
         args.output.display(),
         format.name()
     ))
-}
-
-/// True for files that hold phone alignments rather than landmarks.
-pub fn is_alignment_path(path: &std::path::Path) -> bool {
-    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("textgrid" | "lab" | "rec" | "seg") => true,
-        Some("csv") => crate::io::input::read_input(path)
-            .ok()
-            .and_then(|b| {
-                let text = String::from_utf8_lossy(&b[..b.len().min(4096)]).into_owned();
-                text.lines().next().map(|l| {
-                    let cols: Vec<String> = l
-                        .split(',')
-                        .map(|c| c.trim().trim_start_matches('\u{feff}').to_string())
-                        .collect();
-                    cols.iter().any(|c| c == "start") && cols.iter().any(|c| c == "end")
-                })
-            })
-            .unwrap_or(false),
-        _ => false,
-    }
 }
 
 fn alignment_output_format(path: &std::path::Path) -> Result<AlignmentFormat> {

@@ -4,8 +4,7 @@
 use crate::cli::exit::Outcome;
 use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::demo::{self, DemoOptions};
-use crate::session::Session;
-use crate::workflow::{self, HeadP, Resources};
+use crate::workflow::{self, EvalRequest};
 use anyhow::Result;
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -69,28 +68,20 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let json = a.output.format() == crate::cli::output::TableFormat::Json;
     let mut gathered: Vec<crate::eval::Table> = Vec::new();
     for (k, path) in sessions.iter().enumerate() {
-        let mut session = Session::load(path)?;
-        let res = Resources::load(&session)?;
-        let clips: Vec<usize> = (0..session.clips.len()).collect();
-        let settings = session.fit_settings.clone();
+        // Evaluated as `lipmap eval` does: under the lock, the new fits saved.
+        let mut opened = workflow::open_for_read_at(path)?;
+        crate::cli::progress::print_warnings(&opened.notices);
+        let req = EvalRequest { normalisation: a.normalise.into(), ..EvalRequest::default() };
         let bar = crate::cli::progress::frames_bar(0, "fitting");
-        let progress = crate::cli::progress::show_on(&bar);
-        let done = workflow::utterances_with(
-            &mut session,
-            &res,
-            &clips,
-            &settings,
-            HeadP::Mesh,
-            &progress,
-        )?;
-        crate::cli::progress::print_warnings(&done.warnings);
-        session.save(path)?;
-        any_failed |= done.fits.iter().any(|(_, f)| f.iter().any(|x| x.failed.is_some()));
-        let report = workflow::evaluate(&done.utterances, &done.fit_refs(), a.normalise.into(), 10);
+        let evaluated =
+            workflow::evaluate_session(&mut opened, &req, &crate::cli::progress::show_on(&bar))?;
+        crate::cli::progress::print_warnings(&evaluated.warnings);
+        any_failed |= evaluated.any_failed();
+        let report = &evaluated.report;
         if json {
             let speaker = format!("speaker {k}");
-            gathered.push(report.sentences.for_item(&speaker));
-            gathered.push(report.phonemes.for_item(&speaker));
+            gathered.push(report.sentences.clone().for_item(&speaker));
+            gathered.push(report.phonemes.clone().for_item(&speaker));
             continue;
         }
         if sessions.len() > 1 {

@@ -6,8 +6,6 @@
 use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::cli::transfer_cmd::ModeArg;
-use crate::eval::{Configuration, RowKey, compare_configurations};
-use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
 use crate::workflow::{self, HeadP, session_path};
 use anyhow::{Result, bail};
@@ -26,7 +24,7 @@ pub struct EvalArgs {
     #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
     pub normalise: NormaliseArg,
     /// Number of worst frames to list.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = workflow::DEFAULT_WORST_ROWS)]
     pub worst: usize,
     /// Only this clip.
     #[arg(long)]
@@ -100,67 +98,28 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     // Evaluation fits what the cache lacks and stores it, under the lock; beside an open
     // editor it runs read-only (fits in memory, nothing saved).
     let mut opened = workflow::open_for_read(&a.session)?;
-    print_warnings(opened.notice.as_slice());
-    let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
-    print_warnings(&warnings);
-    let clips = workflow::select_clips(&opened.session, a.clip.as_deref())?;
-    if clips.iter().all(|&c| opened.session.clips[c].alignment.is_none()) {
-        eprintln!(
-            "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
-        );
-    }
-    if let Some(c) = a.closure {
-        opened.session.fit_settings.closure = c.into();
-    }
-    let base = opened.session.fit_settings.clone();
-    let head_p = a.head_p()?;
+    print_warnings(&opened.notices);
+    let req = workflow::EvalRequest {
+        clip: a.clip.clone(),
+        closure: a.closure.map(Into::into),
+        head_p: a.head_p()?,
+        normalisation: normalise,
+        worst: a.worst,
+    };
     let bar = frames_bar(0, "fitting");
     let progress = show_on(&bar);
-    if a.compare.is_empty() {
-        let done =
-            workflow::utterances_with(&mut opened.session, &res, &clips, &base, head_p, &progress)?;
-        print_warnings(&done.warnings);
-        opened.save_if_locked()?;
-        crate::cli::output::require_some_fit(&done.fits)?;
-        for (&c, (_, fits)) in clips.iter().zip(&done.fits) {
-            for line in workflow::flags::clip_flag_lines(&opened.session, c, fits)? {
-                eprintln!("{}", crate::cli::output::terminal_safe(&line));
-            }
-        }
-        let report = workflow::evaluate(&done.utterances, &done.fit_refs(), normalise, a.worst);
-        // Heads the motion was transferred onto, measured on their own maps, beside the model.
-        let (transferred, warnings) = workflow::transfer::transferred_head_tables(
-            &opened.session,
-            &res,
-            &done,
-            normalise,
-            a.worst,
-        );
+    if !a.compare.is_empty() {
+        let (comparison, warnings) =
+            workflow::evaluate::compare_sets(&mut opened, &req, &a.compare, &progress)?;
         print_warnings(&warnings);
-        let mut tables: Vec<&crate::eval::Table> = report.tables().to_vec();
-        tables.extend(&transferred);
-        write_tables(&tables, a.output.format(), out)?;
-        return Ok(());
+        return write_tables(&[&comparison.to_table()], a.output.format(), out);
     }
-    let mut configs = Vec::new();
-    for &set in &a.compare {
-        let settings = FitSettings { set, ..base.clone() };
-        let done = workflow::utterances_with(
-            &mut opened.session,
-            &res,
-            &clips,
-            &settings,
-            head_p,
-            &progress,
-        )?;
-        print_warnings(&done.warnings);
-        let utterances = normalise.apply(&done.utterances);
-        configs.push(Configuration { name: set.to_string(), utterances });
+    let evaluated = workflow::evaluate_session(&mut opened, &req, &progress)?;
+    print_warnings(&evaluated.warnings);
+    for line in evaluated.flag_lines.iter().flatten() {
+        eprintln!("{}", crate::cli::output::terminal_safe(line));
     }
-    opened.save_if_locked()?;
-    let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
-    write_tables(&[&comparison.to_table()], a.output.format(), out)?;
-    Ok(())
+    write_tables(&evaluated.tables(), a.output.format(), out)
 }
 
 /// `--heads`: fits the session's clips (`clip` only, when given) onto each head and prints
@@ -173,7 +132,9 @@ fn run_heads(
     output: &FormatArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let session = workflow::load_session(session_path)?;
+    let read = workflow::read_session(session_path)?;
+    print_warnings(&read.notices);
+    let session = read.session;
     let clips = workflow::select_clips(&session, clip)?;
     let bar = frames_bar(0, "fitting");
     let report = workflow::heads::compare_heads(&session, heads, &clips, normalise, &show_on(&bar))

@@ -45,7 +45,7 @@ pub struct ExportArgs {
     #[arg(long, value_enum, default_value_t = NormaliseArg::MinMax)]
     pub normalise: NormaliseArg,
     /// Rows of the worst-frames tables.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = workflow::DEFAULT_WORST_ROWS)]
     pub worst: usize,
     /// Width of the charts in pixels.
     #[arg(long, default_value_t = 1200, value_parser = clap::value_parser!(u32).range(200..=8000))]
@@ -74,7 +74,7 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
     // New fits are stored in the session's cache under the lock, as `eval` does; beside an
     // open editor the export runs read-only.
     let mut opened = workflow::open_for_read(&a.session)?;
-    print_warnings(opened.notice.as_slice());
+    print_warnings(&opened.notices);
     let normalisation: Normalisation = a.normalise.into();
     let req = ExportRequest {
         out: a.out.clone(),

@@ -4,11 +4,11 @@
 use crate::cli::exit::Outcome;
 use crate::cli::fit_files::{FitFilesArgs, parse_image_size};
 use crate::cli::output::{failure_lines, median_reprojection, plural, rms_text, terminal_safe};
-use crate::cli::progress::frames_bar;
+use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::fit::FitSettings;
 use crate::landmarks::LandmarkSet;
 use crate::landmarks::closure::Closure;
-use crate::workflow::{self, open_for_edit, select_clips};
+use crate::workflow::{self, open_for_edit};
 use anyhow::{Result, bail};
 use std::io::Write;
 use std::path::PathBuf;
@@ -166,24 +166,16 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     if a.model.is_some() || a.mapping.is_some() || a.landmarks.is_some() || a.out.is_some() {
         bail!("--model/--mapping/--landmarks/--out are for files mode; a session names its own");
     }
-    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(s)?;
-    let settings = a.settings.apply(&session.fit_settings)?;
-    session.fit_settings = settings.clone();
-    let (res, warnings) = workflow::load_resources(&session, &path)?;
-    crate::cli::progress::print_warnings(&warnings);
-    let clips = select_clips(&session, a.only.as_deref())?;
-    let mut any_failed = false;
-    for c in clips {
-        let name = session.clip(c)?.name.clone();
-        let bar = frames_bar(0, &format!("fitting {name}"));
-        let progress = |done: usize, total: usize| {
-            bar.set_length(total as u64);
-            bar.set_position(done as u64);
-        };
-        let fits = workflow::fit_clip_cached(&mut session, &res, c, &settings, Some(&progress))?;
-        bar.finish_and_clear();
+    let mut opened = open_for_edit(s)?;
+    print_warnings(&opened.notices);
+    let settings = a.settings.apply(&opened.session.fit_settings)?;
+    let bar = frames_bar(0, "fitting");
+    let fitted =
+        workflow::fit::fit_session(&mut opened, &settings, a.only.as_deref(), &show_on(&bar))?;
+    print_warnings(&fitted.warnings);
+    for clip in &fitted.clips {
+        let (name, fits) = (&clip.name, &clip.fits);
         let median = rms_text(median_reprojection(&fits.fits));
-        any_failed |= fits.failed() > 0;
         writeln!(
             out,
             "{name}: {} ({} refitted, {} from cache), {} failed, median reprojection RMS {median}",
@@ -192,17 +184,15 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             fits.fits.len() - fits.refitted,
             fits.failed()
         )?;
-        for line in failure_lines(&name, &fits.fits) {
+        for line in failure_lines(name, &fits.fits) {
             eprintln!("{}", terminal_safe(&line));
         }
-        let lines = workflow::flags::clip_flag_lines(&session, c, &fits.fits)?;
-        if let Some((count, frames)) = lines.split_first() {
+        if let Some((count, frames)) = clip.flag_lines.split_first() {
             writeln!(out, "{}", terminal_safe(count))?;
             for line in frames {
                 eprintln!("{}", terminal_safe(line));
             }
         }
     }
-    session.save(&path)?;
-    Ok(if any_failed { Outcome::Partial } else { Outcome::Ok })
+    Ok(if fitted.any_failed() { Outcome::Partial } else { Outcome::Ok })
 }

@@ -2,6 +2,7 @@
 //! (neutral frame) and head (neutral pose) with the matching verdict; corpus class bounds.
 
 use crate::cli::output::{FormatArgs, write_tables};
+use crate::cli::progress::print_warnings;
 use crate::eval::Table;
 use crate::eval::report::indices_table;
 use crate::measure::{BoundsTable, FacialIndices};
@@ -9,7 +10,7 @@ use crate::workflow::indices::{
     box_plot_table, file_indices, load_bounds, missing_note, save_bounds, session_tables,
     speaker_neutral,
 };
-use crate::workflow::{clip_or_first, load_session, session_path};
+use crate::workflow::{clip_or_first, read_session, session_path};
 use anyhow::{Result, anyhow, bail};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -74,9 +75,10 @@ fn corpus_sample(
     match classify_input(input) {
         IndicesInput::Landmarks(p) => Ok(file_indices(&p, frame)?.1),
         IndicesInput::Session(p) => {
-            let session = load_session(&p)?;
-            let c = clip_or_first(&session, clip)?;
-            Ok(speaker_neutral(&session, c, frame)?.indices)
+            let read = read_session(&p)?;
+            print_warnings(&read.notices);
+            let c = clip_or_first(&read.session, clip)?;
+            Ok(speaker_neutral(&read.session, c, frame)?.indices)
         }
     }
 }
@@ -117,8 +119,9 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
             if !p.exists() {
                 bail!("{}: no such session or landmark file", p.display());
             }
-            let session = load_session(&p)?;
-            session_tables(&session, a.clip.as_deref(), a.frame, &bounds)?
+            let read = read_session(&p)?;
+            print_warnings(&read.notices);
+            session_tables(&read.session, a.clip.as_deref(), a.frame, &bounds)?
         }
     };
     let refs: Vec<&Table> = tables.iter().collect();

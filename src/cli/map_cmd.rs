@@ -2,9 +2,10 @@
 //! far (for batch use and scripting, as the TUI's `O`), and check a session's map against
 //! anatomy.
 
+use crate::cli::progress::print_warnings;
 use crate::io::landmark_map_toml::write_landmark_map;
 use crate::workflow::map::{check_session_map, suggest_session_map};
-use crate::workflow::{load_session, session_path};
+use crate::workflow::{read_session, session_path};
 use anyhow::Result;
 use std::io::Write;
 use std::path::PathBuf;
@@ -46,8 +47,9 @@ pub struct CheckArgs {
 pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
     match cmd {
         MapCommand::Suggest(a) => {
-            let session = load_session(&session_path(&a.session))?;
-            let s = suggest_session_map(&session, a.clip.as_deref(), a.frame)?;
+            let read = read_session(&session_path(&a.session))?;
+            print_warnings(&read.notices);
+            let s = suggest_session_map(&read.session, a.clip.as_deref(), a.frame)?;
             writeln!(
                 out,
                 "frame {}: {} labels; {}",
@@ -70,7 +72,7 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
                 writeln!(out, "left {}: {why}", l + 1)?;
             }
             writeln!(out, "{}", s.check.summary())?;
-            write_landmark_map(&a.out, &s.map)?;
+            write_landmark_map(&a.out, &s.map, &crate::reference::current().names)?;
             writeln!(
                 out,
                 "wrote {} ({} landmarks); use it with: lipmap import {} --mapping {}",
@@ -82,8 +84,9 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
             Ok(true)
         }
         MapCommand::Check(a) => {
-            let session = load_session(&session_path(&a.session))?;
-            match check_session_map(&session)? {
+            let read = read_session(&session_path(&a.session))?;
+            print_warnings(&read.notices);
+            match check_session_map(&read.session)? {
                 None => {
                     writeln!(out, "the session has no landmark map")?;
                     Ok(true)

@@ -201,7 +201,7 @@ pub fn rms_text(rms_px: Option<f64>) -> String {
 pub fn median_reprojection(fits: &[crate::fit::FrameFit]) -> Option<f64> {
     let mut rms: Vec<f64> = fits
         .iter()
-        .filter(|f| f.failed.is_none() && f.reproj_rms_px.is_finite())
+        .filter(|f| f.is_usable() && f.reproj_rms_px.is_finite())
         .map(|f| f.reproj_rms_px)
         .collect();
     rms.sort_by(f64::total_cmp);
@@ -256,29 +256,6 @@ pub fn failure_lines(clip: &str, fits: &[crate::fit::FrameFit]) -> Vec<String> {
             }
         })
         .collect()
-}
-
-/// Fails when no frame of any clip was fitted: the tables would hold nothing but failures.
-/// The error is one line with the count and the first clip's first reason.
-///
-/// # Errors
-/// Every fit failed (or there were none).
-pub fn require_some_fit(fits: &[(String, Vec<crate::fit::FrameFit>)]) -> Result<()> {
-    let total: usize = fits.iter().map(|(_, f)| f.len()).sum();
-    if fits.iter().flat_map(|(_, f)| f).any(|f| f.failed.is_none()) {
-        return Ok(());
-    }
-    let first = fits.iter().find_map(|(clip, f)| {
-        f.iter().find_map(|x| x.failed.as_deref().map(|why| format!("{clip}: {why}")))
-    });
-    match first {
-        Some(why) => anyhow::bail!(
-            "every fit failed ({} of {}), nothing to evaluate; first: {why}",
-            plural(total, "frame"),
-            plural(fits.len(), "clip")
-        ),
-        None => anyhow::bail!("no frame has landmarks to fit"),
-    }
 }
 
 #[cfg(test)]
@@ -336,19 +313,6 @@ mod tests {
         assert_eq!(lines, [format!("c: 120 frames failed (0-119): {why}")]);
         let one = failure_lines("c", &[fit(4, Some("odd"), 0.0), fit(5, None, 1.0)]);
         assert_eq!(one, ["c: frame 4 failed: odd"]);
-    }
-
-    #[test]
-    fn every_fit_failed_is_an_error() {
-        let why = "too few usable landmarks (2 of 2)";
-        let all = vec![("c".to_string(), vec![fit(0, Some(why), 0.0), fit(1, Some(why), 0.0)])];
-        let e = require_some_fit(&all).unwrap_err().to_string();
-        assert_eq!(
-            e,
-            format!("every fit failed (2 frames of 1 clip), nothing to evaluate; first: c: {why}")
-        );
-        let some = vec![("c".to_string(), vec![fit(0, Some(why), 0.0), fit(1, None, 1.0)])];
-        assert!(require_some_fit(&some).is_ok());
     }
 }
 

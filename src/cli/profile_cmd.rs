@@ -82,15 +82,17 @@ fn parse_correction(s: &str) -> Result<(usize, Point2), String> {
 /// Bad overrides or corrections, session errors, and every front frame without a P value
 /// (one line with the reasons).
 pub fn run(a: &ProfileArgs, out: &mut dyn Write) -> Result<()> {
-    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(&a.session)?;
-    let clips = select_clips(&session, a.clip.as_deref())?;
+    let mut opened = open_for_edit(&a.session)?;
+    print_warnings(&opened.notices);
+    let session = &mut opened.session;
+    let clips = select_clips(session, a.clip.as_deref())?;
     let overrides = overrides_of(a)?;
     let corrections =
         ProfileCorrections { correct: a.correct.clone(), uncorrect: a.uncorrect.clone() };
-    let edit = edit_profiles(&mut session, &clips, &overrides, &corrections)?;
+    let edit = edit_profiles(session, &clips, &overrides, &corrections)?;
     print_warnings(&edit.warnings);
     let tables: Vec<Table> = edit.clips.iter().map(|c| clip_table(c, a.min_max)).collect();
-    session.save(&path)?;
+    opened.save()?;
     write_tables(&tables.iter().collect::<Vec<_>>(), a.output.format(), out)?;
     if let Some(reason) = all_failed_reason(&edit) {
         bail!("{reason}");

@@ -6,8 +6,9 @@ use anyhow::{Context, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// Write the built-in reference tables (viseme classes, facial-index bounds, iBUG point names,
-/// TUI keys) into a folder to edit; use the folder with `lipmap --data DIR <command>`.
+/// Write the built-in reference tables (phone inventory, viseme classes, facial-index bounds,
+/// iBUG point names, TUI keys) into a folder to edit; use the folder with
+/// `lipmap --data DIR <command>`.
 #[derive(clap::Args, Debug)]
 pub struct TablesArgs {
     /// The folder to write into (created when missing; existing files are never overwritten).

@@ -53,10 +53,11 @@ impl From<ModeArg> for Interpolation {
 }
 
 pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
-    let workflow::EditSession { path, lock: _lock, mut session } = open_for_edit(&a.session)?;
-    let (res, warnings) = workflow::load_resources(&session, &path)?;
+    let mut opened = open_for_edit(&a.session)?;
+    print_warnings(&opened.notices);
+    let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
     print_warnings(&warnings);
-    let clips = select_clips(&session, a.clip.as_deref())?;
+    let clips = select_clips(&opened.session, a.clip.as_deref())?;
     let request = workflow::transfer::TransferRequest {
         head: a.head.clone(),
         mapping: a.mapping.clone(),
@@ -67,8 +68,8 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     };
     let bar = frames_bar(0, "fitting");
     let report =
-        workflow::transfer::transfer_session(&mut session, &res, &request, &show_on(&bar))?;
-    session.save(&path)?;
+        workflow::transfer::transfer_session(&mut opened.session, &res, &request, &show_on(&bar))?;
+    opened.save()?;
     writeln!(
         out,
         "placement residual {:.4} (rigid {:.4}), {} controls, {} control triangles dropped",
@@ -86,6 +87,6 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
             (terminal_safe(clip), terminal_safe(&file.to_string_lossy()).into_owned());
         writeln!(out, "{clip}: {frames} frames -> {file}")?;
     }
-    writeln!(out, "recorded head `{}` in {}", report.head_name, path.display())?;
+    writeln!(out, "recorded head `{}` in {}", report.head_name, opened.path.display())?;
     Ok(())
 }

@@ -149,6 +149,9 @@ impl DemoCorpus {
             shapes: LinearShapes::from_model(&self.model),
             landmarks: self.landmarks.clone(),
             sentences,
+            // The shipped classes: the demo's phones are the shipped lexicon's.
+            visemes: crate::eval::VisemeTable::default(),
+            phones: crate::alignment::PhoneInventory::default(),
         }
     }
 
@@ -169,20 +172,16 @@ impl DemoCorpus {
             .collect()
     }
 
-    /// The SAQP corpus of per-sentence fits (one `FrameFit` per frame, in frame order); a
-    /// failed frame takes the previous good frame's coefficients.
+    /// The SAQP corpus of per-sentence fits (one `FrameFit` per frame, in frame order); the
+    /// frames without a usable fit filled in by the fit's gap policy (`fit::gaps`), a
+    /// sentence that cannot be filled held at the neutral.
     pub fn to_saqp(&self, fits: &[Vec<FrameFit>]) -> Corpus {
         self.corpus(|i| {
-            let mut last = self.neutral.clone();
-            fits[i]
-                .iter()
-                .map(|f| {
-                    if f.failed.is_none() {
-                        last = LinearShapes::coefficients_of_fit(f);
-                    }
-                    last.clone()
-                })
-                .collect()
+            let (n, fps) = (fits[i].len(), self.sentences[i].fps);
+            match crate::fit::fill_gaps(&fits[i], n, fps, &[]) {
+                Ok(filled) => filled.fits.iter().map(LinearShapes::coefficients_of_fit).collect(),
+                Err(_) => vec![self.neutral.clone(); n],
+            }
         })
     }
 

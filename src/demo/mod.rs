@@ -1,4 +1,4 @@
-//! The built-in synthetic speaker (DESIGN.md §9): from a fixed seed, a head with a modelled
+//! The built-in synthetic speaker (`docs/design.md`, "The demo speaker"): from a fixed seed, a head with a modelled
 //! lip region, its 161 viseme poses and their PCA model, GRID sentences with phone timings,
 //! coarticulated mouth motion, rendered front and side frames, "tracked" landmarks with noise
 //! and injected gross errors, and the truth (W, H, P, pose) of every frame.
@@ -52,7 +52,7 @@ use crate::landmarks::N_LANDMARKS;
 use crate::math::{Point2, Point3, Vector3};
 use crate::measure::{MeshMeasureOptions, measure_points, measure_shape};
 use crate::model::pca::{Keep, build_pca_from_shapes};
-use crate::model::{LandmarkMap, Mesh, MorphableModel};
+use crate::model::{Mesh, MorphableModel};
 use crate::render::{Camera, RenderOptions, render_mesh};
 use anyhow::{Context, Result};
 use head::Head;
@@ -62,7 +62,6 @@ use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::Serialize;
 use speakers::{MouthWarp, Speaker, SpeakerSpec};
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use visemes::{Articulation, ArticulationFields};
 
@@ -190,17 +189,6 @@ fn quantise(p: &Point3) -> Point3 {
     p.map(|c| (c * 1e4).round() / 1e4)
 }
 
-/// Writes the eos TOML landmark mapping (`[landmark_mappings]`, 1-based iBUG ids).
-fn write_landmark_map_toml(map: &LandmarkMap, path: &Path) -> Result<()> {
-    let mut s = String::from("# iBUG-68 landmark (1-based) = vertex index (0-based), eos format\n");
-    s.push_str("[landmark_mappings]\n");
-    for (l, v) in map.pairs() {
-        let _ = writeln!(s, "{} = {} # {}", l + 1, v, crate::landmarks::landmark_name(l));
-    }
-    crate::io::atomic::write_atomic_bytes(path, s.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))
-}
-
 fn write_png(img: &image::RgbImage, path: &Path) -> Result<()> {
     crate::io::atomic::write_atomic(path, |w| {
         let enc = PngEncoder::new_with_quality(w, CompressionType::Fast, FilterType::Sub);
@@ -241,7 +229,9 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
     let head_obj = out.join("head.obj");
     crate::io::obj::write_obj(&head_obj, &head.mesh)?;
     let landmark_map = out.join("head_map.toml");
-    write_landmark_map_toml(&head.landmarks, &landmark_map)?;
+    // The shipped names: the demo's files are the same whatever tables a user installed.
+    let names = crate::landmarks::LandmarkNames::builtin();
+    crate::io::landmark_map_toml::write_landmark_map(&landmark_map, &head.landmarks, &names)?;
 
     let mut poses = Vec::new();
     let mut model_path = None;
@@ -291,7 +281,8 @@ pub fn generate(opts: &DemoOptions) -> Result<DemoOutput> {
         let sdir = out.join(format!("speaker_{si:02}"));
         std::fs::create_dir_all(&sdir).with_context(|| format!("creating {}", sdir.display()))?;
         // Each reshaped speaker also gets its own head and pose model, so a speaker can be
-        // fitted onto its own (corresponding) head or onto another (issue 6).
+        // fitted onto its own (corresponding) head or onto another, as `eval --heads`
+        // compares them.
         let (speaker_head, speaker_model) = if si == 0 || pose_set.is_empty() {
             (head_obj.clone(), model_path.clone())
         } else {

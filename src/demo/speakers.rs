@@ -1,6 +1,7 @@
 //! Demo speakers: the demo head reshaped around the mouth so that its vertical-mouth-height
 //! index (100·D7/D1) and mouth-width index (100·D8/D3) fall in chosen classes of the published
-//! bounds (issue 6), for trying a speaker on a head whose mouth is not alike.
+//! bounds, for trying a speaker on a head whose mouth is not alike (the corresponding vs
+//! non-corresponding heads of `docs/design.md`).
 //!
 //! A speaker is the head's articulated mesh passed through a smooth warp centred on the mouth
 //! (a Gaussian-weighted stretch in x and in y) and a uniform scale. The warp leaves the eyes,
@@ -32,8 +33,9 @@ pub fn target_value(index: FacialIndex, class: IndexClass) -> f64 {
 }
 
 /// Speaker specs for `n` speakers. Speaker 0 is the head itself (`None`); the others go
-/// through the mismatches issue 6 cares about first: high/high, low/low, then the crossed
-/// pairs, then one index at a time.
+/// through the mismatches that matter most first (a speaker's mouth classed high or low on
+/// both indices, which a head of the other class matches worst): high/high, low/low, then the
+/// crossed pairs, then one index at a time.
 pub fn default_specs(n: usize) -> Vec<Option<SpeakerSpec>> {
     use IndexClass::*;
     let cycle = [

@@ -196,7 +196,7 @@ impl Viseme {
 
 /// The viseme of an ARPAbet phone (stress digits ignored); `None` for silence or unknown.
 pub fn phone_viseme(phone: &str) -> Option<Viseme> {
-    let p = crate::alignment::grouping_label(phone);
+    let p = crate::alignment::PhoneInventory::default().key_of(phone);
     Some(match p.as_str() {
         "B" | "P" | "M" => Viseme::Pbm,
         "F" | "V" => Viseme::Fv,

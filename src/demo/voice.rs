@@ -13,7 +13,7 @@
 //!
 //! Start with [`speak`].
 
-use crate::alignment::{Alignment, grouping_label};
+use crate::alignment::{Alignment, PhoneInventory};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
@@ -74,7 +74,7 @@ fn sound(phone: &str) -> PhoneSound {
     let stop =
         |f: [f64; 3], voiced, burst| PhoneSound { formants: f, voiced, manner: Stop { burst } };
     let nasal = |f: [f64; 3]| PhoneSound { formants: f, voiced: true, manner: Nasal };
-    match grouping_label(phone).as_str() {
+    match PhoneInventory::default().key_of(phone).as_str() {
         "IY" => vowel(IY),
         "IH" => vowel([390.0, 1990.0, 2550.0]),
         "EH" => vowel([530.0, 1840.0, 2480.0]),

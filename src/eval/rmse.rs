@@ -6,7 +6,7 @@
 
 use super::visemes::VisemeTable;
 use super::{PerMeasure, Utterance, mean_of};
-use crate::alignment::{Alignment, grouping_label};
+use crate::alignment::{Alignment, PhoneInventory};
 use crate::measure::Measure;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -99,16 +99,21 @@ pub fn group_rmse(
         .collect()
 }
 
-/// RMSE per phoneme (ARPAbet stress stripped, silences folded to `sil`, see
-/// `grouping_label`) over many utterances.
-pub fn phoneme_rmse(utterances: &[Utterance]) -> Vec<GroupRmse> {
-    group_rmse(utterances, &|l| Some(grouping_label(l)))
+/// RMSE per phoneme, phones grouped by their key in `phones` (stress digits, case and symbol
+/// set dropped, silences folded to `sil`) over many utterances.
+pub fn phoneme_rmse(utterances: &[Utterance], phones: &PhoneInventory) -> Vec<GroupRmse> {
+    group_rmse(utterances, &|l| Some(phones.key_of(l)))
 }
 
-/// RMSE per viseme class of `table`: the mean over every occurrence of the class's phones.
-/// Phones the table does not know are grouped as `?` so they stay visible.
-pub fn viseme_rmse(utterances: &[Utterance], table: &VisemeTable) -> Vec<GroupRmse> {
-    group_rmse(utterances, &|l| Some(table.class_of(l).unwrap_or("?").to_string()))
+/// RMSE per viseme class of `table` (phones by their key in `phones`): the mean over every
+/// occurrence of the class's phones. Phones the table does not know are grouped as `?` so
+/// they stay visible.
+pub fn viseme_rmse(
+    utterances: &[Utterance],
+    phones: &PhoneInventory,
+    table: &VisemeTable,
+) -> Vec<GroupRmse> {
+    group_rmse(utterances, &|l| Some(table.class_of(&phones.key_of(l)).unwrap_or("?").to_string()))
 }
 
 #[cfg(test)]
@@ -149,7 +154,7 @@ mod tests {
 
     #[test]
     fn phoneme_rmse_averages_occurrences() {
-        let g = phoneme_rmse(&[utt()]);
+        let g = phoneme_rmse(&[utt()], &PhoneInventory::default());
         let labels: Vec<&str> = g.iter().map(|g| g.label.as_str()).collect();
         assert_eq!(labels, ["AA", "B", "P"]);
         let b = &g[1];
@@ -165,7 +170,7 @@ mod tests {
 
     #[test]
     fn viseme_rmse_pools_class_occurrences() {
-        let g = viseme_rmse(&[utt(), utt()], &VisemeTable::default());
+        let g = viseme_rmse(&[utt(), utt()], &PhoneInventory::default(), &VisemeTable::default());
         let e = g.iter().find(|g| g.label == "E").unwrap();
         // Bilabials: B (1), B (0.5), P (0) per utterance, twice → mean 0.5.
         assert_eq!(e.occurrences, 6);
@@ -179,6 +184,25 @@ mod tests {
         assert_eq!(rmse_over(&[Some(1.0)], &[Some(2.0)], 5..9), None);
         let mut u = utt();
         u.fps = 0.0;
-        assert!(phoneme_rmse(&[u]).is_empty());
+        assert!(phoneme_rmse(&[u], &PhoneInventory::default()).is_empty());
+    }
+
+    #[test]
+    fn ipa_and_arpabet_spellings_of_one_phone_share_a_row() {
+        let mut ipa = utt();
+        for (p, l) in ipa.alignment.phones.iter_mut().zip(["b", "ɑː", "b", "p"]) {
+            p.label = l.into();
+        }
+        let phones = PhoneInventory::default();
+        let both = phoneme_rmse(&[utt(), ipa.clone()], &phones);
+        let labels: Vec<&str> = both.iter().map(|g| g.label.as_str()).collect();
+        assert_eq!(labels, ["AA", "B", "P"]);
+        assert_eq!(both[1].occurrences, 4);
+        // Lower-case IPA keeps its case where the inventory lacks the phone.
+        ipa.alignment.phones[1].label = "i".into();
+        ipa.alignment.phones[3].label = "œ".into();
+        let g = phoneme_rmse(&[ipa], &phones);
+        let labels: Vec<&str> = g.iter().map(|g| g.label.as_str()).collect();
+        assert_eq!(labels, ["B", "IY", "œ"]);
     }
 }

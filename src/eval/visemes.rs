@@ -1,25 +1,27 @@
-//! The phoneme → viseme class table used to group per-phoneme errors: ARPAbet phones (stress
-//! stripped by `grouping_label`), IPA symbols mapped to ARPAbet where the mapping is plain.
+//! The phoneme → viseme class table used to group per-phoneme errors. It lists phone keys of
+//! the phone inventory ([`crate::alignment::PhoneInventory`], `data/phones.csv`), so IPA,
+//! ARPAbet, Festival and HTK labels reach it through
+//! [`PhoneInventory::key_of`](crate::alignment::PhoneInventory::key_of).
 //!
 //! The default grouping is the 13-class table of Neti et al. (2000), "Audio-visual speech
 //! recognition", final workshop report, CLSP, Johns Hopkins University (widely reused in
 //! lip-reading work): four vowel classes, eight consonant classes and silence. Its
 //! placements are kept as published, including /hh/ with the open vowels and /w/ with the
 //! velars; phones it does not list are added where their articulation is unambiguous
-//! (AXR with ER, IX with IH, UX with UW, DX with T/D, EM with M, ENG/NX with NG, WH with W).
-//! The table ships as `data/visemes.toml`, embedded at build time; a user's file in the
+//! (AXR with ER, IX with IH, UX with UW, DX with T/D, EM with M, ENG/NX with NG, WH with W);
+//! the built-in inventory folds those into CMUdict's phones, so they matter only to a user's
+//! inventory that keeps them apart. The table ships as `data/visemes.toml`, embedded at build time; a user's file in the
 //! same format replaces it (`io::viseme_table` reads it).
 
-use crate::alignment::grouping_label;
 use serde::{Deserialize, Serialize};
 use std::sync::LazyLock;
 
-/// One viseme class: an id (table column / row label), a description, its ARPAbet phones.
+/// One viseme class: an id (table column / row label), a description, its phone keys.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct VisemeClass {
     pub id: String,
     pub description: String,
-    /// Upper-case ARPAbet without stress digits; `sil` for silence.
+    /// Phone inventory keys (upper-case ARPAbet in the built-in inventory; `sil` for silence).
     pub phones: Vec<String>,
 }
 
@@ -54,7 +56,7 @@ pub struct VisemeTableError {
 
 impl VisemeTable {
     /// Parses a TOML table: `[[classes]]` entries with `id`, `description` and `phones` (a
-    /// list of upper-case ARPAbet phones without stress digits, `sil` for silence).
+    /// list of phone inventory keys, `sil` for silence).
     ///
     /// # Errors
     /// A [`VisemeTableError`] with TOML's line, or naming the class at fault: no classes, an
@@ -66,7 +68,7 @@ impl VisemeTable {
     ///     "[[classes]]\nid = \"E\"\ndescription = \"bilabials\"\nphones = [\"P\", \"B\", \"M\"]\n",
     /// )
     /// .unwrap();
-    /// assert_eq!(t.class_of("b"), Some("E"));
+    /// assert_eq!(t.class_of("B"), Some("E"));
     /// ```
     pub fn from_toml_str(text: &str) -> Result<Self, VisemeTableError> {
         let table: Self = toml::from_str(text).map_err(|e| {
@@ -104,111 +106,18 @@ impl VisemeTable {
     }
 }
 
-/// IPA (broad, General American / RP) → ARPAbet for the symbols with a plain equivalent.
-const IPA_TO_ARPABET: [(&str, &str); 53] = [
-    ("p", "P"),
-    ("b", "B"),
-    ("m", "M"),
-    ("f", "F"),
-    ("v", "V"),
-    ("θ", "TH"),
-    ("ð", "DH"),
-    ("t", "T"),
-    ("d", "D"),
-    ("n", "N"),
-    ("s", "S"),
-    ("z", "Z"),
-    ("ʃ", "SH"),
-    ("ʒ", "ZH"),
-    ("tʃ", "CH"),
-    ("t͡ʃ", "CH"),
-    ("ʧ", "CH"),
-    ("dʒ", "JH"),
-    ("d͡ʒ", "JH"),
-    ("ʤ", "JH"),
-    ("k", "K"),
-    ("g", "G"),
-    ("ɡ", "G"),
-    ("ŋ", "NG"),
-    ("l", "L"),
-    ("ɫ", "L"),
-    ("r", "R"),
-    ("ɹ", "R"),
-    ("ɾ", "DX"),
-    ("j", "Y"),
-    ("w", "W"),
-    ("ʍ", "WH"),
-    ("h", "HH"),
-    ("ɑ", "AA"),
-    ("ɒ", "AA"),
-    ("a", "AA"),
-    ("æ", "AE"),
-    ("ʌ", "AH"),
-    ("ə", "AX"),
-    ("ɔ", "AO"),
-    ("ɛ", "EH"),
-    ("ɚ", "ER"),
-    ("ɝ", "ER"),
-    ("ɜ", "ER"),
-    ("ɪ", "IH"),
-    ("i", "IY"),
-    ("u", "UW"),
-    ("ʊ", "UH"),
-    ("e", "EY"),
-    ("o", "OW"),
-    ("aɪ", "AY"),
-    ("aʊ", "AW"),
-    ("ɔɪ", "OY"),
-];
-
-/// IPA diphthongs written with a following glide symbol.
-const IPA_DIPHTHONGS: [(&str, &str); 3] = [("eɪ", "EY"), ("oʊ", "OW"), ("əʊ", "OW")];
-
-/// The ARPAbet phone for a label: ARPAbet passes through `grouping_label` (stress stripped,
-/// upper-cased, silence → `sil`); IPA has length and stress marks removed and is looked up.
-/// `None` for a symbol with no plain ARPAbet equivalent.
-///
-/// ```
-/// use lipmap::eval::visemes::to_arpabet;
-/// assert_eq!(to_arpabet("AA1").as_deref(), Some("AA"));
-/// assert_eq!(to_arpabet("ˈuː").as_deref(), Some("UW"));
-/// assert_eq!(to_arpabet("sp").as_deref(), Some("sil"));
-/// ```
-pub fn to_arpabet(label: &str) -> Option<String> {
-    let g = grouping_label(label);
-    if g == "sil" || ARPABET.contains(&g.as_str()) {
-        return Some(g);
-    }
-    // Not ARPAbet (single IPA letters such as `j`, `i`, `a` upper-case into non-phones).
-    let ipa: String =
-        label.trim().chars().filter(|c| !matches!(c, 'ː' | 'ˑ' | 'ˈ' | 'ˌ' | ':')).collect();
-    IPA_DIPHTHONGS
-        .iter()
-        .chain(IPA_TO_ARPABET.iter())
-        .find(|(sym, _)| *sym == ipa)
-        .map(|(_, a)| a.to_string())
-}
-
-/// ARPAbet phones recognised as such: the 39 of CMUdict plus TIMIT-style extras.
-pub const ARPABET: [&str; 50] = [
-    "AA", "AE", "AH", "AO", "AW", "AY", "B", "CH", "D", "DH", "EH", "ER", "EY", "F", "G", "HH",
-    "IH", "IY", "JH", "K", "L", "M", "N", "NG", "OW", "OY", "P", "R", "S", "SH", "T", "TH", "UH",
-    "UW", "V", "W", "Y", "Z", "ZH", "AX", "AXR", "IX", "UX", "DX", "EL", "EM", "EN", "NX", "ENG",
-    "WH",
-];
-
 impl VisemeTable {
-    /// The class id of a phone label (ARPAbet or IPA), `None` when the table lacks it.
+    /// The class id of a phone inventory key, `None` when the table lacks it. A label as an
+    /// aligner wrote it goes through the inventory first.
     ///
     /// ```
-    /// let t = lipmap::eval::VisemeTable::default();
+    /// let (t, phones) = (lipmap::eval::VisemeTable::default(), lipmap::alignment::PhoneInventory::default());
     /// assert_eq!(t.class_of("B"), Some("E"));
-    /// assert_eq!(t.class_of("uw1"), Some("V2"));
-    /// assert_eq!(t.class_of("ʃ"), Some("D"));
+    /// assert_eq!(t.class_of(&phones.key_of("uw1")), Some("V2"));
+    /// assert_eq!(t.class_of(&phones.key_of("ʃ")), Some("D"));
     /// ```
-    pub fn class_of(&self, label: &str) -> Option<&str> {
-        let a = to_arpabet(label)?;
-        self.classes.iter().find(|c| c.phones.contains(&a)).map(|c| c.id.as_str())
+    pub fn class_of(&self, key: &str) -> Option<&str> {
+        self.classes.iter().find(|c| c.phones.iter().any(|p| p == key)).map(|c| c.id.as_str())
     }
 
     /// The description of a class id.
@@ -220,45 +129,46 @@ impl VisemeTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::alignment::PhoneInventory;
 
-    /// The 39 CMU ARPAbet phones, all of which must have a class.
-    const CMU: &str = "AA AE AH AO AW AY B CH D DH EH ER EY F G HH IH IY JH K L M N NG OW OY P R \
-                       S SH T TH UH UW V W Y Z ZH";
-
+    /// Every phone of the built-in inventory (CMUdict's 39 and silence) is in one class; the
+    /// glottal stop, which Neti et al. do not place, in none.
     #[test]
-    fn every_cmu_phone_has_exactly_one_class() {
-        let t = VisemeTable::default();
-        for p in CMU.split_whitespace() {
-            let n = t.classes.iter().filter(|c| c.phones.iter().any(|q| q == p)).count();
-            assert_eq!(n, 1, "{p} is in {n} classes");
+    fn every_inventory_phone_but_the_glottal_stop_has_exactly_one_class() {
+        let (t, phones) = (VisemeTable::default(), PhoneInventory::default());
+        for p in phones.phones() {
+            let n = t.classes.iter().filter(|c| c.phones.contains(&p.key)).count();
+            assert_eq!(n, usize::from(p.key != "Q"), "{} is in {n} classes", p.key);
         }
         assert_eq!(t.classes.len(), 13);
     }
 
     #[test]
-    fn bilabials_rounded_and_silence() {
-        let t = VisemeTable::default();
-        for p in ["P", "b", "M0"] {
-            assert_eq!(t.class_of(p), Some("E"), "{p}");
+    fn labels_in_any_symbol_set_reach_their_class_through_the_inventory() {
+        let (t, phones) = (VisemeTable::default(), PhoneInventory::default());
+        let class = |label: &str| t.class_of(&phones.key_of(label));
+        for p in ["P", "b", "M0", "m", "bcl"] {
+            assert_eq!(class(p), Some("E"), "{p}");
         }
-        assert_eq!(t.class_of("OW0"), Some("V2"));
-        assert_eq!(t.class_of("pau"), Some("S"));
-        assert_eq!(t.class_of("F"), Some("G"));
-        assert_eq!(t.class_of("XYZ"), None);
-    }
-
-    #[test]
-    fn ipa_symbols_map_where_plain() {
-        let t = VisemeTable::default();
-        assert_eq!(t.class_of("m"), Some("E"));
-        assert_eq!(t.class_of("ɪ"), Some("V4"));
-        assert_eq!(t.class_of("eɪ"), Some("V3"));
-        assert_eq!(t.class_of("ð"), Some("F"));
-        assert_eq!(t.class_of("ʉ"), None);
-        // Single IPA letters that are not ARPAbet phones once upper-cased.
-        assert_eq!(t.class_of("j"), Some("A"));
-        assert_eq!(t.class_of("iː"), Some("V4"));
-        assert_eq!(t.class_of("h"), Some("V1"));
+        for (label, id) in [
+            ("OW0", "V2"),
+            ("pau", "S"),
+            ("", "S"),
+            ("F", "G"),
+            ("ɪ", "V4"),
+            ("eɪ", "V3"),
+            ("ð", "F"),
+            ("θ", "F"),
+            ("j", "A"),
+            ("iː", "V4"),
+            ("h", "V1"),
+            ("ə", "V1"),
+            ("o", "V2"),
+        ] {
+            assert_eq!(class(label), Some(id), "{label}");
+        }
+        assert_eq!(class("XYZ"), None);
+        assert_eq!(class("œ"), None);
     }
 
     /// The table as first published in the code, before it moved to `data/`.

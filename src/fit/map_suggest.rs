@@ -12,9 +12,14 @@
 //! spacing of the vertices there. So the tracked points are first carried onto the head's
 //! proportions by a thin-plate spline ([`super::thin_plate`]) through the hand labels (each
 //! labelled landmark's tracked point to its vertex's projection), and matched after that.
+//!
+//! The jaw (iBUG 1–17) is placed differently ([`super::jaw_contour`]): on the head's frontal
+//! jaw silhouette, symmetric, the tracked points giving only where along the jaw each lies;
+//! a jaw suggestion far from its neighbours along the jaw is left out.
 
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
+use super::jaw_contour::{far_from_neighbours, place_jaw};
 use super::suggest::{
     SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head,
 };
@@ -22,7 +27,7 @@ use super::thin_plate::ThinPlate;
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
 use crate::model::LandmarkMap;
-use crate::model::map_check::{MapProblem, check_layout};
+use crate::model::map_check::{MapProblem, check_layout, face_axes};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
@@ -32,6 +37,9 @@ pub const MIN_CONFIDENCE: Real = 0.3;
 pub const ROUNDS: usize = 3;
 /// Candidate vertices per landmark (the nearest ones within reach).
 const CANDIDATES: usize = 24;
+/// A jaw suggestion farther than this many median jaw spacings from both its neighbours
+/// along the jaw is implausible (the spacing of iBUG's jaw points varies by about 2×).
+const JAW_NEIGHBOUR_FACTOR: Real = 2.5;
 
 /// One landmark's suggested vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,6 +62,9 @@ pub enum LeftOut {
     LowConfidence(MapSuggestion),
     /// The suggestion would make the map break this rule.
     Anatomy(MapSuggestion, MapProblem),
+    /// A jaw suggestion this far (head units) from its nearest neighbour along the jaw,
+    /// against the jaw's median spacing.
+    FarFromNeighbours(MapSuggestion, Real, Real),
 }
 
 impl fmt::Display for LeftOut {
@@ -67,6 +78,11 @@ impl fmt::Display for LeftOut {
                 s.vertex, s.distance_px, s.confidence
             ),
             Self::Anatomy(s, p) => write!(f, "vertex {} would break anatomy: {p}", s.vertex),
+            Self::FarFromNeighbours(s, d, median) => write!(
+                f,
+                "vertex {} is {d:.3} from its nearest jaw neighbour (jaw spacing {median:.3})",
+                s.vertex
+            ),
         }
     }
 }
@@ -101,6 +117,7 @@ impl MapProposal {
                     LeftOut::NoVertex => "no free vertex",
                     LeftOut::LowConfidence(_) => "too far off",
                     LeftOut::Anatomy(..) => "anatomy",
+                    LeftOut::FarFromNeighbours(..) => "far from jaw neighbours",
                 })
                 .or_default() += 1;
         }
@@ -182,6 +199,18 @@ fn propose_once(
             None => left.push((l, LeftOut::NotVisible)),
         }
     }
+    // The jaw is placed on the head's silhouette once the rest is known (its axes, nose
+    // tip, eye corners); until then it takes no vertex from the others.
+    let (jaw_wanted, wanted): (Vec<_>, Vec<_>) = wanted.into_iter().partition(|(l, _)| *l < 17);
+    let nearest = |l: usize, target: Point2, vertex: usize| {
+        let d = (seen.projected[vertex].0 - target).norm();
+        MapSuggestion {
+            landmark: l,
+            vertex,
+            distance_px: d,
+            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
+        }
+    };
     let assigned = assign_unique(&seen, &taken, &wanted, 4.0 * sigma);
     let mut suggestions = Vec::new();
     for ((l, target), vertex) in wanted.iter().zip(assigned) {
@@ -189,17 +218,61 @@ fn propose_once(
             left.push((*l, LeftOut::NoVertex));
             continue;
         };
-        let d = (seen.projected[vertex].0 - target).norm();
-        let s = MapSuggestion {
-            landmark: *l,
-            vertex,
-            distance_px: d,
-            confidence: (-0.5 * (d / sigma).powi(2)).exp(),
-        };
+        let s = nearest(*l, *target, vertex);
         if s.confidence >= MIN_CONFIDENCE {
             suggestions.push(s);
         } else {
             left.push((*l, LeftOut::LowConfidence(s)));
+        }
+    }
+    let known = MapProposal { accepted: suggestions.clone(), left: Vec::new() }.applied_to(map);
+    let mut used: BTreeSet<usize> = known.to_vertex.values().copied().collect();
+    let placed = place_jaw(head, &known, pose, image_height, &jaw_wanted, &used);
+    used.extend(placed.iter().map(|p| p.vertex));
+    // A head with no surface to find a silhouette on (a bare point set), or labels that do
+    // not yet give the face's axes: those jaw points are matched like every other landmark.
+    let unplaced: Vec<(usize, Point2)> = jaw_wanted
+        .iter()
+        .filter(|(l, _)| !placed.iter().any(|p| p.landmark == *l))
+        .copied()
+        .collect();
+    let fallback = assign_unique(&seen, &used, &unplaced, 4.0 * sigma);
+    let mut jaw = Vec::new();
+    for (l, _) in &jaw_wanted {
+        if let Some(p) = placed.iter().find(|p| p.landmark == *l) {
+            // The two sides of a turned head disagree by a few σ by nature (the far side's
+            // tracked points lie on the cheek): three times the reach of the other landmarks.
+            let d = p.asymmetry_px;
+            jaw.push(MapSuggestion {
+                landmark: *l,
+                vertex: p.vertex,
+                distance_px: d,
+                confidence: (-0.5 * (d / (3.0 * sigma)).powi(2)).exp(),
+            });
+            continue;
+        }
+        let i =
+            unplaced.iter().position(|(k, _)| k == l).expect("every unplaced jaw point is listed");
+        match fallback[i] {
+            Some(vertex) => jaw.push(nearest(*l, unplaced[i].1, vertex)),
+            None => left.push((*l, LeftOut::NoVertex)),
+        }
+    }
+    let jaw_points: Vec<(usize, Point3)> = map
+        .pairs()
+        .filter(|(l, _)| *l < 17)
+        .chain(jaw.iter().map(|s| (s.landmark, s.vertex)))
+        .filter_map(|(l, v)| Some((l, *head.vertices.get(v)?)))
+        .collect();
+    let suggested: BTreeSet<usize> = jaw.iter().map(|s| s.landmark).collect();
+    let far = far_from_neighbours(&jaw_points, &suggested, JAW_NEIGHBOUR_FACTOR);
+    for s in jaw {
+        match far.iter().find(|f| f.0 == s.landmark) {
+            Some(&(_, d, median)) => {
+                left.push((s.landmark, LeftOut::FarFromNeighbours(s, d, median)))
+            }
+            None if s.confidence >= MIN_CONFIDENCE => suggestions.push(s),
+            None => left.push((s.landmark, LeftOut::LowConfidence(s))),
         }
     }
     let (accepted, rejected) = screen_by_anatomy(head.vertices, map, pose, suggestions);
@@ -274,7 +347,7 @@ fn assign_unique(
 }
 
 /// Drops suggestions until the map (hand labels plus what is kept) passes
-/// [`check_layout`] in the camera's axes, blaming for each problem the least confident
+/// [`check_layout`] in the face's axes, blaming for each problem the least confident
 /// suggestion it involves (hand labels are never blamed).
 fn screen_by_anatomy(
     vertices: &[Point3],
@@ -282,9 +355,17 @@ fn screen_by_anatomy(
     pose: &OrthoPose,
     mut kept: Vec<MapSuggestion>,
 ) -> (Vec<MapSuggestion>, Vec<(usize, LeftOut)>) {
-    // Camera axes are face axes for a face turned towards the camera: x to the image's
-    // right (the subject's left), y up, z towards the viewer.
-    let in_camera = |v: usize| vertices.get(v).map(|p| Point3::from(pose.r * p.coords));
+    // In the face's own axes (from the map with every suggestion), as `map check` does: the
+    // camera's axes are the face's only for a face turned towards the camera, and a turned
+    // head's far jaw, placed on the jaw line, folds back in them. Camera axes (x to the
+    // image's right, the subject's left; y up) when the map gives no face axes.
+    let all: BTreeMap<usize, Point3> = map
+        .pairs()
+        .chain(kept.iter().map(|s| (s.landmark, s.vertex)))
+        .filter_map(|(l, v)| Some((l, *vertices.get(v)?)))
+        .collect();
+    let axes = face_axes(&all).unwrap_or(pose.r);
+    let in_camera = |v: usize| vertices.get(v).map(|p| Point3::from(axes * p.coords));
     let mut dropped = Vec::new();
     loop {
         let points: BTreeMap<usize, Point3> = map

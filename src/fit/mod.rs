@@ -10,6 +10,8 @@ pub mod assignment;
 pub mod camera;
 pub mod clip;
 mod flags;
+pub mod gaps;
+pub mod jaw_contour;
 mod joint;
 pub mod map_suggest;
 pub mod pipeline;
@@ -20,6 +22,7 @@ pub mod suggest;
 pub mod thin_plate;
 
 pub use camera::OrthoPose;
+pub use gaps::{Filled, GapError, MAX_FILLED_S, fill_gaps};
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};
 pub use result::{FitSettings, FrameFit, Solver};
 pub use shapes::for_each_fitted_shape;

@@ -171,6 +171,19 @@ pub struct FrameFit {
 }
 
 impl FrameFit {
+    /// Whether the fit can be measured, shown or learnt from: it did not fail. A failed fit
+    /// stays in the results (its frame and reason are reported) but its shape means nothing.
+    pub fn is_usable(&self) -> bool {
+        self.failed.is_none()
+    }
+
+    /// [`is_usable`](Self::is_usable) for a frame of a clip of `n` frames: fits naming a
+    /// frame at or past the clip's end (a cache from a longer clip, a hand-edited session)
+    /// are not frames of it.
+    pub fn is_usable_within(&self, n: usize) -> bool {
+        self.is_usable() && self.frame < n
+    }
+
     /// Frame `frame` seen head-on at unit scale, with no coefficients, residuals or
     /// failure: the value to fill in field by field.
     pub fn unposed(frame: usize) -> Self {

@@ -1,6 +1,8 @@
-//! Opening a file the user named: every reader of a user path goes through here, so a FIFO
+//! Opening a file the user named: the format readers of `io` go through here, so a FIFO
 //! (which would block forever), a device such as `/dev/zero` (which never ends) or a folder
-//! is refused with one line before a byte is read, and no file is read past a size cap.
+//! is refused with one line before a byte is read, and no file is read past a size cap. The
+//! session file and its journal are refused by the same rule (`session::refuse_special_file`)
+//! and read whole: a session holds a whole project, its values bounded once parsed.
 //!
 //! Start with [`read_input`] / [`read_input_string`]; [`check_regular_file`] for readers that
 //! hand the path to another library (an image decoder, a child program).

@@ -7,7 +7,7 @@
 
 use crate::io::error::{FormatError, Result};
 use crate::io::pts::shorten;
-use crate::landmarks::{N_LANDMARKS, landmark_name};
+use crate::landmarks::{LandmarkNames, N_LANDMARKS};
 use crate::model::LandmarkMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -96,9 +96,9 @@ fn line_of_key(text: &str, key: &str) -> usize {
     1
 }
 
-/// Formats a map in eos's TOML layout: 1-based ids, one line per iBUG point with its name
-/// as a comment; unmapped points appear as comment lines so the file reads like eos's.
-pub fn format_landmark_map(map: &LandmarkMap) -> String {
+/// Formats a map in eos's TOML layout: 1-based ids, one line per iBUG point with its name in
+/// `names` as a comment; unmapped points appear as comment lines so the file reads like eos's.
+pub fn format_landmark_map(map: &LandmarkMap, names: &LandmarkNames<'_>) -> String {
     let mut s = String::new();
     s.push_str("# iBUG-68 landmark -> mesh vertex mapping, written by lipmap.\n");
     s.push_str(
@@ -106,10 +106,10 @@ pub fn format_landmark_map(map: &LandmarkMap) -> String {
     );
     let _ = writeln!(s, "[{SECTION}]");
     for l in 0..N_LANDMARKS {
-        let name = landmark_name(l);
+        let name = names.name(l);
         match map.vertex(l) {
             Some(v) => {
-                let _ = writeln!(s, "{:>2} = {v:>5}  # {name}", l + 1);
+                let _ = writeln!(s, "{} = {v}  # {name}", l + 1);
             }
             None => {
                 let _ = writeln!(s, "            # {} not mapped ({name})", l + 1);
@@ -124,11 +124,11 @@ pub fn format_landmark_map(map: &LandmarkMap) -> String {
 ///
 /// # Errors
 /// A point outside 0..68 (not representable), or I/O errors.
-pub fn write_landmark_map(path: &Path, map: &LandmarkMap) -> Result<()> {
+pub fn write_landmark_map(path: &Path, map: &LandmarkMap, names: &LandmarkNames<'_>) -> Result<()> {
     if let Some(&l) = map.to_vertex.keys().find(|&&l| l >= N_LANDMARKS) {
         return Err(FormatError::whole(path, format!("point {l} is not an iBUG-68 point")));
     }
-    super::atomic::write_atomic_bytes(path, format_landmark_map(map).as_bytes())
+    super::atomic::write_atomic_bytes(path, format_landmark_map(map, names).as_bytes())
         .map_err(|e| FormatError::io(path, e))
 }
 
@@ -180,8 +180,8 @@ mod tests {
         assert_eq!(map.vertex(8), Some(33));
         assert_eq!(map.vertex(61), Some(416));
         assert_eq!(map.vertex(60), None);
-        let written = format_landmark_map(&map);
-        assert!(written.contains(&format!("62 =   416  # {}", landmark_name(61))), "{written}");
+        let written = format_landmark_map(&map, &LandmarkNames::builtin());
+        assert!(written.contains("\n62 = 416  # inner lip 2\n"), "{written}");
         assert!(written.contains("# 61 not mapped"), "{written}");
         assert_eq!(parse_landmark_map(&written, Path::new("w.txt")).unwrap(), map);
     }

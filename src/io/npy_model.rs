@@ -256,7 +256,7 @@ fn names_from_bytes(a: &NpyArray, path: &Path) -> Result<Vec<String>> {
 
 /// `blendshape_names` from a `summary.json` beside the arrays, when present and readable.
 fn read_summary_names(dir: &Path) -> Option<Vec<String>> {
-    let text = std::fs::read_to_string(dir.join("summary.json")).ok()?;
+    let text = super::input::read_input_string(&dir.join("summary.json")).ok()?;
     let v: serde_json::Value = serde_json::from_str(&text).ok()?;
     v.get("blendshape_names")?.as_array()?.iter().map(|n| n.as_str().map(str::to_string)).collect()
 }

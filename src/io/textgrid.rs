@@ -5,7 +5,7 @@
 //! labels (`xmin =`, `intervals [3]:`). As Praat itself does, the reader keeps only numbers,
 //! quoted strings (`""` is an escaped quote) and `<flags>`, and skips labels, `[…]` and
 //! `!` comments, so one reader handles both. Labels are kept raw (an empty label is a
-//! silence: grouping happens later in `alignment::grouping_label`).
+//! silence: grouping happens later, through `alignment::PhoneInventory`).
 
 use super::error::{FormatError, Location, Result};
 use super::pts::shorten;

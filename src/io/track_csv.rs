@@ -113,15 +113,7 @@ pub(crate) fn parse_f64_field(
     path: &Path,
     line: usize,
 ) -> Result<f64> {
-    let s = rec.get(idx).unwrap_or("");
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(FormatError::at_line(
-            path,
-            line,
-            format!("column `{name}`: `{}` is not a finite number", shorten(s)),
-        )),
-    }
+    parse_finite_field(rec, idx, name, path, line)
 }
 
 /// One field parsed as a finite `f32` (a value beyond `f32` range is an error, not `inf`).
@@ -132,9 +124,20 @@ pub(crate) fn parse_f32_field(
     path: &Path,
     line: usize,
 ) -> Result<f32> {
+    parse_finite_field(rec, idx, name, path, line)
+}
+
+/// One field parsed as a finite number of type `T` (overflowing `T`'s range is not finite).
+fn parse_finite_field<T: std::str::FromStr + Copy + Into<f64>>(
+    rec: &csv::StringRecord,
+    idx: usize,
+    name: &str,
+    path: &Path,
+    line: usize,
+) -> Result<T> {
     let s = rec.get(idx).unwrap_or("");
-    match s.parse::<f32>() {
-        Ok(v) if v.is_finite() => Ok(v),
+    match s.parse::<T>() {
+        Ok(v) if v.into().is_finite() => Ok(v),
         _ => Err(FormatError::at_line(
             path,
             line,

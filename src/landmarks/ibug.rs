@@ -52,19 +52,9 @@ pub struct Group<'a> {
 }
 
 /// Point names and groups as shipped in `data/` (a user's file in the same format, e.g. in
-/// another language, replaces it through [`crate::reference::install`]).
+/// another language, may replace them: the names in use reach whoever shows them as a
+/// [`LandmarkNames`] argument).
 pub const DEFAULT_NAMES_CSV: &str = include_str!("../../data/ibug68.csv");
-
-/// The display group a point belongs to, in the reference names ([`crate::reference`]).
-pub fn group_of(index: usize) -> Option<&'static Group<'static>> {
-    crate::reference::current().names.groups.iter().find(|g| g.range.contains(&index))
-}
-
-/// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62, in the
-/// reference names ([`crate::reference`]).
-pub fn landmark_name(index: usize) -> String {
-    crate::reference::current().names.name(index)
-}
 
 /// The names and groups of the 68 points, borrowed from the CSV text they were parsed from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -83,6 +73,13 @@ pub struct NamesError {
     pub message: String,
 }
 
+impl LandmarkNames<'static> {
+    /// The names shipped in `data/` ([`DEFAULT_NAMES_CSV`]).
+    pub fn builtin() -> Self {
+        Self::from_csv_str(DEFAULT_NAMES_CSV).expect("the embedded table parses (tested)")
+    }
+}
+
 impl<'a> LandmarkNames<'a> {
     /// Parses `index,group,name` rows (a header line first; `#` lines and blank lines are
     /// skipped; `name` may be empty and may hold commas): one row per point, indices 0..67 in
@@ -93,21 +90,12 @@ impl<'a> LandmarkNames<'a> {
     /// order, an empty group, a group split in two runs, or not 68 rows.
     pub fn from_csv_str(text: &'a str) -> Result<Self, NamesError> {
         let err = |line: usize, message: String| NamesError { line, message };
-        let mut rows = text
-            .lines()
-            .enumerate()
-            .map(|(i, l)| (i + 1, l.trim()))
-            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
-        let (hl, header) = rows.next().ok_or_else(|| err(1, "empty file".into()))?;
-        let cols: Vec<&str> = header.split(',').map(str::trim).collect();
-        if cols != ["index", "group", "name"] {
-            return Err(err(hl, format!("expected the header `index,group,name`, got `{header}`")));
-        }
+        let crate::table_text::CsvRows { rows, last_line } =
+            crate::table_text::csv_rows(text, "index,group,name")
+                .map_err(|(line, message)| err(line, message))?;
         let mut groups: Vec<Group<'a>> = Vec::new();
         let mut names = Vec::new();
-        let mut last_line = hl;
         for (line, row) in rows {
-            last_line = line;
             let mut f = row.splitn(3, ',').map(str::trim);
             let (Some(index), Some(group), Some(name)) = (f.next(), f.next(), f.next()) else {
                 return Err(err(line, "expected three fields: index,group,name".into()));
@@ -137,13 +125,19 @@ impl<'a> LandmarkNames<'a> {
         Ok(Self { groups, names })
     }
 
-    /// The point's own name, else its group's name and 1-based place in it; `point i` for an
-    /// index past the table.
+    /// The display group point `index` belongs to.
+    pub fn group_of(&self, index: usize) -> Option<&Group<'a>> {
+        self.groups.iter().find(|g| g.range.contains(&index))
+    }
+
+    /// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62: the point's
+    /// own name, else its group's name and 1-based place in it; `point i` for an index past
+    /// the table.
     pub fn name(&self, index: usize) -> String {
         if let Some(Some(n)) = self.names.get(index) {
             return n.to_string();
         }
-        match self.groups.iter().find(|g| g.range.contains(&index)) {
+        match self.group_of(index) {
             Some(g) => format!("{} {}", g.name, index - g.range.start + 1),
             None => format!("point {index}"),
         }
@@ -232,7 +226,7 @@ mod tests {
         ]
         .map(|(name, range)| Group { name, range });
         assert_eq!(names.groups, expected);
-        assert_eq!(crate::reference::current().names.groups, expected);
+        assert_eq!(LandmarkNames::builtin(), names);
         use point::*;
         let named = [
             (GNATHION, "chin (gnathion)"),
@@ -256,7 +250,7 @@ mod tests {
             let own = named.iter().find(|n| n.0 == i).map(|n| n.1);
             assert_eq!(names.names[i], own, "point {i}");
         }
-        assert_eq!(landmark_name(68), "point 68");
+        assert_eq!(LandmarkNames::builtin().name(68), "point 68");
     }
 
     #[test]
@@ -280,8 +274,11 @@ mod tests {
 
     #[test]
     fn names_cover_every_point() {
-        assert_eq!(landmark_name(62), "inner lip top");
-        assert_eq!(landmark_name(0), "jaw 1");
-        assert_eq!(landmark_name(49), "outer lip 2");
+        let names = LandmarkNames::builtin();
+        assert_eq!(names.name(62), "inner lip top");
+        assert_eq!(names.name(0), "jaw 1");
+        assert_eq!(names.name(49), "outer lip 2");
+        assert_eq!(names.group_of(49).map(|g| g.name), Some("outer lip"));
+        assert_eq!(names.group_of(68), None);
     }
 }

@@ -10,7 +10,7 @@ mod flags_procrustes;
 pub mod ibug;
 pub mod track;
 
-pub use ibug::{LandmarkNames, LandmarkSet, N_LANDMARKS, landmark_name};
+pub use ibug::{LandmarkNames, LandmarkSet, N_LANDMARKS};
 pub use track::{FrameLandmarks, LandmarkPoint, PointSource, Track};
 
 /// The largest frame number lipmap accepts: 2²⁰ − 1, 9.7 hours at 30 fps or 17 minutes at

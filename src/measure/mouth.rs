@@ -3,7 +3,7 @@
 //!
 //! W = |p60 − p64| (inner lip corners), H = |p62 − p66| (inner lip midpoints), both divided
 //! by the distance from the midpoint of the inner eye corners to the nose tip, a length that
-//! articulation does not change (DESIGN.md §6). Being ratios of distances, both are invariant
+//! articulation does not change (`docs/design.md`, "Measures"). Being ratios of distances, both are invariant
 //! to image scale, translation and in-plane rotation, so head size and camera zoom drop out.
 
 use super::{MeasureError, MouthMeasures, Series, Trajectory};

@@ -327,8 +327,9 @@ mod tests {
 
     #[test]
     fn back_off_reaches_each_level() {
-        let mut phones = PhoneSet::default();
-        let [a, b, c, p, m] = ["AA", "B", "IY", "P", "M"].map(|l| phones.intern(l));
+        let (mut phones, table) = (PhoneSet::default(), crate::eval::VisemeTable::default());
+        let [a, b, c, p, m] =
+            ["AA", "B", "IY", "P", "M"].map(|l| phones.intern(l, &Default::default(), &table));
         let ids = vec![a, b, c];
         let samples = [v(1.0), v(2.0), v(3.0)];
         let ids2 = [c, b, a];
@@ -348,7 +349,7 @@ mod tests {
         // P was never seen, but B shares its viseme class.
         let s = stats.lookup(&phones, &[a, p, a], 1).unwrap();
         assert_eq!((s.level, s.mean[0]), (ContextLevel::Viseme, 3.0));
-        let x = phones.intern("ZZZ");
+        let x = phones.intern("ZZZ", &Default::default(), &table);
         let s = stats.lookup(&phones, &[x], 0).unwrap();
         assert_eq!(s.level, ContextLevel::Global);
         assert!((s.mean[0] - 15.0 / 6.0).abs() < 1e-12);
@@ -357,7 +358,7 @@ mod tests {
     #[test]
     fn one_sample_takes_the_parent_variance() {
         let mut phones = PhoneSet::default();
-        let a = phones.intern("AA");
+        let a = phones.intern("AA", &Default::default(), &Default::default());
         let ids = vec![a, a, a, a];
         let samples = [v(0.0), v(2.0), v(4.0), v(6.0)];
         let stats =

@@ -82,6 +82,11 @@ pub struct Corpus {
     pub shapes: LinearShapes,
     pub landmarks: LandmarkMap,
     pub sentences: Vec<Sentence>,
+    /// The phoneme → viseme classes a rare phone backs off to (the reader's table, passed
+    /// in like every other input).
+    pub visemes: crate::eval::VisemeTable,
+    /// The phone inventory that says which labels are one phone (IPA, ARPAbet, Festival).
+    pub phones: crate::alignment::PhoneInventory,
 }
 
 impl Corpus {

@@ -159,9 +159,15 @@ impl Predictor {
     ///
     /// # Errors
     /// `TooFewPhones`, `AllPhonesUnseen` (named `name`), a corrupted model.
-    pub fn predict(&self, name: &str, phones: &[Phone]) -> Result<QualityEstimate, SaqpError> {
+    pub fn predict(
+        &self,
+        name: &str,
+        phones: &[Phone],
+        inventory: &crate::alignment::PhoneInventory,
+        visemes: &crate::eval::VisemeTable,
+    ) -> Result<QualityEstimate, SaqpError> {
         let mut set = self.phones.clone();
-        let ids = set.intern_all(phones);
+        let ids = set.intern_all(phones, inventory, visemes);
         let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
         let p = predict_with(self.calibration, &self.gp, &self.linear, &[fit.inputs(&set, &ids)])?;
         if !(p[0].mean.is_finite() && p[0].std().is_finite() && fit.e.is_finite()) {

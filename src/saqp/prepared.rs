@@ -7,38 +7,43 @@ use super::corpus::Corpus;
 use super::motion::MotionBasis;
 use super::quality::MarkerSet;
 use super::sampling::phone_midpoint_samples;
-use crate::alignment::{Phone, grouping_label};
+use crate::alignment::{Phone, PhoneInventory};
 use crate::eval::VisemeTable;
 use crate::math::DVector;
 use serde::{Deserialize, Serialize};
 
-/// Phone labels (grouping labels: stress stripped, silences folded) as small ids, with each
-/// phone's viseme class.
+/// Phones (their keys in the phone inventory: IPA, ARPAbet with or without stress digits and
+/// Festival/HTK labels of one phone share a key, silences fold to `sil`) as small ids, with
+/// each phone's viseme class.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PhoneSet {
     labels: Vec<String>,
     visemes: Vec<Option<u16>>,
-    #[serde(skip)]
-    table: Option<VisemeTable>,
 }
 
 impl PhoneSet {
-    /// The id of `label`, added when new.
-    pub fn intern(&mut self, label: &str) -> u16 {
-        let g = grouping_label(label);
+    /// The id of `label`'s phone (its key in `inventory`), added when new with its class in
+    /// `table` (the corpus's tables, or the ones a saved predictor is used with).
+    pub fn intern(&mut self, label: &str, inventory: &PhoneInventory, table: &VisemeTable) -> u16 {
+        let g = inventory.key_of(label);
         if let Some(i) = self.labels.iter().position(|l| *l == g) {
             return i as u16;
         }
-        let table = self.table.get_or_insert_with(|| crate::reference::current().visemes.clone());
         let vis = table.class_of(&g).and_then(|id| table.classes.iter().position(|c| c.id == id));
         self.labels.push(g);
         self.visemes.push(vis.map(|v| v as u16));
         (self.labels.len() - 1) as u16
     }
 
-    /// The ids of a phone sequence, interning new labels.
-    pub fn intern_all(&mut self, phones: &[Phone]) -> Vec<u16> {
-        phones.iter().map(|p| self.intern(&p.label)).collect()
+    /// The ids of a phone sequence, interning new labels (keyed by `inventory`, classed by
+    /// `table`).
+    pub fn intern_all(
+        &mut self,
+        phones: &[Phone],
+        inventory: &PhoneInventory,
+        table: &VisemeTable,
+    ) -> Vec<u16> {
+        phones.iter().map(|p| self.intern(&p.label, inventory, table)).collect()
     }
 
     pub fn label(&self, id: u16) -> &str {
@@ -142,7 +147,7 @@ impl Prepared {
                 let samples = phone_midpoint_samples(&coefficients, s.fps, &s.phones);
                 PreparedSentence {
                     name: s.name.clone(),
-                    ids: phones.intern_all(&s.phones),
+                    ids: phones.intern_all(&s.phones, &corpus.phones, &corpus.visemes),
                     phones: s.phones.clone(),
                     fps: s.fps,
                     coefficients,

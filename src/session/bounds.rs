@@ -75,7 +75,7 @@ fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
     }
     // One model fitted every frame of an entry, so its good fits agree on their coefficient
     // counts; whether those match the model is checked where the model is loaded.
-    let mut good = e.frames.iter().map(|f| &f.fit).filter(|f| f.failed.is_none());
+    let mut good = e.frames.iter().map(|f| &f.fit).filter(|f| f.is_usable());
     if let Some(first) = good.next() {
         let counts = (first.identity.len(), first.expression.len());
         if let Some(f) = good.find(|f| (f.identity.len(), f.expression.len()) != counts) {

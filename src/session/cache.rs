@@ -153,7 +153,7 @@ pub fn storable_fit(mut fit: FrameFit) -> FrameFit {
             bad = true;
         }
     }
-    if bad && fit.failed.is_none() {
+    if bad && fit.is_usable() {
         fit.failed = Some("non-finite values in the fit".into());
     }
     fit

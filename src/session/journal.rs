@@ -119,20 +119,63 @@ impl Journal {
     }
 }
 
-/// Applies the journal left beside `session_path` (by an editor that crashed) to `session`:
-/// the last whole line of each clip replaces that clip's edit layer. Returns how many clips
-/// were restored (0 when there is no journal). A torn last line is skipped; the journal
-/// stays until a save clears it.
+/// What [`replay`] applied.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Replayed {
+    /// Edits the journal holds that the session file lacks: corrected points, reviewed
+    /// frames, side-view corrections and map labels that differ between the two.
+    pub edits: usize,
+    /// Clips whose edit layer differs.
+    pub clips: usize,
+}
+
+impl Replayed {
+    /// Whether the journal held nothing the session file lacks.
+    pub fn is_empty(&self) -> bool {
+        self.edits == 0
+    }
+}
+
+/// How many entries differ between two maps: added, removed or changed.
+fn differing<K: Ord, V: PartialEq>(a: &BTreeMap<K, V>, b: &BTreeMap<K, V>) -> usize {
+    let changed = a.iter().filter(|(k, v)| b.get(k) != Some(v)).count();
+    changed + b.keys().filter(|k| !a.contains_key(k)).count()
+}
+
+/// The edits `next` holds that `old` does not, counted per corrected point, reviewed frame,
+/// side-view correction and map label.
+fn edits_between(old: &JournalEntry, next: &JournalEntry) -> usize {
+    let points = |c: &Corrections| -> BTreeMap<(usize, usize), crate::landmarks::LandmarkPoint> {
+        c.points.iter().flat_map(|(&f, ps)| ps.iter().map(move |(&i, p)| ((f, i), *p))).collect()
+    };
+    let reviewed = old.corrections.reviewed.symmetric_difference(&next.corrections.reviewed);
+    let map = match (&old.landmark_map, &next.landmark_map) {
+        (_, None) => 0,
+        (None, Some(m)) => m.len(),
+        (Some(a), Some(b)) => differing(a, b),
+    };
+    differing(&points(&old.corrections), &points(&next.corrections))
+        + reviewed.count()
+        + differing(&old.profile_corrections, &next.profile_corrections)
+        + map
+}
+
+/// Applies the journal left beside `session_path` (by an editor that crashed, or one still
+/// editing) to `session`: the last whole line of each clip replaces that clip's edit layer.
+/// Returns how many edits the journal holds and how many clips they touched (nothing when
+/// there is no journal). A torn last line is skipped; the journal stays until a save clears
+/// it.
 ///
 /// # Errors
 /// `Io` for an unreadable journal; `Invalid` naming the journal and line when a whole line
 /// is not an entry, or when the restored session breaks a rule (the journal is as untrusted
 /// as the session file).
-pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, SessionError> {
+pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, SessionError> {
     let path = journal_path(&super::absolute(session_path));
+    super::refuse_special_file(&path)?;
     let bytes = match std::fs::read(&path) {
         Ok(b) => b,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(0),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Replayed::default()),
         Err(source) => return Err(SessionError::Io { path, source }),
     };
     let invalid = |line: usize, message: String| SessionError::Invalid {
@@ -157,22 +200,30 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<usize, Sessi
     }
     // Applied to a copy: a refused journal leaves the session as loaded.
     let mut next = session.clone();
-    let mut restored = 0;
+    let mut replayed = Replayed::default();
     for (name, e) in last {
         let Some(i) = next.clip_index(&name) else {
             return Err(invalid(0, format!("no clip {name:?} in the session")));
         };
         let clip = &mut next.clips[i];
+        let saved = JournalEntry {
+            clip: name,
+            corrections: clip.corrections.clone(),
+            profile_corrections: clip.profile_corrections.clone(),
+            landmark_map: next.landmark_map.inline.clone(),
+        };
+        let edits = edits_between(&saved, &e);
+        replayed.edits += edits;
+        replayed.clips += usize::from(edits > 0);
         clip.corrections = e.corrections;
         clip.profile_corrections = e.profile_corrections;
         if let Some(map) = e.landmark_map {
             next.landmark_map.inline = Some(map);
         }
-        restored += 1;
     }
     next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
     *session = next;
-    Ok(restored)
+    Ok(replayed)
 }
 
 #[cfg(test)]
@@ -215,12 +266,15 @@ mod tests {
         let torn = serde_json::to_string(&entry(4)).unwrap();
         let mut f = OpenOptions::new().append(true).open(j.path()).unwrap();
         f.write_all(&torn.as_bytes()[..torn.len() / 2]).unwrap();
-        assert_eq!(replay(&mut s, &path).unwrap(), 1);
+        // Three points corrected (the last whole line), each an edit.
+        assert_eq!(replay(&mut s, &path).unwrap(), Replayed { edits: 3, clips: 1 });
+        let mut again = s.clone();
+        assert!(replay(&mut again, &path).unwrap().is_empty(), "nothing new the second time");
         assert_eq!(s.clips[0].corrections.points.len(), 3);
         j.clear().unwrap();
         assert!(!j.path().exists());
         let (mut fresh, _) = session(dir.path());
-        assert_eq!(replay(&mut fresh, &path).unwrap(), 0);
+        assert!(replay(&mut fresh, &path).unwrap().is_empty());
     }
 
     #[test]

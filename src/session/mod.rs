@@ -67,6 +67,18 @@ pub enum SessionError {
     Edit { clip: String, message: String },
 }
 
+/// Refuses a folder, FIFO, socket or device at `path` before a byte is read (a FIFO would
+/// block forever, a device never end), as every file a user names is (`io::input`); a
+/// missing or unreadable file is left to the read, which names its I/O error.
+pub(crate) fn refuse_special_file(path: &Path) -> Result<(), SessionError> {
+    match crate::io::input::check_regular_file(path) {
+        Err(e) if std::fs::metadata(path).is_ok() => {
+            Err(SessionError::Invalid { path: path.to_path_buf(), message: e.message })
+        }
+        _ => Ok(()),
+    }
+}
+
 /// `path` made absolute against the working directory, `.`/`..` folded.
 pub fn absolute(path: &Path) -> PathBuf {
     let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
@@ -109,6 +121,7 @@ impl Session {
     /// the content breaks a rule (e.g. two clips with one name).
     pub fn load(path: &Path) -> Result<Session, SessionError> {
         let abs = absolute(path);
+        refuse_special_file(&abs)?;
         let text = std::fs::read_to_string(&abs)
             .map_err(|source| SessionError::Io { path: abs.clone(), source })?;
         let base = parent_dir(&abs);

@@ -1,4 +1,4 @@
-//! Speech-driven mouth motion (Terissi et al. 2011, §3–4; DESIGN.md §10): a joint
+//! Speech-driven mouth motion (Terissi et al. 2011, §3–4; `docs/speech.md`): a joint
 //! audio-visual HMM trained on clips with audio and fitted mouth motion, inverted to estimate
 //! mouth motion from new audio, with a linear-regression baseline and the paper's accuracy
 //! measures.

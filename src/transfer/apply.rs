@@ -2,6 +2,11 @@
 //! (Kabsch on the stable controls), the pose-free control displacements are interpolated,
 //! and the pose is put back, so a rigid motion of the controls moves every vertex
 //! rigidly whatever the interpolation (a displacement field alone cannot rotate).
+//!
+//! Controls move by the source's displacement from its reference, except the inner lips'
+//! vertical gap, which is the source's own (scaled): a relative displacement would keep the
+//! target's rest gap as an offset, so a head modelled with parted lips would never close
+//! them (docs/transfer.md).
 
 use super::TransferError;
 use super::barycentric::frame_point;
@@ -13,7 +18,8 @@ impl Transfer {
     /// The target's vertices (flat `x0 y0 z0 …`, all vertices) for one source shape (flat,
     /// the source model's layout). The source's own rigid motion (Kabsch on its stable
     /// controls) is carried over as the conjugate motion in target space; the rest of its
-    /// motion moves the controls by `s·R·(x − x_ref)`.
+    /// motion moves the controls by `s·R·(x − x_ref)`, and each inner-lip pair then opens
+    /// (along the head's up direction) to `s` times the source's gap, never below zero.
     ///
     /// # Errors
     /// `ShapeLength` or `NonFinite` for a bad shape.
@@ -37,15 +43,24 @@ impl Transfer {
         let translation =
             t.translation + t.scale * (t.rotation * pose.translation) - rotation * t.translation;
         let target_pose = Similarity { scale: 1.0, rotation, translation };
-        let positions: Vec<Point3> = self
+        let free: Vec<Point3> =
+            self.source_controls.iter().map(|&sv| pose.apply_inverse(&at(sv))).collect();
+        let mut moved: Vec<Point3> = self
             .source_controls
             .iter()
             .zip(&self.target_controls)
-            .map(|(&sv, &tv)| {
-                let residual = pose.apply_inverse(&at(sv)) - self.reference[sv];
-                target_pose.apply(&(self.rest[tv] + t.apply_vector(&residual)))
-            })
+            .zip(&free)
+            .map(|((&sv, &tv), x)| self.rest[tv] + t.apply_vector(&(x - self.reference[sv])))
             .collect();
+        let up_source = self.source_up;
+        let up = t.rotation * up_source;
+        for &(upper, lower) in &self.lip_pairs {
+            let wanted = (t.scale * (free[upper] - free[lower]).dot(&up_source)).max(0.0);
+            let correction = 0.5 * (wanted - (moved[upper] - moved[lower]).dot(&up)) * up;
+            moved[upper] += correction;
+            moved[lower] -= correction;
+        }
+        let positions: Vec<Point3> = moved.iter().map(|p| target_pose.apply(p)).collect();
         self.apply_controls(&positions)
     }
 

@@ -13,6 +13,7 @@
 pub mod apply;
 pub mod barycentric;
 pub mod biharmonic;
+pub mod frame;
 pub mod parts;
 pub mod placement;
 pub mod projection;
@@ -20,9 +21,10 @@ pub mod setup;
 pub mod similarity;
 pub mod surface;
 
+pub use frame::HeadFrame;
 pub use parts::PartsMode;
 pub use placement::{Identity, Placement};
-pub use setup::{Interpolation, SourceFace, TargetHead, Transfer, TransferOptions};
+pub use setup::{Interpolation, LipGap, SourceFace, TargetHead, Transfer, TransferOptions};
 pub use similarity::{Similarity, estimate_similarity};
 pub use surface::Surface;
 

@@ -1,6 +1,7 @@
 //! Disconnected parts of the target (teeth, tongue, eyes: connected parts of the mesh
 //! that no control reaches): held still with the head, carried rigidly with the jaw (Kabsch
-//! on the chin controls), or following the nearest moving skin vertex.
+//! on the chin controls), or following the nearest moving skin vertex. Which parts go with
+//! the jaw is decided in the head's own frame ([`JawZone`]), never along the world's axes.
 
 use super::similarity::estimate_similarity;
 use crate::math::{Point3, Vector3};
@@ -10,7 +11,8 @@ use crate::math::{Point3, Vector3};
 pub enum PartsMode {
     /// With the head's rigid pose only.
     Static,
-    /// Parts below the mouth corners rigidly with the jaw, the rest with the head.
+    /// Parts below the mouth corners and near the mouth rigidly with the jaw, the rest with
+    /// the head.
     #[default]
     Jaw,
     /// Each vertex with the displacement of its nearest interpolated skin vertex.
@@ -28,28 +30,48 @@ pub struct PartsPlan {
     pub followers: Vec<(usize, usize)>,
 }
 
-/// Plans the motion of `part_vertices` (grouped by `part` id): `mouth_y` splits jaw from
-/// head parts, `jaw_controls` must be at least three for the jaw mode to apply (otherwise
-/// those parts stay with the head), `skin` lists the moving skin vertices to follow.
+/// Where the parts that move with the jaw lie, in the head's frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct JawZone {
+    /// The head's up direction.
+    pub up: Vector3,
+    /// Height (along `up`) of the mouth corners: a jaw part's centroid lies below it.
+    pub corner_height: f64,
+    /// The mouth's middle, and how far from it a jaw part's centroid may lie.
+    pub centre: Point3,
+    pub reach: f64,
+    /// Control indices whose motion defines the jaw (at least three).
+    pub controls: Vec<usize>,
+}
+
+impl JawZone {
+    fn holds(&self, centroid: &Point3) -> bool {
+        centroid.coords.dot(&self.up) < self.corner_height
+            && (centroid - self.centre).norm() <= self.reach
+    }
+}
+
+/// Plans the motion of `part_vertices` (grouped by `part` id): in the jaw mode, parts whose
+/// centroid lies in `jaw` follow its controls and the rest stay with the head (all of them
+/// without a zone); `skin` lists the moving skin vertices to follow.
 pub fn plan_parts(
     mode: PartsMode,
     points: &[Point3],
     part_vertices: &[usize],
     part: &[usize],
-    mouth_y: Option<f64>,
-    jaw_controls: Vec<usize>,
+    jaw: Option<JawZone>,
     skin: &[usize],
 ) -> PartsPlan {
     match mode {
         PartsMode::Static => PartsPlan::default(),
         PartsMode::Jaw => {
-            let Some(mouth_y) = mouth_y.filter(|_| jaw_controls.len() >= 3) else {
+            let Some(zone) = jaw.filter(|z| z.controls.len() >= 3) else {
                 return PartsPlan::default();
             };
-            let mut sums: std::collections::HashMap<usize, (f64, usize)> = Default::default();
+            let mut sums: std::collections::HashMap<usize, (Vector3, usize)> = Default::default();
             for &v in part_vertices {
-                let e = sums.entry(part[v]).or_insert((0.0, 0));
-                e.0 += points[v].y;
+                let e = sums.entry(part[v]).or_insert((Vector3::zeros(), 0));
+                e.0 += points[v].coords;
                 e.1 += 1;
             }
             let jaw = part_vertices
@@ -57,10 +79,10 @@ pub fn plan_parts(
                 .copied()
                 .filter(|&v| {
                     let (sum, n) = sums[&part[v]];
-                    sum / (n as f64) < mouth_y
+                    zone.holds(&Point3::from(sum / n as f64))
                 })
                 .collect();
-            PartsPlan { jaw, jaw_controls, followers: Vec::new() }
+            PartsPlan { jaw, jaw_controls: zone.controls, followers: Vec::new() }
         }
         PartsMode::NearestSurface => {
             let followers = part_vertices
@@ -123,9 +145,18 @@ mod tests {
             Point3::new(0.2, 0.5, 0.3),  // upper tooth (part 4)
         ];
         let part = vec![0, 0, 0, 3, 4];
-        let plan =
-            plan_parts(PartsMode::Jaw, &points, &[3, 4], &part, Some(0.0), vec![0, 1, 2], &[]);
+        let zone = |reach: f64| JawZone {
+            up: V::y(),
+            corner_height: 0.0,
+            centre: Point3::new(0.0, 0.0, 0.3),
+            reach,
+            controls: vec![0, 1, 2],
+        };
+        let plan = plan_parts(PartsMode::Jaw, &points, &[3, 4], &part, Some(zone(2.0)), &[]);
         assert_eq!(plan.jaw, vec![3]);
+        // A loose piece below the mouth but far from it stays with the head.
+        let far = plan_parts(PartsMode::Jaw, &points, &[3, 4], &part, Some(zone(0.5)), &[]);
+        assert!(far.jaw.is_empty());
         let rot = Rotation3::from_axis_angle(&V::x_axis(), 0.2);
         let rest: Vec<Point3> = points[..3].to_vec();
         let current: Vec<Point3> = rest.iter().map(|p| rot * p).collect();
@@ -134,16 +165,14 @@ mod tests {
         assert!((points[3] + d[3] - rot * points[3]).norm() < 1e-12);
         assert_eq!(d[4], V::zeros());
 
-        let plan =
-            plan_parts(PartsMode::NearestSurface, &points, &[3], &part, None, vec![], &[0, 1]);
+        let plan = plan_parts(PartsMode::NearestSurface, &points, &[3], &part, None, &[0, 1]);
         let mut d = vec![V::zeros(); 5];
         d[0] = V::new(0.0, 0.5, 0.0);
         plan.displace(&points, &rest, &rest, &mut d);
         assert_eq!(d[3], V::new(0.0, 0.5, 0.0));
+        let one_control = JawZone { controls: vec![0], ..zone(2.0) };
         assert!(
-            plan_parts(PartsMode::Jaw, &points, &[3], &part, Some(0.0), vec![0], &[])
-                .jaw
-                .is_empty()
+            plan_parts(PartsMode::Jaw, &points, &[3], &part, Some(one_control), &[]).jaw.is_empty()
         );
     }
 }

@@ -5,8 +5,8 @@
 //! vertex for the same landmark) plus evenly spread face vertices (farthest-point
 //! sampling), each projected to the nearest free target skin vertex whose normal agrees,
 //! closest pairs first. Control triangles are the Delaunay triangles of the controls in the
-//! source's frontal plane (x, y: the face looks along +z), kept only where every edge is
-//! about as short along the target surface as through space, so none spans the lip gap.
+//! source face's frontal plane, kept only where every edge is about as short along the
+//! target surface as through space, so none spans the lip gap.
 
 use super::TransferError;
 use super::surface::Surface;
@@ -20,14 +20,17 @@ const VISIBILITY_CELL: f64 = 0.015;
 
 /// The vertices of a whole head that make up its face, for when the source is a head
 /// rather than a face model: skin vertices inside the landmark outline (jaw 0–16, brows
-/// 26–17) in the frontal plane and visible from the front (within a cell's depth of the
-/// front-most vertex of their grid cell), so that no control lands inside the mouth.
-/// `None` when a point of the outline is unmapped or out of range.
+/// 26–17) in the face's frontal plane and visible from the front (within a cell's depth of
+/// the front-most vertex of their grid cell), so that no control lands inside the mouth.
+/// The face's axes come from the map, so the head may stand in any orientation. `None`
+/// when a point of the outline is unmapped or out of range, or the map gives no axes.
 pub fn frontal_face_vertices(
     points: &[Point3],
     skin: &[bool],
     map: &LandmarkMap,
 ) -> Option<Vec<usize>> {
+    let axes = super::frame::HeadFrame::from_landmarks(map, points)?;
+    let points: Vec<Point3> = points.iter().map(|p| Point3::from(axes.local(p))).collect();
     let outline: Vec<Point3> = (0..17)
         .chain((17..27).rev())
         .map(|l| map.vertex(l).and_then(|v| points.get(v).copied()))
@@ -124,24 +127,27 @@ pub fn project_controls(
     let mut taken: HashSet<usize> = fixed.iter().flatten().copied().collect();
     let mut assigned: Vec<Option<usize>> = fixed.to_vec();
     let skin: Vec<usize> = (0..surface.vertices.len()).filter(|&v| surface.skin[v]).collect();
-    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    let key = distance_key(surface, &skin);
+    let agrees =
+        |v: usize, n: &Vector3| n.norm_squared() == 0.0 || surface.normals[v].dot(n) >= min_cos;
+    let mut pairs: Vec<(i64, usize, usize)> = Vec::new();
     for (c, (p, n)) in positions.iter().zip(normals).enumerate() {
         if assigned[c].is_some() {
             continue;
         }
-        let mut cands: Vec<(f64, usize)> = skin
+        let mut cands: Vec<(i64, usize)> = skin
             .iter()
-            .filter(|&&v| n.norm_squared() == 0.0 || surface.normals[v].dot(n) >= min_cos)
-            .map(|&v| ((surface.vertices[v] - p).norm_squared(), v))
+            .filter(|&&v| agrees(v, n))
+            .map(|&v| (key((surface.vertices[v] - p).norm_squared()), v))
             .collect();
         let k = CANDIDATES.min(cands.len());
         if k == 0 {
             return Err(TransferError::NoTargetVertex { control: c });
         }
-        cands.select_nth_unstable_by(k - 1, |a, b| a.0.total_cmp(&b.0));
+        cands.select_nth_unstable(k - 1);
         pairs.extend(cands[..k].iter().map(|&(d, v)| (d, c, v)));
     }
-    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    pairs.sort_unstable();
     for (_, c, v) in pairs {
         if assigned[c].is_none() && taken.insert(v) {
             assigned[c] = Some(v);
@@ -156,13 +162,8 @@ pub fn project_controls(
         let (p, n) = (positions[c], normals[c]);
         let nearest = skin
             .iter()
-            .filter(|&&v| !taken.contains(&v))
-            .filter(|&&v| n.norm_squared() == 0.0 || surface.normals[v].dot(&n) >= min_cos)
-            .min_by(|&&a, &&b| {
-                (surface.vertices[a] - p)
-                    .norm_squared()
-                    .total_cmp(&(surface.vertices[b] - p).norm_squared())
-            });
+            .filter(|&&v| !taken.contains(&v) && agrees(v, &n))
+            .min_by_key(|&&v| (key((surface.vertices[v] - p).norm_squared()), v));
         if let Some(&v) = nearest {
             taken.insert(v);
             assigned[c] = Some(v);
@@ -175,8 +176,21 @@ pub fn project_controls(
         .collect()
 }
 
-/// Control triangles (indices into the controls): Delaunay in the source's frontal plane
-/// of `frontal`, minus slivers and triangles with an edge whose geodesic length between the
+/// Squared distances as integers on a grid of 1e-10 of the head's squared size, so that
+/// distances equal but for rounding (a symmetric mesh's mirror vertices) compare equal
+/// whichever way the head is turned, and ties go to the lower vertex index: the choice of
+/// vertices must not depend on where the head stands.
+fn distance_key(surface: &Surface, skin: &[usize]) -> impl Fn(f64) -> i64 + use<> {
+    let origin = skin.first().map(|&v| surface.vertices[v]);
+    let size2 = origin.map_or(0.0, |o| {
+        skin.iter().map(|&v| (surface.vertices[v] - o).norm_squared()).fold(0.0, f64::max)
+    });
+    let quantum = (1e-10 * size2).max(f64::MIN_POSITIVE);
+    move |d2: f64| (d2 / quantum).round() as i64
+}
+
+/// Control triangles (indices into the controls): Delaunay in the plane of `frontal`'s
+/// x and y (the source's face axes), minus slivers and triangles with an edge whose geodesic length between the
 /// projected corners `targets` exceeds `geodesic_ratio` × its straight length.
 pub fn triangulate_controls(
     frontal: &[Point3],

@@ -5,10 +5,11 @@
 use super::TransferError;
 use super::barycentric::{Binding, bind_vertices};
 use super::biharmonic::Biharmonic;
-use super::parts::{PartsMode, PartsPlan, plan_parts};
+use super::frame::HeadFrame;
+use super::parts::{JawZone, PartsMode, PartsPlan, plan_parts};
 use super::placement::{Identity, Placement, place_source};
 use super::projection::{project_controls, select_controls, triangulate_controls};
-use super::surface::{Surface, bounding_diagonal};
+use super::surface::Surface;
 use crate::math::{DVector, Point3, Vector3};
 use crate::model::{LandmarkMap, Mesh};
 use std::collections::HashSet;
@@ -49,11 +50,24 @@ pub enum Interpolation {
     Barycentric,
 }
 
+/// How the inner lips' opening is carried from the source to the target.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LipGap {
+    /// The target's opening is the source's (scaled by the placement): when the source's
+    /// lips meet, the target's do, whatever gap the target has at rest (the default).
+    #[default]
+    Absolute,
+    /// The opening changes by the source's change from its reference, so the target keeps
+    /// its own rest gap as an offset (a head modelled with parted lips never closes them).
+    Relative,
+}
+
 /// Setup choices; the defaults suit a face model driving a head.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TransferOptions {
     pub interpolation: Interpolation,
     pub parts: PartsMode,
+    pub lip_gap: LipGap,
     /// Controls wanted (landmarks included). The paper's Candide-3 has 113; around the mouth
     /// corners a face unit's displacement varies faster than 300 spread controls resolve
     /// (smile and stretch errors 0.17 at 300, 0.09–0.12 at 600; docs/transfer.md).
@@ -78,6 +92,7 @@ impl Default for TransferOptions {
         Self {
             interpolation: Interpolation::Biharmonic,
             parts: PartsMode::Jaw,
+            lip_gap: LipGap::Absolute,
             controls: 600,
             min_landmarks: 6,
             closest_point_rounds: 0,
@@ -112,6 +127,10 @@ pub struct Transfer {
     pub(crate) reference: Vec<Point3>,
     /// Controls the rigid pose is estimated on.
     pub(crate) stable: Vec<usize>,
+    /// Inner-lip control pairs (upper, lower) whose vertical gap is carried absolutely, and
+    /// the source's up direction (source model space) the gap is measured along.
+    pub(crate) lip_pairs: Vec<(usize, usize)>,
+    pub(crate) source_up: Vector3,
     pub(crate) interpolator: Interpolator,
     pub(crate) parts: PartsPlan,
 }
@@ -197,13 +216,23 @@ impl Transfer {
         let rest_controls: Vec<Point3> =
             target_controls.iter().map(|&v| surface.vertices[v]).collect();
 
-        let frontal: Vec<Point3> = source_controls.iter().map(|&v| placement.adapted[v]).collect();
+        // The source's frontal plane is its own face's (model space when its landmarks do
+        // not give the axes: y up, looking along +z).
+        let source_frame = HeadFrame::from_landmarks(source.landmarks, &placement.adapted)
+            .map_or_else(crate::math::Matrix3::identity, |f| f.axes);
+        let frontal: Vec<Point3> = source_controls
+            .iter()
+            .map(|&v| Point3::from(source_frame * placement.adapted[v].coords))
+            .collect();
         let triangles =
             triangulate_controls(&frontal, &target_controls, &surface, options.geodesic_ratio);
         let all_triangles = delaunay_count(&frontal);
 
+        // Every decision below is taken in the target head's own frame, so that the result
+        // turns and moves with the head and does not depend on the world's axes.
+        let frame = HeadFrame::of_head(target.landmarks, &surface.vertices, &rest_controls);
         // The head region: skin within a radius of the controls.
-        let radius = options.region_scale * bounding_diagonal(&rest_controls);
+        let radius = options.region_scale * frame.extent_diagonal(&rest_controls);
         let near: Vec<bool> = surface
             .vertices
             .iter()
@@ -248,27 +277,17 @@ impl Transfer {
         let part_vertices: Vec<usize> = (0..near.len())
             .filter(|&v| near[v] && !control_parts.contains(&surface.part[v]))
             .collect();
-        let at = |l: usize| target.landmarks.vertex(l).map(|v| surface.vertices[v]);
-        let (mouth_y, jaw_controls) = match (at(48), at(54), at(57)) {
-            (Some(left), Some(right), Some(lower)) => {
-                let half = 0.75 * (right.x - left.x).abs();
-                let jaw = (0..rest_controls.len())
-                    .filter(|&c| {
-                        rest_controls[c].y < lower.y && (rest_controls[c].x - lower.x).abs() < half
-                    })
-                    .collect();
-                (Some(0.5 * (left.y + right.y)), jaw)
-            }
-            _ => (None, Vec::new()),
-        };
+        let jaw = frame
+            .anatomical
+            .then(|| jaw_zone(&frame, target.landmarks, &surface.vertices, &rest_controls))
+            .flatten();
         let moving_skin: Vec<usize> = (0..region.len()).filter(|&v| region[v]).collect();
         let parts = plan_parts(
             options.parts,
             &surface.vertices,
             &part_vertices,
             &surface.part,
-            mouth_y,
-            jaw_controls,
+            jaw,
             &moving_skin,
         );
         let mut stable: Vec<usize> = (0..source_controls.len())
@@ -277,6 +296,12 @@ impl Transfer {
         if stable.len() < 3 {
             stable = (0..source_controls.len()).collect();
         }
+        let lip_pairs = match options.lip_gap {
+            LipGap::Absolute => inner_lip_pairs(&control_landmark),
+            LipGap::Relative => Vec::new(),
+        };
+        let source_up = HeadFrame::from_landmarks(source.landmarks, &reference)
+            .map_or_else(Vector3::y, |f| f.up());
         Ok(Self {
             placement,
             source_controls,
@@ -287,6 +312,8 @@ impl Transfer {
             rest: surface.vertices,
             reference,
             stable,
+            lip_pairs,
+            source_up,
             interpolator,
             parts,
         })
@@ -301,6 +328,46 @@ fn check_map(map: &LandmarkMap, vertices: usize, side: &'static str) -> Result<(
         }
         None => Ok(()),
     }
+}
+
+/// iBUG inner-lip pairs (0-based upper, lower): 62–68, 63–67, 64–66 in 1-based ids.
+const INNER_LIP_PAIRS: [(usize, usize); 3] = [(61, 67), (62, 66), (63, 65)];
+
+/// The control indices of each inner-lip pair both of whose landmarks are controls.
+fn inner_lip_pairs(control_landmark: &[Option<usize>]) -> Vec<(usize, usize)> {
+    let control_of = |l: usize| control_landmark.iter().position(|&c| c == Some(l));
+    INNER_LIP_PAIRS.iter().filter_map(|&(u, l)| Some((control_of(u)?, control_of(l)?))).collect()
+}
+
+/// Where the jaw's loose parts (lower teeth, tongue) are, in the head's frame: below the
+/// mouth corners and within 1.25 mouth widths of the mouth's middle (the tongue's centroid
+/// is about 0.8 of a width behind it on MakeHuman), so that loose pieces far from the mouth
+/// (a scan's fragments on the neck, hair) stay with the head. The jaw's motion is the chin
+/// controls': below the lower lip, within 0.75 mouth widths of it across the face. `None`
+/// without mouth corners and the lower lip's middle, or with fewer than three chin controls.
+fn jaw_zone(
+    frame: &HeadFrame,
+    map: &LandmarkMap,
+    points: &[Point3],
+    rest_controls: &[Point3],
+) -> Option<JawZone> {
+    let at = |l: usize| map.vertex(l).and_then(|v| points.get(v).copied());
+    let (left, right, lower) = (at(48)?, at(54)?, at(57)?);
+    let (up, across) = (frame.up(), frame.left());
+    let width = (right - left).norm();
+    let controls: Vec<usize> = (0..rest_controls.len())
+        .filter(|&c| {
+            let d = rest_controls[c] - lower;
+            d.dot(&up) < 0.0 && d.dot(&across).abs() < 0.75 * width
+        })
+        .collect();
+    (controls.len() >= 3).then(|| JawZone {
+        up,
+        corner_height: 0.5 * (left.coords + right.coords).dot(&up),
+        centre: Point3::from(0.5 * (left.coords + right.coords)),
+        reach: 1.25 * width,
+        controls,
+    })
 }
 
 fn delaunay_count(frontal: &[Point3]) -> usize {

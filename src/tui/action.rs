@@ -1,407 +1,364 @@
-//! `Action`: every user intent the TUI knows, as one serde enum (bindable in a keymap file),
-//! plus the internal replies from workers and the terminal (not bindable, never serialized).
+//! `Action`: every user intent the TUI knows (a *command*, bindable in a keymap file) and every
+//! reply from a job, the terminal or a prompt (a *reply*, never bound or serialized), declared
+//! once in the `actions!` table below.
 //!
-//! Keys become actions in `keymap`; only `update::update` turns actions into state changes.
-//! `Action::describe` gives the one-line text the help overlay and hints show.
+//! One entry gives the variant and its fields, the screen and function that handle it (its
+//! route) and, for a command, the line the help overlay shows. From the table come the enum
+//! (its variant name is the name keymap files use), `Action::name`, `Action::describe`,
+//! `Action::is_bindable`, `Action::COMMANDS` and the dispatch `update::update` calls.
+//!
+//! A handler takes the `App` and the variant's fields in order (`Nudge { dx: i32, dy: i32 }`
+//! calls `frames::nudge(app, dx, dy)`) and returns `()` or `Option<Action>`, a follow-up
+//! `update` applies next. Adding an action: see the `tui` module docs.
 
-use super::app::{AnalysisData, FrameImage, HeadFrame, PreparedHead};
+use super::screens::analysis::{AnalysisData, AnalysisTable};
+use super::screens::head::{HeadFrame, PreparedHead};
+use super::screens::side::SideView;
 use crate::fit::FrameFit;
+use crate::tui::app::{App, FrameImage};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-/// A user intent or a reply from a worker.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum Action {
-    // ---- everywhere ----
-    Quit,
-    ToggleHelp,
-    Save,
-    Undo,
-    Redo,
-    RunFit,
-    ShowFrames,
-    ShowHead,
-    ShowFit,
-    ShowAnalysis,
-    ShowSide,
-    /// Save and open the session's next / previous clip.
-    NextClip,
-    PrevClip,
-    NextFrame,
-    PrevFrame,
-    FirstFrame,
-    LastFrame,
-    NextFlagged,
-    PrevFlagged,
-    NextUnreviewed,
-    /// Play the clip at its frame rate, or stop.
-    TogglePlay,
-    /// Ask for a frame number and jump there.
-    GotoFramePrompt,
-    ZoomIn,
-    ZoomOut,
-    ZoomReset,
-    /// Pan the view by `dx, dy` tenths of the visible width/height.
-    Pan {
-        dx: i32,
-        dy: i32,
-    },
-    /// Centre the view on the selected point.
-    CenterOnPoint,
-    /// Close the top overlay or cancel the pending prompt.
-    Cancel,
-
-    // ---- frames and fit views: correcting landmarks ----
-    /// Move the selected point (or the selected scope) by `dx, dy` steps; a step is one image
-    /// pixel at zoom 1 and shrinks with zoom (sub-pixel moves when zoomed).
-    Nudge {
-        dx: i32,
-        dy: i32,
-    },
-    NextPoint,
-    PrevPoint,
-    /// Ask for a point number (0-based iBUG) and select it.
-    GotoPointPrompt,
-    /// Cycle what moves together: point → its group → mouth → all points.
-    CycleScope,
-    ToggleVisible,
-    CopyPointFromPrev,
-    CopyFrameFromPrev,
-    /// Ask for N and propagate the selected points' correction to the next N frames.
-    PropagatePrompt,
-    /// Interpolate the selected points between hand-corrected keyframes over the clip.
-    InterpolateSelected,
-    InterpolateAll,
-    RevertPoint,
-    ToggleReviewed,
-
-    // ---- head view: mesh and labelling ----
-    /// Rotate the head by `yaw, pitch` degrees.
-    Rotate {
-        yaw: i32,
-        pitch: i32,
-    },
-    ResetView,
-    /// Move the 2D labelling cursor by `dx, dy` hundredths of the head's radius (÷ zoom).
-    MoveCursor {
-        dx: i32,
-        dy: i32,
-    },
-    NextLabel,
-    PrevLabel,
-    /// Ask for the landmark number to label.
-    GotoLabelPrompt,
-    /// Assign the vertex under the 3D cursor to the landmark being labelled.
-    ConfirmLabel,
-    /// Remove the landmark's vertex from the map.
-    ClearLabel,
-    /// Put the 3D cursor on the vertex the current frame suggests for this landmark (its
-    /// fitted pose, or a pose from the labels so far); Enter then assigns it.
-    SuggestLabel,
-    /// Assign every unmapped landmark its suggested vertex (one undo step).
-    SuggestAllLabels,
-    /// Switch the head view between shaded and wireframe.
-    ToggleWireframe,
-    SaveMap,
-    /// Replace the labels with the session's map file (undoable).
-    LoadMap,
-    /// Show the next head: the model (labelling) → each transferred head → the model.
-    CycleHead,
-
-    // ---- side view: the upper lip's foremost point ----
-    /// Move the side frame's upper-lip point by `dx, dy` display pixels (a correction).
-    NudgeLipPoint {
-        dx: i32,
-        dy: i32,
-    },
-    /// Drop the side frame's correction: the automatic point again.
-    RevertLipPoint,
-
-    // ---- analysis view ----
-    RowDown,
-    RowUp,
-    NextTable,
-    SortNextColumn,
-    SortReverse,
-    /// Jump to the frame of the selected row in the frames view.
-    OpenRow,
-    /// Draw the speech-driven head's series in the charts, or hide it.
-    ToggleSpeech,
-    /// Cross-validate quality prediction (SAQP) over the session's clips and list the
-    /// held-out sentences.
-    AssessQuality,
-
-    // ---- help overlay ----
-    ScrollDown,
-    ScrollUp,
-
-    // ---- internal: prompts, mouse, terminal and worker replies (not bindable) ----
-    #[serde(skip)]
-    PromptChar(char),
-    #[serde(skip)]
-    PromptBackspace,
-    #[serde(skip)]
-    PromptSubmit,
-    #[serde(skip)]
-    MouseDown {
-        col: u16,
-        row: u16,
-    },
-    #[serde(skip)]
-    MouseDrag {
-        col: u16,
-        row: u16,
-    },
-    #[serde(skip)]
-    MouseUp,
-    #[serde(skip)]
-    Resize {
-        width: u16,
-        height: u16,
-    },
-    #[serde(skip)]
-    FrameLoaded {
-        frame: usize,
-        image: Arc<FrameImage>,
-    },
-    #[serde(skip)]
-    FrameFailed {
-        frame: usize,
-        error: String,
-    },
-    #[serde(skip)]
-    FitProgress {
-        generation: u64,
-        done: usize,
-        total: usize,
-    },
-    #[serde(skip)]
-    FitDone {
-        generation: u64,
-        fits: Vec<FrameFit>,
-    },
-    #[serde(skip)]
-    FitFailed {
-        generation: u64,
-        error: String,
-    },
-    #[serde(skip)]
-    AnalysisReady {
-        generation: u64,
-        data: AnalysisData,
-    },
-    /// The side view's setup and profile points, measured on a worker.
-    #[serde(skip)]
-    SideReady {
-        side: Box<super::app::SideView>,
-    },
-    #[serde(skip)]
-    SideFailed {
-        error: String,
-    },
-    #[serde(skip)]
-    SideFrameLoaded {
-        frame: usize,
-        image: Arc<FrameImage>,
-    },
-    #[serde(skip)]
-    SideFrameFailed {
-        frame: usize,
-        error: String,
-    },
-    /// A map read from `path` by `LoadMap`.
-    #[serde(skip)]
-    MapLoaded {
-        map: crate::model::LandmarkMap,
-        path: String,
-    },
-    /// The fits of a `FitDone` were written to the session's fit cache.
-    #[serde(skip)]
-    FitsStored,
-    #[serde(skip)]
-    FitsNotStored {
-        error: String,
-    },
-    /// The user has not edited for a while (`run::AUTOSAVE_IDLE`): a moment to autosave.
-    #[serde(skip)]
-    Idle,
-    #[serde(skip)]
-    Saved {
-        generation: u64,
-    },
-    #[serde(skip)]
-    SaveFailed {
-        error: String,
-    },
-    #[serde(skip)]
-    Status(String),
-    /// Playback's clock: the next frame is due.
-    #[serde(skip)]
-    PlayTick,
-    /// The speech-driven head's series, driven on a worker from the clip's audio.
-    #[serde(skip)]
-    SpeechReady {
-        series: Vec<(String, Vec<(f64, f64)>)>,
-    },
-    /// Why the clip has no speech-driven head.
-    #[serde(skip)]
-    SpeechAbsent {
-        why: String,
-    },
-    /// The quality cross-validation's tables, computed on a worker.
-    #[serde(skip)]
-    QualityReady {
-        tables: Vec<crate::tui::app::AnalysisTable>,
-        summary: String,
-    },
-    /// Why there is no quality cross-validation.
-    #[serde(skip)]
-    QualityFailed {
-        error: String,
-    },
-    /// Transferred head `index` set up on a worker, or why not.
-    #[serde(skip)]
-    HeadPrepared {
-        index: usize,
-        head: Result<Arc<PreparedHead>, String>,
-    },
-    /// A frame of a transferred head, computed on a worker.
-    #[serde(skip)]
-    HeadFrameReady(HeadFrame),
+/// The modules whose functions the table names: each screen's `update.rs` (and `heads` for
+/// the transferred heads the head screen shows), `overlays` for help and prompts, `global`
+/// for what works on every screen, and `shown` for what goes to whichever screen is shown.
+mod routes {
+    pub(super) use crate::tui::global;
+    pub(super) use crate::tui::overlays::update as overlays;
+    pub(super) use crate::tui::screens as shown;
+    pub(super) use crate::tui::screens::analysis::update as analysis;
+    pub(super) use crate::tui::screens::fit::update as fit;
+    pub(super) use crate::tui::screens::frames::update as frames;
+    pub(super) use crate::tui::screens::head::transferred as heads;
+    pub(super) use crate::tui::screens::head::update as head;
+    pub(super) use crate::tui::screens::side::update as side;
 }
 
-impl Action {
-    /// Whether this is a user intent (bindable to a key), not an internal reply.
-    pub fn is_bindable(&self) -> bool {
-        self.describe() != "internal"
-    }
+/// What a handler may give back to `update`: nothing, or a follow-up action.
+pub trait FollowUp {
+    fn follow_up(self) -> Option<Action>;
+}
 
-    /// One line for the help overlay and the status hints.
-    pub fn describe(&self) -> String {
-        let s = match self {
-            Self::Quit => "save and quit",
-            Self::ToggleHelp => "show or hide this help",
-            Self::Save => "save the session now",
-            Self::Undo => "undo the last edit",
-            Self::Redo => "redo the undone edit",
-            Self::RunFit => "fit the clip (only frames edited since the last fit)",
-            Self::ShowFrames => "frames view: correct landmarks",
-            Self::ShowHead => "head view: mesh, landmark labelling",
-            Self::ShowFit => "fit view: fitted vs tracked landmarks",
-            Self::ShowAnalysis => "analysis view: error tables, trajectories",
-            Self::ShowSide => "side view: the lip profile and its protrusion point",
-            Self::NextClip => "save and open the next clip",
-            Self::PrevClip => "save and open the previous clip",
-            Self::NextFrame => "next frame",
-            Self::PrevFrame => "previous frame",
-            Self::FirstFrame => "first frame",
-            Self::LastFrame => "last frame",
-            Self::NextFlagged => "next flagged frame",
-            Self::PrevFlagged => "previous flagged frame",
-            Self::NextUnreviewed => "next frame not yet reviewed",
-            Self::TogglePlay => "play the clip / stop",
-            Self::GotoFramePrompt => "go to frame number…",
-            Self::ZoomIn => "zoom in",
-            Self::ZoomOut => "zoom out",
-            Self::ZoomReset => "fit the image to the view",
-            Self::Pan { .. } => "pan the view",
-            Self::CenterOnPoint => "centre the view on the selected point",
-            Self::Cancel => "cancel / close overlay",
-            Self::Nudge { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => "move point 10 screen pixels",
-            Self::Nudge { .. } => "move point 1 screen pixel (sub-pixel when zoomed)",
-            Self::NextPoint => "select next point",
-            Self::PrevPoint => "select previous point",
-            Self::GotoPointPrompt => "select point by number (0-67)…",
-            Self::CycleScope => "what moves: point / group / mouth / all",
-            Self::ToggleVisible => "toggle visible / occluded",
-            Self::CopyPointFromPrev => "copy selected points from previous frame",
-            Self::CopyFrameFromPrev => "copy all points from previous frame",
-            Self::PropagatePrompt => "propagate correction to next N frames…",
-            Self::InterpolateSelected => "interpolate selected between keyframes",
-            Self::InterpolateAll => "interpolate all points between keyframes",
-            Self::RevertPoint => "revert selected points to tracker values",
-            Self::ToggleReviewed => "mark frame reviewed / not reviewed",
-            Self::Rotate { .. } => "rotate the head",
-            Self::ResetView => "reset rotation and zoom",
-            Self::MoveCursor { .. } => "move the 3D cursor",
-            Self::NextLabel => "label the next landmark",
-            Self::PrevLabel => "label the previous landmark",
-            Self::GotoLabelPrompt => "label landmark number…",
-            Self::ConfirmLabel => "assign the vertex under the cursor",
-            Self::ClearLabel => "remove this landmark's vertex",
-            Self::SuggestLabel => "suggest a vertex from the current frame",
-            Self::SuggestAllLabels => "label all unmapped landmarks from suggestions",
-            Self::SaveMap => "save the landmark map (eos format)",
-            Self::ToggleWireframe => "shaded or wireframe head",
-            Self::LoadMap => "load the session's map file over the labels",
-            Self::CycleHead => "show the model / each transferred head",
-            Self::NudgeLipPoint { dx, dy } if dx.abs() > 1 || dy.abs() > 1 => {
-                "move the lip point 10 screen pixels"
-            }
-            Self::NudgeLipPoint { .. } => "move the lip point 1 screen pixel",
-            Self::RevertLipPoint => "back to the automatic lip point",
-            Self::RowDown => "next row",
-            Self::RowUp => "previous row",
-            Self::NextTable => "next table",
-            Self::SortNextColumn => "sort by the next column",
-            Self::SortReverse => "reverse the sort order",
-            Self::OpenRow => "open the row's frame in the frames view",
-            Self::ToggleSpeech => "show / hide the speech-driven head in the charts",
-            Self::AssessQuality => {
-                "cross-validate quality prediction (SAQP) over the session's sentences"
-            }
-            Self::ScrollDown => "scroll down",
-            Self::ScrollUp => "scroll up",
-            Self::PromptChar(_)
-            | Self::PromptBackspace
-            | Self::PromptSubmit
-            | Self::MouseDown { .. }
-            | Self::MouseDrag { .. }
-            | Self::MouseUp
-            | Self::Resize { .. }
-            | Self::FrameLoaded { .. }
-            | Self::FrameFailed { .. }
-            | Self::FitProgress { .. }
-            | Self::FitDone { .. }
-            | Self::FitFailed { .. }
-            | Self::AnalysisReady { .. }
-            | Self::MapLoaded { .. }
-            | Self::SideReady { .. }
-            | Self::SideFailed { .. }
-            | Self::SideFrameLoaded { .. }
-            | Self::SideFrameFailed { .. }
-            | Self::FitsStored
-            | Self::FitsNotStored { .. }
-            | Self::Idle
-            | Self::Saved { .. }
-            | Self::SaveFailed { .. }
-            | Self::Status(_)
-            | Self::PlayTick
-            | Self::SpeechReady { .. }
-            | Self::SpeechAbsent { .. }
-            | Self::QualityReady { .. }
-            | Self::QualityFailed { .. }
-            | Self::HeadPrepared { .. }
-            | Self::HeadFrameReady(_) => "internal",
-        };
-        match self {
-            Self::Pan { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
-            Self::Nudge { dx, dy } | Self::NudgeLipPoint { dx, dy } => {
-                format!("{s} {}", arrow(*dx, *dy))
-            }
-            Self::Rotate { yaw, pitch } => format!("{s} {}", arrow(*yaw, *pitch)),
-            Self::MoveCursor { dx, dy } => format!("{s} {}", arrow(*dx, *dy)),
-            _ => s.to_string(),
+impl FollowUp for () {
+    fn follow_up(self) -> Option<Action> {
+        None
+    }
+}
+
+impl FollowUp for Option<Action> {
+    fn follow_up(self) -> Option<Action> {
+        self
+    }
+}
+
+/// Declares the `Action` enum and what is derived from it; see the module docs.
+macro_rules! actions {
+    (
+        commands {
+            $( $(#[$cmeta:meta])*
+               $command:ident $({ $($cfield:ident : $ctype:ty),* $(,)? })?
+               => $croute:ident :: $chandler:ident, $help:expr; )*
         }
+        replies {
+            $( $(#[$rmeta:meta])*
+               $reply:ident
+               $({ $($rfield:ident : $rtype:ty),* $(,)? })?
+               $(( $rarg:ident : $rargtype:ty ))?
+               => $rroute:ident :: $rhandler:ident; )*
+        }
+    ) => {
+        /// A user intent (bindable) or a reply (not bindable, never serialized).
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        pub enum Action {
+            $( $(#[$cmeta])* $command $({ $($cfield: $ctype),* })?, )*
+            $( $(#[$rmeta])* #[serde(skip)] $reply $({ $($rfield: $rtype),* })? $(($rargtype))?, )*
+        }
+
+        impl Action {
+            /// The names keymap files bind, in the table's order.
+            pub const COMMANDS: &'static [&'static str] = &[$(stringify!($command)),*];
+
+            /// The variant's name: for a command, the name keymap files bind it by.
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $( Self::$command { .. } => stringify!($command), )*
+                    $( Self::$reply { .. } => stringify!($reply), )*
+                }
+            }
+
+            /// Whether this is a user intent (bindable to a key), not a reply.
+            pub fn is_bindable(&self) -> bool {
+                match self {
+                    $( Self::$command { .. } => true, )*
+                    $( Self::$reply { .. } => false, )*
+                }
+            }
+
+            /// One line for the help overlay and the status hints; empty for a reply.
+            #[allow(unused_variables)]
+            pub fn describe(&self) -> String {
+                match self {
+                    $( Self::$command $({ $($cfield),* })? => ($help).to_string(), )*
+                    $( Self::$reply { .. } => String::new(), )*
+                }
+            }
+
+            /// Calls the action's handler; returns the follow-up it asks for.
+            pub(super) fn dispatch(self, app: &mut App) -> Option<Action> {
+                match self {
+                    $( Self::$command $({ $($cfield),* })? =>
+                        FollowUp::follow_up(routes::$croute::$chandler(app $($(, $cfield)*)?)), )*
+                    $( Self::$reply $({ $($rfield),* })? $(($rarg))? =>
+                        FollowUp::follow_up(routes::$rroute::$rhandler(
+                            app $($(, $rfield)*)? $(, $rarg)?
+                        )), )*
+                }
+            }
+        }
+    };
+}
+
+actions! {
+    commands {
+        // ---- everywhere ----
+        Quit => global::quit, "save and quit";
+        ToggleHelp => overlays::toggle_help, "show or hide this help";
+        Save => global::save, "save the session now";
+        Undo => global::undo, "undo the last edit";
+        Redo => global::redo, "redo the undone edit";
+        RunFit => fit::run_fit, "fit the clip (only frames edited since the last fit)";
+        ShowFrames => global::show_frames, "frames view: correct landmarks";
+        ShowHead => global::show_head, "head view: mesh, landmark labelling";
+        ShowFit => global::show_fit, "fit view: fitted vs tracked landmarks";
+        ShowAnalysis => global::show_analysis, "analysis view: error tables, trajectories";
+        ShowSide => global::show_side, "side view: the lip profile and its protrusion point";
+        /// Save and open the session's next / previous clip.
+        NextClip => global::next_clip, "save and open the next clip";
+        PrevClip => global::prev_clip, "save and open the previous clip";
+        NextFrame => global::next_frame, "next frame";
+        PrevFrame => global::prev_frame, "previous frame";
+        FirstFrame => global::first_frame, "first frame";
+        LastFrame => global::last_frame, "last frame";
+        NextFlagged => global::next_flagged, "next flagged frame";
+        PrevFlagged => global::prev_flagged, "previous flagged frame";
+        NextUnreviewed => global::next_unreviewed, "next frame not yet reviewed";
+        /// Play the clip at its frame rate, or stop.
+        TogglePlay => global::toggle_play, "play the clip / stop";
+        /// Ask for a frame number and jump there.
+        GotoFramePrompt => overlays::goto_frame_prompt, "go to frame number…";
+        /// Zoom the shown screen's image (frames, fit) or head in, out, or back.
+        ZoomIn => shown::zoom_in, "zoom in";
+        ZoomOut => shown::zoom_out, "zoom out";
+        ZoomReset => shown::zoom_reset, "fit the image to the view";
+        /// Pan the view by `dx, dy` tenths of the visible width/height.
+        Pan { dx: i32, dy: i32 } => frames::pan, with_arrow("pan the view", *dx, *dy);
+        /// Centre the view on the selected point.
+        CenterOnPoint => frames::center_on_point, "centre the view on the selected point";
+        /// Close the top overlay or cancel the pending prompt.
+        Cancel => overlays::cancel, "cancel / close overlay";
+
+        // ---- frames and fit views: correcting landmarks ----
+        /// Move the selected point (or the selected scope) by `dx, dy` steps; a step is one
+        /// image pixel at zoom 1 and shrinks with zoom (sub-pixel moves when zoomed).
+        Nudge { dx: i32, dy: i32 } => frames::nudge, with_arrow(
+            if is_big_step(*dx, *dy) {
+                "move point 10 screen pixels"
+            } else {
+                "move point 1 screen pixel (sub-pixel when zoomed)"
+            },
+            *dx,
+            *dy,
+        );
+        NextPoint => frames::next_point, "select next point";
+        PrevPoint => frames::prev_point, "select previous point";
+        /// Ask for a point number (0-based iBUG) and select it.
+        GotoPointPrompt => overlays::goto_point_prompt, "select point by number (0-67)…";
+        /// Cycle what moves together: point → its group → mouth → all points.
+        CycleScope => frames::cycle_scope, "what moves: point / group / mouth / all";
+        ToggleVisible => frames::toggle_visible, "toggle visible / occluded";
+        CopyPointFromPrev => frames::copy_point_from_prev,
+            "copy selected points from previous frame";
+        CopyFrameFromPrev => frames::copy_frame_from_prev, "copy all points from previous frame";
+        /// Ask for N and propagate the selected points' correction to the next N frames.
+        PropagatePrompt => overlays::propagate_prompt, "propagate correction to next N frames…";
+        /// Interpolate the selected points between hand-corrected keyframes over the clip.
+        InterpolateSelected => frames::interpolate_selected,
+            "interpolate selected between keyframes";
+        InterpolateAll => frames::interpolate_all, "interpolate all points between keyframes";
+        RevertPoint => frames::revert_point, "revert selected points to tracker values";
+        ToggleReviewed => frames::toggle_reviewed, "mark frame reviewed / not reviewed";
+
+        // ---- head view: mesh and labelling ----
+        /// Rotate the head by `yaw, pitch` degrees.
+        Rotate { yaw: i32, pitch: i32 } => head::rotate,
+            with_arrow("rotate the head", *yaw, *pitch);
+        ResetView => head::reset_view, "reset rotation and zoom";
+        /// Move the 2D labelling cursor by `dx, dy` hundredths of the head's radius (÷ zoom).
+        MoveCursor { dx: i32, dy: i32 } => head::move_cursor,
+            with_arrow("move the 3D cursor", *dx, *dy);
+        NextLabel => head::next_label, "label the next landmark";
+        PrevLabel => head::prev_label, "label the previous landmark";
+        /// Ask for the landmark number to label.
+        GotoLabelPrompt => overlays::goto_label_prompt, "label landmark number…";
+        /// Assign the vertex under the 3D cursor to the landmark being labelled.
+        ConfirmLabel => head::confirm_label, "assign the vertex under the cursor";
+        /// Remove the landmark's vertex from the map.
+        ClearLabel => head::clear_label, "remove this landmark's vertex";
+        /// Put the 3D cursor on the vertex the current frame suggests for this landmark (its
+        /// fitted pose, or a pose from the labels so far); Enter then assigns it.
+        SuggestLabel => head::suggest_label, "suggest a vertex from the current frame";
+        /// Assign every unmapped landmark its suggested vertex (one undo step).
+        SuggestAllLabels => head::suggest_all_labels,
+            "label all unmapped landmarks from suggestions";
+        /// Switch the head view between shaded and wireframe.
+        ToggleWireframe => head::toggle_wireframe, "shaded or wireframe head";
+        SaveMap => head::save_map, "save the landmark map (eos format)";
+        /// Replace the labels with the session's map file (undoable).
+        LoadMap => head::load_map, "load the session's map file over the labels";
+        /// Show the next head: the model (labelling) → each transferred head → the model.
+        CycleHead => heads::cycle_head, "show the model / each transferred head";
+
+        // ---- side view: the upper lip's foremost point ----
+        /// Move the side frame's upper-lip point by `dx, dy` display pixels (a correction).
+        NudgeLipPoint { dx: i32, dy: i32 } => side::nudge_lip_point, with_arrow(
+            if is_big_step(*dx, *dy) {
+                "move the lip point 10 screen pixels"
+            } else {
+                "move the lip point 1 screen pixel"
+            },
+            *dx,
+            *dy,
+        );
+        /// Drop the side frame's correction: the automatic point again.
+        RevertLipPoint => side::revert_lip_point, "back to the automatic lip point";
+
+        // ---- analysis view ----
+        RowDown => analysis::row_down, "next row";
+        RowUp => analysis::row_up, "previous row";
+        NextTable => analysis::next_table, "next table";
+        SortNextColumn => analysis::sort_next_column, "sort by the next column";
+        SortReverse => analysis::sort_reverse, "reverse the sort order";
+        /// Jump to the frame of the selected row in the frames view.
+        OpenRow => analysis::open_row, "open the row's frame in the frames view";
+        /// Draw the speech-driven head's series in the charts, or hide it.
+        ToggleSpeech => analysis::toggle_speech,
+            "show / hide the speech-driven head in the charts";
+        /// Cross-validate quality prediction (SAQP) over the session's clips and list the
+        /// held-out sentences.
+        AssessQuality => analysis::assess_quality,
+            "cross-validate quality prediction (SAQP) over the session's sentences";
+
+        // ---- help overlay ----
+        ScrollDown => overlays::scroll_down, "scroll down";
+        ScrollUp => overlays::scroll_up, "scroll up";
+    }
+    replies {
+        // ---- prompts and what they ask for ----
+        PromptChar(c: char) => overlays::prompt_char;
+        PromptBackspace => overlays::prompt_backspace;
+        PromptSubmit => overlays::prompt_submit;
+        /// Go to frame number `frame` (a prompt's or a table row's answer).
+        GoToFrame { frame: usize } => global::go_to_frame;
+        /// Select point `index` (the point prompt's answer).
+        SelectPoint { index: usize } => frames::select_point;
+        /// Propagate the selected points' correction to the next `frames` frames.
+        Propagate { frames: usize } => frames::propagate;
+        /// Make `landmark` the one being labelled (the label prompt's answer).
+        LabelLandmark { landmark: usize } => head::set_label_target;
+        /// Save, then open the session's clip number `clip`.
+        SwitchClip { clip: usize } => global::switch_clip;
+
+        // ---- the terminal and the run loop ----
+        MouseDown { col: u16, row: u16 } => frames::mouse_down;
+        MouseDrag { col: u16, row: u16 } => frames::mouse_drag;
+        MouseUp => frames::mouse_up;
+        Resize { width: u16, height: u16 } => global::resize;
+        /// The run loop opened the clip in a terminal of this size: ask for what the first
+        /// screen needs (its frames, the analysis).
+        Opened { width: u16, height: u16 } => global::opened;
+        /// How the user looked at the previous clip of the session, kept for this one.
+        Carry { from: Box<crate::tui::global::Carried> } => global::carry;
+        /// The user has not edited for a while (`run::AUTOSAVE_IDLE`): a moment to autosave.
+        Idle => global::idle;
+        /// Playback's clock: the next frame is due.
+        PlayTick => global::play_tick;
+        Status(text: String) => global::status;
+
+        // ---- jobs ----
+        FrameLoaded { frame: usize, image: Arc<FrameImage> } => frames::frame_loaded;
+        FrameFailed { frame: usize, error: String } => frames::frame_failed;
+        FitProgress { generation: u64, done: usize, total: usize } => fit::fit_progress;
+        FitDone { generation: u64, fits: Vec<FrameFit> } => fit::fit_done;
+        FitFailed { generation: u64, error: String } => fit::fit_failed;
+        /// The fits of a `FitDone` were written to the session's fit cache.
+        FitsStored => fit::fits_stored;
+        FitsNotStored { error: String } => fit::fits_not_stored;
+        AnalysisReady { generation: u64, data: AnalysisData } => analysis::analysis_ready;
+        /// The speech-driven head's series, driven on a job from the clip's audio.
+        SpeechReady { series: Vec<(String, Vec<(f64, f64)>)> } => analysis::speech_ready;
+        /// Why the clip has no speech-driven head.
+        SpeechAbsent { why: String } => analysis::speech_absent;
+        /// The quality cross-validation's tables, computed on a job.
+        QualityReady { tables: Vec<AnalysisTable>, summary: String } => analysis::quality_ready;
+        /// Why there is no quality cross-validation.
+        QualityFailed { error: String } => analysis::quality_failed;
+        /// The side view's setup and profile points, measured on a job.
+        SideReady { side: Box<SideView> } => side::side_ready;
+        SideFailed { error: String } => side::side_failed;
+        SideFrameLoaded { frame: usize, image: Arc<FrameImage> } => side::side_frame_loaded;
+        SideFrameFailed { frame: usize, error: String } => side::side_frame_failed;
+        /// A map read from `path` by `LoadMap`.
+        MapLoaded { map: crate::model::LandmarkMap, path: String } => head::map_loaded;
+        /// Transferred head `index` set up on a job, or why not.
+        HeadPrepared { index: usize, head: Result<Arc<PreparedHead>, String> }
+            => heads::head_prepared;
+        /// A frame of a transferred head, computed on a job.
+        HeadFrameReady(frame: HeadFrame) => heads::head_frame_ready;
+        Saved { generation: u64 } => global::saved;
+        SaveFailed { error: String } => global::save_failed;
     }
 }
 
-fn arrow(dx: i32, dy: i32) -> &'static str {
-    match (dx.signum(), dy.signum()) {
+/// Whether a move of `dx, dy` steps is a big one (the shifted keys' ten).
+fn is_big_step(dx: i32, dy: i32) -> bool {
+    dx.abs() > 1 || dy.abs() > 1
+}
+
+/// `text` and the arrow of the direction `dx, dy`.
+fn with_arrow(text: &str, dx: i32, dy: i32) -> String {
+    let arrow = match (dx.signum(), dy.signum()) {
         (1, _) => "→",
         (-1, _) => "←",
         (_, 1) => "↓",
         (_, -1) => "↑",
         _ => "",
+    };
+    format!("{text} {arrow}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_command_is_bindable_by_its_name_and_no_reply_is() {
+        for name in Action::COMMANDS {
+            // Commands with fields are bound as inline tables; their names are still theirs.
+            let unit: Result<Action, _> = toml::Value::String(name.to_string()).try_into();
+            if let Ok(a) = unit {
+                assert_eq!(a.name(), *name);
+                assert!(a.is_bindable() && !a.describe().is_empty(), "{name}");
+            }
+        }
+        let reply = Action::PromptSubmit;
+        assert!(!reply.is_bindable() && reply.describe().is_empty());
+        assert!(!Action::COMMANDS.contains(&reply.name()));
+        let nudge: Action = toml::from_str::<toml::Table>("a = { Nudge = { dx = 0, dy = 10 } }")
+            .unwrap()["a"]
+            .clone()
+            .try_into()
+            .unwrap();
+        assert_eq!(nudge, Action::Nudge { dx: 0, dy: 10 });
+        assert_eq!(nudge.describe(), "move point 10 screen pixels ↓");
     }
 }

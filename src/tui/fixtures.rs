@@ -4,12 +4,14 @@
 //!
 //! Nothing here is random, so snapshots are stable.
 
-use super::app::{AnalysisData, AnalysisRow, AnalysisTable, App, FrameImage, Trajectory};
+use crate::tui::app::{App, FrameImage};
+
 use crate::alignment::{Alignment, Phone};
 use crate::fit::FrameFit;
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, Track};
 use crate::math::Point3;
 use crate::model::{LandmarkMap, Mesh};
+use crate::tui::screens::analysis::{AnalysisData, AnalysisRow, AnalysisTable, Trajectory};
 use std::f64::consts::PI;
 use std::sync::Arc;
 
@@ -243,11 +245,11 @@ pub fn synthetic_analysis(n_frames: usize) -> AnalysisData {
 pub fn synthetic_app(n_frames: usize, width: u32, height: u32, with_fits: bool) -> App {
     let track = synthetic_track(n_frames, width, height);
     let mut app = App::new("synthetic · clip1", track.clone(), track);
-    app.cache_capacity = n_frames.max(1);
+    app.frames.cache.capacity = n_frames.max(1);
     for f in 0..n_frames {
         app.cache_image(f, Arc::new(face_image(f, width, height)));
     }
-    app.image_size = Some((width, height));
+    app.frames.cache.size = Some((width, height));
     app.alignment = Some(synthetic_alignment(n_frames));
     app.set_mesh(Arc::new(synthetic_mesh()));
     let mut map = LandmarkMap::default();
@@ -260,9 +262,9 @@ pub fn synthetic_app(n_frames: usize, width: u32, height: u32, with_fits: bool) 
     app.map = Some(map);
     if with_fits {
         for f in synthetic_fits(&app.track) {
-            app.fit.fits.insert(f.frame, f);
+            app.fits.by_frame.insert(f.frame, f);
         }
-        app.analysis = synthetic_analysis(n_frames);
+        app.analysis.data = synthetic_analysis(n_frames);
         app.recompute_flags();
     }
     app
@@ -308,7 +310,11 @@ pub fn counting_terminal(
 /// A drawn side view: a dark face profile looking right on a light background, whose upper
 /// lip pushes forward as the mouth rounds, measured frame by frame like a real clip (one
 /// frame per front frame, the crop and a vertical reference line set by hand).
-pub fn synthetic_side(n_frames: usize, width: u32, height: u32) -> super::app::SideView {
+pub fn synthetic_side(
+    n_frames: usize,
+    width: u32,
+    height: u32,
+) -> crate::tui::screens::side::SideView {
     use crate::measure::profile::{
         Facing, ProfileSetup, ProfileTrack, Rect, ReferenceLine, measure_frame,
     };
@@ -357,7 +363,7 @@ pub fn synthetic_side(n_frames: usize, width: u32, height: u32) -> super::app::S
             measure_frame(f, &gray, &setup, Some(0.16 * h))
         })
         .collect();
-    super::app::SideView {
+    crate::tui::screens::side::SideView {
         setup,
         track: ProfileTrack::new(automatic, Some(0.16 * h)),
         fps: 25.0,
@@ -370,7 +376,7 @@ pub fn synthetic_side(n_frames: usize, width: u32, height: u32) -> super::app::S
 
 /// A transferred head set up from `synthetic_mesh` onto itself (ten front vertices as
 /// landmarks on both sides), so moving the source moves the head.
-pub fn synthetic_prepared_head() -> super::app::PreparedHead {
+pub fn synthetic_prepared_head() -> crate::tui::screens::head::PreparedHead {
     use crate::transfer::{SourceFace, TargetHead, Transfer, TransferOptions};
     let mesh = synthetic_mesh();
     // (iBUG point, ring, meridian): eyes and nose above the equator (the transfer's stable
@@ -405,7 +411,14 @@ pub fn synthetic_prepared_head() -> super::app::PreparedHead {
         Ok(t) => t,
         Err(e) => panic!("the synthetic transfer sets up: {e}"),
     };
-    super::app::PreparedHead::new("sphere".into(), "biharmonic".into(), transfer, mesh, &[], &map)
+    crate::tui::screens::head::PreparedHead::new(
+        "sphere".into(),
+        "biharmonic".into(),
+        transfer,
+        mesh,
+        &[],
+        &map,
+    )
 }
 
 /// A morphable model of `synthetic_mesh` (its mean) with one expression, `jawOpen`, that

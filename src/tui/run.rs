@@ -1,5 +1,8 @@
-//! The event loop: terminal events and worker replies become actions, `update` applies them,
-//! effects go to the workers and the session, and the screen is redrawn when something changed.
+//! The event loop: terminal events and job replies become actions, `update` applies them,
+//! the effects it queued go to the jobs and the session, and the screen is redrawn when
+//! something changed. The loop changes no state itself: what it learns (the terminal's size,
+//! a journal error, the graphics note, how the previous clip was looked at) reaches the `App`
+//! as an action too.
 //!
 //! Graphics: a `GraphicsState` (the terminal's image protocol, if any, and its cached
 //! encoding) is owned here, not by the `App`, and drawn over the half-block image.
@@ -11,15 +14,17 @@
 //! terminal). The terminal is restored on return, error, signal and panic.
 
 use super::action::Action;
-use super::app::{App, Effect};
+use super::draw::draw;
+use super::global::Carried;
+use super::input::{key_to_action, mouse_to_action};
+use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
 use super::keymap::Keymap;
+use super::screens::frames::view::draw_graphics;
 use super::session_bridge::SessionBridge;
-use super::update::{key_to_action, mouse_to_action, request_images, update};
-use super::views::draw;
-use super::views::frames::draw_graphics;
+use super::update::apply;
 use super::widgets::graphics::{GraphicsChoice, GraphicsState, TermEnv};
 use super::widgets::terminal::TerminalGuard;
-use super::widgets::worker::{AnalysisJob, FitJob, HeadFrameJob, Workers};
+use crate::tui::app::{App, Effect};
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use ratatui::crossterm::event::{self, Event};
@@ -31,7 +36,7 @@ use std::time::{Duration, Instant};
 
 /// How long after the last edit the batch is saved.
 pub const AUTOSAVE_IDLE: Duration = Duration::from_millis(400);
-/// Longest wait for a terminal event before checking workers and autosave.
+/// Longest wait for a terminal event before checking jobs and autosave.
 const POLL: Duration = Duration::from_millis(30);
 
 /// Opens the session at `session_path` (first clip) in the terminal UI until the user quits.
@@ -72,7 +77,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     };
     let clip = match &options.clip {
         Some(name) => {
-            let s = crate::session::Session::load(session_path)?;
+            let s = crate::workflow::read_session(session_path)?.session;
             crate::workflow::find_clip(&s, name)
                 .map_err(|e| anyhow::Error::new(e).context(session_path.display().to_string()))?
         }
@@ -84,32 +89,30 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     let signals = Signals::register(session_path)?;
     let (mut guard, mut gfx) = TerminalGuard::enter_with(|| GraphicsState::detect(graphics, env))?;
     if app.status.is_empty() && !gfx.note.is_empty() {
-        app.status = gfx.note.clone();
+        apply(&mut app, Action::Status(gfx.note.clone()));
     }
     loop {
-        // A channel and workers per clip: replies of the previous clip's workers go nowhere.
+        // A channel and jobs per clip: replies of the previous clip's jobs go nowhere.
         let (tx, rx) = channel();
         if let Some(job) = bridge.side_view_job() {
             let tx = tx.clone();
             std::thread::spawn(move || tx.send(job()));
         }
         bridge.start_saver(tx.clone());
-        let workers = Workers::start(provider, tx.clone());
-        workers.run_once("the speech-driven head", bridge.speech_job());
+        let jobs = Jobs::start(provider, tx.clone());
+        jobs.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
-            workers.start_side_frames(side, tx);
+            jobs.start_side_frames(side, tx);
         }
         let size = guard.terminal.size()?;
-        app.term_size = (size.width, size.height);
-        request_images(&mut app);
-        app.request_analysis();
+        apply(&mut app, Action::Opened { width: size.width, height: size.height });
         let inputs = LoopInputs { keymap: &keymap, rx: &rx, signals: &signals };
         let result =
-            event_loop(&mut guard.terminal, &mut app, &mut bridge, &workers, &mut gfx, inputs);
+            event_loop(&mut guard.terminal, &mut app, &mut bridge, &jobs, &mut gfx, inputs);
         if signals.caught().is_some() {
             signals.loop_left();
         }
-        drop(workers);
+        drop(jobs);
         // Whatever happened in the loop, do not lose the last edits: let the saver finish,
         // then write what is left.
         bridge.finish_saving();
@@ -142,7 +145,8 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
                 return Err(e);
             }
         };
-        app.continue_from(&previous, &bridge.clip_name());
+        let carried = Carried::of(&previous, &bridge.clip_name());
+        apply(&mut app, Action::Carry { from: Box::new(carried) });
     }
 }
 
@@ -240,15 +244,7 @@ impl Drop for Signals {
     }
 }
 
-/// Applies an action and its follow-ups.
-pub fn apply(app: &mut App, action: Action) {
-    let mut next = Some(action);
-    while let Some(a) = next {
-        next = update(app, a);
-    }
-}
-
-/// Where the event loop's actions come from: keys (through the keymap), worker replies and
+/// Where the event loop's actions come from: keys (through the keymap), job replies and
 /// the stopping signals.
 struct LoopInputs<'a> {
     keymap: &'a Keymap,
@@ -260,7 +256,7 @@ fn event_loop<B: Backend>(
     terminal: &mut Terminal<B>,
     app: &mut App,
     bridge: &mut SessionBridge,
-    workers: &Workers,
+    jobs: &Jobs,
     gfx: &mut GraphicsState,
     inputs: LoopInputs<'_>,
 ) -> anyhow::Result<()>
@@ -275,23 +271,23 @@ where
     // Playback's next frame is due then.
     let mut next_tick: Option<Instant> = None;
     loop {
-        run_effects(app, bridge, workers);
+        run_effects(app, bridge, jobs);
         if app.save.should_quit() || signals.caught().is_some() {
             return Ok(());
         }
         // Every finished edit goes to the journal before the next input is read (a drag is
         // written when it ends: it is one edit).
-        if app.save.changes() != journaled && !app.dragging {
+        if app.save.changes() != journaled && !app.frames.dragging {
             journaled = app.save.changes();
             if let Err(e) = bridge.journal(app) {
-                app.status = format!("edits not journaled: {e:#}");
+                apply(app, Action::Status(format!("edits not journaled: {e:#}")));
                 redraw = true;
             }
         }
         if app.save.is_clean()
             && let Err(e) = bridge.clear_journal()
         {
-            app.status = format!("journal not removed: {e:#}");
+            apply(app, Action::Status(format!("journal not removed: {e:#}")));
         }
         if app.save.unsaved() != seen_edits {
             seen_edits = app.save.unsaved();
@@ -301,7 +297,7 @@ where
         if last_edit.elapsed() >= AUTOSAVE_IDLE {
             apply(app, Action::Idle);
             if !app.effects.is_empty() {
-                run_effects(app, bridge, workers);
+                run_effects(app, bridge, jobs);
                 seen_edits = app.save.unsaved();
                 redraw = true;
             }
@@ -356,7 +352,7 @@ where
                 if let Some(a) = action {
                     apply(app, a);
                 }
-                run_effects(app, bridge, workers);
+                run_effects(app, bridge, jobs);
                 if app.save.should_quit() || !event::poll(Duration::ZERO)? {
                     break;
                 }
@@ -377,29 +373,15 @@ fn frame_interval(fps: f64) -> Duration {
 }
 
 /// Carries out queued effects.
-fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
-    for effect in std::mem::take(&mut app.effects) {
+fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
+    for effect in app.take_effects() {
         match effect {
-            Effect::LoadFrames(frames) => workers.request_frames(frames),
-            Effect::LoadSideFrame(frame) => workers.request_side_frame(frame),
+            Effect::LoadFrames(frames) => jobs.request_frames(frames),
+            Effect::LoadSideFrame(frame) => jobs.request_side_frame(frame),
             Effect::Fit { generation, frames } => {
-                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
-                    continue;
-                };
-                let input = app.fit_input_track();
-                let landmarks = match &frames {
-                    Some(list) => list.iter().filter_map(|f| input.get(*f).cloned()).collect(),
-                    None => input.frames,
-                };
-                let image_height = f64::from(app.frame_dims().1);
-                workers.request_fit(FitJob {
-                    generation,
-                    model,
-                    map,
-                    settings: app.fit_settings.clone(),
-                    frames: landmarks,
-                    image_height,
-                });
+                if let Some(job) = FitJob::of(app, generation, frames.as_deref()) {
+                    jobs.request_fit(job);
+                }
             }
             Effect::Save { generation } => {
                 // Written on the saver thread; `Saved` comes back through the channel.
@@ -430,44 +412,27 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, workers: &Workers) {
                 apply(app, Action::Status(msg));
             }
             Effect::Analyse { generation } => {
-                let (Some(model), Some(map)) = (app.model.clone(), app.map.clone()) else {
-                    continue;
-                };
-                workers.request_analysis(AnalysisJob {
-                    generation,
-                    name: bridge.clip_name(),
-                    model,
-                    map,
-                    track: app.fit_input_track(),
-                    alignment: app.alignment.clone().unwrap_or_default(),
-                    fps: app.fps,
-                    fits: app.fit.fits.values().cloned().collect(),
-                    head: app.mesh.clone(),
-                    side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
-                });
+                if let Some(job) = AnalysisJob::of(app, generation, bridge.clip_name()) {
+                    jobs.request_analysis(job);
+                }
             }
             Effect::AssessQuality => {
-                // The worker reads the session as last written back, with every correction.
+                // The job reads the session as last written back, with every correction.
                 if let Err(e) = bridge.write_back(app) {
                     apply(app, Action::QualityFailed { error: format!("{e:#}") });
                     continue;
                 }
-                workers.run_once("the quality cross-validation", bridge.quality_job());
+                jobs.run_once("the quality cross-validation", bridge.quality_job());
             }
             Effect::PrepareHead(index) => match bridge.head_setup_job(index) {
-                Some(job) => workers.run_once("the transferred head's set-up", job),
+                Some(job) => jobs.run_once("the transferred head's set-up", job),
                 None => {
                     apply(app, Action::HeadPrepared { index, head: Err("no such head".into()) })
                 }
             },
             Effect::TransferFrame { head, frame } => {
-                let prepared = match app.heads.setups.get(head) {
-                    Some(super::app::HeadSetup::Ready(p)) => p.clone(),
-                    _ => continue,
-                };
-                let fit = app.fit.fits.get(&frame).filter(|f| f.failed.is_none()).cloned();
-                if let (Some(model), Some(fit)) = (app.model.clone(), fit) {
-                    workers.request_head_frame(HeadFrameJob { head, prepared, model, fit });
+                if let Some(job) = HeadFrameJob::of(app, head, frame) {
+                    jobs.request_head_frame(job);
                 }
             }
             Effect::Quit => {}

@@ -2,18 +2,18 @@
 //! model, map, cached fits), write the App's corrections, reviewed frames and map back into
 //! the session, and save atomically through `Session::save`.
 //!
-//! The App never sees the session's types, so the TUI's update and views work (and are
+//! The App never sees the session's types, so the TUI's update and drawing work (and are
 //! tested) on plain data; only this file changes when the session format does.
 
 use super::action::Action;
-use super::app::{App, FrameImage, FrameProvider};
 use crate::fit::FrameFit;
 use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
-use crate::session::journal::{self, Journal, JournalEntry};
+use crate::session::journal::{Journal, JournalEntry};
 use crate::session::{Session, SessionLock};
+use crate::tui::app::{App, FrameImage, FrameProvider};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::Sender;
@@ -84,20 +84,13 @@ impl SessionBridge {
     /// # Errors
     /// When the session cannot be locked or read, or has no clip `clip`.
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
-        let lock = SessionLock::acquire(path)?;
-        let mut session = Session::load(path)?;
-        let mut problems: Vec<String> = Vec::new();
-        // Edits a crashed editor left in the journal come back first; a journal that cannot
-        // be replayed is set aside (kept for the user) so new edits start a clean one.
-        let restored = match journal::replay(&mut session, path) {
-            Ok(n) => n > 0,
-            Err(e) => {
-                let aside = journal::set_aside(path);
-                problems.push(format!("journal not replayed: {e} (moved to {})", aside.display()));
-                false
-            }
-        };
-        let journal = Journal::new(path);
+        // Locked, loaded, a crashed editor's journal replayed (or set aside when it cannot
+        // be): the one way a session is opened for editing.
+        let opened = crate::workflow::open_for_edit_at(path)?;
+        let crate::workflow::EditSession { lock, session, journal, restored, notices, .. } = opened;
+        let restored = !restored.is_empty();
+        let mut problems: Vec<String> =
+            notices.iter().map(|w| w.status_text().to_string()).collect();
         let c = session.clip(clip)?;
         let tracked = c.tracked.clone();
         let track = c.corrections.effective_track(&c.tracked);
@@ -105,22 +98,18 @@ impl SessionBridge {
         app.reviewed = c.corrections.reviewed.clone();
         app.alignment = c.alignment.clone();
         app.fps = c.front.fps;
-        app.image_size = c.front.size.map(|[w, h]| (w, h));
+        app.frames.cache.size = c.front.size.map(|[w, h]| (w, h));
         app.fit_settings = session.fit_settings.clone();
         if restored {
             // Not on disk in the session file yet: autosave writes them.
             app.save.edit_made();
-            problems.push(format!(
-                "restored the edits of an editor that stopped without saving (from {})",
-                journal.path().display()
-            ));
         }
 
         let provider: Arc<dyn FrameProvider> = match session.open_frames(clip, FRAME_CACHE_MB) {
             Ok(src) => {
                 let [w, h] = src.size();
                 if w > 0 && h > 0 {
-                    app.image_size = Some((w, h));
+                    app.frames.cache.size = Some((w, h));
                 }
                 Arc::new(SessionFrames(src))
             }
@@ -140,19 +129,21 @@ impl SessionBridge {
         let head_obj = session.head_mesh.clone().filter(|p| obj(p));
         let model_obj = session.model.as_ref().map(|m| m.path.clone()).filter(|p| obj(p));
         if let Some(p) = head_obj.or(model_obj) {
-            app.label_candidates =
+            app.head.label_candidates =
                 crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
-            app.occluders = crate::io::obj::occluding_vertices(&p).ok().flatten().map(Arc::new);
+            app.head.occluders =
+                crate::io::obj::occluding_vertices(&p).ok().flatten().map(Arc::new);
         }
         // Nor drawn: the proxy shells and joint markers would hide the face's own edges.
-        if let Some(keep) = app.label_candidates.clone() {
+        if let Some(keep) = app.head.label_candidates.clone() {
             let edges: Vec<[u32; 2]> = app
-                .mesh_edges
+                .head
+                .edges
                 .iter()
                 .filter(|e| e.iter().all(|&v| keep.get(v as usize) == Some(&true)))
                 .copied()
                 .collect();
-            app.mesh_edges = Arc::new(edges);
+            app.head.edges = Arc::new(edges);
         }
         if let Some(m) = &session.model {
             match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
@@ -168,16 +159,16 @@ impl SessionBridge {
         app.map = map.clone();
         app.frame_head();
         for fit in session.cached_fits(clip, &session.fit_settings) {
-            app.fit.fits.insert(fit.frame, fit.clone());
+            app.fits.by_frame.insert(fit.frame, fit.clone());
         }
-        if !app.fit.fits.is_empty() {
+        if !app.fits.by_frame.is_empty() {
             app.recompute_flags();
         }
         if c.side.is_some() {
-            app.side = super::app::SideState::Measuring;
+            app.side = crate::tui::screens::side::SideState::Measuring;
         }
         app.clip_names = session.clips.iter().map(|c| c.name.clone()).collect();
-        app.heads = super::app::TransferredHeads::named(
+        app.head.heads = crate::tui::screens::head::TransferredHeads::named(
             session.transferred_heads.iter().map(|h| h.name.clone()).collect(),
         );
         app.clip = clip;
@@ -267,7 +258,7 @@ impl SessionBridge {
         Ok(())
     }
 
-    /// The side view's measurement for a worker thread (it decodes every side frame), when
+    /// The side view's measurement for a job's thread (it decodes every side frame), when
     /// the clip has a side view: replies `SideReady` or `SideFailed`.
     pub fn side_view_job(&self) -> Option<impl FnOnce() -> Action + Send + 'static> {
         let c = self.session.clips.get(self.clip)?;
@@ -279,7 +270,7 @@ impl SessionBridge {
                 .and_then(|found| found.context("the clip has no side view"));
             match measured {
                 Ok((setup, track)) => Action::SideReady {
-                    side: Box::new(super::app::SideView {
+                    side: Box::new(crate::tui::screens::side::SideView {
                         n_frames: track.automatic.len(),
                         setup,
                         track,
@@ -294,27 +285,27 @@ impl SessionBridge {
         })
     }
 
-    /// The speech-driven head of this clip for a worker thread (it may fit what the cache
+    /// The speech-driven head of this clip for a job's thread (it may fit what the cache
     /// lacks and inverts the whole clip's audio): replies `SpeechReady` or `SpeechAbsent`.
     pub fn speech_job(&self) -> impl FnOnce() -> Action + Send + 'static {
         let (mut session, clip) = (self.session.clone(), self.clip);
-        move || super::widgets::worker::speech_for_tui(&mut session, clip)
+        move || super::jobs::speech_for_tui(&mut session, clip)
     }
 
-    /// The quality cross-validation over this session's sentences for a worker thread (it
+    /// The quality cross-validation over this session's sentences for a job's thread (it
     /// may fit what the cache lacks): replies `QualityReady` or `QualityFailed`.
     pub fn quality_job(&self) -> impl FnOnce() -> Action + Send + 'static {
         let (mut session, path) = (self.session.clone(), self.path.clone());
-        move || super::widgets::worker::quality_for_tui(&mut session, &path)
+        move || super::jobs::quality_for_tui(&mut session, &path)
     }
 
-    /// The set-up of the session's transferred head number `index` for a worker thread:
+    /// The set-up of the session's transferred head number `index` for a job's thread:
     /// replies `HeadPrepared`. `None` when the session has no such head.
     pub fn head_setup_job(&self, index: usize) -> Option<impl FnOnce() -> Action + Send + 'static> {
         let entry = self.session.transferred_heads.get(index)?.clone();
         let session = self.session.clone();
         Some(move || {
-            let head = super::widgets::worker::prepare_head_for_tui(&session, &entry);
+            let head = super::jobs::prepare_head_for_tui(&session, &entry);
             Action::HeadPrepared { index, head: head.map(Arc::new) }
         })
     }
@@ -451,7 +442,8 @@ impl SessionBridge {
         if std::fs::metadata(&target).is_ok_and(|m| m.permissions().readonly()) {
             anyhow::bail!("{} is read-only", target.display());
         }
-        crate::io::landmark_map_toml::write_landmark_map(&target, map)?;
+        let names = &crate::reference::current().names;
+        crate::io::landmark_map_toml::write_landmark_map(&target, map, names)?;
         self.session.landmark_map.file = Some(target.clone());
         self.session.landmark_map.set_inline(map);
         self.loaded_map = Some(map.clone());

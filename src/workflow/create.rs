@@ -7,7 +7,7 @@
 use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
 use super::resources::{check_map_for_fit, check_map_vertices};
-use super::session::{clip_or_first, load_session};
+use super::session::{clip_or_first, open_for_edit_at};
 use crate::fit::FitSettings;
 use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::textgrid::TierChoice;
@@ -189,6 +189,10 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
     session.add_clip(clip)?;
     session.save(path)?;
+    // A journal of the session this one replaces (`--force`) holds that session's edits:
+    // replayed onto this one it would be refused, or replace the edits of a clip that
+    // happens to have the same name.
+    crate::session::journal::Journal::new(path).clear()?;
     let map = match &map {
         None => MapState::Missing,
         Some(m) => match map_problem(m, model.num_vertices(), &settings, path) {
@@ -230,8 +234,8 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         ));
     }
     let path = &import.path;
-    let _lock = SessionLock::acquire(path)?;
-    let mut session = load_session(path)?;
+    let mut opened = open_for_edit_at(path)?;
+    let session = &mut opened.session;
     // Read everything before changing the session, so a bad input changes nothing.
     let (clip, mut warnings) = match &import.clip {
         Some(inputs) => {
@@ -245,7 +249,7 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
     };
     let audio = match (&import.clip, &import.audio) {
         (None, Some((input, name))) => {
-            let index = clip_or_first(&session, name.as_deref())?;
+            let index = clip_or_first(session, name.as_deref())?;
             let clip = session.clip(index)?;
             Some((index, clip.name.clone(), read_clip_audio(clip, path, input)?))
         }
@@ -262,15 +266,12 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         }
         None => None,
     };
-    let map = import
-        .mapping
-        .as_deref()
-        .map(|file| set_map_from_file(&mut session, file, path))
-        .transpose()?;
+    let map =
+        import.mapping.as_deref().map(|file| set_map_from_file(session, file, path)).transpose()?;
     // Checked after a map given in the same import is set, so the check is of the pair the
     // session now holds.
     let head = match head {
-        Some((file, mesh)) => Some(set_head(&mut session, file, &mesh)?),
+        Some((file, mesh)) => Some(set_head(session, file, &mesh)?),
         None => None,
     };
     let clip = match clip {
@@ -286,7 +287,9 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         session.clips[index].audio = Some(a);
         (name, file)
     });
-    session.save(path)?;
+    // The journal's edits were restored on opening and are now in the file.
+    warnings.splice(0..0, std::mem::take(&mut opened.notices));
+    opened.save()?;
     Ok(Imported { path: path.clone(), clip, map, head, audio, warnings })
 }
 

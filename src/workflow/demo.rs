@@ -31,7 +31,11 @@ pub fn write_demo_sessions(out: &DemoOutput) -> Result<Vec<PathBuf>> {
     for sp in &out.speakers {
         let path = demo_session_path(&out.out_dir, sp.index);
         let session = demo_session(out, sp, &path)?;
+        // A fresh session replaces the last demo's: not under an editor that has it open,
+        // and without the journal of that one's edits (its clips have the same names).
+        let _lock = crate::session::SessionLock::acquire(&path)?;
         session.save(&path)?;
+        crate::session::journal::Journal::new(&path).clear()?;
         paths.push(path);
     }
     Ok(paths)

@@ -102,9 +102,19 @@ impl<T, E: Into<Error>> Context<T> for std::result::Result<T, E> {
 }
 
 /// Something a use case noticed but worked around; the result is still valid. The text is
-/// the whole line as the command line prints it on stderr (`lipmap: warning: …`).
+/// the line the command line prints on stderr as it is (mostly `lipmap: warning: …` or
+/// `lipmap: note: …`; [`Warning::status_text`] drops that prefix for the TUI's status line).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Warning(pub String);
+
+impl Warning {
+    /// The line without the command line's `lipmap: ` and `note: `/`warning: ` prefixes, for
+    /// a status line that has no room for them.
+    pub fn status_text(&self) -> &str {
+        let s = self.0.strip_prefix("lipmap: ").unwrap_or(&self.0);
+        s.strip_prefix("note: ").or_else(|| s.strip_prefix("warning: ")).unwrap_or(s)
+    }
+}
 
 impl std::fmt::Display for Warning {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -1,13 +1,21 @@
 //! Evaluating a session: each clip's fits (cached) turned into an utterance (the video's and
 //! the fitted head's W/H/P with the phone alignment), then the RMSE tables and worst frames.
+//!
+//! Start with [`evaluate_session`] (`lipmap eval`, the demo) or [`evaluate_clip`] (the clip
+//! open in the TUI); both measure through [`utterance_of`] and tabulate through
+//! [`evaluate`]. [`compare_sets`] is `eval --compare`.
 
-use super::error::{Result, Warning, error_chain};
+use super::error::{Error, Result, Warning, error_chain};
 use super::fit::fit_clip_cached;
+use super::flags::clip_flag_lines;
 use super::measure_fits::head_trajectory;
-use super::resources::Resources;
+use super::resources::{Resources, load_resources};
+use super::session::{ReadSession, select_clips};
 use super::side_view::{HeadP, head_p_of_clip_by_render, head_p_options, side_view_protrusion};
+use super::transfer::transferred_head_tables;
 use super::{Progress, ProgressFn};
 use crate::eval::report::{group_table, sentence_table, worst_error_table, worst_fit_table};
+use crate::eval::{Comparison, Configuration, RowKey, compare_configurations};
 use crate::eval::{Table, Utterance, phoneme_rmse, viseme_rmse};
 use crate::eval::{worst_frames_by_error, worst_frames_by_residual};
 use crate::fit::{FitSettings, FrameFit};
@@ -46,15 +54,57 @@ pub fn utterance_from_parts(
     }
 }
 
-/// The evaluation input of one clip of a session: [`utterance_from_parts`] on its effective
-/// landmarks, plus the side view's protrusion when the clip has one; and what was worked
-/// around (a side view whose P cannot be measured, a model without a lip band).
+/// One clip as an evaluation takes it, however the front holds it: the session's clip
+/// (`eval`, `export`, the demo) or the clip open in the TUI with its unsaved edits.
+#[derive(Clone, Copy, Debug)]
+pub struct ClipInput<'a> {
+    pub name: &'a str,
+    pub alignment: &'a crate::alignment::Alignment,
+    pub fps: f64,
+    /// The landmarks the fits were made from (effective, inner lips sealed as the fit
+    /// settings say).
+    pub track: &'a crate::landmarks::Track,
+    pub fits: &'a [FrameFit],
+    /// Whether the clip has a side view: the head's P is then measured the way a profile
+    /// shows it ([`head_p_options`]).
+    pub side_view: bool,
+    /// The side view's P per front frame, when measured.
+    pub side_p: Option<&'a [Option<f64>]>,
+}
+
+/// The utterance of one clip: the video's and the fitted head's W/H/P
+/// ([`utterance_from_parts`], the head's P as [`head_p_options`] says for a clip with a side
+/// view), the side view's P as the video's; and what was worked around.
+pub fn utterance_of(
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    input: &ClipInput<'_>,
+    options: &MeshMeasureOptions,
+) -> (Utterance, Vec<Warning>) {
+    let (options, warning) = head_p_options(model, map, input.side_view, options);
+    let mut u = utterance_from_parts(
+        input.name,
+        input.alignment,
+        input.fps,
+        input.track,
+        model,
+        map,
+        input.fits,
+        &options,
+    );
+    if let Some(p) = input.side_p {
+        u.video.p = p.to_vec();
+        u.video.p.resize(u.head.p.len(), None);
+    }
+    (u, warning.into_iter().collect())
+}
+
+/// The evaluation input of one clip of a session: [`utterance_of`] its effective landmarks,
+/// plus the side view's protrusion when the clip has one; and what was worked around (a side
+/// view whose P cannot be measured, a model without a lip band).
 ///
 /// Sealed lips are closed in the video's landmarks as the session's fit settings say
 /// (`landmarks::closure`), as they were for the fits.
-///
-/// A side view sees the whole upper lip, so for a clip with one the head's P is measured the
-/// same way ([`head_p_options`]). Other upper-lip choices in `options` are kept as given.
 ///
 /// # Errors
 /// Unknown clip.
@@ -67,8 +117,7 @@ pub fn utterance_of_clip(
 ) -> Result<(Utterance, Vec<Warning>)> {
     let c = session.clip(clip)?;
     let mut track = session.effective_track(clip)?;
-    let (options, warning) = head_p_options(&res.model, &res.map, c.side.is_some(), options);
-    let mut warnings: Vec<Warning> = warning.into_iter().collect();
+    let mut warnings = Vec::new();
     // The video is measured on the landmarks the fits were made from. A clip too short to
     // have a sealed mode (a photo, a few frames) is not speech, and one without a separate
     // cluster of low gaps needs no correction; only a speech-length clip whose gap never
@@ -79,26 +128,31 @@ pub fn utterance_of_clip(
             warnings.push(Warning(format!("lipmap: clip `{}`: inner lips as tracked: {e}", c.name)))
         }
     }
-    let mut u = utterance_from_parts(
-        &c.name,
-        &c.alignment.clone().unwrap_or_default(),
-        c.front.fps,
-        &track,
-        &res.model,
-        &res.map,
-        fits,
-        &options,
-    );
-    match side_view_protrusion(session, clip, u.video.len()) {
-        Ok(Some(p)) => u.video.p = p,
-        Ok(None) => {}
+    let n = track.frames.last().map_or(0, |f| f.frame + 1);
+    let side_p = match side_view_protrusion(session, clip, n) {
+        Ok(p) => p,
         // The front-view tables are still worth having; say why P is missing.
-        Err(e) => warnings.push(Warning(format!(
-            "lipmap: clip `{}`: no side-view protrusion: {}",
-            c.name,
-            error_chain(&e)
-        ))),
-    }
+        Err(e) => {
+            warnings.push(Warning(format!(
+                "lipmap: clip `{}`: no side-view protrusion: {}",
+                c.name,
+                error_chain(&e)
+            )));
+            None
+        }
+    };
+    let alignment = c.alignment.clone().unwrap_or_default();
+    let input = ClipInput {
+        name: &c.name,
+        alignment: &alignment,
+        fps: c.front.fps,
+        track: &track,
+        fits,
+        side_view: c.side.is_some(),
+        side_p: side_p.as_deref(),
+    };
+    let (u, more) = utterance_of(&res.model, &res.map, &input, options);
+    warnings.splice(0..0, more);
     Ok((u, warnings))
 }
 
@@ -118,6 +172,8 @@ pub struct ClipsEvaluated {
     pub utterances: Vec<Utterance>,
     pub fits: NamedFits,
     pub warnings: Vec<Warning>,
+    /// Frames fitted now (the rest came from the cache).
+    pub refitted: usize,
 }
 
 impl ClipsEvaluated {
@@ -155,6 +211,7 @@ pub fn utterances_with(
             u.head.p = head_p_of_clip_by_render(session, res, c, &clip_fits.fits, n, pitch_deg)?.p;
         }
         out.utterances.push(u);
+        out.refitted += clip_fits.refitted;
         out.fits.push((name, clip_fits.fits));
     }
     progress(Progress::Finished);
@@ -207,21 +264,228 @@ pub fn evaluate(
     n_worst: usize,
 ) -> EvalReport {
     let compared = normalisation.apply(utterances);
-    let visemes = &crate::reference::current().visemes;
+    let tables = crate::reference::current();
+    let (phones, visemes) = (&tables.phones, &tables.visemes);
     let mut worst: Vec<_> =
         Measure::ALL.iter().flat_map(|&m| worst_frames_by_error(&compared, m, n_worst)).collect();
     worst.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
     worst.truncate(n_worst);
     EvalReport {
         sentences: sentence_table(&compared).keyed("sentences"),
-        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared), None).keyed("phonemes"),
+        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared, phones), None)
+            .keyed("phonemes"),
         visemes: group_table(
             "RMSE per viseme class",
-            &viseme_rmse(&compared, visemes),
+            &viseme_rmse(&compared, phones, visemes),
             Some(visemes),
         )
         .keyed("visemes"),
         worst_frames: worst_error_table(&worst).keyed("worst_frames"),
         worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)).keyed("worst_fits"),
+    }
+}
+
+/// Rows of the worst-frame tables unless the user asks for another number: `eval`,
+/// `export`, the demo and the TUI's analysis list as many.
+pub const DEFAULT_WORST_ROWS: usize = 10;
+
+/// One clip evaluated on its own (the TUI's analysis of the clip it has open).
+#[derive(Clone, Debug)]
+pub struct ClipEvaluation {
+    pub utterance: Utterance,
+    pub report: EvalReport,
+    pub warnings: Vec<Warning>,
+}
+
+/// Measures one clip as [`utterance_of`] does (mesh measures by default) and evaluates it
+/// alone.
+pub fn evaluate_clip(
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    input: &ClipInput<'_>,
+    normalisation: Normalisation,
+    n_worst: usize,
+) -> ClipEvaluation {
+    let (utterance, warnings) = utterance_of(model, map, input, &MeshMeasureOptions::default());
+    let report = evaluate(
+        std::slice::from_ref(&utterance),
+        &[(input.name, input.fits)],
+        normalisation,
+        n_worst,
+    );
+    ClipEvaluation { utterance, report, warnings }
+}
+
+/// What to evaluate in a session, and how.
+#[derive(Clone, Debug)]
+pub struct EvalRequest {
+    /// Only this clip (by name); all when `None`.
+    pub clip: Option<String>,
+    /// Sealed lips, when it is to replace the session's setting (saved with the fits).
+    pub closure: Option<crate::landmarks::closure::Closure>,
+    pub head_p: HeadP,
+    pub normalisation: Normalisation,
+    /// Rows of the worst-frame tables.
+    pub worst: usize,
+}
+
+impl Default for EvalRequest {
+    fn default() -> Self {
+        Self {
+            clip: None,
+            closure: None,
+            head_p: HeadP::Mesh,
+            normalisation: Normalisation::default(),
+            worst: DEFAULT_WORST_ROWS,
+        }
+    }
+}
+
+/// A session evaluated.
+#[derive(Clone, Debug)]
+pub struct SessionEvaluation {
+    pub report: EvalReport,
+    /// The same tables on each head the motion was transferred onto (`lipmap transfer`).
+    pub transferred: Vec<Table>,
+    /// The clips' utterances and fits.
+    pub clips: ClipsEvaluated,
+    /// Per clip, its flags as lines: a count, then one line per flagged frame.
+    pub flag_lines: Vec<Vec<String>>,
+    /// What was worked around, one line each.
+    pub warnings: Vec<Warning>,
+}
+
+impl SessionEvaluation {
+    /// Every table: the model's, then the transferred heads'.
+    pub fn tables(&self) -> Vec<&Table> {
+        self.report.tables().into_iter().chain(&self.transferred).collect()
+    }
+
+    /// Whether any frame of any clip failed to fit.
+    pub fn any_failed(&self) -> bool {
+        self.clips.fits.iter().flat_map(|(_, f)| f).any(|f| !f.is_usable())
+    }
+}
+
+/// Evaluates a session opened for reading: loads its resources, fits what the cache lacks
+/// (kept when the session is locked by this process), measures every selected clip and
+/// tabulates them, with the clips' flags and the tables of the heads the motion was
+/// transferred onto. Progress: one stage per clip.
+///
+/// # Errors
+/// As [`load_resources`], [`select_clips`] and [`utterances_with`]; the save's error;
+/// [`Error::Invalid`] when every fit failed (the tables would hold nothing but failures).
+pub fn evaluate_session(
+    opened: &mut ReadSession,
+    req: &EvalRequest,
+    progress: ProgressFn<'_>,
+) -> Result<SessionEvaluation> {
+    let (res, mut warnings) = load_resources(&opened.session, &opened.path)?;
+    let clips = select_clips(&opened.session, req.clip.as_deref())?;
+    if clips.iter().all(|&c| opened.session.clips[c].alignment.is_none()) {
+        warnings.push(Warning(
+            "lipmap: warning: no clip has a phone alignment; per-phoneme tables will be empty"
+                .into(),
+        ));
+    }
+    if let Some(c) = req.closure {
+        opened.session.fit_settings.closure = c;
+    }
+    let settings = opened.session.fit_settings.clone();
+    let done = utterances_with(&mut opened.session, &res, &clips, &settings, req.head_p, progress)?;
+    warnings.extend(done.warnings.iter().cloned());
+    opened.save_if_locked()?;
+    require_some_fit(&done.fits)?;
+    let flag_lines = clips
+        .iter()
+        .zip(&done.fits)
+        .map(|(&c, (_, fits))| clip_flag_lines(&opened.session, c, fits))
+        .collect::<std::result::Result<_, _>>()?;
+    let report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+    let (transferred, more) =
+        transferred_head_tables(&opened.session, &res, &done, req.normalisation, req.worst);
+    warnings.extend(more);
+    Ok(SessionEvaluation { report, transferred, clips: done, flag_lines, warnings })
+}
+
+/// Fails when no frame of any clip was fitted: the error is one line with the count and the
+/// first clip's first reason.
+fn require_some_fit(fits: &NamedFits) -> Result<()> {
+    if fits.iter().flat_map(|(_, f)| f).any(FrameFit::is_usable) {
+        return Ok(());
+    }
+    let total: usize = fits.iter().map(|(_, f)| f.len()).sum();
+    let first = fits.iter().find_map(|(clip, f)| {
+        f.iter().find_map(|x| x.failed.as_deref().map(|why| format!("{clip}: {why}")))
+    });
+    Err(Error::Invalid(match first {
+        Some(why) => format!(
+            "every fit failed ({} of {}), nothing to evaluate; first: {why}",
+            plural(total, "frame"),
+            plural(fits.len(), "clip")
+        ),
+        None => "no frame has landmarks to fit".into(),
+    }))
+}
+
+fn plural(n: usize, noun: &str) -> String {
+    if n == 1 { format!("{n} {noun}") } else { format!("{n} {noun}s") }
+}
+
+/// Fits the selected clips of a session with each landmark set of `sets` (the session's
+/// other settings kept) and compares them sentence by sentence, the first set being the
+/// t-tests' baseline (`eval --compare`). New fits are kept when the session is locked by
+/// this process.
+///
+/// # Errors
+/// As [`evaluate_session`]; configurations that cannot be compared.
+pub fn compare_sets(
+    opened: &mut ReadSession,
+    req: &EvalRequest,
+    sets: &[crate::landmarks::LandmarkSet],
+    progress: ProgressFn<'_>,
+) -> Result<(Comparison, Vec<Warning>)> {
+    let (res, mut warnings) = load_resources(&opened.session, &opened.path)?;
+    let clips = select_clips(&opened.session, req.clip.as_deref())?;
+    if let Some(c) = req.closure {
+        opened.session.fit_settings.closure = c;
+    }
+    let base = opened.session.fit_settings.clone();
+    let mut configs = Vec::new();
+    for &set in sets {
+        let settings = FitSettings { set, ..base.clone() };
+        let done =
+            utterances_with(&mut opened.session, &res, &clips, &settings, req.head_p, progress)?;
+        warnings.extend(done.warnings);
+        let utterances = req.normalisation.apply(&done.utterances);
+        configs.push(Configuration { name: set.to_string(), utterances });
+    }
+    opened.save_if_locked()?;
+    Ok((compare_configurations(&configs, 0, RowKey::Sentence)?, warnings))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit(frame: usize, failed: Option<&str>) -> FrameFit {
+        FrameFit { failed: failed.map(String::from), ..FrameFit::unposed(frame) }
+    }
+
+    #[test]
+    fn every_fit_failed_is_an_error() {
+        let why = "too few usable landmarks (2 of 2)";
+        let all = vec![("c".to_string(), vec![fit(0, Some(why)), fit(1, Some(why))])];
+        let e = require_some_fit(&all).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!("every fit failed (2 frames of 1 clip), nothing to evaluate; first: c: {why}")
+        );
+        let some = vec![("c".to_string(), vec![fit(0, Some(why)), fit(1, None)])];
+        assert!(require_some_fit(&some).is_ok());
+        assert_eq!(
+            require_some_fit(&Vec::new()).unwrap_err().to_string(),
+            "no frame has landmarks to fit"
+        );
     }
 }

@@ -246,20 +246,18 @@ pub fn export(
     let (res, warnings) = load_resources(&opened.session, &opened.path)?;
     report.warnings.extend(warnings);
     let settings = opened.session.fit_settings.clone();
-    // Save only when something is fitted now: an up-to-date session stays untouched.
-    let any_stale =
-        clips.iter().any(|&c| !opened.session.stale_frames_with(c, &settings).is_empty());
     let done =
         utterances_with(&mut opened.session, &res, &clips, &settings, HeadP::Mesh, progress)?;
     report.warnings.extend(done.warnings.iter().cloned());
-    if any_stale {
+    // Save only when something is fitted now: an up-to-date session stays untouched.
+    if done.refitted > 0 {
         opened.save_if_locked()?;
     }
     report.failed_fits = done
         .fits
         .iter()
         .map(|(clip, fits)| {
-            (clip.clone(), fits.iter().filter(|f| f.failed.is_some()).cloned().collect::<Vec<_>>())
+            (clip.clone(), fits.iter().filter(|f| !f.is_usable()).cloned().collect::<Vec<_>>())
         })
         .filter(|(_, failed)| !failed.is_empty())
         .collect();
@@ -337,7 +335,7 @@ fn write_meshes(
     let mut written = 0;
     for (i, fit) in fits.iter().enumerate() {
         progress(Progress::Steps { done: done_before + i + 1, total });
-        if fit.failed.is_some() {
+        if !fit.is_usable() {
             continue;
         }
         let shape = fitted_shape(&res.model, fit);
@@ -361,7 +359,8 @@ fn mesh_faces(res: &Resources) -> Vec<Vec<u32>> {
 }
 
 /// The W/H/P chart of one clip: video (blue) against the fitted head (orange), on the scale
-/// the evaluation compares them with, phone boundaries from the clip's alignment.
+/// the evaluation compares them with (named on each y axis), phone boundaries and labels from
+/// the clip's alignment, time in seconds.
 pub fn trajectory_chart(
     u: &Utterance,
     normalisation: Normalisation,
@@ -375,7 +374,8 @@ pub fn trajectory_chart(
     let panels = measures
         .into_iter()
         .map(|m| Panel {
-            label: m.as_str().to_string(),
+            y_label: measure_axis_label(m, normalisation),
+            caption: None,
             series: vec![
                 Series {
                     name: "video".into(),
@@ -392,14 +392,28 @@ pub fn trajectory_chart(
         .collect();
     let alignment = (!compared.alignment.phones.is_empty()).then_some(&compared.alignment);
     draw_trajectories(&TrajectoryPlot {
-        title: u.name.clone(),
+        title: format!("{}: mouth measures, video landmarks (2D) vs fitted 3D head", u.name),
         fps: u.fps,
         alignment,
         panels,
         width,
         panel_height: 160,
-        x_unit: "S",
+        x_label: "time (s)".into(),
     })
+}
+
+/// A measure's y-axis label, two lines: the measure in words, the scale it is compared on.
+fn measure_axis_label(m: Measure, normalisation: Normalisation) -> String {
+    let name = match m {
+        Measure::W => "W mouth width",
+        Measure::H => "H mouth height",
+        Measure::P => "P protrusion",
+    };
+    match (normalisation, m) {
+        (Normalisation::MinMax, _) => format!("{name}\nmin–max scaled, 0–1"),
+        (Normalisation::None, Measure::P) => format!("{name}\n÷ nasion–nose tip length"),
+        (Normalisation::None, _) => format!("{name}\n÷ eye–nose length"),
+    }
 }
 
 #[cfg(test)]

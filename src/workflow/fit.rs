@@ -1,8 +1,12 @@
 //! Fitting a session's clips with the fit cache: refit only what the cache cannot give.
+//!
+//! Start with [`fit_session`] (what `lipmap fit SESSION` does) or, for a use case that fits
+//! on its way to something else, [`fit_clip_cached`].
 
-use super::error::Result;
-use super::resources::{Resources, check_map_for_fit};
-use super::session::image_height;
+use super::error::{Progress, ProgressFn, Result, Warning};
+use super::flags::clip_flag_lines;
+use super::resources::{Resources, check_map_for_fit, load_resources};
+use super::session::{EditSession, image_height, select_clips};
 use crate::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
 use crate::landmarks::FrameLandmarks;
 use crate::math::DVector;
@@ -20,7 +24,7 @@ pub struct ClipFits {
 
 impl ClipFits {
     pub fn failed(&self) -> usize {
-        self.fits.iter().filter(|f| f.failed.is_some()).count()
+        self.fits.iter().filter(|f| !f.is_usable()).count()
     }
 }
 
@@ -66,6 +70,59 @@ pub fn fit_clip_cached(
     Ok(ClipFits { fits, refitted })
 }
 
+/// One clip of a session, fitted.
+#[derive(Clone, Debug)]
+pub struct ClipFitted {
+    pub name: String,
+    pub fits: ClipFits,
+    /// The clip's flags as lines: a count, then one line per flagged frame
+    /// ([`super::flags::flag_lines`]).
+    pub flag_lines: Vec<String>,
+}
+
+/// What fitting a session did.
+#[derive(Clone, Debug, Default)]
+pub struct SessionFitted {
+    pub clips: Vec<ClipFitted>,
+    pub warnings: Vec<Warning>,
+}
+
+impl SessionFitted {
+    /// Whether any frame of any clip failed.
+    pub fn any_failed(&self) -> bool {
+        self.clips.iter().any(|c| c.fits.failed() > 0)
+    }
+}
+
+/// Fits the clips of an opened session (the one called `only`, or all) with `settings`,
+/// which become the session's fit settings, then saves the session with the new fits.
+/// Progress: a stage per clip, then its frames.
+///
+/// # Errors
+/// As [`load_resources`], [`select_clips`] and [`fit_clip_cached`]; the save's error.
+pub fn fit_session(
+    opened: &mut EditSession,
+    settings: &FitSettings,
+    only: Option<&str>,
+    progress: ProgressFn<'_>,
+) -> Result<SessionFitted> {
+    let session = &mut opened.session;
+    session.fit_settings = settings.clone();
+    let (res, warnings) = load_resources(session, &opened.path)?;
+    let mut out = SessionFitted { clips: Vec::new(), warnings };
+    for c in select_clips(session, only)? {
+        let name = session.clip(c)?.name.clone();
+        progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
+        let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
+        let fits = fit_clip_cached(session, &res, c, settings, Some(&steps))?;
+        let flag_lines = clip_flag_lines(session, c, &fits.fits)?;
+        out.clips.push(ClipFitted { name, fits, flag_lines });
+    }
+    progress(Progress::Finished);
+    opened.save()?;
+    Ok(out)
+}
+
 /// Fitted model-space shapes indexed by frame number (`None` for failed or missing fits),
 /// `n_frames` long. Every shape is a whole mesh: for measures use
 /// [`super::measure_fits::head_trajectory`], which keeps none.
@@ -75,82 +132,8 @@ pub fn shapes_by_frame(
     n_frames: usize,
 ) -> Vec<Option<DVector>> {
     let mut shapes = vec![None; n_frames];
-    for f in fits.iter().filter(|f| f.failed.is_none()) {
-        if f.frame < n_frames {
-            shapes[f.frame] = Some(fitted_shape(model, f));
-        }
+    for f in fits.iter().filter(|f| f.is_usable_within(n_frames)) {
+        shapes[f.frame] = Some(fitted_shape(model, f));
     }
     shapes
-}
-
-/// Longest stretch, in seconds, that the analyses learning from a clip's motion (SAQP's
-/// corpus, the speech model's training) fill in from the neighbouring good fits. A phone
-/// lasts about a tenth of a second: past a second the filled-in motion would span several
-/// phones the video never showed, so such a clip is left out instead.
-pub const MAX_FILLED_S: f64 = 1.0;
-
-/// Why frames `0..n` of a clip at `fps` cannot be filled in from `good` (the ascending
-/// frames with a usable fit): the longest run without one, named with its length, when it is
-/// longer than [`MAX_FILLED_S`]; `None` when every run is short enough. Runs before the first
-/// and after the last good frame count too. Nothing is allocated per frame, so a frame number
-/// far past the clip's end costs nothing here.
-pub fn unfillable_run(good: &[usize], n: usize, fps: f64) -> Option<String> {
-    let (mut worst, mut start) = ((0usize, 0usize), 0usize);
-    for &f in good.iter().filter(|&&f| f < n).chain(std::iter::once(&n)) {
-        if f.saturating_sub(start) > worst.1 - worst.0 {
-            worst = (start, f);
-        }
-        start = start.max(f + 1);
-    }
-    let (a, b) = worst;
-    let seconds = (b - a) as f64 / fps;
-    (seconds > MAX_FILLED_S).then(|| {
-        format!(
-            "frames {a}–{} ({seconds:.1} s) have no usable fit; at most {MAX_FILLED_S} s is \
-             filled in from the neighbouring frames",
-            b - 1
-        )
-    })
-}
-
-/// `n` fits, frame f's or, where it failed or is missing, the last good one before it (the
-/// first good one for leading frames); `None` without any good fit.
-pub fn held_fits(fits: &[FrameFit], n: usize) -> Option<Vec<FrameFit>> {
-    let mut by_frame: Vec<Option<&FrameFit>> = vec![None; n];
-    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n) {
-        by_frame[f.frame] = Some(f);
-    }
-    let first = by_frame.iter().flatten().next().copied()?;
-    let mut last = first;
-    Some(
-        by_frame
-            .iter()
-            .enumerate()
-            .map(|(frame, f)| {
-                last = f.unwrap_or(last);
-                FrameFit { frame, ..last.clone() }
-            })
-            .collect(),
-    )
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_longest_unfitted_run_is_named_when_longer_than_a_second() {
-        // At 10 fps: frames 3–12 (1.0 s) are missing: short enough.
-        assert_eq!(unfillable_run(&[0, 1, 2, 13], 14, 10.0), None);
-        let why = unfillable_run(&[0, 1, 2, 14], 15, 10.0).unwrap();
-        assert!(why.starts_with("frames 3–13 (1.1 s)"), "{why}");
-        // Leading and trailing runs count; the worst is named.
-        let why = unfillable_run(&[20, 21], 25, 10.0).unwrap();
-        assert!(why.starts_with("frames 0–19 (2.0 s)"), "{why}");
-        let why = unfillable_run(&[0], 1 << 20, 25.0).unwrap();
-        assert!(why.starts_with("frames 1–1048575"), "{why}");
-        // Frames past n are not fits of this clip.
-        assert!(unfillable_run(&[0, 500], 5, 1.0).unwrap().starts_with("frames 1–4"));
-        assert_eq!(unfillable_run(&[0, 1, 2], 3, 1.0), None);
-    }
 }

@@ -14,7 +14,7 @@ use super::error::{Context, Error, Result, Warning};
 use super::evaluate::{Normalisation, utterance_of_clip};
 use super::indices::{NeutralChoice, SpeakerNeutral, resources_head_indices, speaker_neutral};
 use super::resources::{Resources, check_map_vertices};
-use super::session::{image_height, load_session};
+use super::session::{image_height, read_session};
 use super::transfer::transferred_utterance;
 use super::transfer::{TargetFiles, default_mapping, load_target, mode_name, set_up_for_head};
 use super::{Progress, ProgressFn};
@@ -176,7 +176,8 @@ pub fn load_head(path: &Path, mapping: Option<&Path>, mode: Interpolation) -> Re
         let head = head_obj.is_file().then(|| obj::read_obj(&head_obj)).transpose()?;
         Resources { model, map, head }
     } else if path.is_file() && file_name(path).ends_with(".json") {
-        let session = load_session(path)?;
+        // A head's session is only read: its journal's map edits count, nothing is saved.
+        let session = read_session(path)?.session;
         Resources::load(&session).with_context(|| path.display().to_string())?
     } else {
         return Err(Error::Invalid(format!(

@@ -150,7 +150,8 @@ pub fn speaker_neutral_of(
         Some(n) => (n, NeutralChoice::User),
         None => {
             let h = trajectory_from_track(track, None).h;
-            let n = choose_neutral_frame(&h, alignment, fps).ok_or_else(|| {
+            let n = choose_neutral_frame(&h, alignment, &crate::reference::current().phones, fps)
+                .ok_or_else(|| {
                 Error::Invalid(format!(
                     "clip `{name}`: no frame has a mouth measure to choose a neutral frame"
                 ))

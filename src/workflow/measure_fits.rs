@@ -101,7 +101,7 @@ pub fn head_trajectory(
     let Some(cut) = MeasuredVertices::new(model, map, options) else {
         // The whole mesh is needed per frame: still one shape at a time.
         let mut by_frame: Vec<Option<&FrameFit>> = vec![None; n_frames];
-        for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n_frames) {
+        for f in fits.iter().filter(|f| f.is_usable_within(n_frames)) {
             by_frame[f.frame] = Some(f);
         }
         let frames: Vec<Option<MouthMeasures>> = by_frame
@@ -115,7 +115,7 @@ pub fn head_trajectory(
     };
     let mut frames: Vec<Option<MouthMeasures>> = vec![None; n_frames];
     let mut buffer = DVector::zeros(0);
-    for f in fits.iter().filter(|f| f.failed.is_none() && f.frame < n_frames) {
+    for f in fits.iter().filter(|f| f.is_usable_within(n_frames)) {
         frames[f.frame] = cut.measure(f, &mut buffer);
     }
     Trajectory::from_frames(&frames)

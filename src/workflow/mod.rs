@@ -3,8 +3,10 @@
 //! side view). Plain calls over the core returning typed results and a typed [`Error`];
 //! progress goes to a callback and warnings come back in the result: nothing here prints.
 //!
-//! Start with [`open_for_read`] / [`open_for_edit`] and [`load_resources`], then
-//! [`fit_clip_cached`] and [`utterances_with`], then [`evaluate`].
+//! Start with [`open_for_edit`] / [`read_session`] / [`open_for_read`] (the one way a
+//! session is opened, `session.rs`), then a use case: [`fit_session`], [`evaluate_session`]
+//! (and [`evaluate_clip`] for the TUI's open clip), `export::export`, and one module per
+//! analysis.
 
 pub mod audio;
 pub mod create;
@@ -29,22 +31,25 @@ pub mod speech;
 pub mod speech_session;
 pub mod transfer;
 pub mod untrusted;
+pub mod validate;
 
 pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
 };
 pub use evaluate::{
-    ClipsEvaluated, EvalReport, NamedFits, Normalisation, evaluate, utterance_from_parts,
-    utterance_of_clip, utterances_with,
+    ClipEvaluation, ClipInput, ClipsEvaluated, DEFAULT_WORST_ROWS, EvalReport, EvalRequest,
+    NamedFits, Normalisation, SessionEvaluation, evaluate, evaluate_clip, evaluate_session,
+    utterance_from_parts, utterance_of, utterance_of_clip, utterances_with,
 };
-pub use fit::{ClipFits, fit_clip_cached, shapes_by_frame};
+pub use fit::{ClipFits, ClipFitted, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame};
 pub use resources::{
     MIN_FIT_LANDMARKS, MapCheckError, MapRangeError, Resources, check_map_for_fit,
     check_map_vertices, load_resources, shadowed_map_file,
 };
 pub use session::{
-    EditSession, ReadSession, clip_length, clip_or_first, find_clip, image_height, load_session,
-    open_for_edit, open_for_read, read_only_notice, select_clips, session_path,
+    EditSession, ReadSession, clip_length, clip_or_first, find_clip, image_height, open_for_edit,
+    open_for_edit_at, open_for_read, open_for_read_at, read_only_notice, read_session,
+    select_clips, session_path,
 };
 pub use side_view::{
     HeadP, PROFILE_SETUP_KEY, RenderedHeadP, SidePoint, check_setup_in_frame, head_p_by_render,

@@ -2,12 +2,15 @@
 //! files replace the built-in ones, and the built-ins written out to start such a folder from.
 
 use super::error::{Error, Result};
+use crate::alignment::DEFAULT_PHONES_CSV;
 use crate::eval::visemes::DEFAULT_VISEMES_TOML;
 use crate::landmarks::ibug::DEFAULT_NAMES_CSV;
 use crate::measure::indices::DEFAULT_BOUNDS_CSV;
 use crate::reference::ReferenceTables;
 use std::path::{Path, PathBuf};
 
+/// The phone inventory.
+pub const PHONES_FILE: &str = "phones.csv";
 /// The phoneme → viseme classes.
 pub const VISEMES_FILE: &str = "visemes.toml";
 /// The facial-index class bounds.
@@ -18,7 +21,8 @@ pub const NAMES_FILE: &str = "ibug68.csv";
 pub const KEYMAP_FILE: &str = "keymap.toml";
 
 /// Every file a data folder may hold, with the built-in text it replaces.
-const DATA_FILES: [(&str, &str); 4] = [
+const DATA_FILES: [(&str, &str); 5] = [
+    (PHONES_FILE, DEFAULT_PHONES_CSV),
     (VISEMES_FILE, DEFAULT_VISEMES_TOML),
     (BOUNDS_FILE, DEFAULT_BOUNDS_CSV),
     (NAMES_FILE, DEFAULT_NAMES_CSV),
@@ -50,6 +54,9 @@ pub fn read_data_folder(dir: &Path) -> Result<DataFolder> {
     }
     let present = |name: &str| Some(dir.join(name)).filter(|p| p.exists());
     let mut tables = ReferenceTables::builtin();
+    if let Some(p) = present(PHONES_FILE) {
+        tables.phones = crate::io::phone_table::read_phone_inventory(&p)?;
+    }
     if let Some(p) = present(VISEMES_FILE) {
         tables.visemes = crate::io::viseme_table::read_viseme_table(&p)?;
     }
@@ -124,6 +131,14 @@ mod tests {
         assert_eq!(folder.tables.names.name(30), "tip");
         assert_eq!(folder.tables.visemes, ReferenceTables::builtin().visemes);
         assert_eq!(folder.keymap, None);
+        std::fs::write(
+            dir.path().join(PHONES_FILE),
+            DEFAULT_PHONES_CSV.replace("AE,æ a,", "AE,æ,"),
+        )
+        .unwrap();
+        let folder = read_data_folder(dir.path()).unwrap();
+        assert_eq!(folder.tables.phones.key_of("a"), "a");
+        assert_eq!(folder.tables.names.name(30), "tip");
     }
 
     #[test]
@@ -131,7 +146,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let e = read_data_folder(dir.path()).unwrap_err().to_string();
         assert!(
-            e.contains("holds none of visemes.toml") && e.contains("lipmap tables --out"),
+            e.contains("holds none of phones.csv, visemes.toml")
+                && e.contains("lipmap tables --out"),
             "{e}"
         );
         let file = dir.path().join(VISEMES_FILE);

@@ -4,7 +4,8 @@
 //! researcher's own synthesized motion from files.
 //!
 //! A clip becomes a sentence when it has a phone alignment and at least one good fit. Frames
-//! whose fit failed hold the last good fit, so motion and phones stay frame-aligned. Motion
+//! whose fit failed (or that the flags discredit) are bridged from the good fits on either
+//! side by the fit's gap policy (`fit::gaps`), so motion and phones stay frame-aligned. Motion
 //! is measured from one neutral per session (the identity coefficients averaged over every
 //! good fit of the session's clips, expressions at 0): a session is one speaker, and a
 //! per-clip neutral would carry each clip's identity error into its motion.
@@ -13,14 +14,14 @@
 //! predictors are saved by [`save_predictor`] and read by [`load_predictor`].
 
 use super::error::{Context, Error, Result, Warning};
-use super::fit::{fit_clip_cached, unfillable_run};
+use super::fit::fit_clip_cached;
 use super::flags::clip_flags;
 use super::resources::Resources;
 use super::session::{clip_length, open_for_read};
 use super::{Progress, ProgressFn};
 use crate::alignment::Phone;
 use crate::eval::{Cell, Table};
-use crate::fit::FrameFit;
+use crate::fit::{FrameFit, GapError, fill_gaps};
 use crate::io::alignment_format::read_alignment;
 use crate::io::motion_csv::read_motion_csv;
 use crate::io::obj::read_obj;
@@ -36,11 +37,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// What a quality-model file says it is.
-pub const SAQP_MODEL_FORMAT: &str = "lipmap saqp model";
-/// The version this lipmap writes and reads (2: the predictor sees E and the coverage, keeps
-/// a GP or a line, and records its held-out skill).
-pub const SAQP_MODEL_VERSION: u32 = 2;
+/// What a quality-model file says it is (`io::json_model`).
+pub const SAQP_MODEL_FORMAT: &str = crate::io::json_model::QUALITY_MODEL.format;
+/// The version this lipmap writes and reads.
+pub const SAQP_MODEL_VERSION: u32 = crate::io::json_model::QUALITY_MODEL.version;
 
 /// Where a corpus sentence came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -99,7 +99,7 @@ pub fn session_corpus(
     let mut shared: Option<(Resources, String)> = None;
     for s in sessions {
         let mut read = open_for_read(s)?;
-        g.warnings.extend(read.notice.take());
+        g.warnings.append(&mut read.notices);
         let res = Resources::load(&read.session).map_err(|e| e.context(s))?;
         if let Some((first, name)) = &shared
             && (first.model.num_vertices() != res.model.num_vertices()
@@ -197,10 +197,6 @@ impl Gathering {
             let (frames, bridged) = match bridged_coefficients(&fits, n, fps, &skip) {
                 Ok(b) => b,
                 Err(why) => {
-                    let why = match why {
-                        Unbridged::NoFit => "has no successful fit".to_string(),
-                        Unbridged::Gap(why) => why,
-                    };
                     self.warnings.push(Warning(format!(
                         "lipmap: warning: {s}: clip `{name}`: {why}; not used"
                     )));
@@ -209,7 +205,7 @@ impl Gathering {
             };
             self.frames += n;
             self.bridged += bridged;
-            for f in fits.iter().filter(|f| f.failed.is_none()) {
+            for f in fits.iter().filter(|f| f.is_usable()) {
                 let c = LinearShapes::neutral_of_fit(f);
                 neutral_sum = Some(neutral_sum.map_or_else(|| c.clone(), |sum| sum + &c));
                 good_total += 1;
@@ -251,65 +247,29 @@ impl Gathering {
                 s.name = format!("{stem}:{}", s.name);
             }
         }
-        let corpus =
-            Corpus { shapes: LinearShapes::from_model(&res.model), landmarks: res.map, sentences };
+        let corpus = Corpus {
+            shapes: LinearShapes::from_model(&res.model),
+            landmarks: res.map,
+            sentences,
+            visemes: crate::reference::current().visemes.clone(),
+            phones: crate::reference::current().phones.clone(),
+        };
         corpus.validate().map_err(saqp_error)?;
         Ok(SessionCorpus { corpus, origins, frames, bridged, warnings })
     }
 }
 
-/// Why a clip's fits cannot make a corpus sentence.
-#[derive(Debug, PartialEq)]
-enum Unbridged {
-    NoFit,
-    /// Too long a run without a usable fit, as [`unfillable_run`] words it.
-    Gap(String),
-}
-
-/// The shape coefficients of `n` frames (at `fps`) from `fits`, with frames that failed,
-/// are missing or are listed in `skip` interpolated linearly between the nearest usable
-/// frames (held at the ends), and how many were so bridged. When `skip` leaves no usable
-/// frame it is ignored. Runs longer than [`MAX_FILLED_S`](super::fit::MAX_FILLED_S) are
-/// refused before anything is allocated per frame.
+/// The shape coefficients of `n` frames (at `fps`) from `fits`, the frames without a usable
+/// fit or listed in `skip` filled in by the fit's gap policy ([`fill_gaps`]), and how many
+/// were so bridged.
 fn bridged_coefficients(
     fits: &[FrameFit],
     n: usize,
     fps: f64,
     skip: &[usize],
-) -> std::result::Result<(Vec<DVector>, usize), Unbridged> {
-    let good: Vec<usize> =
-        fits.iter().filter(|f| f.failed.is_none() && f.frame < n).map(|f| f.frame).collect();
-    if good.is_empty() {
-        return Err(Unbridged::NoFit);
-    }
-    let skip: std::collections::HashSet<usize> = skip.iter().copied().collect();
-    let kept: Vec<usize> = good.iter().copied().filter(|f| !skip.contains(f)).collect();
-    let known = if kept.is_empty() { good } else { kept };
-    if let Some(why) = unfillable_run(&known, n, fps) {
-        return Err(Unbridged::Gap(why));
-    }
-    let mut usable: Vec<Option<DVector>> = vec![None; n];
-    for f in fits.iter().filter(|f| known.binary_search(&f.frame).is_ok()) {
-        usable[f.frame] = Some(LinearShapes::coefficients_of_fit(f));
-    }
-    let bridged = n - known.len();
-    let coefficient = |f: usize| usable[f].clone().unwrap_or_else(|| DVector::zeros(0));
-    let frames = (0..n)
-        .map(|f| {
-            let after = known.partition_point(|&k| k < f);
-            match (after.checked_sub(1).map(|i| known[i]), known.get(after).copied()) {
-                (_, Some(b)) if b == f => coefficient(f),
-                (Some(a), Some(b)) => {
-                    let t = (f - a) as f64 / (b - a) as f64;
-                    coefficient(a) * (1.0 - t) + coefficient(b) * t
-                }
-                (Some(a), None) => coefficient(a),
-                (None, Some(b)) => coefficient(b),
-                (None, None) => unreachable!("some frame is usable"),
-            }
-        })
-        .collect();
-    Ok((frames, bridged))
+) -> std::result::Result<(Vec<DVector>, usize), GapError> {
+    let filled = fill_gaps(fits, n, fps, skip)?;
+    Ok((filled.fits.iter().map(LinearShapes::coefficients_of_fit).collect(), filled.filled))
 }
 
 /// `demo` of `sessions/demo.lipmap.json`.
@@ -595,21 +555,7 @@ pub fn save_predictor(path: &Path, file: &SaqpModelFile) -> Result<()> {
 /// One line naming the file: unreadable, not a quality model, another version.
 pub fn load_predictor(path: &Path) -> Result<SaqpModelFile> {
     let fail = |msg: String| Error::Invalid(format!("{}: {msg}", path.display()));
-    let bytes = crate::io::input::read_input(path)?;
-    let head: serde_json::Value = serde_json::from_slice(&bytes)
-        .map_err(|e| fail(format!("not a quality model file: {e}")))?;
-    if head.get("format").and_then(|f| f.as_str()) != Some(SAQP_MODEL_FORMAT) {
-        return Err(fail(format!(
-            "not a quality model file (no `format: \"{SAQP_MODEL_FORMAT}\"`); make one with `lipmap saqp train`"
-        )));
-    }
-    let version = head.get("version").and_then(serde_json::Value::as_u64);
-    if version != Some(u64::from(SAQP_MODEL_VERSION)) {
-        return Err(fail(format!(
-            "quality model version {} is not the version {SAQP_MODEL_VERSION} this lipmap reads",
-            version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
-        )));
-    }
+    let head = crate::io::json_model::read_json_model(path, &crate::io::json_model::QUALITY_MODEL)?;
     let model: SaqpModelFile =
         serde_json::from_value(head).map_err(|e| fail(format!("bad quality model: {e}")))?;
     model.predictor.validate().map_err(|e| fail(format!("bad quality model: {e}")))?;
@@ -636,7 +582,8 @@ pub fn predict_phones(
     name: &str,
     phones: &[Phone],
 ) -> Result<QualityEstimate> {
-    model.predictor.predict(name, phones).map_err(saqp_error)
+    let tables = crate::reference::current();
+    model.predictor.predict(name, phones, &tables.phones, &tables.visemes).map_err(saqp_error)
 }
 
 /// The region PCA of a cross-validation: vertices, dimensions and variance kept per region.
@@ -842,18 +789,24 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
                 |name: &str, colour: [u8; 3], f: &dyn Fn(&crate::saqp::HeldOut) -> f64| Series {
                     name: name.into(),
                     colour,
-                    values: held.iter().map(|h| Some(f(h))).collect(),
+                    // Ranks count from 1: nothing at x = 0.
+                    values: std::iter::once(None).chain(held.iter().map(|h| Some(f(h)))).collect(),
                 };
             Panel {
-                label: format!("{} R {:.2}", s.synth.name(), s.pearson_r),
+                y_label: "Likert score\n1 worst – 5 best".into(),
+                caption: Some(format!(
+                    "{} synthesizer: Pearson r {:.2}",
+                    s.synth.name(),
+                    s.pearson_r
+                )),
                 series: vec![
                     series("ground truth", [31, 119, 180], &|h| h.likert),
                     series("predicted", [255, 127, 14], &|h| h.prediction(s.kept).mean),
-                    series("+SD", [250, 200, 150], &|h| {
+                    series("predicted ± σ", [250, 200, 150], &|h| {
                         let p = h.prediction(s.kept);
                         p.mean + p.std()
                     }),
-                    series("-SD", [250, 200, 150], &|h| {
+                    series("predicted ± σ", [250, 200, 150], &|h| {
                         let p = h.prediction(s.kept);
                         p.mean - p.std()
                     }),
@@ -862,13 +815,13 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
         })
         .collect();
     draw_trajectories(&TrajectoryPlot {
-        title: "Quality of held-out sentences, sorted by ground truth".into(),
+        title: "Quality of held-out sentences (cross-validation): ground truth vs predicted".into(),
         fps: 1.0,
         alignment: None,
         panels,
         width,
         panel_height: 180,
-        x_unit: "RANK",
+        x_label: "held-out sentence, ranked by ground-truth score (rank)".into(),
     })
 }
 
@@ -889,46 +842,17 @@ pub fn write_quality_chart(path: &Path, report: &CvReport) -> Result<()> {
 mod tests {
     use super::*;
 
-    fn fit(frame: usize, value: f64) -> FrameFit {
-        FrameFit { identity: vec![1.0], expression: vec![value], ..FrameFit::unposed(frame) }
-    }
-
-    fn values(frames: &[DVector]) -> Vec<f64> {
-        frames.iter().map(|c| c[1]).collect()
-    }
-
     #[test]
-    fn skipped_and_failed_frames_are_bridged_linearly_and_held_at_the_ends() {
-        let mut fits: Vec<FrameFit> =
-            [(0, 9.0), (1, 0.0), (2, 2.0), (3, 50.0), (4, 6.0)].map(|(f, v)| fit(f, v)).to_vec();
-        fits[1].failed = Some("too few landmarks".into());
-        // Frame 5 is missing from the fits; frame 3 is flagged, frame 0 too.
-        let (frames, bridged) = bridged_coefficients(&fits, 7, 25.0, &[0, 3]).unwrap();
-        assert_eq!(values(&frames), vec![2.0, 2.0, 2.0, 4.0, 6.0, 6.0, 6.0]);
-        assert_eq!(bridged, 5);
-        assert!(frames.iter().all(|c| c[0] == 1.0));
-        // A skip list that would leave nothing is ignored; no good fit at all is `None`.
-        let (frames, bridged) = bridged_coefficients(&fits[..1], 2, 25.0, &[0]).unwrap();
-        assert_eq!((values(&frames), bridged), (vec![9.0, 9.0], 1));
-        fits.iter_mut().for_each(|f| f.failed = Some("x".into()));
-        assert_eq!(bridged_coefficients(&fits, 5, 25.0, &[]), Err(Unbridged::NoFit));
-    }
-
-    #[test]
-    fn a_gap_longer_than_a_second_is_not_bridged() {
-        let fits: Vec<FrameFit> = [0, 1, 27].map(|f| fit(f, 1.0)).to_vec();
-        // 25 missing frames at 25 fps are a second: bridged.
-        assert!(bridged_coefficients(&fits, 28, 25.0, &[]).is_ok());
-        // One more, or a flag that widens the gap, is not.
-        let Err(Unbridged::Gap(why)) = bridged_coefficients(&fits, 28, 24.0, &[]) else {
-            panic!("a 1.04 s gap was bridged")
+    fn bridged_frames_are_the_filled_fits_coefficients() {
+        // The policy itself is tested in `fit::gaps`; here, what a sentence takes of it.
+        let fit = |frame, value| FrameFit {
+            identity: vec![1.0],
+            expression: vec![value],
+            ..FrameFit::unposed(frame)
         };
-        assert!(why.contains("frames 2–26"), "{why}");
-        assert!(bridged_coefficients(&fits, 28, 25.0, &[1]).is_err());
-        // A last frame far past the fits (a hand-edited session) is refused at once.
-        let Err(Unbridged::Gap(why)) = bridged_coefficients(&fits, 1 << 20, 25.0, &[]) else {
-            panic!("bridged to frame 2^20")
-        };
-        assert!(why.contains("frames 28–1048575"), "{why}");
+        let (frames, bridged) =
+            bridged_coefficients(&[fit(0, 0.0), fit(2, 4.0)], 3, 25.0, &[]).unwrap();
+        let values: Vec<[f64; 2]> = frames.iter().map(|c| [c[0], c[1]]).collect();
+        assert_eq!((values, bridged), (vec![[1.0, 0.0], [1.0, 2.0], [1.0, 4.0]], 1));
     }
 }

@@ -13,13 +13,12 @@
 
 use super::error::{Error, Result, Warning};
 use super::evaluate::{EvalReport, Normalisation, evaluate, utterance_of_clip};
-use super::fit::{fit_clip_cached, held_fits, unfillable_run};
+use super::fit::fit_clip_cached;
 use super::resources::Resources;
 use super::session::{ReadSession, clip_length, open_for_read};
 use super::{Progress, ProgressFn};
-use crate::alignment::grouping_label;
 use crate::eval::Utterance;
-use crate::fit::{FrameFit, fitted_shape};
+use crate::fit::{FrameFit, GapError, fill_gaps, fitted_shape};
 use crate::io::npy_model;
 use crate::io::wav::read_wav_at_rate;
 use crate::math::{DMatrix, Point3, Vector3};
@@ -35,10 +34,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// What a speech model file says it is.
-pub const SPEECH_MODEL_FORMAT: &str = "lipmap speech model";
+/// What a speech model file says it is (`io::json_model`).
+pub const SPEECH_MODEL_FORMAT: &str = crate::io::json_model::SPEECH_MODEL.format;
 /// The version this lipmap writes and reads.
-pub const SPEECH_MODEL_VERSION: u32 = 1;
+pub const SPEECH_MODEL_VERSION: u32 = crate::io::json_model::SPEECH_MODEL.version;
 /// The audio rate models are trained at (audio recorded faster is downsampled).
 pub const SPEECH_SAMPLE_RATE: u32 = 16_000;
 /// Relative ridge of [`MouthDriver`]: small, so reachable mouth shapes are reproduced.
@@ -114,22 +113,7 @@ impl HeadBinding {
 /// One line naming the file: unreadable, not a speech model, another version, inconsistent.
 pub fn load_speech_model(path: &Path) -> Result<SpeechModelFile> {
     let fail = |msg: String| Error::Invalid(format!("{}: {msg}", path.display()));
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::Io { path: path.to_path_buf(), source: e })?;
-    let head: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| fail(format!("not a speech model file: {e}")))?;
-    if head.get("format").and_then(|f| f.as_str()) != Some(SPEECH_MODEL_FORMAT) {
-        return Err(fail(format!(
-            "not a speech model file (no `format: \"{SPEECH_MODEL_FORMAT}\"`); make one with `lipmap speech train`"
-        )));
-    }
-    let version = head.get("version").and_then(serde_json::Value::as_u64);
-    if version != Some(u64::from(SPEECH_MODEL_VERSION)) {
-        return Err(fail(format!(
-            "speech model version {} is not the version {SPEECH_MODEL_VERSION} this lipmap reads",
-            version.map_or_else(|| "(missing)".to_string(), |v| v.to_string())
-        )));
-    }
+    let head = crate::io::json_model::read_json_model(path, &crate::io::json_model::SPEECH_MODEL)?;
     let file: SpeechModelFile =
         serde_json::from_value(head).map_err(|e| fail(format!("bad speech model: {e}")))?;
     file.speech.validate().map_err(|e| fail(format!("inconsistent speech model: {e}")))?;
@@ -246,7 +230,7 @@ fn clip_data(
         c.alignment
             .as_ref()
             .and_then(|a| a.phone_at(t))
-            .is_some_and(|p| grouping_label(&p.label) == "sil")
+            .is_some_and(|p| crate::reference::current().phones.is_silence(&p.label))
     };
     let n = clip_length(session, clip)?;
     let silent: Vec<bool> = (0..n).map(|f| silent_of(f as f64 / fps)).collect();
@@ -254,17 +238,18 @@ fn clip_data(
     let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
     let settings = session.fit_settings.clone();
     let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))?.fits;
-    // Failed frames are held, and held motion past a second is not speech; checked before
-    // the audio and the held fits are sized by the clip's length.
-    let good: Vec<usize> =
-        fits.iter().filter(|f| f.failed.is_none() && f.frame < n).map(|f| f.frame).collect();
-    if let Some(why) = unfillable_run(&good, n, fps).filter(|_| !good.is_empty()) {
-        warnings.push(Warning(format!("clip `{name}`: {why}; not used")));
-        return Ok(None);
-    }
-    let Some(fits) = held_fits(&fits, n) else {
-        warnings.push(Warning(format!("clip `{name}` has no successful fit; not used")));
-        return Ok(None);
+    // Frames without a usable fit are filled in by the fit's gap policy (too long a gap is
+    // not speech); checked before the audio is sized by the clip's length.
+    let fits = match fill_gaps(&fits, n, fps, &[]) {
+        Ok(filled) => filled.fits,
+        Err(GapError::NoUsableFit) => {
+            warnings.push(Warning(format!("clip `{name}` has no successful fit; not used")));
+            return Ok(None);
+        }
+        Err(why) => {
+            warnings.push(Warning(format!("clip `{name}`: {why}; not used")));
+            return Ok(None);
+        }
     };
     let samples = clip_samples(&audio, SPEECH_SAMPLE_RATE, n as f64 / fps)
         .map_err(|e| Error::Invalid(format!("clip `{name}`: {e}")))?;
@@ -319,7 +304,7 @@ pub fn train_speech(
     let mut binding: Option<(HeadBinding, PathBuf)> = None;
     for s in sessions {
         let mut o = open(s)?;
-        warnings.extend(o.read.notice.take());
+        warnings.append(&mut o.read.notices);
         let mref = o.read.session.model.clone().ok_or(Error::NoModel)?;
         match &binding {
             Some((b, first)) if b.mouth_vertices != o.mouth => {
@@ -520,7 +505,7 @@ pub fn evaluate_speech(
     progress: ProgressFn<'_>,
 ) -> Result<SpeechEvaluation> {
     let mut o = open(session)?;
-    let mut warnings: Vec<Warning> = o.read.notice.take().into_iter().collect();
+    let mut warnings: Vec<Warning> = std::mem::take(&mut o.read.notices);
     let mut driven = Vec::new();
     for clip in 0..o.read.session.clips.len() {
         let d = drive_clip(model, &mut o.read.session, &o.res, clip, progress, &mut warnings)

@@ -22,7 +22,7 @@ pub fn record_speech_model(sessions: &[String], model: &Path) -> Vec<Warning> {
         .filter_map(|s| {
             let recorded = open_for_edit(s).and_then(|mut e| {
                 e.session.speech_model = Some(model.clone());
-                e.session.save(&e.path).map_err(Error::from)
+                e.save()
             });
             recorded.err().map(|e| {
                 Warning(format!(

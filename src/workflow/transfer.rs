@@ -127,7 +127,7 @@ pub fn transfer_fits(
     fits: &[FrameFit],
 ) -> Result<Vec<(usize, DVector)>> {
     fits.iter()
-        .filter(|f| f.failed.is_none())
+        .filter(|f| f.is_usable())
         .map(|f| {
             let shape = transfer
                 .apply(&fitted_shape(&res.model, f))

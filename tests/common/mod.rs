@@ -36,6 +36,35 @@ pub fn carphone(n_frames: usize) -> Option<Carphone> {
     Some(Carphone { _dir: dir, root, frames, landmarks, eos })
 }
 
+/// The MakeHuman head (`../shared/data/makehuman/base.obj`, `None` with a skip notice when
+/// absent): its folder, mesh, skin mask and the repository's hand map (mouth corners
+/// completed).
+pub fn makehuman() -> Option<(PathBuf, lipmap::model::Mesh, Vec<bool>, lipmap::model::LandmarkMap)>
+{
+    let Some(dir) = lipmap::testdata::shared("data/makehuman") else {
+        eprintln!("skipped: ../shared/data/makehuman is absent");
+        return None;
+    };
+    let path = dir.join("base.obj");
+    let mesh = lipmap::io::obj::read_obj(&path).unwrap();
+    let skin = lipmap::io::obj::labelable_vertices(&path).unwrap().unwrap();
+    let fixture =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let map = lipmap::io::landmark_map_toml::read_landmark_map(&fixture)
+        .unwrap()
+        .with_commissures_completed();
+    Some((dir, mesh, skin, map))
+}
+
+/// The rows of `lipmap saqp cv --json`'s summary, one per synthesizer: its kept calibration.
+pub fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
+    let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
+    let summary = &tables["summary"];
+    assert!(summary["title"].as_str().unwrap().starts_with("Predicted vs ground-truth"));
+    let rows = summary["rows"].as_array().expect("the synthesizer table");
+    rows.iter().filter(|r| r["kept"] == "yes").cloned().collect()
+}
+
 /// `lipmap demo --no-tui --sentences 1 --out DIR/demo` run by the binary under test; returns
 /// the demo session's path.
 pub fn demo_session(dir: &Path) -> PathBuf {

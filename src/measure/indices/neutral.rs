@@ -1,6 +1,6 @@
 //! The default neutral frame on which indices are taken: the least open mouth in silence.
 
-use crate::alignment::{Alignment, grouping_label};
+use crate::alignment::{Alignment, PhoneInventory};
 use crate::measure::Series;
 use serde::{Deserialize, Serialize};
 
@@ -13,10 +13,15 @@ pub struct NeutralFrame {
 
 /// The default neutral frame: the frame with the smallest mouth opening `h` (a per-frame
 /// series such as the normalised H trajectory) among frames inside silence intervals
-/// (labels that group to `sil`, frames by [`Alignment::frames_of`]); ties go to the earliest
+/// (labels `phones` takes for silence, frames by [`Alignment::frames_of`]); ties go to the earliest
 /// frame. When no silence frame has a value, the smallest opening over the whole clip, with
 /// `in_silence = false` so the caller can tell the user. `None` when `h` has no value.
-pub fn choose_neutral_frame(h: &Series, alignment: &Alignment, fps: f64) -> Option<NeutralFrame> {
+pub fn choose_neutral_frame(
+    h: &Series,
+    alignment: &Alignment,
+    phones: &PhoneInventory,
+    fps: f64,
+) -> Option<NeutralFrame> {
     let smallest = |frames: &mut dyn Iterator<Item = usize>| -> Option<usize> {
         let mut best: Option<(usize, f64)> = None;
         for f in frames {
@@ -30,7 +35,7 @@ pub fn choose_neutral_frame(h: &Series, alignment: &Alignment, fps: f64) -> Opti
     };
     let mut silence = Vec::new();
     if fps.is_finite() && fps > 0.0 {
-        for p in alignment.phones.iter().filter(|p| grouping_label(&p.label) == "sil") {
+        for p in alignment.phones.iter().filter(|p| phones.is_silence(&p.label)) {
             silence.extend(Alignment::frames_of(p, fps));
         }
     }

@@ -1,7 +1,7 @@
 //! Known-answer tests of the facial indices, bounds, box plots, matching and neutral frame.
 
 use super::*;
-use crate::alignment::{Alignment, Phone};
+use crate::alignment::{Alignment, Phone, PhoneInventory};
 use crate::math::{DVector, Point2};
 use crate::measure::{MeasureError, Series};
 use crate::model::LandmarkMap;
@@ -217,13 +217,13 @@ fn neutral_frame_is_smallest_opening_in_silence() {
     let h: Series =
         [0.3, 0.2, 0.25, 0.5, 0.0, 0.4, 0.3, 0.1, 0.1, 0.2].into_iter().map(Some).collect();
     assert_eq!(
-        choose_neutral_frame(&h, &al, 10.0),
+        choose_neutral_frame(&h, &al, &PhoneInventory::default(), 10.0),
         Some(NeutralFrame { frame: 7, in_silence: true })
     );
     let none = Alignment { phones: vec![Phone { start: 0.0, end: 1.0, label: "AA1".into() }] };
     assert_eq!(
-        choose_neutral_frame(&h, &none, 10.0),
+        choose_neutral_frame(&h, &none, &PhoneInventory::default(), 10.0),
         Some(NeutralFrame { frame: 4, in_silence: false })
     );
-    assert_eq!(choose_neutral_frame(&vec![None; 3], &al, 10.0), None);
+    assert_eq!(choose_neutral_frame(&vec![None; 3], &al, &PhoneInventory::default(), 10.0), None);
 }

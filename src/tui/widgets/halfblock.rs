@@ -4,7 +4,9 @@
 //! `Mapping` is the one place screen cells and image pixels are converted, so drawing and
 //! mouse hit-testing agree. Image coordinates: pixel centres at integers, y down.
 
-use crate::tui::app::{FrameImage, ImageView};
+use crate::tui::app::FrameImage;
+
+use crate::tui::screens::frames::ImageView;
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Style};

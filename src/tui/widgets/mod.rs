@@ -1,7 +1,6 @@
 //! TUI building blocks with no view logic: the half-block image widget, terminal graphics
-//! protocols, the worker threads for decoding and fitting, and terminal setup/restore.
+//! protocols, and terminal setup/restore.
 
 pub mod graphics;
 pub mod halfblock;
 pub mod terminal;
-pub mod worker;

@@ -205,7 +205,7 @@ pub fn colour_rgb(c: Color) -> [u8; 3] {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
-    use crate::tui::app::ImageView;
+    use crate::tui::screens::frames::ImageView;
     use ratatui::layout::Rect;
     use ratatui::style::Style;
 

@@ -169,7 +169,7 @@ impl GraphicsState {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tui::app::ImageView;
+    use crate::tui::screens::frames::ImageView;
     use crate::tui::widgets::graphics::raster::tests::{gradient, marker};
     use ratatui::layout::Rect;
     use ratatui::style::{Color, Style};

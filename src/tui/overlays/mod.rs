@@ -1,0 +1,33 @@
+//! The overlays over the screen, a stack whose top one sees a key first: the help (from the
+//! keymap and the actions' help text) and the prompts (a number the user types). `update` has
+//! their handlers, `view` their drawing.
+
+pub mod update;
+pub mod view;
+
+/// What a prompt asks for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PromptKind {
+    GotoPoint,
+    GotoFrame,
+    Propagate,
+    GotoLabel,
+}
+
+impl PromptKind {
+    pub fn question(self) -> &'static str {
+        match self {
+            Self::GotoPoint => "point number (0-67)",
+            Self::GotoFrame => "frame number",
+            Self::Propagate => "propagate to how many next frames (Enter = 10)",
+            Self::GotoLabel => "landmark to label (0-67)",
+        }
+    }
+}
+
+/// Overlays stack over the view; the top one sees keys first.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Overlay {
+    Help { scroll: u16 },
+    Prompt { kind: PromptKind, input: String },
+}

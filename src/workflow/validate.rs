@@ -1,0 +1,183 @@
+//! Validating a file of any kind lipmap reads (`lipmap validate`): its kind detected
+//! (`io::file_kind`), then parsed by that kind's own reader, and what it holds summarised as
+//! typed values for the front to word. A session is read as every reader reads it
+//! ([`read_session`]): with its journal, whose unsaved edits are counted.
+//!
+//! Start with [`validate_file`].
+
+use super::error::{Error, Result, Warning};
+use super::session::read_session;
+use crate::io::file_kind::{FileKind, detect_kind};
+use crate::io::frames::{FrameOptions, FrameSource};
+use crate::io::{alignment_format, landmark_format, landmark_map_toml, makehuman_target};
+use crate::io::{model_source, obj};
+use std::path::{Path, PathBuf};
+
+/// What a valid file holds.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FileSummary {
+    Session {
+        clips: usize,
+        /// The map checked on the head: its one-line summary, or why it was not checked;
+        /// `None` without a map.
+        map: Option<std::result::Result<String, String>>,
+        /// What reading it noticed (edits of its journal applied, a journal not applied).
+        notices: Vec<Warning>,
+    },
+    Landmarks {
+        frames: usize,
+    },
+    Alignment {
+        phones: usize,
+    },
+    Mesh {
+        vertices: usize,
+        faces: usize,
+    },
+    Model {
+        vertices: usize,
+        shape_components: usize,
+        expressions: usize,
+    },
+    /// An eos expression-blendshape file.
+    Blendshapes {
+        expressions: usize,
+        vertices: usize,
+    },
+    /// A folder of MakeHuman targets.
+    BlendshapeFolder {
+        targets: usize,
+    },
+    LandmarkMap {
+        landmarks: usize,
+    },
+    Target {
+        offsets: usize,
+    },
+    Audio {
+        seconds: f64,
+        sample_rate: u32,
+    },
+    SpeechModel {
+        states: usize,
+        frame_rate: f64,
+        drives: PathBuf,
+    },
+    QualityModel {
+        sentences: usize,
+        sessions: usize,
+    },
+    Motion {
+        frames: usize,
+        vertices: usize,
+    },
+    /// A video (`folder` false) or a folder of images, whose rate is then assumed.
+    Frames {
+        folder: bool,
+        frames: usize,
+        fps: f64,
+        size: [u32; 2],
+    },
+}
+
+/// Parses `path` as the kind it is and summarises it.
+///
+/// # Errors
+/// The reader's one-line error (naming the file and line or field); a mesh without faces.
+pub fn validate_file(path: &Path) -> Result<FileSummary> {
+    Ok(match detect_kind(path) {
+        FileKind::Session => {
+            let read = read_session(path)?;
+            let map = super::map::check_session_map(&read.session)
+                .map(|c| c.map(|c| c.summary()))
+                .map_err(|e| e.to_string())
+                .transpose();
+            FileSummary::Session { clips: read.session.clips.len(), map, notices: read.notices }
+        }
+        FileKind::Landmarks => {
+            FileSummary::Landmarks { frames: landmark_format::read_track(path)?.len() }
+        }
+        FileKind::Alignment => FileSummary::Alignment {
+            phones: alignment_format::read_alignment(path, None)?.phones.len(),
+        },
+        FileKind::Mesh => {
+            let m = obj::read_obj(path)?;
+            if m.faces.is_empty() {
+                return Err(Error::Invalid(format!("{}: a mesh with no faces", path.display())));
+            }
+            FileSummary::Mesh { vertices: m.vertices.len(), faces: m.faces.len() }
+        }
+        FileKind::Model => match model_source::load_model(path, None) {
+            Ok(m) => FileSummary::Model {
+                vertices: m.num_vertices(),
+                shape_components: m.num_shape_components(),
+                expressions: m.num_expressions(),
+            },
+            // Blendshapes share the model files' names (.bin, .npy, folders).
+            Err(e) => blendshapes_summary(path).ok_or(e)??,
+        },
+        FileKind::LandmarkMap => FileSummary::LandmarkMap {
+            landmarks: landmark_map_toml::read_landmark_map(path)?.len(),
+        },
+        FileKind::Target => {
+            FileSummary::Target { offsets: makehuman_target::read_target(path)?.len() }
+        }
+        FileKind::Audio => {
+            let a = crate::io::wav::read_wav(path)?;
+            let seconds = a.samples.len() as f64 / f64::from(a.sample_rate);
+            FileSummary::Audio { seconds, sample_rate: a.sample_rate }
+        }
+        FileKind::SpeechModel => {
+            let m = super::speech::load_speech_model(path)?;
+            FileSummary::SpeechModel {
+                states: m.speech.hmm.n_states(),
+                frame_rate: m.speech.features.mfcc.frame_rate,
+                drives: m.head.model,
+            }
+        }
+        FileKind::QualityModel => {
+            let m = super::saqp::load_predictor(path)?;
+            FileSummary::QualityModel { sentences: m.sentences, sessions: m.sessions.len() }
+        }
+        FileKind::Motion => {
+            let m = crate::io::motion_csv::read_motion_csv(path)?;
+            FileSummary::Motion { frames: m.frames.len(), vertices: m.vertices.len() }
+        }
+        FileKind::Video | FileKind::Frames => {
+            let f = FrameSource::open(path, &FrameOptions::default())?;
+            let folder = f.path().is_dir();
+            FileSummary::Frames { folder, frames: f.len(), fps: f.fps(), size: f.size() }
+        }
+    })
+}
+
+/// `path` read as expression blendshapes (an eos `.bin`, or a folder of MakeHuman targets);
+/// `None` when it is neither, so the model's error stands.
+fn blendshapes_summary(path: &Path) -> Option<Result<FileSummary>> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if path.is_file() && ext.as_deref() == Some("bin") {
+        // Neither a model nor blendshapes: the model's error is the one to show.
+        let e = crate::io::eos_bin::read_eos_blendshapes(path).ok()?;
+        let (expressions, vertices) = (e.deltas.ncols(), e.deltas.nrows() / 3);
+        return Some(Ok(FileSummary::Blendshapes { expressions, vertices }));
+    }
+    if !path.is_dir() {
+        return None;
+    }
+    let mut targets: Vec<PathBuf> = std::fs::read_dir(path)
+        .ok()?
+        .flatten()
+        .map(|d| d.path())
+        .filter(|p| makehuman_target::is_target_file(p))
+        .collect();
+    if targets.is_empty() {
+        return None;
+    }
+    targets.sort();
+    let checked = targets.iter().try_for_each(|t| makehuman_target::read_target(t).map(drop));
+    Some(
+        checked
+            .map(|()| FileSummary::BlendshapeFolder { targets: targets.len() })
+            .map_err(Error::from),
+    )
+}

@@ -234,10 +234,25 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let trained: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
     type Damage = fn(&mut serde_json::Value);
-    let damages: [(&str, Damage); 3] = [
+    // Absurd values that parse: each refused by the field, none scored (a target mean of
+    // 1e308 once predicted 1e308 on the 1–5 scale).
+    let damages: [(&str, Damage); 12] = [
         ("targets", |m| m["predictor"]["gp"]["targets"] = serde_json::json!([])),
         ("order", |m| m["predictor"]["satf"]["order"] = serde_json::json!(4_294_967_296u64)),
         ("stats.dims", |m| m["predictor"]["stats"]["dims"] = serde_json::json!(0)),
+        ("gp.target_mean", |m| m["predictor"]["gp"]["target_mean"] = serde_json::json!(1e308)),
+        ("gp.targets", |m| m["predictor"]["gp"]["targets"][0] = serde_json::json!(-7.0)),
+        ("omega_m", |m| m["predictor"]["omega_m"] = serde_json::json!(1e308)),
+        ("xi", |m| m["predictor"]["xi"] = serde_json::json!(-1.0)),
+        ("fps", |m| m["predictor"]["fps"] = serde_json::json!(0.0)),
+        ("gp.hyper.noise_variance", |m| {
+            m["predictor"]["gp"]["hyper"]["noise_variance"] = serde_json::json!(1e300)
+        }),
+        ("linear.coefficients", |m| {
+            m["predictor"]["linear"]["coefficients"][1] = serde_json::json!(1e100)
+        }),
+        ("gp.inputs", |m| m["predictor"]["gp"]["inputs"][0][1] = serde_json::json!(7.0)),
+        ("skill.ratio", |m| m["predictor"]["skill"]["ratio"] = serde_json::json!(-1.0)),
     ];
     let damaged = dir.path().join("damaged.json");
     for (field, damage) in damages {

@@ -147,6 +147,22 @@ impl LinearCalibration {
     }
 }
 
+impl LinearCalibration {
+    /// Whether `other` holds the same line (to a relative 1e-6): how a line read from a file
+    /// is checked against the one its training pairs give.
+    pub fn agrees_with(&self, other: &Self) -> bool {
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1.0);
+        let values = |c: &Self| {
+            let mut v = c.coefficients.clone();
+            v.extend(c.inverse_gram.iter().flatten());
+            v.push(c.residual_variance);
+            v
+        };
+        let (a, b) = (values(self), values(other));
+        a.len() == b.len() && a.iter().zip(&b).all(|(x, y)| close(*x, *y))
+    }
+}
+
 /// A fitted calibration of either kind, as a predictor uses it.
 pub fn predict_with(
     kind: CalibrationKind,

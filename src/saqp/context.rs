@@ -158,8 +158,14 @@ impl ContextStats {
             return Err(format!("stats.dims {} is not between 1 and {MAX_DIMS}", self.dims));
         }
         let o = &self.options;
-        if ![o.shrinkage, o.variance_floor].iter().all(|v| v.is_finite() && *v >= 0.0) {
-            return Err("stats.options: shrinkage and variance_floor must be ≥ 0".into());
+        if !((0.0..=1e6).contains(&o.shrinkage)
+            && o.variance_floor > 0.0
+            && o.variance_floor <= 1.0)
+        {
+            return Err(
+                "stats.options: shrinkage must be within 0–1e6 and variance_floor within 0–1 (above 0)"
+                    .into(),
+            );
         }
         let check = |table: &str, acc: &Acc| {
             if acc.sum.len() != self.dims || acc.sumsq.len() != self.dims {
@@ -188,9 +194,11 @@ impl ContextStats {
             Ok(())
         };
         check("global", &self.global)?;
-        let o = &self.options;
-        if !(o.shrinkage <= 1e6 && o.variance_floor <= 1.0) {
-            return Err("stats.options: shrinkage beyond 1e6 or variance_floor beyond 1".into());
+        // Every variance is floored at a fraction of the global one, which E divides by.
+        let g = &self.global;
+        let n = g.n as f64;
+        if g.sum.iter().zip(&g.sumsq).any(|(s, q)| q / n - (s / n).powi(2) <= 0.0) {
+            return Err("stats.global: a dimension without variance".into());
         }
         self.tri.values().try_for_each(|a| check("tri", a))?;
         self.di.values().try_for_each(|a| check("di", a))?;

@@ -22,6 +22,7 @@ use super::SaqpError;
 use super::calibration::{CalibrationKind, LinearCalibration};
 use super::context::ContextOptions;
 use super::corpus::Corpus;
+use super::coverage::predictor_inputs;
 use super::gp::{GaussianProcess, GpPrediction};
 use super::motion::RegionSummary;
 use super::prepared::Prepared;
@@ -93,7 +94,7 @@ impl Default for CvOptions {
 pub struct HeldOut {
     pub sentence: String,
     pub e: f64,
-    /// The predictor's inputs ([`super::satf::INPUT_NAMES`]: E and the coverage).
+    /// The predictor's inputs ([`super::coverage::INPUT_NAMES`]: E and the coverage).
     pub inputs: Vec<f64>,
     /// Ground-truth error (eq. 8) and its Likert score.
     pub q: f64,
@@ -120,6 +121,8 @@ pub struct OmegaScore {
     /// The paper's criterion: RMSE of the GP's leave-one-sentence-out predictions of the
     /// training scores.
     pub rmse: f64,
+    /// The standard error of `rmse`, sentences as the unit.
+    pub rmse_error: f64,
     /// The training scores' standard deviation (what the training mean would err by).
     pub spread: f64,
 }
@@ -318,7 +321,7 @@ impl Scorer<'_> {
             .collect::<Result<Vec<_>, SaqpError>>()?;
         Ok(Some(Pair {
             sentence: target,
-            inputs: fit.inputs(&self.prepared.phones, &s.ids),
+            inputs: predictor_inputs(&fit, set.index(), &self.prepared.phones, &s.ids),
             parts,
         }))
     }
@@ -574,6 +577,44 @@ fn spread(v: &[f64]) -> f64 {
     root_mean_square(&v.iter().map(|x| x - mean).collect::<Vec<_>>())
 }
 
+/// The RMSE of residuals and its standard error. Pairs of one sentence (scored in several
+/// sub-corpora) are not independent, so the error comes from the spread of the sentences'
+/// mean squared residuals (a cluster standard error), carried to the root by the delta
+/// method: se(√m) = se(m) / (2√m).
+fn rmse_with_error(residuals: &[f64], groups: &[usize]) -> (f64, f64) {
+    let rmse = root_mean_square(residuals);
+    let mut per: std::collections::BTreeMap<usize, (f64, usize)> = Default::default();
+    for (r, &g) in residuals.iter().zip(groups) {
+        let e = per.entry(g).or_default();
+        e.0 += r * r;
+        e.1 += 1;
+    }
+    let means: Vec<f64> = per.values().map(|(s, n)| s / *n as f64).collect();
+    if means.len() < 2 || rmse <= 0.0 {
+        return (rmse, 0.0);
+    }
+    let se_mse = spread(&means) * (means.len() as f64 / (means.len() - 1) as f64).sqrt()
+        / (means.len() as f64).sqrt();
+    (rmse, se_mse / (2.0 * rmse))
+}
+
+/// The ω_m the paper's criterion picks (§5.3, Fig. 6: the lowest cross-validated RMSE),
+/// with the one-standard-error rule (Hastie, Tibshirani & Friedman, "The Elements of
+/// Statistical Learning", §7.10): of the candidates whose RMSE is within one standard error
+/// of the lowest, the smallest ω_m. Index into `scores`; `None` when empty.
+///
+/// The rule matters where the curve is flat within noise (on the demo the concatenative
+/// synthesizer's RMSEs for ω_m = 2–5 differ by less than a tenth of their standard error):
+/// the plain minimum then follows the noise to a weight the data do not support, whose
+/// scores the predictor follows less well on held-out sentences (docs/saqp.md).
+pub fn choose_omega(scores: &[OmegaScore]) -> Option<usize> {
+    let best = scores.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse))?;
+    let bound = best.rmse + best.rmse_error;
+    (0..scores.len())
+        .filter(|&k| scores[k].rmse <= bound)
+        .min_by(|&a, &b| scores[a].omega_m.total_cmp(&scores[b].omega_m))
+}
+
 fn fit_synth(
     si: usize,
     kind: SynthKind,
@@ -592,19 +633,16 @@ fn fit_synth(
             let scored = scored_at(si, pairs, w)?;
             let gp = GaussianProcess::fit(&scored.inputs, &scored.scores, options.restarts)?;
             let residuals = gp.group_residuals(&scored.groups)?;
-            let score = OmegaScore {
-                omega_m: w,
-                rmse: root_mean_square(&residuals),
-                spread: spread(&scored.scores),
-            };
+            let (rmse, rmse_error) = rmse_with_error(&residuals, &scored.groups);
+            let score = OmegaScore { omega_m: w, rmse, rmse_error, spread: spread(&scored.scores) };
             Ok((score, scored, gp))
         })
         .collect::<Result<_, SaqpError>>()?;
     let omega_scores: Vec<OmegaScore> = fits.iter().map(|f| f.0).collect();
-    let (chosen, scored, gp) = fits
-        .into_iter()
-        .min_by(|a, b| a.0.rmse.total_cmp(&b.0.rmse))
-        .ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
+    let pick =
+        choose_omega(&omega_scores).ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
+    let (chosen, scored, gp) =
+        fits.into_iter().nth(pick).ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
     let linear = LinearCalibration::fit(&scored.inputs, &scored.scores)?;
     let linear_training_rmse = root_mean_square(&LinearCalibration::group_residuals(
         &scored.inputs,
@@ -662,4 +700,33 @@ fn fit_synth(
         gp_skill,
         linear_skill,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(omega_m: f64, rmse: f64, rmse_error: f64) -> OmegaScore {
+        OmegaScore { omega_m, rmse, rmse_error, spread: 0.4 }
+    }
+
+    #[test]
+    fn omega_is_the_smallest_within_one_standard_error_of_the_lowest() {
+        let flat = [score(1.0, 0.313, 0.02), score(2.0, 0.301, 0.02), score(5.0, 0.299, 0.018)];
+        assert_eq!(choose_omega(&flat), Some(0));
+        let clear = [score(1.0, 0.40, 0.01), score(3.0, 0.30, 0.01), score(4.0, 0.305, 0.01)];
+        assert_eq!(choose_omega(&clear), Some(1));
+        assert_eq!(choose_omega(&[]), None);
+    }
+
+    #[test]
+    fn the_rmse_error_counts_sentences_not_pairs() {
+        // Two sentences scored twice each: the error is that of two values, not four.
+        let (rmse, se) = rmse_with_error(&[1.0, 1.0, 3.0, 3.0], &[7, 7, 9, 9]);
+        assert!((rmse - 5.0f64.sqrt()).abs() < 1e-12);
+        // Sentence mean squares 1 and 9: sample sd 4√2, se of their mean 4, through the root.
+        let want = 4.0 / (2.0 * rmse);
+        assert!((se - want).abs() < 1e-12, "{se} vs {want}");
+        assert_eq!(rmse_with_error(&[0.5, 0.5], &[1, 1]).1, 0.0);
+    }
 }

@@ -297,6 +297,9 @@ impl GaussianProcess {
         if self.targets.iter().any(|v| !v.is_finite()) {
             return Err("gp.targets: a value is not finite".into());
         }
+        if !self.nlml.is_finite() {
+            return Err("gp.nlml is not finite".into());
+        }
         let h = &self.hyper;
         let (lo, hi) = ((-LOG_BOUND).exp(), LOG_BOUND.exp());
         for (name, v) in h

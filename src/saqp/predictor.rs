@@ -8,10 +8,11 @@ use super::SaqpError;
 use super::calibration::{CalibrationKind, LinearCalibration, predict_with};
 use super::context::{ContextLevel, ContextStats};
 use super::corpus::Corpus;
+use super::coverage::{ContextIndex, INPUT_NAMES, predictor_inputs};
 use super::cv::{CvOptions, CvReport, cross_validate_prepared};
 use super::gp::{GaussianProcess, GpPrediction};
 use super::prepared::{PhoneSet, Prepared};
-use super::satf::{INPUT_NAMES, SatfParams, fit_trajectory};
+use super::satf::{SatfParams, fit_trajectory};
 use super::skill::Skill;
 use super::synth::{External, SynthKind};
 use crate::alignment::Phone;
@@ -43,6 +44,8 @@ pub struct Predictor {
     pub skill: Skill,
     phones: PhoneSet,
     stats: ContextStats,
+    /// The phone ids of every corpus sentence, what the coverage input is measured against.
+    sequences: Vec<Vec<u16>>,
 }
 
 /// Largest ω_m a model file may hold (the paper's grid is 1–5).
@@ -103,11 +106,34 @@ impl Predictor {
                 crate::math::short_number(mean)
             ));
         }
+        // E is a weighted sum of squares, the coverage a share.
+        let in_range = |x: &Vec<f64>| x[0] >= 0.0 && (0.0..=1.0).contains(&x[1]);
+        if !self.gp.inputs.iter().all(in_range) {
+            return Err("gp.inputs: an E below 0 or a coverage outside 0–1".into());
+        }
         self.linear.validate(inputs)?;
+        // The line is the least-squares fit of the pairs the GP holds: refitted, it must
+        // come out the same, so a damaged coefficient cannot scale a prediction off the
+        // scale.
+        let refit = LinearCalibration::fit(&self.gp.inputs, &self.gp.targets)
+            .map_err(|e| format!("linear: {e}"))?;
+        if !self.linear.agrees_with(&refit) {
+            return Err(
+                "linear.coefficients are not the least-squares line of the training pairs (gp.inputs, gp.targets)"
+                    .into(),
+            );
+        }
         self.skill.validate()?;
         self.stats.validate()?;
         self.phones.validate()?;
-        self.stats.validate_ids(self.phones.len())
+        self.stats.validate_ids(self.phones.len())?;
+        if self.sequences.is_empty() {
+            return Err("sequences: no corpus sentence to measure coverage against".into());
+        }
+        if self.sequences.iter().flatten().any(|&id| usize::from(id) >= self.phones.len()) {
+            return Err("sequences: a phone the model's phone set lacks".into());
+        }
+        Ok(())
     }
 }
 
@@ -149,6 +175,7 @@ pub fn train(
         skill: *synth.kept_skill(),
         phones: prepared.phones.clone(),
         stats,
+        sequences: prepared.sentences.iter().map(|s| s.ids.clone()).collect(),
     };
     Ok((predictor, report))
 }
@@ -169,7 +196,9 @@ impl Predictor {
         let mut set = self.phones.clone();
         let ids = set.intern_all(phones, inventory, visemes);
         let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
-        let p = predict_with(self.calibration, &self.gp, &self.linear, &[fit.inputs(&set, &ids)])?;
+        let index = ContextIndex::new(&set, self.sequences.iter().map(Vec::as_slice).collect());
+        let inputs = predictor_inputs(&fit, &index, &set, &ids);
+        let p = predict_with(self.calibration, &self.gp, &self.linear, &[inputs])?;
         if !(p[0].mean.is_finite() && p[0].std().is_finite() && fit.e.is_finite()) {
             return Err(SaqpError::Gp(format!(
                 "sentence `{name}`: the prediction is not a finite number (a damaged model?)"
@@ -181,7 +210,7 @@ impl Predictor {
         for (&id, level) in ids.iter().zip(&fit.levels) {
             let label = set.label(id);
             if *level > ContextLevel::Monophone
-                && label != "sil"
+                && set.is_speech(id)
                 && !unseen.iter().any(|u| u == label)
             {
                 unseen.push(label.to_string());

@@ -55,6 +55,11 @@ impl PhoneSet {
         self.visemes.get(id as usize).copied().flatten()
     }
 
+    /// Whether phone `id` is speech, not silence (what coverage and unseen phones count).
+    pub fn is_speech(&self, id: u16) -> bool {
+        self.label(id) != crate::alignment::SILENCE_KEY
+    }
+
     pub fn len(&self) -> usize {
         self.labels.len()
     }

@@ -134,35 +134,6 @@ pub fn solve_satf(
     Ok(SatfFit { y, e, levels: stats.iter().map(|s| s.level).collect() })
 }
 
-/// What a quality predictor sees of a phone sequence: E, and the share of its speech phones
-/// (silence aside) whose statistics come from their own triphone context, its coverage by
-/// the corpus.
-pub const INPUT_NAMES: [&str; 2] = ["E", "coverage"];
-
-impl SatfFit {
-    /// The fit's share of speech phones (not `sil`) with triphone statistics; 0 without any.
-    pub fn coverage(&self, phones: &PhoneSet, ids: &[u16]) -> f64 {
-        let speech: Vec<ContextLevel> = ids
-            .iter()
-            .zip(&self.levels)
-            .filter(|(id, _)| phones.label(**id) != "sil")
-            .map(|(_, l)| *l)
-            .collect();
-        let tri = speech.iter().filter(|l| **l == ContextLevel::Triphone).count();
-        if speech.is_empty() { 0.0 } else { tri as f64 / speech.len() as f64 }
-    }
-
-    /// The predictor's inputs ([`INPUT_NAMES`]) of this fit of the sequence `ids`.
-    ///
-    /// A concatenative synthesizer's error depends on how much of the sentence the corpus
-    /// holds in context, and E does not show it (a context missing from the corpus backs off
-    /// to looser statistics, which lowers E where such a synthesizer does worst), so the
-    /// coverage is an input of its own.
-    pub fn inputs(&self, phones: &PhoneSet, ids: &[u16]) -> Vec<f64> {
-        vec![self.e, self.coverage(phones, ids)]
-    }
-}
-
 /// The context statistics of every phone of a sequence.
 ///
 /// # Errors
@@ -184,7 +155,7 @@ pub fn sequence_stats(
     let seen = out
         .iter()
         .zip(ids)
-        .any(|(s, &id)| phones.label(id) != "sil" && s.level <= ContextLevel::Monophone);
+        .any(|(s, &id)| phones.is_speech(id) && s.level <= ContextLevel::Monophone);
     if !seen {
         return Err(SaqpError::AllPhonesUnseen(name.to_string()));
     }

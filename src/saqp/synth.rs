@@ -21,12 +21,12 @@
 use super::SaqpError;
 use super::context::{ContextOptions, ContextStats};
 use super::corpus::Corpus;
+use super::coverage::ContextIndex;
 use super::prepared::{Prepared, PreparedSentence};
 use super::sampling::{interpolate_keys, midpoint, sample_at, smooth_gaussian};
 use super::satf::{SatfParams, fit_trajectory, sequence_stats};
 use crate::math::{DVector, Point3};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// A synthesis algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -54,14 +54,34 @@ impl SynthKind {
 
 /// Half-width of the cross-fade at concatenation joins, seconds.
 const JOIN_HALF_WIDTH: f64 = 0.04;
-/// How much a match of the phone `offset` places away counts in choosing a unit.
-const CONTEXT_WEIGHTS: [(isize, f64); 4] = [(-2, 0.5), (-1, 1.0), (1, 1.0), (2, 0.5)];
 /// Recorded occurrences of a phone averaged into its unit. One recording replays its own
 /// tracking noise, which no phone sequence predicts; the mean of the three best matches
 /// keeps the context's coarticulation and divides that noise's variance by three (on the
 /// demo seeds 1–8 the concatenative error's held-out RMSE ratio fell from 0.76 to 0.70;
 /// docs/saqp.md).
 pub const CONCAT_UNITS: usize = 3;
+
+/// A recorded occurrence the concatenative synthesizer may use for a target phone, and how
+/// well it fits there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnitMatch {
+    /// Training sentence and phone index of the occurrence.
+    pub sentence: usize,
+    pub phone: usize,
+    /// The occurrence is the target's phone itself (not another of its viseme class).
+    pub same_phone: bool,
+    /// Agreement of the neighbours ([`ContextIndex::agreement`]).
+    pub context: f64,
+    /// |ln| of the occurrence's duration over the target's.
+    pub timing: f64,
+}
+
+impl UnitMatch {
+    /// What unit selection maximises: context first, duration on a near tie.
+    fn score(&self) -> f64 {
+        4.0 * self.context - self.timing
+    }
+}
 
 /// The settings of the built-in synthesizers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -78,8 +98,9 @@ pub struct SynthParams {
 pub struct TrainingSet<'a> {
     pub prepared: &'a Prepared,
     pub stats: ContextStats,
-    occurrences: HashMap<u16, Vec<(usize, usize)>>,
-    by_viseme: HashMap<u16, Vec<(usize, usize)>>,
+    /// The prepared sentences of the set, in the index's order.
+    members: Vec<usize>,
+    index: ContextIndex<'a>,
 }
 
 impl<'a> TrainingSet<'a> {
@@ -94,17 +115,16 @@ impl<'a> TrainingSet<'a> {
             }),
             options,
         );
-        let mut occurrences: HashMap<u16, Vec<(usize, usize)>> = HashMap::new();
-        let mut by_viseme: HashMap<u16, Vec<(usize, usize)>> = HashMap::new();
-        for &s in members {
-            for (i, &id) in prepared.sentences[s].ids.iter().enumerate() {
-                occurrences.entry(id).or_default().push((s, i));
-                if let Some(v) = prepared.phones.viseme(id) {
-                    by_viseme.entry(v).or_default().push((s, i));
-                }
-            }
-        }
-        Self { prepared, stats, occurrences, by_viseme }
+        let index = ContextIndex::new(
+            &prepared.phones,
+            members.iter().map(|&s| &prepared.sentences[s].ids[..]).collect(),
+        );
+        Self { prepared, stats, members: members.to_vec(), index }
+    }
+
+    /// The set's sentences indexed by their phones.
+    pub fn index(&self) -> &ContextIndex<'a> {
+        &self.index
     }
 
     /// Synthesizes `target`'s frames (region coefficients) with a built-in algorithm.
@@ -153,47 +173,34 @@ impl<'a> TrainingSet<'a> {
         }
     }
 
-    /// The `k` best training occurrences for phone `i` of `target`, best first: the phone (or
-    /// one of its viseme class) whose neighbours two phones either way match the target's
-    /// most (the nearer ones weigh double), closest in duration on a tie. Ties left are
-    /// broken by corpus order, so the choice does not depend on hashing.
-    fn best_segments(&self, target: &PreparedSentence, i: usize, k: usize) -> Vec<(usize, usize)> {
+    /// The `k` best training occurrences for phone `i` of `target`, best first: of the
+    /// phone's occurrences (or its viseme class's, [`ContextIndex::candidates`]) those whose
+    /// context agrees most, closest in duration on a near tie. Ties left are broken by corpus
+    /// order, so the choice does not depend on hashing.
+    pub fn best_units(&self, target: &PreparedSentence, i: usize, k: usize) -> Vec<UnitMatch> {
         let phones = &self.prepared.phones;
-        let ids = &target.ids;
-        let id = ids[i];
-        let Some(cands) = self
-            .occurrences
-            .get(&id)
-            .or_else(|| phones.viseme(id).and_then(|v| self.by_viseme.get(&v)))
-        else {
-            return Vec::new();
-        };
         let dur = |p: &crate::alignment::Phone| (p.end - p.start).max(1e-3);
         let want = dur(&target.phones[i]);
-        let same = |a: Option<&u16>, b: Option<&u16>| match (a, b) {
-            (Some(a), Some(b)) if a == b => 1.0,
-            (Some(&a), Some(&b))
-                if phones.viseme(a).is_some() && phones.viseme(a) == phones.viseme(b) =>
-            {
-                0.4
-            }
-            (None, None) => 1.0,
-            _ => 0.0,
-        };
-        let mut scored: Vec<((usize, usize), f64)> = cands
+        let mut scored: Vec<UnitMatch> = self
+            .index
+            .candidates(phones, target.ids[i])
             .iter()
             .map(|&(s, j)| {
-                let c = &self.prepared.sentences[s];
-                let context: f64 = CONTEXT_WEIGHTS
-                    .iter()
-                    .map(|&(o, w)| w * same(neighbour(ids, i, o), neighbour(&c.ids, j, o)))
-                    .sum();
-                let timing = (dur(&c.phones[j]) / want).ln().abs();
-                ((s, j), 4.0 * context - timing)
+                let c = &self.prepared.sentences[self.members[s]];
+                UnitMatch {
+                    sentence: self.members[s],
+                    phone: j,
+                    same_phone: c.ids[j] == target.ids[i],
+                    context: self.index.agreement(phones, &target.ids, i, (s, j)),
+                    timing: (dur(&c.phones[j]) / want).ln().abs(),
+                }
             })
             .collect();
-        scored.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-        scored.into_iter().take(k).map(|x| x.0).collect()
+        scored.sort_by(|a, b| {
+            b.score().total_cmp(&a.score()).then((a.sentence, a.phone).cmp(&(b.sentence, b.phone)))
+        });
+        scored.truncate(k);
+        scored
     }
 
     fn concatenate(&self, target: &PreparedSentence) -> Result<Vec<DVector>, SaqpError> {
@@ -203,8 +210,12 @@ impl<'a> TrainingSet<'a> {
             .monophone(&self.prepared.phones, u16::MAX)
             .map(|s| s.mean)
             .ok_or_else(|| SaqpError::AllPhonesUnseen(target.name.clone()))?;
-        let segments: Vec<Vec<(usize, usize)>> =
-            (0..target.ids.len()).map(|i| self.best_segments(target, i, CONCAT_UNITS)).collect();
+        let segments: Vec<Vec<(usize, usize)>> = (0..target.ids.len())
+            .map(|i| {
+                let units = self.best_units(target, i, CONCAT_UNITS);
+                units.iter().map(|u| (u.sentence, u.phone)).collect()
+            })
+            .collect();
         let value = |i: usize, t: f64| -> DVector {
             if segments[i].is_empty() {
                 return global.clone();
@@ -327,9 +338,4 @@ impl External {
             })
             .collect()
     }
-}
-
-/// The phone `offset` places from position `j`, if the sentence has one there.
-fn neighbour(v: &[u16], j: usize, offset: isize) -> Option<&u16> {
-    j.checked_add_signed(offset).and_then(|k| v.get(k))
 }

@@ -681,7 +681,7 @@ pub fn synths_table(report: &CvReport) -> Table {
         ));
     }
     t.notes.push(
-        "inputs: E and the coverage (share of speech phones with triphone statistics); linear: least squares on them; kept: the lower leave-one-sentence-out RMSE on the training pairs"
+        "inputs: E and the coverage (how well recorded occurrences match each speech phone's context, two phones either way, 0–1); linear: least squares on them; kept: the lower leave-one-sentence-out RMSE on the training pairs"
             .into(),
     );
     t.notes.push(
@@ -722,26 +722,33 @@ pub fn models_table(report: &CvReport) -> Table {
 /// leave-one-sentence-out RMSE of the GP's training predictions, which picks ω_m, beside the
 /// scores' spread (what the training mean would err by) and their ratio.
 pub fn omega_table(report: &CvReport) -> Table {
-    let headers = ["synthesizer", "omega_m", "CV RMSE", "spread", "ratio", "chosen"]
+    let headers = ["synthesizer", "omega_m", "CV RMSE", "standard error", "spread", "chosen"]
         .map(String::from)
         .to_vec();
     let mut t =
         Table::new("Choosing omega_m: cross-validated RMSE of the training scores", headers)
             .keyed("omega");
     for s in &report.synths {
+        let lowest = s.omega_scores.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse));
         for o in &s.omega_scores {
+            let why = match lowest {
+                _ if o.omega_m != s.omega_m => String::new(),
+                Some(l) if l.omega_m == o.omega_m => "yes: the lowest".into(),
+                Some(l) => format!("yes: within 1 SE of the lowest ({})", l.omega_m),
+                None => String::new(),
+            };
             t.push_row(vec![
                 Cell::Text(s.synth.name().into()),
                 Cell::Num(o.omega_m),
                 Cell::Num(o.rmse),
+                Cell::Num(o.rmse_error),
                 Cell::Num(o.spread),
-                Cell::num(Some(o.rmse / o.spread)),
-                Cell::Text(if o.omega_m == s.omega_m { "yes" } else { "" }.into()),
+                Cell::Text(why),
             ]);
         }
     }
     t.notes.push(
-        "omega_m weighs the mouth markers in Q (eq. 8); the paper picks the candidate with the lowest cross-validated RMSE, as here (one training sentence left out at a time)"
+        "omega_m weighs the mouth markers in Q (eq. 8); as the paper, the candidate with the lowest cross-validated RMSE (one training sentence left out at a time), but the smallest within one standard error of it, as the RMSEs differ by less than their noise; spread: what predicting the training mean would err by"
             .into(),
     );
     t

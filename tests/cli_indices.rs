@@ -145,7 +145,7 @@ fn user_bounds_and_computed_bounds_round_trip() {
     let mut args = vec!["indices", "--compute-bounds", out.to_str().unwrap(), "--json"];
     args.extend(inputs.iter().map(|p| p.to_str().unwrap()));
     let doc: Value = serde_json::from_str(&ok(&args)).unwrap();
-    let plots = doc["computed class bounds"].as_array().unwrap();
+    let plots = doc["bounds"]["rows"].as_array().unwrap();
     assert_eq!(plots.len(), 12);
     // Q1/Q3 of the six vertical mouth heights worked out here (type-7 quantiles).
     let mut vmh: Vec<f64> = inputs.iter().map(|p| hand_indices(&read_pts(p))[6]).collect();
@@ -216,21 +216,21 @@ fn session_prints_speaker_head_and_verdict() {
     // --frame: the speaker's values are that frame's, worked out by hand.
     let doc: Value = serde_json::from_str(&ok(&["indices", s, "--frame", "10", "--json"])).unwrap();
     let want = hand_indices(&read_pts(&carphone.join("dlib68_pts/frame_0010.pts")));
-    let speaker = doc["speaker indices"].as_array().unwrap();
+    let speaker = doc["speaker"]["rows"].as_array().unwrap();
     assert_eq!(speaker.len(), 12);
     for (row, w) in speaker.iter().zip(want) {
         let got = row["value"].as_f64().unwrap();
         assert!((got - w).abs() < 1e-9 * w.max(1.0), "{row} vs {w}");
     }
-    let head = doc["head indices"].as_array().unwrap();
+    let head = doc["head"]["rows"].as_array().unwrap();
     assert!(head[0]["value"].is_null(), "facial needs zygion, unmapped in SFM");
     let vmh = head[6]["value"].as_f64().unwrap();
     assert!(vmh > 5.0 && vmh < 30.0, "{vmh}");
-    let checks = doc["verdict"].as_array().unwrap();
+    let checks = doc["verdict"]["rows"].as_array().unwrap();
     assert_eq!(checks.len(), 2);
     let vmh_class = head[6]["class"].as_str().unwrap();
     assert_eq!(checks[0]["head"], vmh_class);
-    assert_eq!(doc["facial indices: speaker vs head"].as_array().unwrap().len(), 12);
+    assert_eq!(doc["comparison"]["rows"].as_array().unwrap().len(), 12);
     // An unknown session is an error naming it.
     let (success, _, err) = lipmap(&["indices", &p(tmp.path().join("nope.lipmap.json"))]);
     assert!(!success && err.contains("nope.lipmap.json"), "{err}");
@@ -291,7 +291,7 @@ fn eval_heads_compares_heads_with_paired_tests() {
         "--json",
     ]))
     .unwrap();
-    let rmse = doc["RMSE by head"].as_array().unwrap();
+    let rmse = doc["heads"]["rows"].as_array().unwrap();
     assert_eq!(rmse.len(), 3 + 2, "3 sentences, mean, p: {rmse:?}");
     for col in ["demo W", "demo H", "other W", "other H"] {
         assert!(rmse[0][col].is_number(), "{col} in {}", rmse[0]);
@@ -301,7 +301,7 @@ fn eval_heads_compares_heads_with_paired_tests() {
     assert!(p["demo W"].is_null(), "no test of the baseline against itself");
     let pw = p["other H"].as_f64().expect("p of other vs demo over 3 sentences");
     assert!((0.0..=1.0).contains(&pw), "{pw}");
-    let matches = doc["speaker-head match"].as_array().unwrap();
+    let matches = doc["matches"]["rows"].as_array().unwrap();
     assert_eq!(matches.len(), 2);
     for m in matches {
         assert!(["yes", "no"].contains(&m["corresponding"].as_str().unwrap()), "{m}");
@@ -309,7 +309,7 @@ fn eval_heads_compares_heads_with_paired_tests() {
     // With both kinds of head, the grouped table and its paired test are there.
     let kinds: Vec<&str> = matches.iter().map(|m| m["corresponding"].as_str().unwrap()).collect();
     if kinds.contains(&"yes") && kinds.contains(&"no") {
-        let grouped = doc["corresponding vs non-corresponding heads"].as_array().unwrap();
+        let grouped = doc["correspondence"]["rows"].as_array().unwrap();
         assert_eq!(grouped.len(), 5);
         assert!(grouped[4]["non-corresponding H"].is_number(), "{}", grouped[4]);
     }

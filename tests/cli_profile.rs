@@ -26,15 +26,14 @@ fn profile_stores_its_setup_and_measures_every_frame() {
     let ok = Command::new(bin).arg("profile").arg(&session).arg("--json").output().unwrap();
     assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
     let doc: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
-    let (_, rows) = doc.as_object().unwrap().iter().next().unwrap();
-    let rows = rows.as_array().unwrap();
+    let profile = &doc["profile"][0];
+    let rows = profile["rows"].as_array().unwrap();
     assert!(rows.len() > 20);
     let measured = rows.iter().filter(|r| r["P"].is_number()).count();
     assert!(measured * 10 >= rows.len() * 9, "{measured} of {} frames measured", rows.len());
     assert!(std::fs::read_to_string(&session).unwrap().contains("profile_setup"));
     assert!(rows.iter().all(|r| r["source"] == "automatic" || r["source"] == "failed"));
-    let title = doc.as_object().unwrap().keys().next().unwrap();
-    let clip = title.rsplit(": ").next().unwrap().to_string();
+    let clip = profile["item"].as_str().unwrap().to_string();
 
     // A malformed correction is refused before anything is saved.
     let before = std::fs::read_to_string(&session).unwrap();
@@ -70,7 +69,7 @@ fn profile_stores_its_setup_and_measures_every_frame() {
             .unwrap();
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        doc.as_object().unwrap().values().next().unwrap().as_array().unwrap().clone()
+        doc["profile"][0]["rows"].as_array().unwrap().clone()
     };
     let auto5 = &rows[5];
     let (x5, y5) = (auto5["x"].as_f64().unwrap() + 6.0, auto5["y"].as_f64().unwrap());
@@ -113,8 +112,7 @@ fn profile_stores_its_setup_and_measures_every_frame() {
         let o = eval(how);
         assert!(o.status.success(), "{how:?}: {}", String::from_utf8_lossy(&o.stderr));
         let doc: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let sentences =
-            doc["RMSE per sentence (video vs head) — W/H frontal ≤15°"].as_array().unwrap();
+        let sentences = doc["sentences"]["rows"].as_array().unwrap();
         let p = sentences[0]["RMSE P"].as_f64().unwrap();
         assert!(p > 0.0 && p < 0.3, "{how:?}: RMSE P {p}");
     }

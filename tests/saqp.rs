@@ -57,13 +57,13 @@ fn demo_corpus_cross_validation_meets_the_targets() {
         }
         for s in &report.synths {
             println!(
-                "seed {seed} {:>10}: r {:.3} rmse {:.3} const {:.3} ω_m {} θ₁ {:.3} θ₂ {:.3} σ² {:.4}",
+                "seed {seed} {:>10}: r {:.3} rmse {:.3} const {:.3} ω_m {} θ₁ {:?} θ₂ {:.3} σ² {:.4}",
                 s.synth.name(),
                 s.pearson_r,
                 s.rmse,
                 s.rmse_constant,
                 s.omega_m,
-                s.gp.hyper.length_scale,
+                s.gp.hyper.length_scales,
                 s.gp.hyper.signal_variance,
                 s.gp.hyper.noise_variance
             );
@@ -104,11 +104,13 @@ fn gp_is_at_least_as_good_as_scikit_learn() {
         let script = format!(
             "import numpy as np\nfrom sklearn.gaussian_process import GaussianProcessRegressor as G\n\
              from sklearn.gaussian_process.kernels import ConstantKernel as C, RBF, WhiteKernel as W\n\
-             x=np.array({:?}).reshape(-1,1); y=np.array({:?})\n\
-             k=C(1.0,(1e-8,1e8))*RBF(1.0,(1e-8,1e8))+W(0.1,(1e-10,1e4))\n\
+             x=np.array({:?}).reshape(-1,{}); y=np.array({:?})\n\
+             k=C(1.0,(1e-8,1e8))*RBF([1.0]*x.shape[1],(1e-8,1e8))+W(0.1,(1e-10,1e4))\n\
              g=G(kernel=k,n_restarts_optimizer=5,random_state=0,normalize_y=False).fit(x,y)\n\
              print(g.log_marginal_likelihood_value_)",
-            gp.inputs, y
+            gp.inputs.concat(),
+            gp.hyper.length_scales.len(),
+            y
         );
         let out = std::process::Command::new("python3").args(["-c", &script]).output().unwrap();
         let sk: f64 = String::from_utf8_lossy(&out.stdout).trim().parse().unwrap();

@@ -130,7 +130,23 @@ fn cross_validate_train_predict_and_every_bad_input() {
 
     // A trained predictor scores phone files and names phones the corpus never saw.
     let model = dir.path().join("quality.json");
-    let out = lipmap(&["saqp", "train", s(&session), "--synth", "keyframe", "--out", s(&model)]);
+    let train = |more: &[&str]| {
+        let mut args =
+            vec!["saqp", "train", s(&session), "--synth", "keyframe", "--out", s(&model)];
+        args.extend(more);
+        lipmap(&args)
+    };
+    // A predictor without skill on its held-out sentences is saved only when asked.
+    let out = train(&[]);
+    let skilled = out.status.success();
+    if skilled {
+        assert!(text(&out.stdout).contains(": skill)"), "{}", text(&out.stdout));
+    } else {
+        let e = one_error(&out);
+        assert!(e.contains("no skill") && e.contains("--allow-no-skill"), "{e}");
+        assert!(!model.exists());
+    }
+    let out = train(&["--allow-no-skill"]);
     assert!(out.status.success(), "train: {}", text(&out.stderr));
     assert!(text(&out.stdout).contains("keyframe quality predictor on 30 sentences"));
     let known = dir.path().join("known.csv");
@@ -164,7 +180,7 @@ fn cross_validate_train_predict_and_every_bad_input() {
     ]);
     assert!(out.status.success(), "predict: {}", text(&out.stderr));
     let tables: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let rows = tables.as_object().unwrap().values().next().unwrap().as_array().unwrap().clone();
+    let rows = tables["predictions"]["rows"].as_array().unwrap().clone();
     assert_eq!(rows.len(), 3);
     for r in &rows {
         let p = r["predicted"].as_f64().unwrap();
@@ -174,6 +190,9 @@ fn cross_validate_train_predict_and_every_bad_input() {
     assert_eq!(rows[1]["unseen phones"], "œ");
     assert_eq!(rows[2]["unseen phones"], "");
     assert_eq!(rows[2]["predicted"], rows[0]["predicted"]);
+    // The predictor says whether it has skill.
+    let notes = tables["predictions"]["notes"].to_string();
+    assert_eq!(notes.contains("has NO skill"), !skilled, "{notes}");
 
     // Bad inputs: one line naming the place.
     let first = std::fs::read_dir(&ext).unwrap().next().unwrap().unwrap().path();
@@ -215,10 +234,25 @@ fn cross_validate_train_predict_and_every_bad_input() {
     let trained: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
     type Damage = fn(&mut serde_json::Value);
-    let damages: [(&str, Damage); 3] = [
+    // Absurd values that parse: each refused by the field, none scored (a target mean of
+    // 1e308 once predicted 1e308 on the 1–5 scale).
+    let damages: [(&str, Damage); 12] = [
         ("targets", |m| m["predictor"]["gp"]["targets"] = serde_json::json!([])),
         ("order", |m| m["predictor"]["satf"]["order"] = serde_json::json!(4_294_967_296u64)),
         ("stats.dims", |m| m["predictor"]["stats"]["dims"] = serde_json::json!(0)),
+        ("gp.target_mean", |m| m["predictor"]["gp"]["target_mean"] = serde_json::json!(1e308)),
+        ("gp.targets", |m| m["predictor"]["gp"]["targets"][0] = serde_json::json!(-7.0)),
+        ("omega_m", |m| m["predictor"]["omega_m"] = serde_json::json!(1e308)),
+        ("xi", |m| m["predictor"]["xi"] = serde_json::json!(-1.0)),
+        ("fps", |m| m["predictor"]["fps"] = serde_json::json!(0.0)),
+        ("gp.hyper.noise_variance", |m| {
+            m["predictor"]["gp"]["hyper"]["noise_variance"] = serde_json::json!(1e300)
+        }),
+        ("linear.coefficients", |m| {
+            m["predictor"]["linear"]["coefficients"][1] = serde_json::json!(1e100)
+        }),
+        ("gp.inputs", |m| m["predictor"]["gp"]["inputs"][0][1] = serde_json::json!(7.0)),
+        ("skill.ratio", |m| m["predictor"]["skill"]["ratio"] = serde_json::json!(-1.0)),
     ];
     let damaged = dir.path().join("damaged.json");
     for (field, damage) in damages {

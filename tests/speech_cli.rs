@@ -84,14 +84,9 @@ fn train_eval_animate_and_every_bad_input() {
     }
     let json = lipmap(&["speech", "eval", s(&model), s(&session), "--json"]);
     let tables: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
-    let scores = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Visual parameters"))
-        .map(|(_, t)| t.clone())
-        .unwrap();
-    let acc = scores[0]["ACC"].as_f64().unwrap();
+    let scores = &tables["scores"];
+    assert!(scores["title"].as_str().unwrap().starts_with("Visual parameters"), "{scores}");
+    let acc = scores["rows"][0]["ACC"].as_f64().unwrap();
     assert!((-1.0..=1.0).contains(&acc), "ACC {acc}");
     // Scored on its own training clips: said on stderr and in the table.
     assert!(table.contains("NOT held out: 3 of the 3 clips"), "{table}");

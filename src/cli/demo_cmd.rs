@@ -64,6 +64,9 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     let sessions = workflow::demo::write_demo_sessions(&generated)?;
     let t_gen = t0.elapsed();
     let mut any_failed = false;
+    // JSON is one document for every speaker: their tables are gathered and written once.
+    let json = a.output.format() == crate::cli::output::TableFormat::Json;
+    let mut gathered: Vec<crate::eval::Table> = Vec::new();
     for (k, path) in sessions.iter().enumerate() {
         // Evaluated as `lipmap eval` does: under the lock, the new fits saved.
         let mut opened = workflow::open_for_read_at(path)?;
@@ -74,11 +77,20 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
             workflow::evaluate_session(&mut opened, &req, &crate::cli::progress::show_on(&bar))?;
         crate::cli::progress::print_warnings(&evaluated.warnings);
         any_failed |= evaluated.any_failed();
+        let report = &evaluated.report;
+        if json {
+            let speaker = format!("speaker {k}");
+            gathered.push(report.sentences.clone().for_item(&speaker));
+            gathered.push(report.phonemes.clone().for_item(&speaker));
+            continue;
+        }
         if sessions.len() > 1 {
             writeln!(out, "== speaker {k}: {}", path.display())?;
         }
-        let report = &evaluated.report;
         write_tables(&[&report.sentences, &report.phonemes], a.output.format(), out)?;
+    }
+    if json {
+        write_tables(&gathered.iter().collect::<Vec<_>>(), a.output.format(), out)?;
     }
     eprintln!(
         "lipmap demo: generated in {:.1} s, fitted and evaluated in {:.1} s; session {}",

@@ -110,7 +110,7 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
     let tables = match classify_input(input) {
         IndicesInput::Landmarks(p) => {
             let (frame, ix) = file_indices(&p, a.frame)?;
-            let mut t = indices_table("facial indices", &ix, &bounds);
+            let mut t = indices_table("facial indices", &ix, &bounds).keyed("indices");
             t.notes.push(format!("{}, frame {frame}", p.display()));
             t.notes.extend(missing_note(&ix, "points not visible"));
             vec![t]

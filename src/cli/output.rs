@@ -31,8 +31,14 @@ impl FormatArgs {
 }
 
 /// Writes tables in `format`: text tables separated by blank lines; CSV blocks each headed
-/// by a `# title` line; JSON as `{title: [records...]}` in order.
+/// by a `# title` line; JSON as one document keyed by the tables' stable keys
+/// ([`json_document`]).
+///
+/// # Errors
+/// A table holding a number that is not finite ([`ensure_figures_finite`]), before anything
+/// is written; any error of `out`.
 pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write) -> Result<()> {
+    ensure_figures_finite(tables)?;
     let mut out = out;
     match format {
         TableFormat::Text => {
@@ -53,15 +59,68 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
             }
         }
         TableFormat::Json => {
-            let mut doc = serde_json::Map::new();
-            for t in tables {
-                doc.insert(t.title.clone(), t.to_json_records());
-            }
-            serde_json::to_writer_pretty(&mut out, &serde_json::Value::Object(doc))?;
+            serde_json::to_writer_pretty(&mut out, &json_document(tables))?;
             writeln!(out)?;
         }
     }
     Ok(())
+}
+
+/// Refuses tables with a NaN or an infinity among their numbers: no command prints one as a
+/// figure or writes it into an output. A value that does not exist is `Cell::Missing` or
+/// `Cell::Empty`; a non-finite number is a fault upstream (a damaged model, a degenerate
+/// input), named here by table, row and column so it can be traced.
+///
+/// # Errors
+/// The first non-finite number found.
+pub fn ensure_figures_finite(tables: &[&Table]) -> Result<()> {
+    for t in tables {
+        for (r, row) in t.rows.iter().enumerate() {
+            for (c, cell) in row.iter().enumerate() {
+                if let crate::eval::Cell::Num(v) = cell
+                    && !v.is_finite()
+                {
+                    let column = t.headers.get(c).map_or("?", String::as_str);
+                    anyhow::bail!(
+                        "`{}`, row {}, column `{column}`: {v} is not a figure (a damaged model or a degenerate input upstream); nothing written",
+                        terminal_safe(&t.title),
+                        r + 1
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The JSON document of some tables (docs/json.md): an object with one member per table
+/// key ([`Table::key`]). A table is `{"title", "columns", "rows", "notes"}`, its
+/// rows objects keyed by column; tables repeated per clip, head or speaker
+/// ([`Table::item`]) are an array under their key, each with an `"item"` member. The key,
+/// not the title, names a table: titles carry counts and names that change from run to run.
+pub fn json_document(tables: &[&Table]) -> serde_json::Value {
+    let mut doc = serde_json::Map::new();
+    for (i, t) in tables.iter().enumerate() {
+        let key = if t.key.is_empty() { format!("table_{}", i + 1) } else { t.key.clone() };
+        let mut object = serde_json::Map::new();
+        if let Some(item) = &t.item {
+            object.insert("item".into(), item.clone().into());
+        }
+        object.insert("title".into(), t.title.clone().into());
+        object.insert("columns".into(), t.headers.clone().into());
+        object.insert("rows".into(), t.to_json_records());
+        object.insert("notes".into(), t.notes.clone().into());
+        let object = serde_json::Value::Object(object);
+        if t.item.is_some() {
+            match doc.entry(key).or_insert_with(|| serde_json::Value::Array(Vec::new())) {
+                serde_json::Value::Array(list) => list.push(object),
+                slot => *slot = object,
+            }
+        } else {
+            doc.insert(key, object);
+        }
+    }
+    serde_json::Value::Object(doc)
 }
 
 /// `text` with every control character (C0, DEL, C1) and bidirectional override spelt as an escape (`\x1b`, `\n`,
@@ -234,6 +293,30 @@ pub fn failure_lines(clip: &str, fits: &[crate::fit::FrameFit]) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn json_tables_are_found_by_key_and_nothing_non_finite_is_written() {
+        use crate::eval::Cell;
+        let mut summary =
+            Table::new("Predicted on 12 sentences", vec!["r".into()]).keyed("summary");
+        summary.push_row(vec![Cell::Num(0.5)]);
+        summary.notes.push("a note".into());
+        let a = Table::new("clip a", vec!["P".into()]).keyed("profile").for_item("a");
+        let b = Table::new("clip b", vec!["P".into()]).keyed("profile").for_item("b");
+        let plain = Table::new("no key", vec![]);
+        let doc = json_document(&[&summary, &a, &b, &plain]);
+        assert_eq!(doc["summary"]["title"], "Predicted on 12 sentences");
+        assert_eq!(doc["summary"]["columns"][0], "r");
+        assert_eq!(doc["summary"]["rows"][0]["r"], 0.5);
+        assert_eq!(doc["summary"]["notes"][0], "a note");
+        assert_eq!(doc["profile"][1]["item"], "b");
+        assert_eq!(doc["table_4"]["title"], "no key");
+        summary.push_row(vec![Cell::Num(f64::NAN)]);
+        let mut out = Vec::new();
+        let e = write_tables(&[&summary], TableFormat::Json, &mut out).unwrap_err().to_string();
+        assert!(e.contains("row 2, column `r`: NaN is not a figure"), "{e}");
+        assert!(out.is_empty());
+    }
 
     #[test]
     fn control_characters_in_names_are_escaped() {

@@ -108,7 +108,9 @@ fn clip_table(c: &ClipProfile, min_max: bool) -> Table {
     let mut t = Table::new(
         format!("side-view protrusion: {}", c.name),
         ["frame", "side frame", "x", "y", "P", "source"].map(String::from).to_vec(),
-    );
+    )
+    .keyed("profile")
+    .for_item(&c.name);
     let mut reasons = std::collections::BTreeMap::<String, usize>::new();
     for (f, (v, sp)) in p.iter().zip(&c.points).enumerate() {
         let xy = sp.point.as_ref().and_then(|q| q.upper_lip_px);

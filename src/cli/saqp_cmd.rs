@@ -7,8 +7,8 @@ use crate::eval::{Cell, Table};
 use crate::saqp::{CvOptions, SatfParams, SynthKind};
 use crate::workflow::saqp::{
     CorpusOptions, SaqpSettings, cross_validate_corpus, held_out_table, load_predictor,
-    marker_vertices, predict_quality, regions_table, save_predictor, session_corpus, synths_table,
-    train_predictor, write_quality_chart,
+    marker_vertices, models_table, omega_table, predict_quality, regions_table, save_predictor,
+    session_corpus, synths_table, train_predictor, write_quality_chart,
 };
 use anyhow::Result;
 use std::io::Write;
@@ -144,6 +144,10 @@ pub struct TrainArgs {
     /// The predictor file to write.
     #[arg(long)]
     pub out: PathBuf,
+    /// Save the predictor even when it shows no skill on the held-out sentences (its
+    /// scores would say no more than the training mean).
+    #[arg(long)]
+    pub allow_no_skill: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -215,8 +219,8 @@ fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
         settings.cv.seed,
         start.elapsed().as_secs_f64()
     ));
-    let held = held_out_table(report);
-    let mut tables = vec![&synths, &regions];
+    let (models, omega, held) = (models_table(report), omega_table(report), held_out_table(report));
+    let mut tables = vec![&synths, &models, &omega, &regions];
     if a.sentences {
         tables.push(&held);
     }
@@ -238,17 +242,23 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     let trained = train_predictor(&a.learn.sessions, &settings, synth, &show_on(&bar))?;
     bar.finish_and_clear();
     print_warnings(&trained.warnings);
-    save_predictor(&a.out, &trained.file)?;
-    let s = trained.report.synths.iter().find(|s| s.synth == synth);
     let p = &trained.file.predictor;
+    if !p.skill.has_skill() && !a.allow_no_skill {
+        anyhow::bail!(
+            "the {} quality predictor has no skill: {}; not saved (--allow-no-skill saves it anyway)",
+            synth.name(),
+            p.skill.describe()
+        );
+    }
+    save_predictor(&a.out, &trained.file)?;
     writeln!(
         out,
-        "trained the {} quality predictor on {} sentences (held out: r {}, RMSE {} vs {} for a constant); SATF lambda {} order {}, omega_m {}; wrote {}",
+        "trained the {} quality predictor on {} sentences ({} kept; held out: r {:.3}, {}); SATF lambda {} order {}, omega_m {}; wrote {}",
         synth.name(),
         trained.file.sentences,
-        s.map_or("-".into(), |s| format!("{:.3}", s.pearson_r)),
-        s.map_or("-".into(), |s| format!("{:.3}", s.rmse)),
-        s.map_or("-".into(), |s| format!("{:.3}", s.rmse_constant)),
+        p.calibration.name(),
+        p.skill.pearson_r,
+        p.skill.describe(),
         p.satf.lambda,
         p.satf.order,
         p.omega_m,
@@ -266,7 +276,8 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
             model.predictor.synth.name()
         ),
         headers,
-    );
+    )
+    .keyed("predictions");
     let mut any_unseen = false;
     for file in &a.phones {
         let q = predict_quality(&model, file)?;
@@ -283,6 +294,16 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         "E: the sequence's SATF error against the {} training sentences; sigma: the prediction's standard deviation",
         model.sentences
     ));
+    let skill = &model.predictor.skill;
+    t.notes.push(if skill.has_skill() {
+        format!("this predictor ({}) has skill: {}", model.predictor.calibration.name(), skill.describe())
+    } else {
+        format!(
+            "this predictor has NO skill ({}): its scores say no more than the training mean, {:.2}",
+            skill.describe(),
+            model.predictor.gp.target_mean
+        )
+    });
     if any_unseen {
         t.notes.push(
             "unseen phones have no statistics of their own in the training corpus (another phone set?): they are fitted loosely, so E is low and the prediction too kind"
@@ -299,7 +320,8 @@ fn markers(a: &MarkersArgs, out: &mut dyn Write) -> Result<()> {
     print_warnings(&sc.warnings);
     let markers = marker_vertices(&sc.corpus)?;
     let headers = ["vertex", "mouth"].map(String::from).to_vec();
-    let mut t = Table::new("Marker vertices (0-based, the model's vertex order)", headers);
+    let mut t =
+        Table::new("Marker vertices (0-based, the model's vertex order)", headers).keyed("markers");
     for (v, mouth) in &markers {
         t.push_row(vec![
             Cell::Int(*v as i64),

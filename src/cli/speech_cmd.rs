@@ -199,19 +199,23 @@ fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     }
     let scores = scores_table(&e);
     let mut tables = vec![&scores];
-    let titled = |t: &Table, who: &str| {
-        let mut t = t.clone();
+    let titled = |t: &Table, key: &str, who: &str| {
+        let mut t = t.clone().keyed(key);
         t.title = format!("{} — {who}", t.title);
         t
     };
     let phonemes = [
-        titled(&e.report_hmm.phonemes, "head driven by the AV-HMM"),
-        titled(&e.report_linear.phonemes, "head driven by the linear baseline"),
-        titled(&e.report_fitted.phonemes, "fitted head (from the video)"),
+        titled(&e.report_hmm.phonemes, "phonemes_hmm", "head driven by the AV-HMM"),
+        titled(&e.report_linear.phonemes, "phonemes_linear", "head driven by the linear baseline"),
+        titled(&e.report_fitted.phonemes, "phonemes_fitted", "fitted head (from the video)"),
     ];
     let sentences = [
-        titled(&e.report_hmm.sentences, "head driven by the AV-HMM"),
-        titled(&e.report_linear.sentences, "head driven by the linear baseline"),
+        titled(&e.report_hmm.sentences, "sentences_hmm", "head driven by the AV-HMM"),
+        titled(
+            &e.report_linear.sentences,
+            "sentences_linear",
+            "head driven by the linear baseline",
+        ),
     ];
     if a.sentences {
         tables.extend(sentences.iter());
@@ -225,7 +229,8 @@ fn scores_table(e: &SpeechEvaluation) -> Table {
     let mut t = Table::new(
         format!("Visual parameters estimated from the audio of {} clips", e.clips),
         headers,
-    );
+    )
+    .keyed("scores");
     for (name, s) in [("AV-HMM", e.hmm), ("linear baseline", e.linear)] {
         t.rows.push(vec![
             Cell::Text(name.into()),

@@ -165,7 +165,7 @@ impl Comparison {
         for c in &self.configs {
             headers.extend(self.measures.iter().map(|m| format!("{c} {m}")));
         }
-        let mut t = Table::new("RMSE by configuration", headers);
+        let mut t = Table::new("RMSE by configuration", headers).keyed("configurations");
         let cells = |vals: &mut dyn Iterator<Item = Option<f64>>| -> Vec<Cell> {
             vals.map(Cell::num).collect()
         };

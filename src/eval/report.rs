@@ -71,6 +71,12 @@ impl Serialize for Cell {
 /// A table: what every report in lipmap is, whatever renders it.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Table {
+    /// The table's stable name (`sentences`, `summary`, …): what machine-readable output
+    /// files it under, where `title` is for people and may carry counts and names.
+    pub key: String,
+    /// For a table repeated per clip, head or speaker: which one. Machine-readable output
+    /// lists such tables under their key, each naming its item.
+    pub item: Option<String>,
     pub title: String,
     pub headers: Vec<String>,
     /// Rows of `headers.len()` cells (shorter rows are padded with `Empty` when written).
@@ -85,7 +91,29 @@ pub struct Table {
 impl Table {
     /// An empty table with headers and 3-decimal text output.
     pub fn new(title: impl Into<String>, headers: Vec<String>) -> Self {
-        Self { title: title.into(), headers, rows: Vec::new(), notes: Vec::new(), precision: 3 }
+        Self {
+            key: String::new(),
+            item: None,
+            title: title.into(),
+            headers,
+            rows: Vec::new(),
+            notes: Vec::new(),
+            precision: 3,
+        }
+    }
+
+    /// The table with its stable key ([`Table::key`]).
+    #[must_use]
+    pub fn keyed(mut self, key: &str) -> Self {
+        self.key = key.to_string();
+        self
+    }
+
+    /// The table as one of a repeated kind, for `item` ([`Table::item`]).
+    #[must_use]
+    pub fn for_item(mut self, item: impl Into<String>) -> Self {
+        self.item = Some(item.into());
+        self
     }
 
     /// Appends a row.

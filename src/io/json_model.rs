@@ -35,7 +35,9 @@ pub const SPEECH_MODEL: JsonModelKind = JsonModelKind {
 /// A `saqp train` quality model.
 pub const QUALITY_MODEL: JsonModelKind = JsonModelKind {
     format: "lipmap saqp model",
-    version: 1,
+    // 2: the predictor sees E and the context coverage, keeps a GP or a line, and records
+    // its held-out skill.
+    version: 2,
     what: "quality model",
     made_by: "lipmap saqp train",
 };

@@ -144,6 +144,8 @@ fn add<K: Eq + Hash>(map: &mut HashMap<K, Acc>, key: K, k: usize, x: &DVector) {
 
 /// The most coefficients per sample a statistics table may hold (the paper's K is 27).
 pub const MAX_DIMS: usize = 4096;
+/// The largest mean a statistics table may hold: coefficients are in model units.
+pub const MAX_MEAN: f64 = 1e6;
 
 impl ContextStats {
     /// Checks statistics read from a file: every accumulator as long as `dims`, every value
@@ -156,8 +158,14 @@ impl ContextStats {
             return Err(format!("stats.dims {} is not between 1 and {MAX_DIMS}", self.dims));
         }
         let o = &self.options;
-        if ![o.shrinkage, o.variance_floor].iter().all(|v| v.is_finite() && *v >= 0.0) {
-            return Err("stats.options: shrinkage and variance_floor must be ≥ 0".into());
+        if !((0.0..=1e6).contains(&o.shrinkage)
+            && o.variance_floor > 0.0
+            && o.variance_floor <= 1.0)
+        {
+            return Err(
+                "stats.options: shrinkage must be within 0–1e6 and variance_floor within 0–1 (above 0)"
+                    .into(),
+            );
         }
         let check = |table: &str, acc: &Acc| {
             if acc.sum.len() != self.dims || acc.sumsq.len() != self.dims {
@@ -171,13 +179,49 @@ impl ContextStats {
             if acc.sum.iter().chain(&acc.sumsq).any(|v| !v.is_finite()) {
                 return Err(format!("stats.{table}: a value is not finite"));
             }
+            // Sums of region coefficients in model units: a mean past ±MAX_MEAN, a negative
+            // sum of squares or one below the square of the sum are not statistics of motion.
+            let n = acc.n as f64;
+            let bad = acc.n == 0
+                || acc.sum.iter().zip(&acc.sumsq).any(|(s, q)| {
+                    (s / n).abs() > MAX_MEAN || *q < 0.0 || s * s / n > q * (1.0 + 1e-9) + 1e-12
+                });
+            if bad {
+                return Err(format!(
+                    "stats.{table}: a count of 0, a mean beyond ±{MAX_MEAN:e} or a negative variance"
+                ));
+            }
             Ok(())
         };
         check("global", &self.global)?;
+        // Every variance is floored at a fraction of the global one, which E divides by.
+        let g = &self.global;
+        let n = g.n as f64;
+        if g.sum.iter().zip(&g.sumsq).any(|(s, q)| q / n - (s / n).powi(2) <= 0.0) {
+            return Err("stats.global: a dimension without variance".into());
+        }
         self.tri.values().try_for_each(|a| check("tri", a))?;
         self.di.values().try_for_each(|a| check("di", a))?;
         self.mono.values().try_for_each(|a| check("mono", a))?;
         self.vis.values().try_for_each(|a| check("vis", a))
+    }
+
+    /// Checks that every phone id the tables name is below `phones` (the phone set's size).
+    ///
+    /// # Errors
+    /// The table naming an unknown phone.
+    pub fn validate_ids(&self, phones: usize) -> Result<(), String> {
+        let known = |id: &u16| usize::from(*id) < phones;
+        if !self.tri.keys().flatten().all(known) {
+            return Err("stats.tri: a context names a phone the model's phone set lacks".into());
+        }
+        if !self.di.keys().flatten().all(known) {
+            return Err("stats.di: a context names a phone the model's phone set lacks".into());
+        }
+        if !self.mono.keys().all(known) {
+            return Err("stats.mono: a phone the model's phone set lacks".into());
+        }
+        Ok(())
     }
 
     /// Accumulates the samples of sentences given as (phone ids, one sample per phone).

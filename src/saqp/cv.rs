@@ -6,20 +6,29 @@
 //! then predicts M_v, scored against M_t.
 //!
 //! Choices the paper makes by cross-validation are made here the same way, inside M_t only,
-//! so the held-out figures stay honest: ω_m by the GP's closed-form leave-one-out RMSE on the
-//! Likert scale; λ and the order of W (which change E for every synthesizer) by how strongly
-//! E tracks Q over the training pairs (mean |Pearson r| across synthesizers), because a GP
-//! fit per candidate per synthesizer costs far more than the cross-validation it serves.
-//! Every random choice comes from one seed.
+//! so the held-out figures stay honest: ω_m by the paper's criterion (§5.3, Fig. 6), the
+//! cross-validated RMSE of the predicted Likert scores — here leaving out one training
+//! sentence at a time, as a sentence scored in several sub-corpora gives near-identical
+//! pairs; λ and the order of W (which change E for every synthesizer) by how strongly E
+//! tracks Q over the training pairs (mean |Pearson r| across synthesizers), because a GP fit
+//! per candidate per synthesizer costs far more than the cross-validation it serves.
+//!
+//! Beside the GP, a straight line on the same inputs is fitted to the same pairs; a trained
+//! predictor keeps whichever has the lower leave-one-sentence-out RMSE, and both are scored
+//! on M_v beside a constant predictor, with the verdict of [`super::skill`]. Every random
+//! choice comes from one seed.
 
 use super::SaqpError;
+use super::calibration::{CalibrationKind, LinearCalibration};
 use super::context::ContextOptions;
 use super::corpus::Corpus;
+use super::coverage::predictor_inputs;
 use super::gp::{GaussianProcess, GpPrediction};
 use super::motion::RegionSummary;
 use super::prepared::Prepared;
 use super::quality::{QualityParts, likert};
 use super::satf::{SatfParams, fit_trajectory};
+use super::skill::Skill;
 use super::synth::SynthParams;
 use super::synth::{External, SynthKind, TrainingSet};
 use rand::rngs::StdRng;
@@ -85,28 +94,79 @@ impl Default for CvOptions {
 pub struct HeldOut {
     pub sentence: String,
     pub e: f64,
+    /// The predictor's inputs ([`super::coverage::INPUT_NAMES`]: E and the coverage).
+    pub inputs: Vec<f64>,
     /// Ground-truth error (eq. 8) and its Likert score.
     pub q: f64,
     pub likert: f64,
+    /// The GP's prediction and the line's.
     pub predicted: GpPrediction,
+    pub linear: GpPrediction,
 }
 
-/// One synthesizer's model and its validation.
+impl HeldOut {
+    /// The prediction of the calibration `kind`.
+    pub fn prediction(&self, kind: CalibrationKind) -> GpPrediction {
+        match kind {
+            CalibrationKind::Gp => self.predicted,
+            CalibrationKind::Linear => self.linear,
+        }
+    }
+}
+
+/// How well one ω_m candidate's scores were predicted inside the training part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OmegaScore {
+    pub omega_m: f64,
+    /// The paper's criterion: RMSE of the GP's leave-one-sentence-out predictions of the
+    /// training scores.
+    pub rmse: f64,
+    /// The standard error of `rmse`, sentences as the unit.
+    pub rmse_error: f64,
+    /// The training scores' standard deviation (what the training mean would err by).
+    pub spread: f64,
+}
+
+/// One synthesizer's models and their validation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SynthReport {
     pub synth: SynthKind,
     pub omega_m: f64,
-    /// (ω_m, leave-one-out RMSE) of each candidate tried.
-    pub omega_scores: Vec<(f64, f64)>,
+    /// Each candidate tried, in grid order.
+    pub omega_scores: Vec<OmegaScore>,
     /// ξ, the largest training error (the Likert scale's 1).
     pub xi: f64,
     pub gp: GaussianProcess,
+    pub linear: LinearCalibration,
+    /// Leave-one-sentence-out RMSE of the GP's and the line's training predictions.
+    pub gp_training_rmse: f64,
+    pub linear_training_rmse: f64,
+    /// The calibration a trained predictor keeps: the lower training RMSE.
+    pub kept: CalibrationKind,
     pub held_out: Vec<HeldOut>,
-    /// Pearson r, RMSE of the GP's predictions, and RMSE of predicting the training mean,
-    /// all on the held-out Likert scores.
+    /// The GP's and the line's held-out figures against a constant predictor.
+    pub gp_skill: Skill,
+    pub linear_skill: Skill,
+    /// Pearson r, RMSE of the kept calibration's predictions, and RMSE of predicting the
+    /// training mean, all on the held-out Likert scores.
     pub pearson_r: f64,
     pub rmse: f64,
     pub rmse_constant: f64,
+}
+
+impl SynthReport {
+    /// The held-out figures of the calibration `kind`.
+    pub fn skill(&self, kind: CalibrationKind) -> &Skill {
+        match kind {
+            CalibrationKind::Gp => &self.gp_skill,
+            CalibrationKind::Linear => &self.linear_skill,
+        }
+    }
+
+    /// The held-out figures of the calibration a trained predictor keeps.
+    pub fn kept_skill(&self) -> &Skill {
+        self.skill(self.kept)
+    }
 }
 
 /// Everything the cross-validation found.
@@ -141,10 +201,6 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
         sbb += (y - mb).powi(2);
     }
     if saa > 0.0 && sbb > 0.0 { sab / (saa * sbb).sqrt() } else { 0.0 }
-}
-
-fn rmse(a: &[f64], b: &[f64]) -> f64 {
-    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / a.len().max(1) as f64).sqrt()
 }
 
 /// Splits `members` into `k` folds of near-equal size that each cover as many phones as
@@ -189,11 +245,19 @@ pub fn balanced_folds(
     folds
 }
 
-/// One scored sentence of one sub-corpus: E and the quality parts per synthesizer.
+/// One scored sentence of one sub-corpus: the predictor's inputs (E first) and the quality
+/// parts per synthesizer.
 #[derive(Clone, Debug)]
 struct Pair {
-    e: f64,
+    sentence: usize,
+    inputs: Vec<f64>,
     parts: Vec<Option<QualityParts>>,
+}
+
+impl Pair {
+    fn e(&self) -> f64 {
+        self.inputs[0]
+    }
 }
 
 /// A sub-corpus: who trains, who is scored.
@@ -255,7 +319,11 @@ impl Scorer<'_> {
                 Ok(Some(QualityParts::measure(&s.truth, &synth, &markers.mouth, s.fps)))
             })
             .collect::<Result<Vec<_>, SaqpError>>()?;
-        Ok(Some(Pair { e: fit.e, parts }))
+        Ok(Some(Pair {
+            sentence: target,
+            inputs: predictor_inputs(&fit, set.index(), &self.prepared.phones, &s.ids),
+            parts,
+        }))
     }
 
     /// Scores every split; pairs in split order.
@@ -282,7 +350,8 @@ fn merge(base: &[Option<Pair>], extra: &[Option<Pair>], which: &[bool]) -> Vec<O
         .zip(extra)
         .map(|(b, x)| match (b, x) {
             (Some(b), Some(x)) => Some(Pair {
-                e: x.e,
+                sentence: x.sentence,
+                inputs: x.inputs.clone(),
                 parts: b
                     .parts
                     .iter()
@@ -422,7 +491,7 @@ pub fn cross_validate_prepared(
                 let (e, q): (Vec<f64>, Vec<f64>) = pairs
                     .iter()
                     .flatten()
-                    .filter_map(|p| p.parts[s].map(|q| (p.e, q.q(1.0))))
+                    .filter_map(|p| p.parts[s].map(|q| (p.e(), q.q(1.0))))
                     .unzip();
                 pearson(&e, &q).abs()
             })
@@ -472,33 +541,78 @@ pub fn cross_validate_prepared(
     })
 }
 
-/// The GP of one synthesizer at a given ω_m: training Likert scores, ξ and the fit.
-fn fit_at(
-    si: usize,
-    pairs: &[Pair],
-    omega: f64,
-    restarts: usize,
-) -> Result<(f64, GaussianProcess), SaqpError> {
-    let (e, q): (Vec<f64>, Vec<f64>) =
-        pairs.iter().filter_map(|p| p.parts[si].map(|x| (p.e, x.q(omega)))).unzip();
-    let xi = q.iter().copied().fold(0.0, f64::max);
-    if xi.is_nan() || xi <= 0.0 {
-        return Err(SaqpError::Gp("every training error is 0".into()));
-    }
-    let l: Vec<f64> = q.iter().map(|&x| likert(x, xi)).collect();
-    Ok((xi, GaussianProcess::fit(&e, &l, restarts)?))
+/// The training pairs of one synthesizer at a given ω_m: inputs, Likert scores, each pair's
+/// sentence, and ξ.
+struct Scored {
+    inputs: Vec<Vec<f64>>,
+    scores: Vec<f64>,
+    groups: Vec<usize>,
+    xi: f64,
 }
 
-/// The GP's leave-one-out squared error as a fraction of the targets' variance: how much of
-/// the ground truth E leaves unexplained. Each ω_m rescales the targets differently (Q and ξ
-/// both change), so a plain LOO RMSE would favour whichever ω_m compresses the scores, not
-/// the one E predicts best.
-fn loo_unexplained(gp: &GaussianProcess) -> Result<f64, SaqpError> {
-    let loo = gp.loo_residuals()?;
-    let n = gp.targets.len() as f64;
-    let variance = gp.targets.iter().map(|t| (t - gp.target_mean).powi(2)).sum::<f64>() / n;
-    let mse = loo.iter().map(|r| r * r).sum::<f64>() / loo.len() as f64;
-    Ok(if variance > 0.0 { mse / variance } else { f64::INFINITY })
+fn scored_at(si: usize, pairs: &[Pair], omega: f64) -> Result<Scored, SaqpError> {
+    let mut out = Scored { inputs: Vec::new(), scores: Vec::new(), groups: Vec::new(), xi: 0.0 };
+    let mut q = Vec::new();
+    for p in pairs {
+        if let Some(x) = p.parts[si] {
+            out.inputs.push(p.inputs.clone());
+            out.groups.push(p.sentence);
+            q.push(x.q(omega));
+        }
+    }
+    out.xi = q.iter().copied().fold(0.0, f64::max);
+    if out.xi.is_nan() || out.xi <= 0.0 {
+        return Err(SaqpError::Gp("every training error is 0".into()));
+    }
+    out.scores = q.iter().map(|&x| likert(x, out.xi)).collect();
+    Ok(out)
+}
+
+fn root_mean_square(v: &[f64]) -> f64 {
+    (v.iter().map(|r| r * r).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+fn spread(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    root_mean_square(&v.iter().map(|x| x - mean).collect::<Vec<_>>())
+}
+
+/// The RMSE of residuals and its standard error. Pairs of one sentence (scored in several
+/// sub-corpora) are not independent, so the error comes from the spread of the sentences'
+/// mean squared residuals (a cluster standard error), carried to the root by the delta
+/// method: se(√m) = se(m) / (2√m).
+fn rmse_with_error(residuals: &[f64], groups: &[usize]) -> (f64, f64) {
+    let rmse = root_mean_square(residuals);
+    let mut per: std::collections::BTreeMap<usize, (f64, usize)> = Default::default();
+    for (r, &g) in residuals.iter().zip(groups) {
+        let e = per.entry(g).or_default();
+        e.0 += r * r;
+        e.1 += 1;
+    }
+    let means: Vec<f64> = per.values().map(|(s, n)| s / *n as f64).collect();
+    if means.len() < 2 || rmse <= 0.0 {
+        return (rmse, 0.0);
+    }
+    let se_mse = spread(&means) * (means.len() as f64 / (means.len() - 1) as f64).sqrt()
+        / (means.len() as f64).sqrt();
+    (rmse, se_mse / (2.0 * rmse))
+}
+
+/// The ω_m the paper's criterion picks (§5.3, Fig. 6: the lowest cross-validated RMSE),
+/// with the one-standard-error rule (Hastie, Tibshirani & Friedman, "The Elements of
+/// Statistical Learning", §7.10): of the candidates whose RMSE is within one standard error
+/// of the lowest, the smallest ω_m. Index into `scores`; `None` when empty.
+///
+/// The rule matters where the curve is flat within noise (on the demo the concatenative
+/// synthesizer's RMSEs for ω_m = 2–5 differ by less than a tenth of their standard error):
+/// the plain minimum then follows the noise to a weight the data do not support, whose
+/// scores the predictor follows less well on held-out sentences (docs/saqp.md).
+pub fn choose_omega(scores: &[OmegaScore]) -> Option<usize> {
+    let best = scores.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse))?;
+    let bound = best.rmse + best.rmse_error;
+    (0..scores.len())
+        .filter(|&k| scores[k].rmse <= bound)
+        .min_by(|&a, &b| scores[a].omega_m.total_cmp(&scores[b].omega_m))
 }
 
 fn fit_synth(
@@ -513,45 +627,106 @@ fn fit_synth(
         Some(w) => vec![w],
         None => options.omega_grid.clone(),
     };
-    let fits: Vec<(f64, f64, GaussianProcess, f64)> = grid
+    let fits: Vec<(OmegaScore, Scored, GaussianProcess)> = grid
         .par_iter()
         .map(|&w| {
-            let (xi, gp) = fit_at(si, pairs, w, options.restarts)?;
-            let score = loo_unexplained(&gp)?;
-            Ok((w, xi, gp, score))
+            let scored = scored_at(si, pairs, w)?;
+            let gp = GaussianProcess::fit(&scored.inputs, &scored.scores, options.restarts)?;
+            let residuals = gp.group_residuals(&scored.groups)?;
+            let (rmse, rmse_error) = rmse_with_error(&residuals, &scored.groups);
+            let score = OmegaScore { omega_m: w, rmse, rmse_error, spread: spread(&scored.scores) };
+            Ok((score, scored, gp))
         })
         .collect::<Result<_, SaqpError>>()?;
-    let omega_scores = fits.iter().map(|f| (f.0, f.3)).collect();
-    let (omega_m, xi, gp, _) = fits
-        .into_iter()
-        .min_by(|a, b| a.3.total_cmp(&b.3))
-        .ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
-    let held: Vec<(usize, f64, f64)> =
-        held.iter().filter_map(|(t, p)| p.parts[si].map(|x| (*t, p.e, x.q(omega_m)))).collect();
-    let preds = gp.predict(&held.iter().map(|h| h.1).collect::<Vec<_>>())?;
-    let held_out: Vec<HeldOut> = held
+    let omega_scores: Vec<OmegaScore> = fits.iter().map(|f| f.0).collect();
+    let pick =
+        choose_omega(&omega_scores).ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
+    let (chosen, scored, gp) =
+        fits.into_iter().nth(pick).ok_or_else(|| SaqpError::Option("no ω_m candidate".into()))?;
+    let linear = LinearCalibration::fit(&scored.inputs, &scored.scores)?;
+    let linear_training_rmse = root_mean_square(&LinearCalibration::group_residuals(
+        &scored.inputs,
+        &scored.scores,
+        &scored.groups,
+    )?);
+    let gp_training_rmse = chosen.rmse;
+    // The GP must earn its place: on a tie the line, the simpler model, is kept.
+    let kept = if gp_training_rmse < linear_training_rmse {
+        CalibrationKind::Gp
+    } else {
+        CalibrationKind::Linear
+    };
+    let (omega_m, xi) = (chosen.omega_m, scored.xi);
+    let held: Vec<(usize, Vec<f64>, f64)> = held
         .iter()
+        .filter_map(|(t, p)| p.parts[si].map(|x| (*t, p.inputs.clone(), x.q(omega_m))))
+        .collect();
+    let at: Vec<Vec<f64>> = held.iter().map(|h| h.1.clone()).collect();
+    let preds = gp.predict(&at)?;
+    let held_out: Vec<HeldOut> = held
+        .into_iter()
         .zip(preds)
-        .map(|(&(t, e, q), predicted)| HeldOut {
+        .map(|((t, inputs, q), predicted)| HeldOut {
             sentence: prepared.sentences[t].name.clone(),
-            e,
+            e: inputs[0],
+            linear: linear.predict(&inputs),
+            inputs,
             q,
             likert: likert(q, xi),
             predicted,
         })
         .collect();
     let truth: Vec<f64> = held_out.iter().map(|h| h.likert).collect();
-    let pred: Vec<f64> = held_out.iter().map(|h| h.predicted.mean).collect();
-    let constant = vec![gp.target_mean; truth.len()];
+    let assess = |k: CalibrationKind| {
+        let pred: Vec<f64> = held_out.iter().map(|h| h.prediction(k).mean).collect();
+        Skill::assess(&pred, &truth, gp.target_mean, options.seed)
+    };
+    let (gp_skill, linear_skill) = (assess(CalibrationKind::Gp), assess(CalibrationKind::Linear));
+    let kept_skill = if kept == CalibrationKind::Gp { gp_skill } else { linear_skill };
     Ok(SynthReport {
         synth: kind,
         omega_m,
         omega_scores,
         xi,
-        pearson_r: pearson(&pred, &truth),
-        rmse: rmse(&pred, &truth),
-        rmse_constant: rmse(&constant, &truth),
+        pearson_r: kept_skill.pearson_r,
+        rmse: kept_skill.rmse,
+        rmse_constant: kept_skill.rmse_constant,
         gp,
+        linear,
+        gp_training_rmse,
+        linear_training_rmse,
+        kept,
         held_out,
+        gp_skill,
+        linear_skill,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn score(omega_m: f64, rmse: f64, rmse_error: f64) -> OmegaScore {
+        OmegaScore { omega_m, rmse, rmse_error, spread: 0.4 }
+    }
+
+    #[test]
+    fn omega_is_the_smallest_within_one_standard_error_of_the_lowest() {
+        let flat = [score(1.0, 0.313, 0.02), score(2.0, 0.301, 0.02), score(5.0, 0.299, 0.018)];
+        assert_eq!(choose_omega(&flat), Some(0));
+        let clear = [score(1.0, 0.40, 0.01), score(3.0, 0.30, 0.01), score(4.0, 0.305, 0.01)];
+        assert_eq!(choose_omega(&clear), Some(1));
+        assert_eq!(choose_omega(&[]), None);
+    }
+
+    #[test]
+    fn the_rmse_error_counts_sentences_not_pairs() {
+        // Two sentences scored twice each: the error is that of two values, not four.
+        let (rmse, se) = rmse_with_error(&[1.0, 1.0, 3.0, 3.0], &[7, 7, 9, 9]);
+        assert!((rmse - 5.0f64.sqrt()).abs() < 1e-12);
+        // Sentence mean squares 1 and 9: sample sd 4√2, se of their mean 4, through the root.
+        let want = 4.0 / (2.0 * rmse);
+        assert!((se - want).abs() < 1e-12, "{se} vs {want}");
+        assert_eq!(rmse_with_error(&[0.5, 0.5], &[1, 1]).1, 0.0);
+    }
 }

@@ -14,8 +14,10 @@
 //! [`predictor`]. `docs/saqp.md` gives the equations and every departure from the paper.
 
 pub mod banded;
+pub mod calibration;
 pub mod context;
 mod corpus;
+pub mod coverage;
 pub mod cv;
 mod error;
 pub mod gp;
@@ -26,11 +28,14 @@ mod prepared;
 pub mod quality;
 pub mod sampling;
 pub mod satf;
+pub mod skill;
 pub mod synth;
 
+pub use calibration::{CalibrationKind, LinearCalibration};
 pub use context::{ContextLevel, ContextOptions, ContextStats, PhoneStats};
 pub use corpus::{Corpus, LinearShapes, Sentence};
-pub use cv::{CvOptions, CvReport, HeldOut, SynthReport, cross_validate};
+pub use coverage::{ContextIndex, INPUT_NAMES};
+pub use cv::{CvOptions, CvReport, HeldOut, OmegaScore, SynthReport, cross_validate};
 pub use error::SaqpError;
 pub use gp::{GaussianProcess, GpHyper, GpPrediction};
 pub use motion::{MotionBasis, Region, RegionSummary};
@@ -38,4 +43,5 @@ pub use predictor::{Predictor, QualityEstimate, TrainOptions, train};
 pub use prepared::{PhoneSet, Prepared};
 pub use quality::{MarkerSet, QualityParts};
 pub use satf::{SatfFit, SatfParams, fit_trajectory};
+pub use skill::{Skill, Verdict};
 pub use synth::{External, SynthKind, SynthParams};

@@ -54,6 +54,40 @@ impl PhoneSet {
     pub fn viseme(&self, id: u16) -> Option<u16> {
         self.visemes.get(id as usize).copied().flatten()
     }
+
+    /// Whether phone `id` is speech, not silence (what coverage and unseen phones count).
+    pub fn is_speech(&self, id: u16) -> bool {
+        self.label(id) != crate::alignment::SILENCE_KEY
+    }
+
+    pub fn len(&self) -> usize {
+        self.labels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.labels.is_empty()
+    }
+
+    /// Checks a set read from a file: one viseme entry per label, labels distinct and not
+    /// empty, no more than ids can number.
+    ///
+    /// # Errors
+    /// The field at fault.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.labels.len() != self.visemes.len() || self.labels.len() > usize::from(u16::MAX) {
+            return Err(format!(
+                "phones: {} labels and {} viseme entries (they must match, at most {})",
+                self.labels.len(),
+                self.visemes.len(),
+                u16::MAX
+            ));
+        }
+        let mut seen = std::collections::HashSet::new();
+        if let Some(bad) = self.labels.iter().find(|l| l.is_empty() || !seen.insert(l.as_str())) {
+            return Err(format!("phones.labels: `{bad}` is empty or repeated"));
+        }
+        Ok(())
+    }
 }
 
 /// One sentence, prepared.

@@ -155,7 +155,7 @@ pub fn sequence_stats(
     let seen = out
         .iter()
         .zip(ids)
-        .any(|(s, &id)| phones.label(id) != "sil" && s.level <= ContextLevel::Monophone);
+        .any(|(s, &id)| phones.is_speech(id) && s.level <= ContextLevel::Monophone);
     if !seen {
         return Err(SaqpError::AllPhonesUnseen(name.to_string()));
     }

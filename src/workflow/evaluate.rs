@@ -367,15 +367,17 @@ pub fn evaluate(
     worst.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
     worst.truncate(n_worst);
     EvalReport {
-        sentences: sentence_table(&compared),
-        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared, phones), None),
+        sentences: sentence_table(&compared).keyed("sentences"),
+        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared, phones), None)
+            .keyed("phonemes"),
         visemes: group_table(
             "RMSE per viseme class",
             &viseme_rmse(&compared, phones, visemes),
             Some(visemes),
-        ),
-        worst_frames: worst_error_table(&worst),
-        worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)),
+        )
+        .keyed("visemes"),
+        worst_frames: worst_error_table(&worst).keyed("worst_frames"),
+        worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)).keyed("worst_fits"),
     }
 }
 

@@ -361,7 +361,8 @@ pub fn match_table(matches: &[HeadMatch], speaker: Option<&SpeakerNeutral>) -> T
         "mouth width",
         "warnings",
     ];
-    let mut t = Table::new("speaker-head match", headers.map(String::from).to_vec());
+    let mut t =
+        Table::new("speaker-head match", headers.map(String::from).to_vec()).keyed("matches");
     t.precision = 2;
     let class = |c: Option<IndexClass>| c.map_or(Cell::Empty, |c| Cell::text(c.as_str()));
     for m in matches {
@@ -425,7 +426,8 @@ pub fn correspondence_table(comparison: &Comparison, matches: &[HeadMatch]) -> O
     for g in ["corresponding", "non-corresponding"] {
         headers.extend(measures.iter().map(|m| format!("{g} {m}")));
     }
-    let mut t = Table::new("corresponding vs non-corresponding heads", headers);
+    let mut t =
+        Table::new("corresponding vs non-corresponding heads", headers).keyed("correspondence");
     let group_mean = |row: usize, heads: &[usize], m: Measure| {
         mean_of(heads.iter().map(|&h| comparison.values[row][h].get(m)))
     };
@@ -534,7 +536,7 @@ pub fn compare_heads(
         matches.push(HeadMatch { head: h.name.clone(), verdict });
     }
     let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
-    let mut rmse = comparison.to_table();
+    let mut rmse = comparison.to_table().keyed("heads");
     rmse.title = "RMSE by head".into();
     rmse.notes.extend(notes);
     let mut tables = vec![rmse, match_table(&matches, speaker.as_ref())];

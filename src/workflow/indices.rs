@@ -288,7 +288,7 @@ pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
 /// text notes): vertical mouth height classes and narrow-onto-wide mouth width.
 pub fn checks_table(verdict: &MatchVerdict) -> Table {
     let headers = ["check", "speaker", "head", "result"];
-    let mut t = Table::new("verdict", headers.map(String::from).to_vec());
+    let mut t = Table::new("verdict", headers.map(String::from).to_vec()).keyed("verdict");
     let class = |c: Option<IndexClass>| c.map_or(Cell::Empty, |c| Cell::text(c.as_str()));
     let row = |i: FacialIndex| verdict.rows[i.position()];
     let vmh = row(FacialIndex::VerticalMouthHeight);
@@ -373,17 +373,17 @@ pub fn index_tables(
 
 fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTable) -> Vec<Table> {
     let verdict = match_speaker_head(&speaker.indices, &head.indices, bounds);
-    let mut st = indices_table("speaker indices", &speaker.indices, bounds);
+    let mut st = indices_table("speaker indices", &speaker.indices, bounds).keyed("speaker");
     st.notes.push(speaker.describe());
     st.notes.extend(missing_note(&speaker.indices, "points not visible"));
-    let mut ht = indices_table("head indices", &head.indices, bounds);
+    let mut ht = indices_table("head indices", &head.indices, bounds).keyed("head");
     ht.notes.push(head.source);
     ht.notes.extend(missing_note(&head.indices, "landmarks not mapped to vertices"));
     if !head.check.is_plausible() {
         ht.notes.push(head.check.summary());
     }
     if withholds_verdict(&head.check) {
-        let mut t = Table::new("verdict", vec!["verdict".to_string()]);
+        let mut t = Table::new("verdict", vec!["verdict".to_string()]).keyed("verdict");
         t.push_row(vec![Cell::text("withheld")]);
         t.notes.push(format!(
             "verdict withheld: the head's own indices are implausible ({}); fix the map \
@@ -392,7 +392,7 @@ fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTabl
         ));
         return vec![st, ht, t];
     }
-    vec![st, ht, verdict_table(&verdict), checks_table(&verdict)]
+    vec![st, ht, verdict_table(&verdict).keyed("comparison"), checks_table(&verdict)]
 }
 
 /// The box plots behind computed bounds, one row per index.
@@ -407,7 +407,8 @@ pub fn box_plot_table(table: &BoundsTable, plots: &[BoxPlot]) -> Table {
         "upper whisker",
         "outliers",
     ];
-    let mut t = Table::new("computed class bounds", headers.map(String::from).to_vec());
+    let mut t =
+        Table::new("computed class bounds", headers.map(String::from).to_vec()).keyed("bounds");
     t.precision = 2;
     for (b, p) in table.bounds.iter().zip(plots) {
         t.push_row(vec![

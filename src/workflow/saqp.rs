@@ -29,8 +29,8 @@ use crate::landmarks::flags::FlagThresholds;
 use crate::math::{DVector, Point3};
 use crate::plot::{Panel, Series, TrajectoryPlot, draw_trajectories};
 use crate::saqp::{
-    Corpus, CvOptions, CvReport, External, LinearShapes, Predictor, Prepared, QualityEstimate,
-    SaqpError, Sentence, SynthKind, TrainOptions,
+    CalibrationKind, Corpus, CvOptions, CvReport, External, INPUT_NAMES, LinearShapes, Predictor,
+    Prepared, QualityEstimate, SaqpError, Sentence, Skill, SynthKind, TrainOptions,
 };
 use crate::session::Session;
 use serde::{Deserialize, Serialize};
@@ -589,7 +589,8 @@ pub fn predict_phones(
 /// The region PCA of a cross-validation: vertices, dimensions and variance kept per region.
 pub fn regions_table(report: &CvReport) -> Table {
     let headers = ["region", "vertices", "dims", "variance kept %"].map(String::from).to_vec();
-    let mut t = Table::new("Motion regions (PCA per region, ≥ 95 % of the variance)", headers);
+    let mut t = Table::new("Motion regions (PCA per region, ≥ 95 % of the variance)", headers)
+        .keyed("regions");
     for r in &report.regions {
         t.push_row(vec![
             Cell::Text(r.region.name().into()),
@@ -604,21 +605,41 @@ pub fn regions_table(report: &CvReport) -> Table {
     t
 }
 
-/// Per synthesizer: the learned model (ω_m, ξ, GP hyperparameters) and its held-out figures
-/// beside a constant predictor's.
+/// A held-out figure, or `Missing` when no held-out sentence was scored (an external
+/// synthesizer's motion may cover only some sentences).
+fn scored(skill: &Skill, v: f64) -> Cell {
+    if skill.sentences == 0 || !v.is_finite() { Cell::Missing } else { Cell::Num(v) }
+}
+
+/// The plain verdict of each synthesizer's kept predictor, one line each.
+pub fn skill_lines(report: &CvReport) -> Vec<String> {
+    report
+        .synths
+        .iter()
+        .map(|s| {
+            let k = s.kept_skill();
+            format!("{}: {} predictor kept; {}", s.synth.name(), s.kept.name(), k.describe())
+        })
+        .collect()
+}
+
+/// Per synthesizer and calibration (the GP, and the straight line on the same inputs
+/// beside it): held-out r and RMSE against a constant predictor's (the training mean), the
+/// RMSE ratio with its 95 % bootstrap interval over the held-out sentences, the verdict,
+/// and which calibration a trained predictor keeps.
 pub fn synths_table(report: &CvReport) -> Table {
     let headers = [
         "synthesizer",
+        "calibration",
         "held out",
         "r",
         "RMSE",
         "RMSE constant",
         "RMSE ratio",
-        "omega_m",
-        "xi",
-        "length scale",
-        "signal var",
-        "noise var",
+        "ratio CI low",
+        "ratio CI high",
+        "verdict",
+        "kept",
     ]
     .map(String::from)
     .to_vec();
@@ -628,26 +649,27 @@ pub fn synths_table(report: &CvReport) -> Table {
             report.test_sentences, report.train_sentences
         ),
         headers,
-    );
+    )
+    .keyed("summary");
     for s in &report.synths {
-        let h = s.gp.hyper;
-        // Figures over no held-out sentence do not exist (an external synthesizer's motion
-        // may cover only some sentences).
-        let scored = |v: f64| if s.held_out.is_empty() { Cell::Missing } else { Cell::Num(v) };
-        t.push_row(vec![
-            Cell::Text(s.synth.name().into()),
-            Cell::Int(s.held_out.len() as i64),
-            scored(s.pearson_r),
-            scored(s.rmse),
-            scored(s.rmse_constant),
-            scored(s.rmse / s.rmse_constant),
-            Cell::Num(s.omega_m),
-            Cell::Num(s.xi),
-            Cell::Num(h.length_scale),
-            Cell::Num(h.signal_variance),
-            Cell::Num(h.noise_variance),
-        ]);
+        for kind in [CalibrationKind::Gp, CalibrationKind::Linear] {
+            let k = s.skill(kind);
+            t.push_row(vec![
+                Cell::Text(s.synth.name().into()),
+                Cell::Text(kind.name().into()),
+                Cell::Int(k.sentences as i64),
+                scored(k, k.pearson_r),
+                scored(k, k.rmse),
+                scored(k, k.rmse_constant),
+                scored(k, k.ratio),
+                scored(k, k.ratio_low),
+                scored(k, k.ratio_high),
+                Cell::Text(k.verdict().as_str().into()),
+                Cell::Text(if s.kept == kind { "yes" } else { "" }.into()),
+            ]);
+        }
     }
+    t.notes.extend(skill_lines(report));
     t.notes.push(format!(
         "SATF: lambda {} order {} (chosen by cross-validation); {} training (E, Q) pairs, {} dropped as all phones unseen",
         report.satf.lambda, report.satf.order, report.pairs, report.unseen
@@ -659,33 +681,105 @@ pub fn synths_table(report: &CvReport) -> Table {
         ));
     }
     t.notes.push(
-        "r: Pearson correlation of predicted and ground-truth scores; RMSE constant: predicting the training mean; RMSE ratio below 1 beats it"
+        "inputs: E and the coverage (how well recorded occurrences match each speech phone's context, two phones either way, 0–1); linear: least squares on them; kept: the lower leave-one-sentence-out RMSE on the training pairs"
+            .into(),
+    );
+    t.notes.push(
+        "RMSE constant: predicting the training mean; skill: the ratio's 95 % bootstrap interval over the held-out sentences lies below 1"
             .into(),
     );
     t
 }
 
-/// Every held-out sentence: E, ground-truth Q and Likert score, the prediction, its σ and
-/// its error (predicted − ground truth, so the worst predicted sentences sort first).
-pub fn held_out_table(report: &CvReport) -> Table {
-    let headers = ["sentence", "synthesizer", "E", "Q", "likert", "predicted", "sigma", "error"]
+/// Per synthesizer: ω_m and ξ, the GP's hyperparameters, the line's coefficients, and both
+/// calibrations' leave-one-sentence-out RMSE on the training pairs.
+pub fn models_table(report: &CvReport) -> Table {
+    let mut headers: Vec<String> = ["synthesizer", "omega_m", "xi"].map(String::from).to_vec();
+    headers.extend(INPUT_NAMES.iter().map(|n| format!("GP length scale {n}")));
+    headers.extend(["GP signal var", "GP noise var", "line intercept"].map(String::from));
+    headers.extend(INPUT_NAMES.iter().map(|n| format!("line slope {n}")));
+    headers.extend(["training RMSE GP", "training RMSE linear", "kept"].map(String::from));
+    let mut t = Table::new("Models: omega_m, GP hyperparameters and the line beside it", headers)
+        .keyed("models");
+    for s in &report.synths {
+        let h = &s.gp.hyper;
+        let mut row =
+            vec![Cell::Text(s.synth.name().into()), Cell::Num(s.omega_m), Cell::Num(s.xi)];
+        row.extend(h.length_scales.iter().map(|&v| Cell::Num(v)));
+        row.extend([Cell::Num(h.signal_variance), Cell::Num(h.noise_variance)]);
+        row.extend(s.linear.coefficients.iter().map(|&v| Cell::Num(v)));
+        row.extend([
+            Cell::Num(s.gp_training_rmse),
+            Cell::Num(s.linear_training_rmse),
+            Cell::Text(s.kept.name().into()),
+        ]);
+        t.push_row(row);
+    }
+    t
+}
+
+/// The paper's choice of ω_m (§5.3, Fig. 6): per synthesizer and candidate, the
+/// leave-one-sentence-out RMSE of the GP's training predictions, which picks ω_m, beside the
+/// scores' spread (what the training mean would err by) and their ratio.
+pub fn omega_table(report: &CvReport) -> Table {
+    let headers = ["synthesizer", "omega_m", "CV RMSE", "standard error", "spread", "chosen"]
         .map(String::from)
         .to_vec();
-    let mut t = Table::new("Held-out sentences: ground-truth and predicted quality", headers);
+    let mut t =
+        Table::new("Choosing omega_m: cross-validated RMSE of the training scores", headers)
+            .keyed("omega");
+    for s in &report.synths {
+        let lowest = s.omega_scores.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse));
+        for o in &s.omega_scores {
+            let why = match lowest {
+                _ if o.omega_m != s.omega_m => String::new(),
+                Some(l) if l.omega_m == o.omega_m => "yes: the lowest".into(),
+                Some(l) => format!("yes: within 1 SE of the lowest ({})", l.omega_m),
+                None => String::new(),
+            };
+            t.push_row(vec![
+                Cell::Text(s.synth.name().into()),
+                Cell::Num(o.omega_m),
+                Cell::Num(o.rmse),
+                Cell::Num(o.rmse_error),
+                Cell::Num(o.spread),
+                Cell::Text(why),
+            ]);
+        }
+    }
+    t.notes.push(
+        "omega_m weighs the mouth markers in Q (eq. 8); as the paper, the candidate with the lowest cross-validated RMSE (one training sentence left out at a time), but the smallest within one standard error of it, as the RMSEs differ by less than their noise; spread: what predicting the training mean would err by"
+            .into(),
+    );
+    t
+}
+
+/// Every held-out sentence: E, coverage, ground-truth Q and Likert score, the kept
+/// calibration's prediction, its σ and its error (predicted − ground truth).
+pub fn held_out_table(report: &CvReport) -> Table {
+    let headers =
+        ["sentence", "synthesizer", "E", "coverage", "Q", "likert", "predicted", "sigma", "error"]
+            .map(String::from)
+            .to_vec();
+    let mut t = Table::new("Held-out sentences: ground-truth and predicted quality", headers)
+        .keyed("sentences");
     for s in &report.synths {
         for h in &s.held_out {
+            let p = h.prediction(s.kept);
             t.push_row(vec![
                 Cell::Text(h.sentence.clone()),
                 Cell::Text(s.synth.name().into()),
                 Cell::Num(h.e),
+                Cell::num(h.inputs.get(1).copied()),
                 Cell::Num(h.q),
                 Cell::Num(h.likert),
-                Cell::Num(h.predicted.mean),
-                Cell::Num(h.predicted.std()),
-                Cell::Num(h.predicted.mean - h.likert),
+                Cell::Num(p.mean),
+                Cell::Num(p.std()),
+                Cell::Num(p.mean - h.likert),
             ]);
         }
     }
+    t.notes.push("predicted: by each synthesizer's kept calibration (see the summary)".into());
     t
 }
 
@@ -714,12 +808,14 @@ pub fn quality_chart(report: &CvReport, width: u32) -> image::RgbImage {
                 )),
                 series: vec![
                     series("ground truth", [31, 119, 180], &|h| h.likert),
-                    series("predicted", [255, 127, 14], &|h| h.predicted.mean),
+                    series("predicted", [255, 127, 14], &|h| h.prediction(s.kept).mean),
                     series("predicted ± σ", [250, 200, 150], &|h| {
-                        h.predicted.mean + h.predicted.std()
+                        let p = h.prediction(s.kept);
+                        p.mean + p.std()
                     }),
                     series("predicted ± σ", [250, 200, 150], &|h| {
-                        h.predicted.mean - h.predicted.std()
+                        let p = h.prediction(s.kept);
+                        p.mean - p.std()
                     }),
                 ],
             }

@@ -369,7 +369,8 @@ pub fn transferred_head_tables(
                 for mut t in [r.sentences, r.phonemes, r.visemes] {
                     t.title =
                         format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
-                    tables.push(t);
+                    t.key = format!("transferred_{}", t.key);
+                    tables.push(t.for_item(&entry.name));
                 }
             }
             Err(e) => warnings.push(super::Warning(format!(

@@ -56,16 +56,13 @@ pub fn makehuman() -> Option<(PathBuf, lipmap::model::Mesh, Vec<bool>, lipmap::m
     Some((dir, mesh, skin, map))
 }
 
-/// The rows of the per-synthesizer table in `lipmap saqp cv --json`'s output.
+/// The rows of `lipmap saqp cv --json`'s summary, one per synthesizer: its kept calibration.
 pub fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
     let tables: serde_json::Value = serde_json::from_slice(json).unwrap();
-    let (_, rows) = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Predicted vs ground-truth"))
-        .expect("the synthesizer table");
-    rows.as_array().unwrap().clone()
+    let summary = &tables["summary"];
+    assert!(summary["title"].as_str().unwrap().starts_with("Predicted vs ground-truth"));
+    let rows = summary["rows"].as_array().expect("the synthesizer table");
+    rows.iter().filter(|r| r["kept"] == "yes").cloned().collect()
 }
 
 /// `lipmap demo --no-tui --sentences 1 --out DIR/demo` run by the binary under test; returns

@@ -60,10 +60,11 @@ pub fn quality_for_tui(session: &mut crate::session::Session, path: &std::path::
         "quality over {} sentences ({frames} frames, {bridged} bridged){}; Enter opens a sentence",
         cv.sentences,
         best.map_or(String::new(), |s| format!(
-            ": best {} r {:.2}, RMSE {:.2} × a constant's",
+            ": best {} r {:.2}, RMSE {:.2} × a constant's ({})",
             s.synth.name(),
             s.pearson_r,
-            s.rmse / s.rmse_constant
+            s.rmse / s.rmse_constant,
+            s.kept_skill().verdict().as_str()
         ))
     );
     Action::QualityReady { tables: vec![held, synths], summary }

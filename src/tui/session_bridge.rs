@@ -11,8 +11,8 @@ use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
-use crate::session::journal::{Journal, JournalEntry};
-use crate::session::{MapRole, Session, SessionLock};
+use crate::session::journal::JournalEntry;
+use crate::session::{MapRole, Session};
 use crate::tui::app::{App, FrameImage, FrameProvider};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -60,10 +60,10 @@ impl Drop for SessionBridge {
     }
 }
 
-/// An open session: the file, its lock (released on drop) and the clip being edited.
+/// An open session (the workflow's `EditSession`: file, lock released on drop, journal) and
+/// the clip being edited.
 pub struct SessionBridge {
-    pub path: PathBuf,
-    pub session: Session,
+    edit: crate::workflow::EditSession,
     pub clip: usize,
     /// Which mesh's map the head view labels (see `workflow::map::label_role`).
     role: MapRole,
@@ -73,9 +73,6 @@ pub struct SessionBridge {
     written_map: Option<PathBuf>,
     /// The thread writing session snapshots, once started.
     saver: Option<Saver>,
-    /// Every edit, on disk before the next (see `session::journal`).
-    journal: Journal,
-    _lock: SessionLock,
 }
 
 impl SessionBridge {
@@ -88,11 +85,11 @@ impl SessionBridge {
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
         // Locked, loaded, a crashed editor's journal replayed (or set aside when it cannot
         // be): the one way a session is opened for editing.
-        let opened = crate::workflow::open_for_edit_at(path)?;
-        let crate::workflow::EditSession { lock, session, journal, restored, notices, .. } = opened;
-        let restored = !restored.is_empty();
+        let mut edit = crate::workflow::open_for_edit_at(path)?;
+        let restored = !edit.restored.is_empty();
         let mut problems: Vec<String> =
-            notices.iter().map(|w| w.status_text().to_string()).collect();
+            std::mem::take(&mut edit.notices).iter().map(|w| w.status_text().to_string()).collect();
+        let session = &edit.session;
         let c = session.clip(clip)?;
         let tracked = c.tracked.clone();
         let track = c.corrections.effective_track(&c.tracked);
@@ -121,8 +118,8 @@ impl SessionBridge {
             }
         };
         // The head view labels the mesh that needs a map: the model's (its mean) or the head's.
-        let role = crate::workflow::map::label_role(&session);
-        let label_file = crate::workflow::map::mesh_file_of(&session, role).map(Path::to_path_buf);
+        let role = crate::workflow::map::label_role(session);
+        let label_file = crate::workflow::map::mesh_file_of(session, role).map(Path::to_path_buf);
         let labels_model_mean =
             session.model.as_ref().is_some_and(|m| Some(&m.path) == label_file.as_ref());
         if let Some(mesh_path) = label_file.as_ref().filter(|_| !labels_model_mean) {
@@ -197,17 +194,7 @@ impl SessionBridge {
         if !problems.is_empty() {
             app.status = problems.join("; ");
         }
-        let bridge = Self {
-            path: path.to_path_buf(),
-            session,
-            clip,
-            role,
-            loaded_map: map,
-            written_map: None,
-            saver: None,
-            journal,
-            _lock: lock,
-        };
+        let bridge = Self { edit, clip, role, loaded_map: map, written_map: None, saver: None };
         Ok((app, bridge, provider))
     }
 
@@ -218,13 +205,13 @@ impl SessionBridge {
     /// When a correction is rejected by the session (non-finite, bad index).
     pub fn write_back(&mut self, app: &App) -> anyhow::Result<()> {
         let layer = self.edit_layer(app)?;
-        let c = self.session.clips.get_mut(self.clip).context("the clip disappeared")?;
+        let c = self.edit.session.clips.get_mut(self.clip).context("the clip disappeared")?;
         c.corrections = layer.corrections;
         if app.side.view().is_some() {
             c.profile_corrections = layer.profile_corrections;
         }
         if let Some(map) = layer.landmark_map {
-            self.session.map_of_mut(self.role).inline = Some(map);
+            self.edit.session.map_of_mut(self.role).inline = Some(map);
         }
         Ok(())
     }
@@ -233,7 +220,7 @@ impl SessionBridge {
     /// frames, side-view corrections (the session's own when the side view is not loaded)
     /// and the map when it was changed.
     fn edit_layer(&self, app: &App) -> anyhow::Result<JournalEntry> {
-        let c = self.session.clips.get(self.clip).context("the clip disappeared")?;
+        let c = self.edit.session.clips.get(self.clip).context("the clip disappeared")?;
         let mut fresh = crate::session::Corrections::default();
         for (frame, index, p) in corrections(&app.tracked, &app.track) {
             // Placeholders of frames the tracker missed are not corrections.
@@ -267,8 +254,7 @@ impl SessionBridge {
     /// As `write_back`; the journal cannot be written.
     pub fn journal(&mut self, app: &App) -> anyhow::Result<()> {
         let entry = self.edit_layer(app)?;
-        self.journal.record(&entry)?;
-        Ok(())
+        Ok(self.edit.record(&entry)?)
     }
 
     /// Removes the journal: call when the session file holds every edit.
@@ -276,18 +262,15 @@ impl SessionBridge {
     /// # Errors
     /// The journal exists and cannot be removed.
     pub fn clear_journal(&mut self) -> anyhow::Result<()> {
-        if self.journal.is_present() {
-            self.journal.clear()?;
-        }
-        Ok(())
+        Ok(self.edit.retire_journal()?)
     }
 
     /// The side view's measurement for a job's thread (it decodes every side frame), when
     /// the clip has a side view: replies `SideReady` or `SideFailed`.
     pub fn side_view_job(&self) -> Option<impl FnOnce() -> Action + Send + 'static> {
-        let c = self.session.clips.get(self.clip)?;
+        let c = self.edit.session.clips.get(self.clip)?;
         let side = c.side.clone()?;
-        let (session, clip) = (self.session.clone(), self.clip);
+        let (session, clip) = (self.edit.session.clone(), self.clip);
         Some(move || {
             let measured = crate::workflow::side_view_track(&session, clip)
                 .map_err(anyhow::Error::from)
@@ -312,22 +295,22 @@ impl SessionBridge {
     /// The speech-driven head of this clip for a job's thread (it may fit what the cache
     /// lacks and inverts the whole clip's audio): replies `SpeechReady` or `SpeechAbsent`.
     pub fn speech_job(&self) -> impl FnOnce() -> Action + Send + 'static {
-        let (mut session, clip) = (self.session.clone(), self.clip);
+        let (mut session, clip) = (self.edit.session.clone(), self.clip);
         move || super::jobs::speech_for_tui(&mut session, clip)
     }
 
     /// The quality cross-validation over this session's sentences for a job's thread (it
     /// may fit what the cache lacks): replies `QualityReady` or `QualityFailed`.
     pub fn quality_job(&self) -> impl FnOnce() -> Action + Send + 'static {
-        let (mut session, path) = (self.session.clone(), self.path.clone());
+        let (mut session, path) = (self.edit.session.clone(), self.edit.path.clone());
         move || super::jobs::quality_for_tui(&mut session, &path)
     }
 
     /// The set-up of the session's transferred head number `index` for a job's thread:
     /// replies `HeadPrepared`. `None` when the session has no such head.
     pub fn head_setup_job(&self, index: usize) -> Option<impl FnOnce() -> Action + Send + 'static> {
-        let entry = self.session.transferred_heads.get(index)?.clone();
-        let session = self.session.clone();
+        let entry = self.edit.session.transferred_heads.get(index)?.clone();
+        let session = self.edit.session.clone();
         Some(move || {
             let head = super::jobs::prepare_head_for_tui(&session, &entry);
             Action::HeadPrepared { index, head: head.map(Arc::new) }
@@ -336,7 +319,7 @@ impl SessionBridge {
 
     /// The side view's frames, when the clip has a side view that opens.
     pub fn side_frames(&self) -> Option<Arc<dyn FrameProvider>> {
-        let src = self.session.open_side_frames(self.clip, FRAME_CACHE_MB / 4).ok()??;
+        let src = self.edit.session.open_side_frames(self.clip, FRAME_CACHE_MB / 4).ok()??;
         Some(Arc::new(SessionFrames(src)))
     }
 
@@ -347,6 +330,7 @@ impl SessionBridge {
     /// No map file in the session; an unreadable or malformed file.
     pub fn load_map_file(&self) -> anyhow::Result<(PathBuf, LandmarkMap)> {
         let path = self
+            .edit
             .session
             .map_of(self.role)
             .file
@@ -358,7 +342,7 @@ impl SessionBridge {
 
     /// Name of the clip being edited.
     pub fn clip_name(&self) -> String {
-        self.session.clips.get(self.clip).map_or_else(String::new, |c| c.name.clone())
+        self.edit.session.clips.get(self.clip).map_or_else(String::new, |c| c.name.clone())
     }
 
     /// `write_back` then an atomic save to the session file.
@@ -367,8 +351,7 @@ impl SessionBridge {
     /// As `write_back` and `Session::save`.
     pub fn save(&mut self, app: &App) -> anyhow::Result<()> {
         self.write_back(app)?;
-        self.session.save(&self.path)?;
-        self.clear_journal()
+        Ok(self.edit.save()?)
     }
 
     /// Starts the saver thread: `save_in_background` then replies `Saved`/`SaveFailed` on
@@ -414,11 +397,11 @@ impl SessionBridge {
             Some(s) => {
                 let (lock, wake) = &*s.queue;
                 let mut g = lock.lock().map_err(|_| anyhow::anyhow!("the saver thread died"))?;
-                g.next = Some((self.session.clone(), self.path.clone(), generation));
+                g.next = Some((self.edit.session.clone(), self.edit.path.clone(), generation));
                 wake.notify_one();
                 Ok(())
             }
-            None => Ok(self.session.save(&self.path)?),
+            None => Ok(self.edit.session.save(&self.edit.path)?),
         }
     }
 
@@ -441,7 +424,7 @@ impl SessionBridge {
     /// # Errors
     /// When a fit names a frame without landmarks.
     pub fn store_fits(&mut self, app: &App, fits: Vec<FrameFit>) -> anyhow::Result<()> {
-        self.session.store_fits(self.clip, &app.fit_settings, fits)?;
+        self.edit.session.store_fits(self.clip, &app.fit_settings, fits)?;
         Ok(())
     }
 
@@ -454,7 +437,7 @@ impl SessionBridge {
     /// When there is no map or the file cannot be written.
     pub fn save_map(&mut self, app: &App) -> anyhow::Result<PathBuf> {
         let map = app.map.as_ref().filter(|m| !m.is_empty()).context("no landmarks mapped yet")?;
-        let dir = crate::session::absolute(self.path.parent().unwrap_or(Path::new(".")));
+        let dir = crate::session::absolute(self.edit.path.parent().unwrap_or(Path::new(".")));
         let ours = self.written_map.clone();
         let target = (1..1000)
             .map(|k| {
@@ -463,7 +446,7 @@ impl SessionBridge {
                     MapRole::Model => "ibug_map",
                     MapRole::Head => "head_map",
                 };
-                dir.join(format!("{}.{kind}{n}.txt", self.session.name))
+                dir.join(format!("{}.{kind}{n}.txt", self.edit.session.name))
             })
             .find(|p| Some(p) == ours.as_ref() || !p.exists())
             .context("no free file name for the landmark map")?;
@@ -472,8 +455,8 @@ impl SessionBridge {
         }
         let names = &crate::reference::current().names;
         crate::io::landmark_map_toml::write_landmark_map(&target, map, names)?;
-        self.session.map_of_mut(self.role).file = Some(target.clone());
-        self.session.map_of_mut(self.role).set_inline(map);
+        self.edit.session.map_of_mut(self.role).file = Some(target.clone());
+        self.edit.session.map_of_mut(self.role).set_inline(map);
         self.loaded_map = Some(map.clone());
         self.written_map = Some(target.clone());
         Ok(target)

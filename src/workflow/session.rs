@@ -53,6 +53,22 @@ impl EditSession {
     /// The save's error; the journal exists and cannot be removed.
     pub fn save(&mut self) -> Result<()> {
         self.session.save(&self.path)?;
+        self.retire_journal()
+    }
+
+    /// Appends an editor's edit layer to the journal, on disk when this returns.
+    ///
+    /// # Errors
+    /// The journal cannot be written.
+    pub fn record(&mut self, entry: &journal::JournalEntry) -> Result<()> {
+        Ok(self.journal.record(entry)?)
+    }
+
+    /// Removes the journal: call when the session file holds every edit.
+    ///
+    /// # Errors
+    /// The journal exists and cannot be removed.
+    pub fn retire_journal(&mut self) -> Result<()> {
         if self.journal.is_present() {
             self.journal.clear()?;
         }

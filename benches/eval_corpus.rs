@@ -123,6 +123,7 @@ fn eval(dir: &Path, whole_meshes: bool) {
         &clips,
         &settings,
         HeadP::Mesh,
+        Default::default(),
         &no_progress,
     )
     .unwrap();

@@ -7,10 +7,13 @@
 //!   session's frame budget) and the fit cache dropped, as a hand edit would leave it;
 //! - `over`: every clip's last tracked frame at 1,048,575 (past the budget: refused);
 //! - a 62 s WAV (the demo voice repeated) animated by a speech model trained on the demo,
-//!   carried onto the MakeHuman head when `../shared/data` is present.
+//!   carried onto the MakeHuman head when `../shared/data` is present;
+//! - an hour of speech (130 demo sentences' voices, pauses included, repeated) at 16 kHz
+//!   mono and at 48 kHz stereo, animated by a model trained with default settings on those
+//!   130 sentences: bounded by 300 MB and 60 s (issue 30), whatever the hour's size.
 //!
 //! Each command's peak resident memory is read from `wait4`'s rusage; prints MB and the
-//! ratio to the 1 GB bound. Run: `cargo bench --bench hostile`.
+//! ratio to the bound. Run: `cargo bench --bench hostile`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -48,6 +51,72 @@ fn report(what: &str, input_bytes: u64, args: &[&str]) {
         input_bytes as f64 / 1024.0,
         mb / BOUND_MB
     );
+}
+
+/// Bounds of `speech animate` on an hour of audio (issue 30).
+const HOUR_BOUND_MB: f64 = 300.0;
+const HOUR_BOUND_S: f64 = 60.0;
+
+/// Writes an hour of `voice` (mono samples at `rate`) repeated, as a WAV of `channels`
+/// 16-bit channels, block by block (the bench holds no hour of samples either).
+fn write_hour(path: &Path, voice: &[f32], rate: u32, channels: u16) {
+    let spec = hound::WavSpec {
+        channels,
+        sample_rate: rate,
+        bits_per_sample: 16,
+        sample_format: hound::SampleFormat::Int,
+    };
+    let mut w = hound::WavWriter::create(path, spec).expect("hour WAV");
+    let total = 3600 * rate as usize;
+    for v in voice.iter().cycle().take(total) {
+        let x = (v.clamp(-1.0, 1.0) * 32767.0).round() as i16;
+        for _ in 0..channels {
+            w.write_sample(x).expect("write sample");
+        }
+    }
+    w.finalize().expect("finish hour WAV");
+}
+
+/// `speech animate` on an hour of speech at 16 kHz mono and 48 kHz stereo.
+fn hour_of_audio(tmp: &Path) {
+    let corpus = tmp.join("corpus");
+    let (code, _, _) =
+        run(&["demo", "--no-tui", "--no-frames", "--sentences", "130", "--out", s(&corpus)]);
+    assert_eq!(code, 0, "demo of 130 sentences");
+    let session = corpus.join("demo.lipmap.json");
+    let model = tmp.join("speech130.json");
+    let (code, _, train_s) = run(&["speech", "train", s(&session), "--out", s(&model)]);
+    assert_eq!(code, 0, "speech train on 130 sentences");
+    println!("hostile/speech train, 130 sentences (for the hour): {train_s:.1} s");
+    let loaded = lipmap::session::Session::load(&session).expect("demo session");
+    let mut voice = Vec::new();
+    for c in &loaded.clips {
+        let a =
+            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
+        voice.extend(a.samples);
+    }
+    let anim = tmp.join("anim_hour");
+    for (rate, channels) in [(16_000u32, 1u16), (48_000, 2)] {
+        let source = if rate == 16_000 {
+            voice.clone()
+        } else {
+            lipmap::speech::resample(&voice, 16_000.0, f64::from(rate)).expect("upsampled voice")
+        };
+        let wav = tmp.join(format!("hour_{rate}_{channels}.wav"));
+        write_hour(&wav, &source, rate, channels);
+        let bytes = size(&wav);
+        let (code, mb, secs) =
+            run(&["speech", "animate", s(&model), "--audio", s(&wav), "--out", s(&anim)]);
+        println!(
+            "hostile/speech animate, an hour at {} kHz {} ({:.0} MB WAV, exit {code}): peak {mb:.0} MB (bound {HOUR_BOUND_MB:.0}, ratio {:.2}) in {secs:.1} s (bound {HOUR_BOUND_S:.0}, ratio {:.2})",
+            rate / 1000,
+            if channels == 1 { "mono" } else { "stereo" },
+            bytes as f64 / 1e6,
+            mb / HOUR_BOUND_MB,
+            secs / HOUR_BOUND_S
+        );
+        let _ = std::fs::remove_file(&wav);
+    }
 }
 
 fn size(p: &Path) -> u64 {
@@ -135,4 +204,5 @@ fn main() {
         ),
         None => println!("hostile: ../shared/data absent; the MakeHuman animation is skipped"),
     }
+    hour_of_audio(tmp.path());
 }

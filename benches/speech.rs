@@ -8,9 +8,7 @@
 #[allow(unused)]
 mod speech_corpus;
 
-use lipmap::speech::{
-    InversionOptions, MouthClip, SpeechOptions, TrainingClip, train_speech_model,
-};
+use lipmap::speech::{MouthClip, SpeechOptions, TrainingClip, compute_log_mel, train_speech_model};
 use speech_corpus::{demo_voice_corpus, festival_corpus, grid_sentences, neutral_mouth};
 use std::time::Instant;
 
@@ -25,16 +23,21 @@ fn main() {
         None => ("demo voice", demo_voice_corpus(&words, fps, 11)),
     };
     let neutral = neutral_mouth();
+    let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
+    let start = Instant::now();
+    let log_mels: Vec<_> = corpus[..TRAIN]
+        .iter()
+        .map(|s| compute_log_mel(&s.samples, &opts.mfcc, s.mouth.len()).expect("analysis"))
+        .collect();
     let clips: Vec<TrainingClip> = corpus[..TRAIN]
         .iter()
-        .map(|s| TrainingClip {
-            samples: &s.samples,
+        .zip(&log_mels)
+        .map(|(s, log_mel)| TrainingClip {
+            log_mel,
             mouth: MouthClip { frames: &s.mouth, neutral: &neutral },
         })
         .collect();
     let frames: usize = clips.iter().map(|c| c.mouth.frames.len()).sum();
-    let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
-    let start = Instant::now();
     let mut iterations = 0;
     let model = train_speech_model(&clips, &opts, &mut |i, _| iterations = i).expect("training");
     let train_s = start.elapsed().as_secs_f64();
@@ -50,8 +53,9 @@ fn main() {
     let start = Instant::now();
     let inverter = model.inverter().expect("inverter");
     for s in test {
-        let a = model.audio_features(&s.samples, s.mouth.len()).expect("features");
-        std::hint::black_box(inverter.invert(&a, &InversionOptions::default()).expect("inversion"));
+        let log_mel = compute_log_mel(&s.samples, &opts.mfcc, s.mouth.len()).expect("analysis");
+        let a = model.audio_features(&log_mel).expect("features");
+        std::hint::black_box(model.estimate_visual(&inverter, &a).expect("inversion"));
     }
     let invert_s = start.elapsed().as_secs_f64();
     println!(

@@ -38,7 +38,7 @@ fn main() {
     let model = load_model(demo.model.as_ref().expect("demo model"), None).expect("model");
     let map = read_landmark_map(&demo.landmark_map).expect("demo map");
     let head = Some(obj::read_obj(&demo.head_obj).expect("demo head"));
-    let res = Resources { model, map, head };
+    let res = Resources { model, map, head, head_map: None, accept_map_warnings: false };
     let clip = &demo.speakers[0].clips[0];
     let track = read_track(&clip.tracked_csv).expect("demo track");
     let settings = FitSettings::default();

@@ -36,6 +36,7 @@ pub mod speech;
 pub mod table_text;
 #[cfg(any(test, feature = "test-fixtures"))]
 pub mod testdata;
+pub mod track;
 pub mod transfer;
 pub mod tui;
 pub mod workflow;

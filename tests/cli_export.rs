@@ -44,7 +44,7 @@ fn fixture() -> Option<Fixture> {
         clip: ClipInputs {
             frames,
             fps: Some(25.0),
-            landmarks,
+            landmarks: landmarks.into(),
             alignment: Some((textgrid, None)),
             side: None,
             name: Some("carphone".into()),
@@ -77,6 +77,7 @@ fn args(out: &Path) -> ExportRequest {
         normalisation: Normalisation::MinMax,
         worst: 10,
         plot_width: 1200,
+        pose: Default::default(),
     }
 }
 

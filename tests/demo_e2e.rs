@@ -70,6 +70,7 @@ fn demo_fit_recovers_truth_flags_errors_and_covers_phones() {
             c,
             &fits.fits,
             &MeshMeasureOptions::default(),
+            Default::default(),
         )
         .unwrap();
         assert!(warnings.is_empty(), "{warnings:?}");

@@ -337,7 +337,7 @@ const CASES: &[(&str, Reader, &str)] = &[
     (
         "session_newer_schema.lipmap.json",
         session,
-        ": this session was written by a newer lipmap (session schema 7; this build reads up to 1); update lipmap to open it",
+        ": this session was written by a newer lipmap (session schema 7; this build reads up to 2); update lipmap to open it",
     ),
     ("session_no_schema.lipmap.json", session, ": no `schema_version`: not a lipmap session file"),
     (

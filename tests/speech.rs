@@ -9,8 +9,9 @@
 #[path = "speech_corpus.rs"]
 mod speech_corpus;
 
+use lipmap::math::DMatrix;
 use lipmap::speech::{
-    InversionOptions, MouthClip, SpeechOptions, TrainingClip, average_correlation, average_mse,
+    MouthClip, SpeechOptions, TrainingClip, average_correlation, average_mse, compute_log_mel,
     stack_rows, train_speech_model,
 };
 use speech_corpus::{Sentence, demo_voice_corpus, festival_corpus, grid_sentences, neutral_mouth};
@@ -25,16 +26,26 @@ struct Scores {
     baseline_amse: f64,
 }
 
+/// The log mel energies of each sentence, one row per mouth frame.
+fn log_mels(sentences: &[Sentence], opts: &SpeechOptions) -> Vec<DMatrix> {
+    sentences
+        .iter()
+        .map(|s| compute_log_mel(&s.samples, &opts.mfcc, s.mouth.len()).unwrap())
+        .collect()
+}
+
 fn evaluate(train: &[Sentence], test: &[Sentence], fps: f64) -> Scores {
     let neutral = neutral_mouth();
+    let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
+    let train_mel = log_mels(train, &opts);
     let clips: Vec<TrainingClip> = train
         .iter()
-        .map(|s| TrainingClip {
-            samples: &s.samples,
+        .zip(&train_mel)
+        .map(|(s, log_mel)| TrainingClip {
+            log_mel,
             mouth: MouthClip { frames: &s.mouth, neutral: &neutral },
         })
         .collect();
-    let opts = SpeechOptions::new(f64::from(speech_corpus::SAMPLE_RATE), fps);
     assert_eq!((opts.train.n_states, opts.train.n_mixtures, opts.context), (16, 2, 3));
     let model = train_speech_model(&clips, &opts, &mut |i, ll| {
         eprintln!("iteration {i}: {ll:.3} nats/frame")
@@ -42,13 +53,13 @@ fn evaluate(train: &[Sentence], test: &[Sentence], fps: f64) -> Scores {
     .unwrap();
     let inverter = model.inverter().unwrap();
     let (mut truth, mut hmm, mut linear) = (Vec::new(), Vec::new(), Vec::new());
-    for s in test {
-        let audio = model.audio_features(&s.samples, s.mouth.len()).unwrap();
+    for (s, log_mel) in test.iter().zip(log_mels(test, &opts)) {
+        let audio = model.audio_features(&log_mel).unwrap();
         truth.push(
-            model.visual.project(&MouthClip { frames: &s.mouth, neutral: &neutral }).unwrap(),
+            model.visual_features(&MouthClip { frames: &s.mouth, neutral: &neutral }).unwrap(),
         );
-        hmm.push(inverter.invert(&audio, &InversionOptions::default()).unwrap());
-        linear.push(model.baseline.predict(&audio).unwrap());
+        hmm.push(model.estimate_visual(&inverter, &audio).unwrap());
+        linear.push(model.estimate_linear(&audio).unwrap());
     }
     let (truth, hmm, linear) = (stack_rows(&truth), stack_rows(&hmm), stack_rows(&linear));
     let scores = Scores {

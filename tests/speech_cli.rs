@@ -1,8 +1,8 @@
 //! `lipmap speech` through the binary: a small model trained on demo sessions (whose clips
 //! carry the demo voice), scored and animated; and the bad inputs a user can give it (empty,
-//! truncated, too-slow-rate WAVs, a file that is not a model, another model version, a model
-//! trained at another frame rate, a session without audio), each a one-line error naming
-//! the file or setting.
+//! truncated, too-slow-rate WAVs, audio far shorter than its clip, a file that is not a
+//! model, another model version, a model trained at another frame rate, absurd numbers in a
+//! model, a session without audio), each a one-line error naming the file or setting.
 
 use lipmap::io::wav::write_wav;
 use std::path::{Path, PathBuf};
@@ -51,7 +51,18 @@ fn trained(dir: &Path) -> (PathBuf, PathBuf) {
         s(&model),
     ]);
     assert!(out.status.success(), "train: {}", text(&out.stderr));
-    assert!(text(&out.stdout).contains("trained on 3 clips"), "{}", text(&out.stdout));
+    let said = text(&out.stdout);
+    assert!(said.contains("trained on 3 clips"), "{said}");
+    // 3 sentences are too few for 4 states of 43-dimensional Gaussians: shrunk, and said.
+    assert!(said.contains("2 states × 1 mixtures"), "{said}");
+    assert!(
+        text(&out.stderr).contains("too few for 4 states × 1 mixtures"),
+        "{}",
+        text(&out.stderr)
+    );
+    // Why Baum–Welch stopped, and why there is no held-out estimate.
+    assert!(said.contains("Baum-Welch (last run): stopped"), "{said}");
+    assert!(said.contains("no held-out estimate: fewer than 10 clips"), "{said}");
     (session, model)
 }
 
@@ -77,29 +88,45 @@ fn train_eval_animate_and_every_bad_input() {
     assert!(scores["title"].as_str().unwrap().starts_with("Visual parameters"), "{scores}");
     let acc = scores["rows"][0]["ACC"].as_f64().unwrap();
     assert!((-1.0..=1.0).contains(&acc), "ACC {acc}");
+    // Scored on its own training clips: said on stderr and in the table.
+    assert!(table.contains("NOT held out: 3 of the 3 clips"), "{table}");
+    assert!(text(&out.stderr).contains("3 of the 3 clips scored were in the model's training set"));
     session_names_the_model(&session, &model);
 
     // Animate from the demo voice, and from a stereo 48 kHz copy (resampled, mixed).
     let voice = first_voice(&session);
     let anim = dir.path().join("anim");
-    let out = lipmap(&["speech", "animate", s(&model), "--audio", s(&voice), "--out", s(&anim)]);
+    let animate = |more: &[&str]| {
+        let mut args = vec!["speech", "animate", s(&model), "--audio", s(&voice)];
+        args.extend_from_slice(more);
+        lipmap(&args)
+    };
+    let out = animate(&["--out", s(&anim)]);
     assert!(out.status.success(), "animate: {}", text(&out.stderr));
-    let shapes = lipmap::io::npy_model::read_npy(&anim.join("shapes.npy")).unwrap();
+    let mouth = lipmap::io::npy_model::read_npy(&anim.join("mouth.npy")).unwrap();
+    let coefficients = lipmap::io::npy_model::read_npy(&anim.join("coefficients.npy")).unwrap();
+    assert!(!anim.join("shapes.npy").exists(), "whole meshes only with --shapes");
     let audio = lipmap::io::wav::read_wav(&voice).unwrap();
     let frames = (audio.samples.len() as f64 / 16_000.0 * 24.0) as usize;
-    assert!(shapes.shape[0].abs_diff(frames) <= 1, "{:?} vs {frames}", shapes.shape);
-    assert!(shapes.data.iter().all(|v| v.is_finite()));
+    assert!(mouth.shape[0].abs_diff(frames) <= 1, "{:?} vs {frames}", mouth.shape);
+    assert_eq!(mouth.shape[1], 3 * 23);
+    assert_eq!(coefficients.shape[0], mouth.shape[0]);
+    assert!(mouth.data.iter().chain(&coefficients.data).all(|v| v.is_finite()));
+    let out = animate(&["--shapes", "--out", s(&anim)]);
+    assert!(out.status.success(), "animate --shapes: {}", text(&out.stderr));
+    let shapes = lipmap::io::npy_model::read_npy(&anim.join("shapes.npy")).unwrap();
+    assert_eq!(shapes.shape[0], mouth.shape[0]);
+    // The mouth columns are the shapes' mouth vertices.
+    let model_json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&model).unwrap()).unwrap();
+    let v0 = model_json["head"]["mouth_vertices"][0].as_u64().unwrap() as usize;
+    assert!((shapes.data[3 * v0] - mouth.data[0]).abs() < 1e-4);
 
     // The same voice carried onto a head (the demo's own OBJ and map): one row per frame of
     // the animation, the head's vertex count wide, and the mouth moves.
     let demo = session.parent().unwrap();
     let on_head = dir.path().join("on_head");
-    let out = lipmap(&[
-        "speech",
-        "animate",
-        s(&model),
-        "--audio",
-        s(&voice),
+    let out = animate(&[
         "--head",
         s(&demo.join("head.obj")),
         "--mapping",
@@ -110,7 +137,7 @@ fn train_eval_animate_and_every_bad_input() {
     assert!(out.status.success(), "animate --head: {}", text(&out.stderr));
     let head = lipmap::io::npy_model::read_npy(&on_head.join("head_shapes.npy")).unwrap();
     let mesh = lipmap::io::obj::read_obj(&demo.join("head.obj")).unwrap();
-    assert_eq!(head.shape, vec![shapes.shape[0], 3 * mesh.vertices.len()]);
+    assert_eq!(head.shape, vec![mouth.shape[0], 3 * mesh.vertices.len()]);
     let width = head.shape[1];
     let first = &head.data[..width];
     let moved = head
@@ -130,7 +157,7 @@ fn train_eval_animate_and_every_bad_input() {
     let said = text(&out.stdout);
     assert!(out.status.success(), "validate: {said}{}", text(&out.stderr));
     for want in [
-        "ok (speech model, 4 states at 24 fps",
+        "ok (speech model, 2 states at 24 fps",
         "ok (audio, ",
         "ok (synthesized motion, 4 frames of 2 vertices)",
     ] {
@@ -144,6 +171,29 @@ fn train_eval_animate_and_every_bad_input() {
 
     bad_wavs(dir.path(), &model, &voice, &anim);
     bad_models(dir.path(), &model, &session);
+    short_audio(dir.path(), &session);
+}
+
+/// A clip whose audio is one sample long for its 60-odd frames is refused by training (exit
+/// 2, one line naming the clip and the margin) and by import.
+fn short_audio(dir: &Path, session: &Path) {
+    let one = dir.join("one_sample.wav");
+    write_wav(&one, &[0.1], 16_000).unwrap();
+    let mut short = lipmap::session::Session::load(session).unwrap();
+    short.clips[0].audio.as_mut().unwrap().file = one.clone();
+    let name = short.clips[0].name.clone();
+    let path = session.with_file_name("short.lipmap.json");
+    short.save(&path).unwrap();
+    let out = lipmap(&["speech", "train", s(&path), "--out", s(&dir.join("short.json"))]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = one_error(&out);
+    assert!(
+        e.contains(&format!("clip `{name}`")) && e.contains("25 %") && e.contains("one_sample.wav"),
+        "{e}"
+    );
+    let out = lipmap(&["import", s(&path), "--audio", s(&one), "--clip", &name]);
+    let e = one_error(&out);
+    assert!(e.contains("25 %"), "{e}");
 }
 
 /// Training (and scoring) recorded the model in the session; the TUI's charts drive the
@@ -241,13 +291,58 @@ fn bad_models(dir: &Path, model: &Path, session: &Path) {
     let e = eval(&fps25);
     assert!(e.contains("frame rate (fps) = 25") && e.contains("= 24"), "{e}");
 
-    // Damaged numbers: a covariance that is not positive definite.
+    // Damaged numbers: a covariance that is not positive definite, absurd values, a
+    // transition row that is not a distribution; each named by its field.
     let broken = edited("broken.json", &|v| {
-        let cov = &mut v["speech"]["hmm"]["states"][0][0]["gaussian"]["cov"];
-        *cov = serde_json::json!([[-1.0]]);
+        // nalgebra writes a matrix as [column-major data, rows, columns].
+        v["speech"]["hmm"]["states"][0][0]["gaussian"]["cov"][0][0] = (-1.0).into();
     });
     let e = eval(&broken);
-    assert!(e.contains("broken.json"), "{e}");
+    assert!(e.contains("broken.json") && e.contains("hmm.states[0][0]"), "{e}");
+    for (name, edit, field) in [
+        (
+            "mean.json",
+            &(|v: &mut serde_json::Value| v["speech"]["visual"]["mean"][0][0] = 1e308.into())
+                as &dyn Fn(&mut serde_json::Value),
+            "speech.visual.mean[0]",
+        ),
+        (
+            "gauss.json",
+            &|v: &mut serde_json::Value| {
+                v["speech"]["hmm"]["states"][1][0]["gaussian"]["mean"][0][2] = 1e300.into()
+            },
+            "hmm.states[1][0].gaussian.mean[2]",
+        ),
+        (
+            "neutral.json",
+            &|v: &mut serde_json::Value| v["head"]["neutral_identity"][0] = (-1e12).into(),
+            "head.neutral_identity[0]",
+        ),
+        (
+            "baseline.json",
+            &|v: &mut serde_json::Value| v["speech"]["baseline"]["weights"][0][3] = 1e307.into(),
+            "speech.baseline.weights",
+        ),
+        (
+            "rows.json",
+            &|v: &mut serde_json::Value| v["speech"]["hmm"]["transitions"][0][0] = 7.0.into(),
+            "hmm.transitions row 0",
+        ),
+    ] {
+        let e = eval(&edited(name, edit));
+        assert!(e.contains(name) && e.contains(field), "{name}: {e}");
+        let e = one_error(&lipmap(&[
+            "speech",
+            "animate",
+            s(&dir.join(name)),
+            "--audio",
+            s(&first_voice(session)),
+            "--out",
+            s(&dir.join("never")),
+        ]));
+        assert!(e.contains(field), "{name}: {e}");
+    }
+    assert!(!dir.join("never").exists());
 
     // A session whose clips have no audio trains nothing.
     let mut silent = lipmap::session::Session::load(session).unwrap();

@@ -119,6 +119,30 @@ fn festival_say(text: &str, dir: &Path) -> Result<(PathBuf, PathBuf), String> {
     Ok((wav, segs))
 }
 
+/// The Festival WAV of each sentence with its phones (Festival's own labels), `None` when
+/// it is not installed.
+pub fn festival_wavs(words: &[Vec<&str>]) -> Option<Vec<(String, PathBuf, Alignment)>> {
+    if !festival_available() {
+        return None;
+    }
+    let dir = cache_dir();
+    std::fs::create_dir_all(&dir).expect("creating the Festival cache");
+    Some(
+        words
+            .iter()
+            .map(|w| {
+                let text = w.join(" ");
+                let (wav, segs) = festival_say(&text, &dir).unwrap_or_else(|e| panic!("{e}"));
+                let seg_text = std::fs::read_to_string(&segs)
+                    .unwrap_or_else(|e| panic!("{}: {e}", segs.display()));
+                let alignment = lipmap::io::htk_lab::parse_xlabel(&seg_text, &segs)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                (text, wav, alignment)
+            })
+            .collect(),
+    )
+}
+
 /// Sentences spoken by Festival, `None` (with a printed notice) when it is not installed.
 pub fn festival_corpus(words: &[Vec<&str>], fps: f64) -> Option<Vec<Sentence>> {
     if !festival_available() {

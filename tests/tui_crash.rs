@@ -79,7 +79,7 @@ fn kill_9_at_random_moments_loses_at_most_the_last_edit() {
         // The last burst was sent 20–250 ms ago; kill now, somewhere in its processing,
         // its journaling or an autosave.
         signal(pid, "-KILL");
-        wait_for("lipmap to die", Duration::from_secs(10), || gone(pid));
+        wait_for("lipmap to die", Duration::from_secs(30), || gone(pid));
         let kept = reviewed_after_restart(&session);
         assert!(kept <= sent, "trial {trial}: {kept} edits on disk, {sent} made");
         assert!(sent - kept <= 1, "trial {trial}: {} of {sent} edits lost", sent - kept);
@@ -90,11 +90,11 @@ fn kill_9_at_random_moments_loses_at_most_the_last_edit() {
     let expected = reviewed_after_restart(&session);
     let term = Term::new(&format!("lipmap-kill-{}-reopen", std::process::id()));
     let pid = start_tui(&term, &session, &dir.path().join("pid"));
-    wait_for("the restore notice", Duration::from_secs(10), || {
+    wait_for("the restore notice", Duration::from_secs(30), || {
         term.screen().contains("restored the edits")
     });
     term.send(&["q"]);
-    wait_for("lipmap to quit", Duration::from_secs(15), || gone(pid));
+    wait_for("lipmap to quit", Duration::from_secs(30), || gone(pid));
     let saved = Session::load(&session).unwrap();
     assert_eq!(saved.clips[0].corrections.reviewed.len(), expected, "the journal was not saved");
     assert!(!lipmap::session::journal::journal_path(&session).exists(), "journal left behind");
@@ -145,7 +145,7 @@ fn crashed_after_a_burst(dir: &Path, demo: &Path, name: &str, n: usize) -> PathB
     // Time to take the keys in, far less than the autosave's pause.
     std::thread::sleep(Duration::from_millis(300));
     signal(pid, "-KILL");
-    wait_for("lipmap to die", Duration::from_secs(10), || gone(pid));
+    wait_for("lipmap to die", Duration::from_secs(30), || gone(pid));
     assert!(lipmap::session::journal::journal_path(&path).exists(), "no journal left");
     assert!(Session::load(&path).unwrap().clips[0].corrections.points.is_empty(), "autosaved");
     path
@@ -213,7 +213,7 @@ fn term_int_and_hup_save_unlock_and_restore_the_terminal() {
         // Sooner than the autosave's pause: only the signal's save puts these on disk.
         std::thread::sleep(Duration::from_millis(150));
         signal(pid, sig);
-        wait_for("lipmap to stop", Duration::from_secs(15), || gone(pid));
+        wait_for("lipmap to stop", Duration::from_secs(30), || gone(pid));
         term.assert_restored(&dir.path().join(format!("stty{sig}.txt")));
         let saved = Session::load(&session).unwrap();
         assert_eq!(saved.clips[0].corrections.reviewed.len(), 2, "{sig}: edits not saved");
@@ -240,11 +240,11 @@ fn a_closed_terminal_stops_the_editor_with_its_edits_and_lock_released() {
     let term = Term::new(&format!("lipmap-hangup-{}", std::process::id()));
     let pid = start_tui(&term, &session, &dir.path().join("pid"));
     term.send(&["r", "n", "r"]);
-    wait_for("the edits to reach the journal", Duration::from_secs(10), || {
+    wait_for("the edits to reach the journal", Duration::from_secs(30), || {
         reviewed_after_restart(&session) == 2
     });
     let _ = tmux(&["kill-session", "-t", &term.0]);
-    wait_for("lipmap to stop", Duration::from_secs(15), || gone(pid));
+    wait_for("lipmap to stop", Duration::from_secs(30), || gone(pid));
     assert!(!lipmap::session::store::lock_path(&session).exists(), "the lock file was left");
     assert_eq!(reviewed_after_restart(&session), 2, "edits lost");
 }

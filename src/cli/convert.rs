@@ -21,6 +21,25 @@ pub struct ConvertArgs {
     pub to: Option<String>,
 }
 
+/// The landmark format to write `output` in: `to` when given, else judged from the name.
+///
+/// # Errors
+/// An unknown format name, or a name that does not tell.
+pub fn landmark_output_format(
+    output: &std::path::Path,
+    to: Option<&str>,
+) -> Result<LandmarkFormat> {
+    match to {
+        Some(name) => name.parse::<LandmarkFormat>().map_err(anyhow::Error::msg),
+        None => LandmarkFormat::for_output(output).with_context(|| {
+            format!(
+                "{}: cannot tell the output format from the name; use --to pts|pts-dir|openface|dlib|csv",
+                output.display()
+            )
+        }),
+    }
+}
+
 /// Runs the conversion; returns a one-line description of what was written.
 pub fn run(args: &ConvertArgs) -> Result<String> {
     if crate::io::file_kind::is_alignment_path(&args.input) {
@@ -37,15 +56,7 @@ pub fn run(args: &ConvertArgs) -> Result<String> {
         ));
     }
     let track = landmark_format::read_track(&args.input)?;
-    let format = match &args.to {
-        Some(name) => name.parse::<LandmarkFormat>().map_err(anyhow::Error::msg)?,
-        None => LandmarkFormat::for_output(&args.output).with_context(|| {
-            format!(
-                "{}: cannot tell the output format from the name; use --to pts|pts-dir|openface|dlib|csv",
-                args.output.display()
-            )
-        })?,
-    };
+    let format = landmark_output_format(&args.output, args.to.as_deref())?;
     if format == LandmarkFormat::Pts && track.len() != 1 {
         bail!(
             "{}: a single .pts file holds one frame but {} has {}; write a folder (no extension) instead",

@@ -7,6 +7,7 @@ use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::cli::transfer_cmd::ModeArg;
 use crate::landmarks::LandmarkSet;
+use crate::measure::PoseComparison;
 use crate::workflow::{self, HeadP, session_path};
 use anyhow::{Result, bail};
 use std::io::Write;
@@ -59,7 +60,49 @@ pub struct EvalArgs {
     #[arg(long, value_enum)]
     pub closure: Option<crate::cli::fit_cmd::ClosureArg>,
     #[command(flatten)]
+    pub pose: PoseArgs,
+    #[command(flatten)]
     pub output: FormatArgs,
+}
+
+/// How W and H of video and head are compared when the head turns (`--pose`,
+/// `--pose-limit`), shared by `eval` and `export`.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct PoseArgs {
+    /// `frontal`: the head's own mouth against the video on frames whose fitted |yaw| and
+    /// |pitch| are within --pose-limit (the others left out and counted); `image-plane`: the
+    /// head's mouth points projected with each frame's fitted camera, measured like the
+    /// video's, on every frame.
+    #[arg(long, value_enum, default_value_t = PoseArg::Frontal)]
+    pub pose: PoseArg,
+    /// Largest |yaw| or |pitch| in degrees a frame may have in the frontal comparison.
+    #[arg(long, default_value_t = PoseComparison::DEFAULT_LIMIT_DEG)]
+    pub pose_limit: f64,
+}
+
+/// `--pose` values.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum PoseArg {
+    #[default]
+    Frontal,
+    ImagePlane,
+}
+
+impl PoseArgs {
+    /// The comparison the flags ask for.
+    ///
+    /// # Errors
+    /// A limit that is not an angle in (0, 90].
+    pub fn comparison(&self) -> Result<PoseComparison> {
+        let limit = self.pose_limit;
+        if !(limit.is_finite() && limit > 0.0 && limit <= 90.0) {
+            bail!("--pose-limit must be an angle in degrees in (0, 90], got {limit}");
+        }
+        Ok(match self.pose {
+            PoseArg::Frontal => PoseComparison::Frontal { limit_deg: limit },
+            PoseArg::ImagePlane => PoseComparison::ImagePlane,
+        })
+    }
 }
 
 /// Where the head's P comes from (`--head-p`).
@@ -103,6 +146,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         clip: a.clip.clone(),
         closure: a.closure.map(Into::into),
         head_p: a.head_p()?,
+        pose: a.pose.comparison()?,
         normalisation: normalise,
         worst: a.worst,
     };

@@ -50,6 +50,8 @@ pub struct ExportArgs {
     /// Width of the charts in pixels.
     #[arg(long, default_value_t = 1200, value_parser = clap::value_parser!(u32).range(200..=8000))]
     pub plot_width: u32,
+    #[command(flatten)]
+    pub pose: crate::cli::eval_cmd::PoseArgs,
 }
 
 /// Landmark formats that hold a whole track (a single `.pts` holds one frame).
@@ -83,6 +85,7 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
         normalisation,
         worst: a.worst,
         plot_width: a.plot_width,
+        pose: a.pose.comparison()?,
     };
     let bar = frames_bar(0, "fitting");
     let report = export(&mut opened, &req, &show_on(&bar))?;

@@ -42,6 +42,10 @@ pub struct FitArgs {
     /// Session mode: only this clip.
     #[arg(long)]
     pub only: Option<String>,
+    /// Session mode: fit even when the model map fails `lipmap map check` (the problems
+    /// are then printed as warnings).
+    #[arg(long)]
+    pub accept_map_warnings: bool,
 }
 
 /// `--closure`: `seal` closes the inner lips on the frames in the clip's sealed mode of the
@@ -170,8 +174,22 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     print_warnings(&opened.notices);
     let settings = a.settings.apply(&opened.session.fit_settings)?;
     let bar = frames_bar(0, "fitting");
-    let fitted =
-        workflow::fit::fit_session(&mut opened, &settings, a.only.as_deref(), &show_on(&bar))?;
+    let fitted = workflow::fit::fit_session(
+        &mut opened,
+        &settings,
+        a.only.as_deref(),
+        a.accept_map_warnings,
+        &show_on(&bar),
+    )
+    .inspect_err(|e| {
+        // The whole list, as `map check` prints it; the error line sums it up.
+        if let workflow::Error::FitRefused(workflow::FitRefusal::Implausible { problems }) = e {
+            bar.finish_and_clear();
+            for p in problems {
+                eprintln!("model map: {p}");
+            }
+        }
+    })?;
     print_warnings(&fitted.warnings);
     for clip in &fitted.clips {
         let (name, fits) = (&clip.name, &clip.fits);

@@ -4,7 +4,8 @@
 
 use crate::cli::progress::print_warnings;
 use crate::io::landmark_map_toml::write_landmark_map;
-use crate::workflow::map::{check_session_map, suggest_session_map};
+use crate::session::MapRole;
+use crate::workflow::map::{check_session_map, label_role, mesh_file_of, suggest_session_map};
 use crate::workflow::{read_session, session_path};
 use anyhow::Result;
 use std::io::Write;
@@ -49,7 +50,8 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
         MapCommand::Suggest(a) => {
             let read = read_session(&session_path(&a.session))?;
             print_warnings(&read.notices);
-            let s = suggest_session_map(&read.session, a.clip.as_deref(), a.frame)?;
+            let role = label_role(&read.session);
+            let s = suggest_session_map(&read.session, role, a.clip.as_deref(), a.frame)?;
             writeln!(
                 out,
                 "frame {}: {} labels; {}",
@@ -75,37 +77,50 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
             write_landmark_map(&a.out, &s.map, &crate::reference::current().names)?;
             writeln!(
                 out,
-                "wrote {} ({} landmarks); use it with: lipmap import {} --mapping {}",
+                "wrote {} ({} landmarks, the {} map); use it with: {}",
                 a.out.display(),
                 s.map.len(),
-                a.session,
-                a.out.display()
+                role.name(),
+                match role {
+                    MapRole::Model =>
+                        format!("lipmap import {} --mapping {}", a.session, a.out.display()),
+                    MapRole::Head => {
+                        format!("lipmap import {} --head-mapping {}", a.session, a.out.display())
+                    }
+                },
             )?;
             Ok(true)
         }
         MapCommand::Check(a) => {
             let read = read_session(&session_path(&a.session))?;
             print_warnings(&read.notices);
-            match check_session_map(&read.session)? {
-                None => {
-                    writeln!(out, "the session has no landmark map")?;
-                    Ok(true)
-                }
-                Some(check) => {
-                    for p in &check.problems {
-                        writeln!(out, "{p}")?;
-                    }
-                    writeln!(out, "{}", check.summary())?;
-                    if !check.is_plausible() {
-                        writeln!(
-                            out,
-                            "fix the labels in the TUI (view 2), or label 4-6 good ones and run `lipmap map suggest {} --out MAP.toml`",
-                            a.session
-                        )?;
-                    }
-                    Ok(check.is_plausible())
-                }
+            let session = &read.session;
+            let mut roles = vec![MapRole::Model];
+            if session.head_has_own_map() {
+                roles.push(MapRole::Head);
             }
+            let mut plausible = true;
+            for role in roles {
+                let mesh = mesh_file_of(session, role)
+                    .map_or_else(|| "no mesh".to_string(), |p| p.display().to_string());
+                let Some(check) = check_session_map(session, role)? else {
+                    writeln!(out, "{} map (on {mesh}): none yet", role.name())?;
+                    continue;
+                };
+                for p in &check.problems {
+                    writeln!(out, "{} map: {p}", role.name())?;
+                }
+                writeln!(out, "{} map (on {mesh}): {}", role.name(), check.summary())?;
+                plausible &= check.is_plausible();
+            }
+            if !plausible {
+                writeln!(
+                    out,
+                    "fix the labels in the TUI (view 2), or label 4-6 good ones and run `lipmap map suggest {} --out MAP.toml`",
+                    a.session
+                )?;
+            }
+            Ok(plausible)
         }
     }
 }

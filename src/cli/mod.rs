@@ -19,6 +19,7 @@ pub mod progress;
 pub mod saqp_cmd;
 pub mod speech_cmd;
 pub mod tables_cmd;
+pub mod track_cmd;
 pub mod transfer_cmd;
 pub mod tui_cmd;
 pub mod validate;
@@ -51,7 +52,10 @@ pub enum Command {
     Tui(tui_cmd::TuiArgs),
     /// Create a session from frames, landmarks, an alignment, a head, a model and
     /// optionally a landmark map (or label the head in the TUI later).
-    #[command(mut_arg("frames", |a| a.required(true)), mut_arg("landmarks", |a| a.required(true)))]
+    #[command(
+        mut_arg("frames", |a| a.required(true)),
+        mut_arg("landmarks", |a| a.required_unless_present("track"))
+    )]
     New(new::NewArgs),
     /// Add a clip to a session, and/or set its landmark map (--mapping FILE).
     Import(new::ImportArgs),
@@ -85,6 +89,11 @@ pub enum Command {
     /// Speech-driven mouth motion: train on sessions with audio, evaluate, animate from a WAV.
     #[command(subcommand)]
     Speech(speech_cmd::SpeechCommand),
+    /// Track iBUG-68 landmarks through frames with dlib's shape predictor (read by lipmap).
+    Track(track_cmd::TrackArgs),
+    /// Re-align a corrected frame from its corrected points, and the frames after it until
+    /// the tracker agrees again.
+    Propagate(track_cmd::PropagateArgs),
     /// Quality of synthesized speech animation (SAQP): cross-validate, train a predictor,
     /// predict a phone sequence's quality.
     #[command(subcommand)]
@@ -177,6 +186,11 @@ fn run_command(command: Command) -> Result<Outcome> {
         }
         Command::Saqp(cmd) => {
             saqp_cmd::run(&cmd, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Track(args) => track_cmd::run_track(&args, &mut out),
+        Command::Propagate(args) => {
+            track_cmd::run_propagate(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Tables(args) => {

@@ -3,6 +3,7 @@
 
 use crate::io::model_file::{self, Precision};
 use crate::io::model_source;
+use crate::measure::lip_reach::InnerLipGap;
 use crate::model::pca::{Keep, variance_explained};
 use anyhow::{Result, bail};
 use std::io::Write;
@@ -44,6 +45,11 @@ pub struct InfoArgs {
     /// Expression blendshapes to load with it.
     #[arg(long)]
     pub blendshapes: Option<PathBuf>,
+    /// A landmark map (eos TOML such as ibug_to_sfm.txt, or its JSON): also say how far the
+    /// model can close its lips (the smallest inner-lip gap 62–66 its expressions reach from
+    /// the mean identity).
+    #[arg(long)]
+    pub mapping: Option<PathBuf>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -84,6 +90,20 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     let model = model_source::load_model(&a.model, a.blendshapes.as_deref())?;
     let e = &model.shape.eigenvalues;
     let cumulative: Vec<f64> = (1..=e.len()).map(|k| variance_explained(e, k)).collect();
+    let reach = match &a.mapping {
+        Some(path) => {
+            let map = crate::workflow::fit_files::read_mapping(path)?;
+            let reach = lip_reach(&model, &map);
+            if reach.is_none() {
+                bail!(
+                    "{}: the map does not place inner-lip points 63 and 67 (1-based) on the model",
+                    path.display()
+                );
+            }
+            reach
+        }
+        None => None,
+    };
     if a.json {
         let v = serde_json::json!({
             "vertices": model.num_vertices(),
@@ -92,6 +112,8 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "expressions": model.expression_names(),
             "eigenvalues": e.as_slice(),
             "cumulative_variance_of_kept": cumulative,
+            "inner_lip_gap_mean_identity": reach.as_ref().map(|r| r.neutral),
+            "smallest_inner_lip_gap": reach.as_ref().map(|r| r.smallest),
         });
         serde_json::to_writer_pretty(&mut *out, &v)?;
         writeln!(out)?;
@@ -107,6 +129,14 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         model.num_expressions(),
         model.expression_names().join(" ")
     )?;
+    if let Some(r) = &reach {
+        writeln!(
+            out,
+            "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
+             β ≥ 0)",
+            r.neutral, r.smallest,
+        )?;
+    }
     if !cumulative.is_empty() {
         writeln!(out, "variance explained (share of the kept components' total):")?;
         for k in [1usize, 2, 3, 5, 10, 20, 50] {
@@ -116,4 +146,19 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The inner-lip gap of the mean identity with no expression, and the smallest its
+/// expressions reach, in model units.
+struct LipReach {
+    neutral: f64,
+    smallest: f64,
+}
+
+fn lip_reach(
+    model: &crate::model::MorphableModel,
+    map: &crate::model::LandmarkMap,
+) -> Option<LipReach> {
+    let gap = InnerLipGap::of(model, map)?;
+    Some(LipReach { neutral: gap.length(&[], &[]), smallest: gap.smallest(&[])?.0 })
 }

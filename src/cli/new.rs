@@ -7,8 +7,8 @@ use crate::cli::progress::print_warnings;
 use crate::landmarks::LandmarkSet;
 use crate::workflow::audio::{AudioInput, AudioSource};
 use crate::workflow::create::{
-    ClipInputs, HeadSet, Import, MapSet, MapState, NewSession, ReplacedMap, SideInputs,
-    create_session, import_into_session, map_hint,
+    ClipInputs, HeadMesh, HeadSet, Import, LandmarkInput, MapSet, MapState, NewSession,
+    ReplacedMap, SideInputs, create_session, import_into_session, map_hint,
 };
 use crate::workflow::session_path;
 use anyhow::{Result, bail};
@@ -21,14 +21,20 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ClipArgs {
     /// Front-view frames: a folder of images (PNG/JPEG/PPM) or a video file (needs ffmpeg).
-    #[arg(long, requires = "landmarks")]
+    #[arg(long, requires = "landmark_source")]
     pub frames: Option<PathBuf>,
     /// Frames per second (default: the video's, or 25 for an image folder, with a notice).
     #[arg(long, requires = "frames")]
     pub fps: Option<f64>,
     /// Tracked landmarks: .pts file or folder, OpenFace CSV, dlib XML, lipmap CSV.
-    #[arg(long, requires = "frames")]
+    #[arg(long, requires = "frames", group = "landmark_source")]
     pub landmarks: Option<PathBuf>,
+    /// Track the landmarks with lipmap's own tracker (dlib's shape predictor) instead of
+    /// reading them (`lipmap track`; --predictor and --detector name its files).
+    #[arg(long, requires = "frames", group = "landmark_source")]
+    pub track: bool,
+    #[command(flatten)]
+    pub tracker: crate::cli::track_cmd::TrackerArgs,
     /// Phone alignment: TextGrid, HTK/Festival .lab, or start,end,phone CSV.
     #[arg(long, requires = "frames")]
     pub alignment: Option<PathBuf>,
@@ -61,7 +67,7 @@ pub struct ClipArgs {
 impl ClipArgs {
     /// Whether a clip was given at all.
     pub fn is_given(&self) -> bool {
-        self.frames.is_some() || self.landmarks.is_some()
+        self.frames.is_some() || self.landmarks.is_some() || self.track
     }
 
     /// The audio flags (`None` without --audio). A file literally named `video` is given as
@@ -85,13 +91,18 @@ impl ClipArgs {
         if !self.is_given() {
             return Ok(None);
         }
-        let (Some(frames), Some(landmarks)) = (&self.frames, &self.landmarks) else {
-            bail!("a clip needs --frames and --landmarks");
+        let landmarks = match (&self.landmarks, self.track) {
+            (Some(file), false) => Some(LandmarkInput::File(file.clone())),
+            (None, true) => Some(LandmarkInput::Track(self.tracker.files())),
+            _ => None,
+        };
+        let (Some(frames), Some(landmarks)) = (&self.frames, landmarks) else {
+            bail!("a clip needs --frames and --landmarks (or --track)");
         };
         Ok(Some(ClipInputs {
             frames: frames.clone(),
             fps: self.fps,
-            landmarks: landmarks.clone(),
+            landmarks,
             alignment: self
                 .alignment
                 .clone()
@@ -114,7 +125,9 @@ pub struct NewArgs {
     pub session: String,
     #[command(flatten)]
     pub clip: ClipArgs,
-    /// Head mesh (OBJ) whose vertices the landmark map names.
+    /// Head mesh (OBJ) the motion drives. When it is another mesh than the model (another
+    /// vertex count) it gets a map of its own, labelled in the TUI (view 2); the model keeps
+    /// --mapping for fitting.
     #[arg(long)]
     pub head: Option<PathBuf>,
     /// Morphable model: eos .bin, .npz, folder of .npy parts, lipmap model, folder of pose OBJs.
@@ -123,8 +136,9 @@ pub struct NewArgs {
     /// Expression blendshapes (eos .bin, folder of .target or OBJ).
     #[arg(long)]
     pub blendshapes: Option<PathBuf>,
-    /// Landmark map in eos TOML format (iBUG ids 1-based). Optional: the head can be labelled
-    /// in the TUI (view 2), or a map set later with `lipmap import SESSION --mapping FILE`.
+    /// The model's landmark map in eos TOML format (iBUG ids 1-based), what `fit` uses.
+    /// Optional: the model can be labelled in the TUI (view 2), or a map set later with
+    /// `lipmap import SESSION --mapping FILE`.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
     /// Landmark set for fitting.
@@ -143,10 +157,14 @@ pub struct ImportArgs {
     /// The clip to add (--frames and --landmarks; leave out to only set the map).
     #[command(flatten)]
     pub clip: ClipArgs,
-    /// Set the session's landmark map to this eos TOML file, replacing the map file it named
-    /// and any map labelled in the TUI.
+    /// Set the model's landmark map (what `fit` uses) to this eos TOML file, replacing the
+    /// map file it named and any map labelled in the TUI.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
+    /// Set the head's own map (what `transfer` and `indices` use) to this eos TOML file, for
+    /// a head that is another mesh than the model.
+    #[arg(long, value_name = "MAP.toml")]
+    pub head_mapping: Option<PathBuf>,
     /// Make this OBJ the session's head mesh (the one labelled in the TUI's view 2), replacing
     /// the head it named; the session's map is checked on it.
     #[arg(long, value_name = "HEAD.obj")]
@@ -155,7 +173,9 @@ pub struct ImportArgs {
 
 /// Creates the session and says what it holds (warnings go to stderr first).
 pub fn run_new(a: &NewArgs) -> Result<String> {
-    let Some(clip) = a.clip.inputs()? else { bail!("a clip needs --frames and --landmarks") };
+    let Some(clip) = a.clip.inputs()? else {
+        bail!("a clip needs --frames and --landmarks (or --track)")
+    };
     let created = create_session(&NewSession {
         path: session_path(&a.session),
         clip,
@@ -179,6 +199,10 @@ pub fn run_new(a: &NewArgs) -> Result<String> {
         MapState::Usable(n) => msg.push_str(&format!(", {} mapped", plural(*n, "landmark"))),
         MapState::Problem(problem) => msg.push_str(&format!("\n{problem}")),
     }
+    if let Some(head) = &created.head {
+        msg.push('\n');
+        msg.push_str(&maps_line(head, path));
+    }
     Ok(msg)
 }
 
@@ -194,6 +218,7 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
         clip,
         mapping: a.mapping.clone(),
         head: a.head.clone(),
+        head_mapping: a.head_mapping.clone(),
     })?;
     print_warnings(&imported.warnings);
     let path = &imported.path;
@@ -212,10 +237,38 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
     if let Some(head) = &imported.head {
         lines.push(head_set_message(head, path));
     }
+    if let Some((file, check)) = &imported.head_map {
+        lines.push(format!(
+            "{}: head map set to {} (what `transfer` and `indices` use); on the head: {}",
+            path.display(),
+            file.display(),
+            check.summary()
+        ));
+    }
     if let Some((clip, file)) = &imported.audio {
         lines.push(format!("{}: clip `{clip}` has audio {}", path.display(), file.display()));
     }
     Ok(lines.join("\n"))
+}
+
+/// One line saying what each map is for, once a head is given.
+fn maps_line(head: &HeadMesh, path: &Path) -> String {
+    if head.needs_own_map() {
+        format!(
+            "maps: the model map is what `fit` uses; {} is another mesh ({} vertices, the model \
+             {}), so its own head map is what `transfer` and `indices` use: label it in the TUI \
+             (`lipmap tui {}`, view 2)",
+            head.file.display(),
+            head.vertices,
+            head.model_vertices,
+            path.display()
+        )
+    } else {
+        format!(
+            "maps: {} is the model's own mesh, so one map serves `fit`, `transfer` and `indices`",
+            head.file.display()
+        )
+    }
 }
 
 /// What setting a head did, as `import` prints it, and how to label the head next.
@@ -229,6 +282,12 @@ fn head_set_message(head: &HeadSet, path: &Path) -> String {
     if let Some(old) = &head.replaced {
         msg.push_str(&format!("; replaces {}", old.display()));
     }
+    if head.own_map {
+        msg.push_str(
+            "\nit is another mesh than the model: the model map stays what `fit` uses; the head's \
+             own map is what `transfer` and `indices` use",
+        );
+    }
     let suggest = format!(
         "label 4-6 landmarks in the TUI (view 2), then `lipmap map suggest {} --out MAP.toml` labels the rest",
         path.display()
@@ -236,10 +295,10 @@ fn head_set_message(head: &HeadSet, path: &Path) -> String {
     match &head.map_check {
         None => msg.push_str(&format!("\nno landmark map yet: {suggest}")),
         Some(check) if check.is_plausible() => {
-            msg.push_str(&format!("\nthe session's map on this head: {}", check.summary()));
+            msg.push_str(&format!("\nthe head's map on this head: {}", check.summary()));
         }
         Some(check) => msg.push_str(&format!(
-            "\nthe session's map does not fit this head (labelled on another mesh?): {}\n\
+            "\nthe head's map does not fit this head (labelled on another mesh?): {}\n\
              relabel: {suggest}",
             check.summary()
         )),

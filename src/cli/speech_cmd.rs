@@ -6,8 +6,8 @@ use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::print_warnings;
 use crate::eval::{Cell, Table};
 use crate::workflow::speech::{
-    SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech, evaluate_speech,
-    load_speech_model, save_speech_model, train_speech,
+    AnimateOutputs, SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech,
+    evaluate_speech, load_speech_model, save_speech_model, train_speech,
 };
 use crate::workflow::speech_session::record_speech_model;
 use anyhow::Result;
@@ -22,7 +22,8 @@ pub enum SpeechCommand {
     /// AMSE and ACC of a speech model on a session's clips with audio, against the linear
     /// baseline, and the W/H/P tables of the speech-driven head against the video.
     Eval(EvalArgs),
-    /// Per-frame shapes of the model's head (and of another head) driven by a WAV file.
+    /// Per-frame coefficients and mouth of the model's head (and whole meshes, or another
+    /// head's) driven by a WAV file.
     Animate(AnimateArgs),
 }
 
@@ -68,10 +69,14 @@ pub struct AnimateArgs {
     /// The speech to animate (WAV, at the model's sample rate or faster).
     #[arg(long)]
     pub audio: PathBuf,
-    /// Output folder: shapes.npy (frames × 3N, the model's vertices x y z), and
-    /// head_shapes.npy with --head.
+    /// Output folder: coefficients.npy (frames × coefficients) and mouth.npy (frames × 3 per
+    /// mouth vertex); shapes.npy with --shapes, head_shapes.npy with --head.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write every frame's whole mesh, shapes.npy (frames × 3N, the model's vertices
+    /// x y z): 85 KB a frame on the demo head, 7 GB for an hour.
+    #[arg(long)]
+    pub shapes: bool,
     /// Another head (OBJ) to carry the motion to; needs --mapping.
     #[arg(long, requires = "mapping")]
     pub head: Option<PathBuf>,
@@ -114,18 +119,67 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     save_speech_model(&a.out, &trained.file)?;
     print_warnings(&record_speech_model(&a.sessions, &a.out));
     let report = &trained.file.speech.report;
-    let ll = report.log_likelihood_per_frame.last().copied().unwrap_or(f64::NAN);
+    let ll = &report.log_likelihood_per_frame;
     writeln!(
         out,
-        "trained on {} clips ({} frames) in {:.1} s: {} Baum-Welch iterations{}, log-likelihood {ll:.3} nats/frame; wrote {}",
+        "trained on {} clips ({} frames) in {:.1} s: {} states × {} mixtures; wrote {}",
         trained.clips,
         trained.frames,
         start.elapsed().as_secs_f64(),
-        report.log_likelihood_per_frame.len().saturating_sub(1),
-        if report.converged { " (converged)" } else { " (iteration cap)" },
+        trained.file.speech.hmm.n_states(),
+        trained.file.speech.hmm.n_mixtures(),
         a.out.display()
     )?;
+    writeln!(out, "Baum-Welch (last run): {}", stopping_reason(ll, report.converged))?;
+    match &trained.file.held_out {
+        Some(h) => {
+            writeln!(
+                out,
+                "held out ({} clips, {} frames, not trained on): AV-HMM ACC {:.3} AMSE {:.3}; linear baseline ACC {:.3} AMSE {:.3}",
+                h.clips, h.frames, h.hmm.acc, h.hmm.amse, h.linear.acc, h.linear.amse
+            )?;
+            writeln!(
+                out,
+                "training fit ({} trained clips, same model): AV-HMM ACC {:.3} AMSE {:.3}; linear baseline ACC {:.3} AMSE {:.3}",
+                h.training_clips,
+                h.training_hmm.acc,
+                h.training_hmm.amse,
+                h.training_linear.acc,
+                h.training_linear.amse
+            )?;
+            if h.hmm.acc <= h.linear.acc {
+                writeln!(
+                    out,
+                    "note: on held-out clips the AV-HMM does not beat the linear baseline; more sentences (or fewer --states) help"
+                )?;
+            }
+        }
+        None => writeln!(
+            out,
+            "no held-out estimate: fewer than 10 clips (every fifth clip is held out to score a model trained on the rest); score another session with `lipmap speech eval`"
+        )?,
+    }
     Ok(())
+}
+
+/// Why Baum–Welch stopped, from its log-likelihoods per frame (the initial model's first).
+fn stopping_reason(ll: &[f64], converged: bool) -> String {
+    let iterations = ll.len().saturating_sub(1);
+    let gain = match ll {
+        [.., a, b] => b - a,
+        _ => 0.0,
+    };
+    let first = ll.first().copied().unwrap_or(0.0);
+    let last = ll.last().copied().unwrap_or(0.0);
+    if converged {
+        format!(
+            "stopped after {iterations} iteration{}: the last raised the log-likelihood by {gain:.3} nats/frame, below the tolerance {} ({first:.2} → {last:.2} nats/frame)",
+            if iterations == 1 { "" } else { "s" },
+            crate::speech::TrainOptions::default().tolerance
+        )
+    } else {
+        format!("stopped at the cap of {iterations} iterations ({first:.2} → {last:.2} nats/frame)")
+    }
 }
 
 fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
@@ -136,6 +190,13 @@ fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     bar.finish_and_clear();
     print_warnings(&e.warnings);
     print_warnings(&record_speech_model(std::slice::from_ref(&a.session), &a.model));
+    let o = e.overlap;
+    if o.trained_on > 0 {
+        eprintln!(
+            "lipmap: warning: {} of the {} clips scored were in the model's training set (the same audio): these are not held-out figures",
+            o.trained_on, o.scored
+        );
+    }
     let scores = scores_table(&e);
     let mut tables = vec![&scores];
     let titled = |t: &Table, key: &str, who: &str| {
@@ -182,6 +243,15 @@ fn scores_table(e: &SpeechEvaluation) -> Table {
         "AMSE: mean square error over each parameter's variance (Terissi et al. eq. 6, lower is better); ACC: mean correlation (eq. 7, higher is better)"
             .into(),
     );
+    let o = e.overlap;
+    t.notes.push(if o.trained_on == 0 {
+        format!("held out: none of the {} clips was in the model's training set", o.scored)
+    } else {
+        format!(
+            "NOT held out: {} of the {} clips were in the model's training set",
+            o.trained_on, o.scored
+        )
+    });
     t
 }
 
@@ -189,17 +259,21 @@ fn animate(a: &AnimateArgs, out: &mut dyn Write) -> Result<()> {
     let model = load_speech_model(&a.model)?;
     let head =
         a.head.as_deref().zip(a.mapping.as_deref()).map(|(obj, map)| TransferHead { obj, map });
+    let outputs = AnimateOutputs { shapes: a.shapes, head };
     let bar = steps_bar();
     let progress = crate::cli::progress::show_on(&bar);
-    let files = animate_speech(&model, &a.audio, head, &a.out, &progress)?;
+    let files = animate_speech(&model, &a.audio, &outputs, &a.out, &progress)?;
     bar.finish_and_clear();
+    let mut wrote =
+        vec![files.coefficients.display().to_string(), files.mouth.display().to_string()];
+    wrote.extend(files.shapes.as_ref().map(|p| p.display().to_string()));
     writeln!(
         out,
         "{} frames at {} fps from {}: wrote {}",
         files.frames,
         files.fps,
         a.audio.display(),
-        files.shapes.display()
+        wrote.join(", ")
     )?;
     if let Some(path) = &files.head_shapes {
         writeln!(out, "transferred to {}: wrote {}", display(a.head.as_deref()), path.display())?;

@@ -15,11 +15,12 @@ use std::path::PathBuf;
 pub struct TransferArgs {
     /// Session file or name.
     pub session: String,
-    /// The head to animate (OBJ; MakeHuman's helper-*/joint-* groups are never moved as skin).
+    /// The head to animate (OBJ; MakeHuman's helper-*/joint-* groups are never moved as skin);
+    /// default: the session's head.
     #[arg(long)]
-    pub head: PathBuf,
-    /// The head's landmark map (eos TOML, 1-based iBUG ids); default HEAD.toml or
-    /// HEAD_map.toml beside the head.
+    pub head: Option<PathBuf>,
+    /// The head's landmark map (eos TOML, 1-based iBUG ids); default: the session's head map
+    /// for the session's head, else HEAD.toml or HEAD_map.toml beside the head.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
     /// How the head follows the control points.
@@ -58,9 +59,22 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
     print_warnings(&warnings);
     let clips = select_clips(&opened.session, a.clip.as_deref())?;
+    let head = match &a.head {
+        Some(h) => h.clone(),
+        None => opened.session.head_mesh.clone().ok_or_else(|| {
+            anyhow::anyhow!(
+                "the session has no head: give one with --head HEAD.obj (or `lipmap import {} --head HEAD.obj`)",
+                a.session
+            )
+        })?,
+    };
+    let mapping = match &a.mapping {
+        Some(m) => Some(m.clone()),
+        None => workflow::transfer::session_head_mapping(&mut opened.session, &head)?,
+    };
     let request = workflow::transfer::TransferRequest {
-        head: a.head.clone(),
-        mapping: a.mapping.clone(),
+        head,
+        mapping,
         mode: a.mode.into(),
         clips,
         out_dir: a.out.clone(),

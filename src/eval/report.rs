@@ -6,8 +6,8 @@ use super::rmse::GroupRmse;
 use super::visemes::VisemeTable;
 use super::worst::{WorstFit, WorstFrame};
 use super::{PerMeasure, Utterance, rmse::sentence_rmse, stats};
-use crate::measure::Measure;
 use crate::measure::indices::{BoundsTable, FacialIndex, FacialIndices, MatchVerdict};
+use crate::measure::{Measure, PoseComparison};
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use std::io::{self, Write};
 
@@ -119,6 +119,23 @@ impl Table {
     /// Appends a row.
     pub fn push_row(&mut self, row: Vec<Cell>) {
         self.rows.push(row);
+    }
+
+    /// Names the pose comparison W and H were made under ([`PoseComparison`]) in the title
+    /// and in every W or H column header (`RMSE W [image plane]`), so no table, CSV column
+    /// or chart built from it can be read as the other comparison.
+    pub fn name_pose_comparison(&mut self, pose: PoseComparison) {
+        let label = pose.short_label();
+        self.title = format!("{} — W/H {label}", self.title);
+        for h in &mut self.headers {
+            let names_wh = [Measure::W, Measure::H].iter().any(|m| {
+                let m = m.as_str();
+                h == m || h.ends_with(&format!(" {m}"))
+            });
+            if names_wh {
+                *h = format!("{h} [{label}]");
+            }
+        }
     }
 
     fn cell(&self, r: usize, c: usize) -> &Cell {

@@ -6,7 +6,7 @@
 //! `R = Ry(yaw)·Rx(pitch)·Rz(roll)` and `r1`, `r2` its first two rows.
 
 use crate::math::{Matrix3, Point2, Point3, Real, Vector3};
-use nalgebra::{Matrix4, Rotation3, SVD, Vector4, Vector6};
+use nalgebra::{Matrix4, Matrix6, Rotation3, SVD, Vector4, Vector6};
 use serde::{Deserialize, Serialize};
 
 /// A scaled orthographic camera (eos's `ScaledOrthoProjectionParameters`).
@@ -247,13 +247,98 @@ impl PoseResidual {
 
     /// `(∂r_u, ∂r_v)` with respect to `(ω, s, t_x, t_y)`, ω the left rotation increment
     /// `R ← exp(ω)·R`: `dc = ω × c = (ω_y c_z − ω_z c_y, ω_z c_x − ω_x c_z, ω_x c_y − ω_y c_x)`.
-    #[inline]
+    /// The solvers use it summed, in [`PoseSums::normal_equations`] and the joint solver's
+    /// coupling rows; tests check both against it.
+    #[cfg(test)]
     pub fn jacobian(&self, pose: &OrthoPose) -> (Vector6<Real>, Vector6<Real>) {
         let (c, s) = (&self.c, pose.s);
         (
             Vector6::new(0.0, s * c.z, -s * c.y, c.x + pose.tx, s, 0.0),
             Vector6::new(-s * c.z, 0.0, s * c.x, c.y + pose.ty, 0.0, s),
         )
+    }
+}
+
+/// Weighted sums over points of their camera points `c = R·X` and residuals, from which a
+/// pose's Gauss–Newton normal equations follow without forming each point's Jacobian: every
+/// entry of `PoseResidual::jacobian` is affine in c, so `Σ w·(j_u j_uᵀ + j_v j_vᵀ)` and
+/// `Σ w·(j_u r_u + j_v r_v)` are combinations of these moments.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct PoseSums {
+    /// Σw
+    w: Real,
+    /// Σw·c
+    c: Vector3,
+    /// Σw·c_a·c_b for xx, yy, zz, xz, yz (xy cancels out of the normal equations).
+    cc: [Real; 5],
+    /// Σw·r_u, Σw·r_v
+    r: [Real; 2],
+    /// Σw·c_a·r_u and Σw·c_a·r_v for a = x, y, z.
+    cr: [[Real; 2]; 3],
+}
+
+impl PoseSums {
+    /// Adds one point's residual with weight `w`.
+    #[inline]
+    pub fn add(&mut self, res: &PoseResidual, w: Real) {
+        let c = res.c;
+        let (wu, wv) = (w * res.u, w * res.v);
+        self.w += w;
+        self.c += c * w;
+        let wc = c * w;
+        self.cc[0] += wc.x * c.x;
+        self.cc[1] += wc.y * c.y;
+        self.cc[2] += wc.z * c.z;
+        self.cc[3] += wc.x * c.z;
+        self.cc[4] += wc.y * c.z;
+        self.r[0] += wu;
+        self.r[1] += wv;
+        for a in 0..3 {
+            self.cr[a][0] += c[a] * wu;
+            self.cr[a][1] += c[a] * wv;
+        }
+    }
+
+    /// `(JᵀWJ, JᵀWr)` over (ω, s, t_x, t_y) at `pose`, with J the rows of
+    /// `PoseResidual::jacobian`: `j_u = (0, s·c_z, −s·c_y, c_x + t_x, s, 0)`,
+    /// `j_v = (−s·c_z, 0, s·c_x, c_y + t_y, 0, s)`.
+    pub fn normal_equations(&self, pose: &OrthoPose) -> (Matrix6<Real>, Vector6<Real>) {
+        let (s, tx, ty) = (pose.s, pose.tx, pose.ty);
+        let s2 = s * s;
+        let (n, m) = (self.w, self.c);
+        let [xx, yy, zz, xz, yz] = self.cc;
+        let mut h = Matrix6::<Real>::zeros();
+        let mut set = |i: usize, j: usize, v: Real| {
+            h[(i, j)] = v;
+            h[(j, i)] = v;
+        };
+        set(0, 0, s2 * zz);
+        set(0, 2, -s2 * xz);
+        set(0, 3, -s * (yz + ty * m.z));
+        set(0, 5, -s2 * m.z);
+        set(1, 1, s2 * zz);
+        set(1, 2, -s2 * yz);
+        set(1, 3, s * (xz + tx * m.z));
+        set(1, 4, s2 * m.z);
+        set(2, 2, s2 * (xx + yy));
+        set(2, 3, s * (ty * m.x - tx * m.y));
+        set(2, 4, -s2 * m.y);
+        set(2, 5, s2 * m.x);
+        set(3, 3, xx + yy + 2.0 * (tx * m.x + ty * m.y) + (tx * tx + ty * ty) * n);
+        set(3, 4, s * (m.x + tx * n));
+        set(3, 5, s * (m.y + ty * n));
+        set(4, 4, s2 * n);
+        set(5, 5, s2 * n);
+        let [cx, cy, cz] = self.cr;
+        let g = Vector6::new(
+            -s * cz[1],
+            s * cz[0],
+            s * (cx[1] - cy[0]),
+            cx[0] + cy[1] + tx * self.r[0] + ty * self.r[1],
+            s * self.r[0],
+            s * self.r[1],
+        );
+        (h, g)
     }
 }
 
@@ -276,18 +361,14 @@ pub fn refine_orthographic_pose(
         return pose;
     }
     for _ in 0..iterations {
-        let mut jtj = nalgebra::Matrix6::<Real>::zeros();
-        let mut jtr = Vector6::<Real>::zeros();
+        let mut sums = PoseSums::default();
         for (i, (x, m)) in image_points.iter().zip(model_points).enumerate() {
             let w = weights.map_or(1.0, |w| w[i]);
-            if w <= 0.0 {
-                continue;
+            if w > 0.0 {
+                sums.add(&PoseResidual::new(&pose, &m.coords, x, image_height), w);
             }
-            let res = PoseResidual::new(&pose, &m.coords, x, image_height);
-            let (ju, jv) = res.jacobian(&pose);
-            jtj += w * (ju * ju.transpose() + jv * jv.transpose());
-            jtr += w * (ju * res.u + jv * res.v);
         }
+        let (jtj, jtr) = sums.normal_equations(&pose);
         let Some(chol) = jtj.cholesky() else { break };
         let delta = -chol.solve(&jtr);
         if !delta.iter().all(|v| v.is_finite()) {
@@ -396,6 +477,30 @@ mod tests {
             prop_assert!((y - yaw).abs() < 1e-6 && (p - pitch).abs() < 1e-6 && (r - roll).abs() < 1e-6);
             prop_assert!((est.r.determinant() - 1.0).abs() < 1e-9);
         }
+    }
+
+    #[test]
+    fn pose_sums_give_the_normal_equations_of_the_jacobian() {
+        let pose = OrthoPose {
+            r: rotation_from_yaw_pitch_roll_deg(25.0, -10.0, 7.0),
+            s: 1.7,
+            tx: 120.0,
+            ty: -40.0,
+        };
+        let (mut h, mut g) = (Matrix6::<Real>::zeros(), Vector6::<Real>::zeros());
+        let mut sums = PoseSums::default();
+        for (i, p) in face_like_points().iter().enumerate() {
+            let observed = Point2::new(300.0 + 3.0 * i as Real, 200.0 - (i % 7) as Real * 9.0);
+            let res = PoseResidual::new(&pose, &p.coords, &observed, 720.0);
+            let w = 0.5 + (i % 3) as Real;
+            let (ju, jv) = res.jacobian(&pose);
+            h += (ju * ju.transpose() + jv * jv.transpose()) * w;
+            g += (ju * res.u + jv * res.v) * w;
+            sums.add(&res, w);
+        }
+        let (h2, g2) = sums.normal_equations(&pose);
+        assert!((h2 - h).amax() <= 1e-9 * h.amax(), "{h2} vs {h}");
+        assert!((g2 - g).amax() <= 1e-9 * g.amax(), "{g2} vs {g}");
     }
 
     #[test]

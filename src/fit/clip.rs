@@ -11,7 +11,7 @@
 use super::camera::{self, OrthoPose};
 use super::result::Solver;
 use super::shape::{
-    FrameObservations, LandmarkBasis, dot, gradient_rhs, nonnegative_quadratic, normal_matrix,
+    FrameObservations, LandmarkBasis, gradient_rhs, nonnegative_quadratic, normal_matrix,
 };
 use super::{alternating, joint};
 use crate::math::{DVector, Matrix3, Point3, Real, Vector3};
@@ -58,18 +58,7 @@ pub(crate) fn frame_points(
     id_pts: &[Vector3],
     beta: &DVector,
 ) -> Vec<Vector3> {
-    let kid = basis.k_id;
-    id_pts
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let mut q = *p;
-            for j in 0..3 {
-                q[j] += dot(&basis.row(i, j)[kid..], beta.as_slice());
-            }
-            q
-        })
-        .collect()
+    (0..id_pts.len()).map(|i| landmark_point(basis, id_pts, beta.as_slice(), i)).collect()
 }
 
 /// Identity part `mean + B_id·α` of every landmark point.
@@ -150,34 +139,96 @@ fn solve_expressions(
     }
 }
 
-/// The objective: weighted squared reprojection error over σ², plus the priors.
-pub(crate) fn objective(
+/// Landmark `i`'s point of a frame: its identity part `id_pts[i]` plus the frame's
+/// expression offsets.
+#[inline]
+pub(crate) fn landmark_point(
     basis: &LandmarkBasis,
-    observations: &[FrameObservations],
-    states: &[FrameState],
     id_pts: &[Vector3],
-    alpha: &DVector,
-    image_height: Real,
-    params: &SolverParams,
-) -> Real {
-    let mut cost = params.lambda_identity * alpha.norm_squared();
-    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
-        let pts = frame_points(basis, id_pts, &st.beta);
-        for (i, p) in pts.iter().enumerate() {
-            if obs.active[i] {
-                let d = st.pose.project(&Point3::from(*p), image_height) - obs.points[i];
-                cost += basis.weights[i] * d.norm_squared() / params.sigma2;
-            }
-        }
-        cost += params.lambda_expression * st.beta.norm_squared();
+    beta: &[Real],
+    i: usize,
+) -> Vector3 {
+    id_pts[i] + basis.expression_offset(i, beta)
+}
+
+/// What the objective and the noise estimate are made of, summed over the unfailed frames.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct ResidualSums {
+    /// `Σ wᵢ·|x̂ᵢ − xᵢ|²` (px²) over the used landmarks.
+    pub sse: Real,
+    /// The weighted coordinate count `Σ 2wᵢ`.
+    pub coordinates: Real,
+    /// `Σ_f |β_f|²`.
+    pub beta_squared: Real,
+    /// 6 per frame plus its free expressions (the identity not counted).
+    pub frame_unknowns: Real,
+}
+
+impl ResidualSums {
+    /// The objective: weighted squared reprojection error over σ², plus the priors.
+    pub fn objective(&self, alpha: &DVector, params: &SolverParams) -> Real {
+        self.sse / params.sigma2
+            + params.lambda_identity * alpha.norm_squared()
+            + params.lambda_expression * self.beta_squared
     }
-    cost
+
+    /// One frame's sums (zero for a failed frame).
+    fn of_frame(
+        basis: &LandmarkBasis,
+        obs: &FrameObservations,
+        st: &FrameState,
+        id_pts: &[Vector3],
+        image_height: Real,
+    ) -> Self {
+        let mut out = Self::default();
+        if st.failed.is_some() {
+            return out;
+        }
+        for i in (0..basis.len()).filter(|&i| obs.active[i]) {
+            let x = landmark_point(basis, id_pts, st.beta.as_slice(), i);
+            let d = st.pose.project(&Point3::from(x), image_height) - obs.points[i];
+            out.sse += basis.weights[i] * d.norm_squared();
+            out.coordinates += 2.0 * basis.weights[i];
+        }
+        out.beta_squared = st.beta.norm_squared();
+        out.frame_unknowns = 6.0 + st.free.iter().filter(|f| **f).count() as Real;
+        out
+    }
+
+    /// The sums over a group's frames (in frame order, so the total does not depend on the
+    /// number of threads).
+    pub fn of_group(
+        basis: &LandmarkBasis,
+        observations: &[FrameObservations],
+        states: &[FrameState],
+        id_pts: &[Vector3],
+        image_height: Real,
+    ) -> Self {
+        let per_frame = map_frames(states.len(), |f| {
+            Self::of_frame(basis, &observations[f], &states[f], id_pts, image_height)
+        });
+        per_frame.iter().fold(Self::default(), |a, b| Self {
+            sse: a.sse + b.sse,
+            coordinates: a.coordinates + b.coordinates,
+            beta_squared: a.beta_squared + b.beta_squared,
+            frame_unknowns: a.frame_unknowns + b.frame_unknowns,
+        })
+    }
 }
 
 /// Whether work over `n` frames is worth handing to rayon: more than one frame and more than
 /// one thread (on one thread the hand-off is pure overhead).
 pub(crate) fn in_parallel(n: usize) -> bool {
     n > 1 && rayon::current_num_threads() > 1
+}
+
+/// `f(i)` for every frame i in 0..n, in order, computed in parallel when [`in_parallel`].
+pub(crate) fn map_frames<R, F>(n: usize, f: F) -> Vec<R>
+where
+    R: Send,
+    F: Fn(usize) -> R + Sync + Send,
+{
+    if in_parallel(n) { (0..n).into_par_iter().map(f).collect() } else { (0..n).map(f).collect() }
 }
 
 /// Runs `f` over frames, in parallel when [`in_parallel`].
@@ -202,7 +253,17 @@ pub(crate) struct Group<'a> {
     frame_no: Vec<usize>,
 }
 
-impl Group<'_> {
+impl<'a> Group<'a> {
+    pub fn new(
+        basis: &'a LandmarkBasis,
+        observations: &'a [FrameObservations],
+        image_height: Real,
+        params: &'a SolverParams,
+    ) -> Self {
+        let frame_no = observations.iter().map(|o| o.frame).collect();
+        Self { basis, observations, image_height, params, frame_no }
+    }
+
     /// Every unfailed frame's pose for its current landmark points (identity part `id_pts`
     /// plus its expressions); `warm` starts from the current pose (see [`estimate_pose`]).
     pub fn pose_step(&self, states: &mut [FrameState], id_pts: &[Vector3], warm: bool) {
@@ -255,7 +316,12 @@ impl Group<'_> {
         alpha: &DVector,
         params: &SolverParams,
     ) -> Real {
-        objective(self.basis, self.observations, states, id_pts, alpha, self.image_height, params)
+        self.residual_sums(states, id_pts).objective(alpha, params)
+    }
+
+    /// [`ResidualSums`] of this group's frames.
+    pub fn residual_sums(&self, states: &[FrameState], id_pts: &[Vector3]) -> ResidualSums {
+        ResidualSums::of_group(self.basis, self.observations, states, id_pts, self.image_height)
     }
 }
 
@@ -287,13 +353,7 @@ pub fn fit_group(
             }
         })
         .collect();
-    let group = Group {
-        basis,
-        observations,
-        image_height,
-        params,
-        frame_no: observations.iter().map(|o| o.frame).collect(),
-    };
+    let group = Group::new(basis, observations, image_height, params);
     // Start: pose from the mean shape, expressions from that pose (as eos does).
     let id_pts = identity_points(basis, &alpha);
     group.pose_step(&mut states, &id_pts, false);

@@ -14,13 +14,16 @@
 //!
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
-use super::camera::{OrthoPose, PoseResidual};
-use super::clip::{FrameState, Group, SolverParams, frame_points, identity_points, in_parallel};
-use super::shape::{
-    FrameObservations, LandmarkBasis, cholesky_solve_in_place, normal_matrix, projector,
+use super::camera::{OrthoPose, PoseResidual, PoseSums};
+use super::clip::{
+    FrameState, Group, ResidualSums, SolverParams, identity_points, in_parallel, landmark_point,
 };
-use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
-use nalgebra::{Matrix6, Rotation3, Vector6};
+use super::shape::{
+    FrameObservations, GRAM_PAIRS, LandmarkBasis, axpy, back_substitute_rows, cholesky_in_place,
+    cholesky_solve_in_place, dot, forward_substitute_rows, projector,
+};
+use crate::math::{DMatrix, DVector, Matrix3, Point2, Real, Vector3};
+use nalgebra::{DMatrixView, Rotation3};
 use rayon::prelude::*;
 
 /// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
@@ -46,30 +49,39 @@ pub(crate) fn solve(
     group.pose_step(&mut states, &id_pts, true);
     let base = *group.params;
     let mut params = base;
-    let mut cost = group.objective(&states, &id_pts, &alpha, &params);
+    // The observations' part of the coefficient gradient does not change during the solve.
+    let moments = observation_moments(basis, observations, image_height);
+    let mut sums = group.residual_sums(&states, &id_pts);
+    let mut cost = sums.objective(&alpha, &params);
     let mut mu = INITIAL_DAMPING;
+    let mut lin = Linearisation::default();
+    let mut buffers = StepBuffers::default();
+    let mut candidate = states.clone();
     for it in 0..params.iterations {
         // Empirical Bayes: once the fit has reached the noise floor, the priors' weight
         // follows the landmark noise estimated from the residuals (λ ∝ σ̂²).
         let mut lambda_moved = false;
         if it > 0
             && estimate_noise
-            && let Some(f) = noise_factor(basis, observations, &states, &id_pts, image_height)
+            && let Some(f) = noise_factor(basis, &sums)
         {
             let old = params.lambda_identity;
             params.lambda_identity = base.lambda_identity * f;
             params.lambda_expression = base.lambda_expression * f;
             lambda_moved = (params.lambda_identity / old - 1.0).abs() > 0.1;
-            cost = group.objective(&states, &id_pts, &alpha, &params);
+            cost = sums.objective(&alpha, &params);
         }
-        let lin = linearise(basis, observations, &states, &alpha, &id_pts, image_height, &params);
+        lin.update(group, &moments, &states, &alpha, &id_pts, &params);
         let mut accepted = false;
         for _ in 0..MAX_DAMPING_TRIES {
-            if let Some((a, st)) = step(&lin, &states, &alpha, mu, solve_identity, &params) {
+            copy_states(&mut candidate, &states);
+            let tried =
+                step(&lin, &mut candidate, &alpha, mu, solve_identity, &params, &mut buffers);
+            if let Some(a) = tried {
                 let ids = identity_points(basis, &a);
-                let c = group.objective(&st, &ids, &a, &params);
-                if c < cost {
-                    (alpha, states, id_pts) = (a, st, ids);
+                if group.residual_sums(&candidate, &ids).objective(&a, &params) < cost {
+                    (alpha, id_pts) = (a, ids);
+                    std::mem::swap(&mut states, &mut candidate);
                     mu = (mu * 0.1).max(MIN_DAMPING);
                     accepted = true;
                     break;
@@ -83,7 +95,8 @@ pub(crate) fn solve(
         // NNLS on β with pose and identity fixed (at the settings' own λ): updates which
         // expressions are clamped.
         group.expression_step(&mut states, &id_pts);
-        let c = group.objective(&states, &id_pts, &alpha, &params);
+        sums = group.residual_sums(&states, &id_pts);
+        let c = sums.objective(&alpha, &params);
         let done = c.is_nan() || (c >= cost * (1.0 - params.tolerance) && !lambda_moved);
         cost = c.min(cost);
         if done {
@@ -91,6 +104,17 @@ pub(crate) fn solve(
         }
     }
     (alpha, states, id_pts)
+}
+
+/// `dst` made equal to `src` frame by frame, reusing `dst`'s buffers (a step's candidate
+/// states are rewritten for every try).
+fn copy_states(dst: &mut [FrameState], src: &[FrameState]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        d.pose = s.pose;
+        d.beta.copy_from(&s.beta);
+        d.free.copy_from_slice(&s.free);
+        d.failed.clone_from(&s.failed);
+    }
 }
 
 /// Per-coordinate landmark error (px) the settings' λ assumes: λ = 3 is the exact MAP weight
@@ -106,326 +130,852 @@ const MIN_NOISE_VARIANCE: Real = 1.0 / 12.0;
 /// count and p the unknowns (6 per frame, the free expressions, the identity). None when the
 /// residual degrees of freedom are fewer than the unknowns (a single frame: too few to tell
 /// noise from shape), so the fixed λ applies.
-fn noise_factor(
-    basis: &LandmarkBasis,
-    observations: &[FrameObservations],
-    states: &[FrameState],
-    id_pts: &[Vector3],
-    image_height: Real,
-) -> Option<Real> {
-    let mut n = 0.0;
-    let mut p = basis.k_id as Real;
-    let mut sse = 0.0;
-    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
-        let pts = frame_points(basis, id_pts, &st.beta);
-        for (i, x) in pts.iter().enumerate() {
-            if obs.active[i] {
-                let d = st.pose.project(&Point3::from(*x), image_height) - obs.points[i];
-                sse += basis.weights[i] * d.norm_squared();
-                n += 2.0 * basis.weights[i];
-            }
-        }
-        p += 6.0 + st.free.iter().filter(|f| **f).count() as Real;
-    }
+fn noise_factor(basis: &LandmarkBasis, sums: &ResidualSums) -> Option<Real> {
+    let n = sums.coordinates;
+    let p = basis.k_id as Real + sums.frame_unknowns;
     if n - p < p {
         return None;
     }
-    let variance = (sse / (n - p)).max(MIN_NOISE_VARIANCE);
+    let variance = (sums.sse / (n - p)).max(MIN_NOISE_VARIANCE);
     Some(variance / (ASSUMED_NOISE_PX * ASSUMED_NOISE_PX))
 }
 
-/// One frame's part of the linearised normal equations (undamped).
-struct FrameBlocks {
-    /// Expression indices that are unknowns (after the 6 pose parameters).
-    free: Vec<usize>,
-    /// `A_f` (n×n, n = 6 + free.len()).
-    a: DMatrix,
-    /// Coupling with the identity `C_f` (n × k_id).
-    c: DMatrix,
-    /// Gradient of the frame's unknowns `b_f`.
-    b: DVector,
-    /// This frame's identity gradient.
-    g_alpha: DVector,
-    /// Identity-block correction for the landmarks the frame does not see.
-    corr: Option<DMatrix>,
+/// Per frame (a column of 6K), `Σᵢ wᵢ·uᵢ·Bᵢ[b,:]` (rows bK..) and `Σᵢ wᵢ·ṽᵢ·Bᵢ[b,:]`
+/// (rows (3 + b)K..) over its used landmarks (ṽ = H − v): with them the observations' part
+/// of the coefficient gradient is a combination of six rows instead of a sum over the
+/// landmarks, in every iteration. Made for all frames at once, one matrix product per row
+/// block: `B_bᵀ·[wᵢ·uᵢ,f]`.
+fn observation_moments(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    image_height: Real,
+) -> DMatrix {
+    let (k, l, frames) = (basis.num_coefficients(), basis.len(), observations.len());
+    let weighted = |coordinate: &dyn Fn(&Point2) -> Real| {
+        DMatrix::from_fn(l, frames, |i, f| {
+            let obs = &observations[f];
+            if obs.active[i] { basis.weights[i] * coordinate(&obs.points[i]) } else { 0.0 }
+        })
+    };
+    let (wu, wv) = (weighted(&|p| p.x), weighted(&|p| image_height - p.y));
+    let mut m = DMatrix::zeros(6 * k, frames);
+    for b in 0..3 {
+        let bt = basis.axis_rows_transposed(b);
+        m.rows_mut(b * k, k).gemm(1.0, &bt, &wu, 0.0);
+        m.rows_mut((3 + b) * k, k).gemm(1.0, &bt, &wv, 0.0);
+    }
+    m
 }
 
-/// A frame's block after elimination: Cholesky factor L of A, W = L⁻¹C, z = L⁻¹b, WᵀW.
-struct Eliminated {
-    l: DMatrix,
-    w: DMatrix,
-    z: DVector,
-    wtw: Option<DMatrix>,
+/// `Σᵢ wᵢ·Xᵢ[a]·Bᵢ[b,:]` (row 3a + b) over all landmarks for the points `pts`: the part of
+/// the pose–coefficient coupling that the frames share (their identity part).
+fn point_moments(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
+    let k = basis.num_coefficients();
+    let mut m = vec![0.0; 9 * k];
+    for (i, p) in pts.iter().enumerate() {
+        let w = basis.weights[i];
+        for (ab, row) in m.chunks_exact_mut(k.max(1)).enumerate() {
+            axpy(w * p[ab / 3], basis.row(i, ab % 3), row);
+        }
+    }
+    m
 }
 
-/// The linearised problem at the current state.
+/// `out = c₀·x₀ + c₁·x₁ + c₂·x₂` (rows of equal length).
+#[inline]
+fn combine3(out: &mut [Real], c: [Real; 3], x: [&[Real]; 3]) {
+    for (((o, &a), &b), &d) in out.iter_mut().zip(x[0]).zip(x[1]).zip(x[2]) {
+        *o = c[0] * a + c[1] * b + c[2] * d;
+    }
+}
+
+/// Row `j` (of length k) of `m`.
+#[inline]
+fn row(m: &[Real], j: usize, k: usize) -> &[Real] {
+    &m[j * k..(j + 1) * k]
+}
+
+/// The linearised problem at the current state. Frame f's unknowns (6 pose parameters, then
+/// its free expressions) are rows `rows[f]..rows[f + 1]` of the stacked `c` and `b`; its
+/// block of A is `a[blocks[f]..blocks[f + 1]]` (row-major). Failed frames have no rows.
+#[derive(Default)]
 pub(crate) struct Linearisation {
-    frames: Vec<Option<FrameBlocks>>,
+    rows: Vec<usize>,
+    blocks: Vec<usize>,
+    /// `A_f`, undamped.
+    a: Vec<Real>,
+    /// Coupling with the identity `C_f` (row-major, k_id per row).
+    c: Vec<Real>,
+    /// Gradient of the frames' unknowns `b_f`.
+    b: Vec<Real>,
     /// Identity block `λ_id·I + Σ_f H_αα,f` (undamped).
     s: DMatrix,
     /// Identity gradient `λ_id·α + Σ_f g_α,f`.
     g: DVector,
+    /// Each frame's `g_α,f`, summed into `g` in frame order.
+    g_frames: Vec<Real>,
 }
 
-/// Builds frame f's blocks: pose Jacobians per landmark, the pose–coefficient coupling as one
-/// matrix product over all landmarks, the coefficient blocks from the precomputed Gram blocks.
+/// Frame offsets for unknown counts `n_f`: rows (Σ n) and blocks (Σ n²).
+fn offsets(counts: &[usize]) -> (Vec<usize>, Vec<usize>) {
+    let mut rows = Vec::with_capacity(counts.len() + 1);
+    let mut blocks = Vec::with_capacity(counts.len() + 1);
+    let (mut r, mut b) = (0, 0);
+    for &n in counts {
+        rows.push(r);
+        blocks.push(b);
+        r += n;
+        b += n * n;
+    }
+    rows.push(r);
+    blocks.push(b);
+    (rows, blocks)
+}
+
+/// `buf` cut into consecutive pieces of `offsets[f + 1] − offsets[f]` values each
+/// (`per` values per unit).
+fn split_at_offsets<'a>(
+    mut buf: &'a mut [Real],
+    offsets: &[usize],
+    per: usize,
+) -> Vec<&'a mut [Real]> {
+    offsets
+        .windows(2)
+        .map(|w| {
+            let (head, tail) = std::mem::take(&mut buf).split_at_mut((w[1] - w[0]) * per);
+            buf = tail;
+            head
+        })
+        .collect()
+}
+
+/// Runs `f` on every frame's item with a scratch buffer, in parallel (one scratch per worker)
+/// when [`in_parallel`]; results in order.
+fn each_frame_with<I, R, S, F>(items: Vec<I>, scratch: impl Fn() -> S + Sync + Send, f: F) -> Vec<R>
+where
+    I: Send,
+    R: Send,
+    F: Fn(&mut S, I) -> R + Sync + Send,
+{
+    if in_parallel(items.len()) {
+        items.into_par_iter().map_init(scratch, f).collect()
+    } else {
+        let mut s = scratch();
+        items.into_iter().map(|i| f(&mut s, i)).collect()
+    }
+}
+
+/// One frame's share of the linearisation, written into its slices of the stacked buffers.
+struct FrameOut<'a> {
+    a: &'a mut [Real],
+    c: &'a mut [Real],
+    b: &'a mut [Real],
+    g_alpha: &'a mut [Real],
+}
+
+/// What [`frame_blocks`] reads besides the frame.
+struct Shared<'a> {
+    basis: &'a LandmarkBasis,
+    id_pts: &'a [Vector3],
+    /// [`point_moments`] of `id_pts`.
+    id_moments: &'a [Real],
+    image_height: Real,
+    params: &'a SolverParams,
+}
+
+/// Rows of K a worker reuses frame after frame.
+struct BlockScratch {
+    /// `Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:]` of the frame's points (9 rows), then rotated on the left (9 rows).
+    x: Vec<Real>,
+    t: Vec<Real>,
+    /// `Σᵢ wᵢ·cᵢ[a]·(R·Bᵢ)[b,:]` for a = x, y, z and b = x, y (row 2a + b).
+    cam: Vec<Real>,
+    /// `Σᵢ wᵢ·Bᵢ[b,:]` over the frame's used landmarks (3 rows).
+    y: Vec<Real>,
+    /// Rotated: `(R·Σᵢ wᵢ·Bᵢ)[b,:]` for b = x, y; the observation rows `(R·U)₀`, `(R·V)₁`.
+    ry: Vec<Real>,
+    obs: Vec<Real>,
+    /// `H_pc` (6 rows) and `g_c`.
+    hpc: Vec<Real>,
+    gc: Vec<Real>,
+    /// Rows of the coefficient block for the free expressions.
+    hb: Vec<Real>,
+    free: Vec<usize>,
+}
+
+impl BlockScratch {
+    fn new(k: usize, k_exp: usize) -> Self {
+        Self {
+            x: vec![0.0; 9 * k],
+            t: vec![0.0; 9 * k],
+            cam: vec![0.0; 6 * k],
+            y: vec![0.0; 3 * k],
+            ry: vec![0.0; 2 * k],
+            obs: vec![0.0; 2 * k],
+            hpc: vec![0.0; 6 * k],
+            gc: vec![0.0; k],
+            hb: vec![0.0; k_exp * k],
+            free: Vec::with_capacity(k_exp),
+        }
+    }
+}
+
+/// Builds frame f's blocks. The pose block is summed landmark by landmark; the
+/// pose–coefficient coupling and the coefficient gradient come from moments: with camera
+/// points `cᵢ = R·xᵢ` and rotated rows `Pᵢ = R·Bᵢ`, every row of `H_pc` is a combination
+/// of `Σᵢ wᵢ·cᵢ[a]·Pᵢ[b,:] = R·(Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:])·Rᵀ` and `R·Σᵢ wᵢ·Bᵢ`, and
+/// `Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:]` is the identity part (shared by the frames) plus `Σ_e β_e` times
+/// the precomputed expression moments; the coefficient blocks come from the Gram blocks.
+/// Landmarks the frame does not use are subtracted one by one. Returns the identity-block
+/// correction for those landmarks, if any.
 fn frame_blocks(
-    basis: &LandmarkBasis,
+    sh: &Shared<'_>,
     obs: &FrameObservations,
     st: &FrameState,
-    id_pts: &[Vector3],
-    image_height: Real,
-    params: &SolverParams,
-) -> FrameBlocks {
-    let (kid, k, l) = (basis.k_id, basis.num_coefficients(), basis.len());
+    moments: &[Real],
+    scr: &mut BlockScratch,
+    out: FrameOut<'_>,
+) -> Option<DMatrix> {
+    let (basis, params) = (sh.basis, sh.params);
+    let (kid, k) = (basis.k_id, basis.num_coefficients());
     let pose = &st.pose;
-    let s = pose.s;
-    let (r1, r2) = (pose.r.row(0).transpose(), pose.r.row(1).transpose());
-    let mut hpp = Matrix6::<Real>::zeros();
-    let mut gp = Vector6::<Real>::zeros();
-    // Per landmark: Gᵢ = ωᵢ·s·J_pᵢᵀ·R₂ (6×3, stored as 3L×6 rows) and the force
-    // hᵢ = ωᵢ·s·R₂ᵀ·rᵢ (3L), so that H_pc = Σ Gᵢ·Bᵢ and g_c = Σ Bᵢᵀhᵢ are matrix products.
-    let mut g_all = DMatrix::zeros(3 * l, 6);
-    let mut h_all = DVector::zeros(3 * l);
+    let (s, r) = (pose.s, &pose.r);
     let beta = st.beta.as_slice();
-    for i in 0..l {
-        if !obs.active[i] {
-            continue;
+    let inv = 1.0 / params.sigma2;
+    // Pose block and gradient.
+    let mut sums = PoseSums::default();
+    for i in (0..basis.len()).filter(|&i| obs.active[i]) {
+        let x = landmark_point(basis, sh.id_pts, beta, i);
+        let res = PoseResidual::new(pose, &x, &obs.points[i], sh.image_height);
+        sums.add(&res, basis.weights[i] * inv);
+    }
+    let (hpp, gp) = sums.normal_equations(pose);
+    // Moments of this frame's points: the shared identity part, plus the expressions, minus
+    // the landmarks it does not use.
+    let x = &mut scr.x;
+    x.copy_from_slice(sh.id_moments);
+    for (e, &b) in beta.iter().enumerate() {
+        if b != 0.0 {
+            axpy(b, basis.expression_moments(e), x);
         }
-        let mut x = id_pts[i];
-        for j in 0..3 {
-            x[j] += super::shape::dot(&basis.row(i, j)[kid..], beta);
+    }
+    scr.y.copy_from_slice(basis.row_sums());
+    for i in (0..basis.len()).filter(|&i| !obs.active[i]) {
+        let p = landmark_point(basis, sh.id_pts, beta, i);
+        let w = basis.weights[i];
+        for (ab, row) in x.chunks_exact_mut(k.max(1)).enumerate() {
+            axpy(-w * p[ab / 3], basis.row(i, ab % 3), row);
         }
-        let res = PoseResidual::new(pose, &x, &obs.points[i], image_height);
-        let (ru, rv) = (res.u, res.v);
-        let om = basis.weights[i] / params.sigma2;
-        let (ju, jv) = res.jacobian(pose);
-        hpp += (ju * ju.transpose() + jv * jv.transpose()) * om;
-        gp += (ju * ru + jv * rv) * om;
-        let h = (r1 * ru + r2 * rv) * (om * s);
-        for j in 0..3 {
-            h_all[3 * i + j] = h[j];
-            for p in 0..6 {
-                g_all[(3 * i + j, p)] = om * s * (ju[p] * r1[j] + jv[p] * r2[j]);
+        for (b, row) in scr.y.chunks_exact_mut(k.max(1)).enumerate() {
+            axpy(-w, basis.row(i, b), row);
+        }
+    }
+    // t = R·X over the first index, cam = t·Rᵀ over the second (b = x, y only).
+    let rr = |a: usize| [r[(a, 0)], r[(a, 1)], r[(a, 2)]];
+    for a in 0..3 {
+        for (b, t) in scr.t[3 * a * k..3 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
+            combine3(t, rr(a), [0, 1, 2].map(|a2| row(x, 3 * a2 + b, k)));
+        }
+        for (b, cam) in scr.cam[2 * a * k..2 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
+            combine3(cam, rr(b), [0, 1, 2].map(|b2| row(&scr.t, 3 * a + b2, k)));
+        }
+    }
+    let ys = [0, 1, 2].map(|b| row(&scr.y, b, k));
+    let (ry0, ry1) = scr.ry.split_at_mut(k);
+    combine3(ry0, rr(0), ys);
+    combine3(ry1, rr(1), ys);
+    // (R·U)₀ + (R·V)₁: the observations' part of the gradient.
+    let (obs_u, obs_v) = scr.obs.split_at_mut(k);
+    combine3(obs_u, rr(0), [0, 1, 2].map(|b| row(moments, b, k)));
+    combine3(obs_v, rr(1), [3, 4, 5].map(|b| row(moments, b, k)));
+    // H_pc rows from the Jacobian's entries (see `PoseResidual::jacobian`):
+    // ∂ω: (0, s·c_z, −s·c_y | −s·c_z, 0, s·c_x), ∂s: (c_x + t_x | c_y + t_y), ∂t: s.
+    let cam = |a: usize, b: usize| row(&scr.cam, 2 * a + b, k);
+    let (c00, c01, c10, c11, c20, c21) =
+        (cam(0, 0), cam(0, 1), cam(1, 0), cam(1, 1), cam(2, 0), cam(2, 1));
+    let (y0, y1) = scr.ry.split_at(k);
+    let (u, v) = scr.obs.split_at(k);
+    let (s2, s1) = (s * s * inv, s * inv);
+    let (tx, ty) = (pose.tx, pose.ty);
+    let [h0, h1, h2, h3, h4, h5]: [&mut [Real]; 6] = {
+        let mut it = scr.hpc.chunks_exact_mut(k.max(1));
+        std::array::from_fn(|_| it.next().unwrap_or_default())
+    };
+    let gc = &mut scr.gc[..k];
+    for j in 0..k {
+        let d = s1 * (c00[j] + c11[j] + tx * y0[j] + ty * y1[j]);
+        h0[j] = -s2 * c21[j];
+        h1[j] = s2 * c20[j];
+        h2[j] = s2 * (c01[j] - c10[j]);
+        h3[j] = d;
+        h4[j] = s2 * y0[j];
+        h5[j] = s2 * y1[j];
+        gc[j] = s * d - s1 * (u[j] + v[j]);
+    }
+    let hpc = &scr.hpc;
+    let gc = &scr.gc;
+    // Coefficient rows of the free expressions: Gram blocks, minus unused landmarks.
+    scr.free.clear();
+    scr.free.extend((0..basis.k_exp).filter(|&e| st.free[e]));
+    let q = projector(pose);
+    for (e, &fe) in scr.free.iter().enumerate() {
+        let hb = &mut scr.hb[e * k..(e + 1) * k];
+        hb.fill(0.0);
+        for (g, &(a, b)) in GRAM_PAIRS.iter().enumerate() {
+            axpy(s2 * q[(a, b)], basis.gram_column(g, kid + fe), hb);
+        }
+    }
+    let mut corr: Option<DMatrix> = None;
+    for i in (0..basis.len()).filter(|&i| !obs.active[i]) {
+        let m = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
+        basis.sub_point_block(i, pose, s2, 0..kid, 0..kid, m);
+        if !scr.free.is_empty() {
+            let mut p = [vec![0.0; k], vec![0.0; k]];
+            for (d, pd) in p.iter_mut().enumerate() {
+                for j in 0..3 {
+                    axpy(r[(d, j)], basis.row(i, j), pd);
+                }
+            }
+            let f = s2 * basis.weights[i];
+            for (e, &fe) in scr.free.iter().enumerate() {
+                let hb = &mut scr.hb[e * k..(e + 1) * k];
+                axpy(-f * p[0][kid + fe], &p[0], hb);
+                axpy(-f * p[1][kid + fe], &p[1], hb);
             }
         }
     }
-    let bt = basis.rows_transposed(); // K × 3L
-    let hpc_t = bt * &g_all; // K × 6 = H_pcᵀ
-    let g_c = bt * &h_all; // K
-    let nx = normal_matrix(basis, obs, pose, params.sigma2, 0..k, kid..k); // K × k_exp
-    let free: Vec<usize> = (0..basis.k_exp).filter(|&j| st.free[j]).collect();
-    let n = 6 + free.len();
-    let mut a = DMatrix::zeros(n, n);
-    let mut b = DVector::zeros(n);
+    // Assemble A (row-major, n = 6 + free), C and b.
+    let n = 6 + scr.free.len();
+    let (a, c, b) = (out.a, out.c, out.b);
     for p in 0..6 {
         for q in 0..6 {
-            a[(p, q)] = hpp[(p, q)];
+            a[p * n + q] = hpp[(p, q)];
         }
         b[p] = gp[p];
+        c[p * kid..(p + 1) * kid].copy_from_slice(&hpc[p * k..p * k + kid]);
     }
-    for (e, &fe) in free.iter().enumerate() {
+    for (e, &fe) in scr.free.iter().enumerate() {
+        let row = 6 + e;
         for p in 0..6 {
-            let v = hpc_t[(kid + fe, p)];
-            a[(p, 6 + e)] = v;
-            a[(6 + e, p)] = v;
+            let v = hpc[p * k + kid + fe];
+            a[p * n + row] = v;
+            a[row * n + p] = v;
         }
-        for (e2, &fe2) in free.iter().enumerate() {
-            a[(6 + e, 6 + e2)] = nx[(kid + fe, fe2)];
+        let hb = &scr.hb[e * k..(e + 1) * k];
+        for (e2, &fe2) in scr.free.iter().enumerate() {
+            a[row * n + 6 + e2] = hb[kid + fe2];
         }
-        a[(6 + e, 6 + e)] += params.lambda_expression;
-        b[6 + e] = g_c[kid + fe] + params.lambda_expression * st.beta[fe];
+        a[row * n + row] += params.lambda_expression;
+        b[row] = gc[kid + fe] + params.lambda_expression * beta[fe];
+        c[row * kid..(row + 1) * kid].copy_from_slice(&hb[..kid]);
     }
-    let mut c = DMatrix::zeros(n, kid);
-    for q in 0..kid {
-        for p in 0..6 {
-            c[(p, q)] = hpc_t[(q, p)];
-        }
-        for (e, &fe) in free.iter().enumerate() {
-            c[(6 + e, q)] = nx[(q, fe)];
-        }
-    }
-    let scale = s * s / params.sigma2;
-    let mut corr: Option<DMatrix> = None;
-    for (i, &act) in obs.active.iter().enumerate() {
-        if !act {
-            let m = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
-            basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, m);
-        }
-    }
-    FrameBlocks { free, a, c, b, g_alpha: g_c.rows(0, kid).into_owned(), corr }
+    out.g_alpha.copy_from_slice(&gc[..kid]);
+    corr
 }
 
-/// Linearises the objective at the current state (failed frames are left out).
-pub(crate) fn linearise(
-    basis: &LandmarkBasis,
-    observations: &[FrameObservations],
-    states: &[FrameState],
-    alpha: &DVector,
-    id_pts: &[Vector3],
-    image_height: Real,
-    params: &SolverParams,
-) -> Linearisation {
-    let kid = basis.k_id;
-    let one = |(obs, st): (&FrameObservations, &FrameState)| {
-        st.failed.is_none().then(|| frame_blocks(basis, obs, st, id_pts, image_height, params))
-    };
-    let frames: Vec<Option<FrameBlocks>> = if in_parallel(observations.len()) {
-        observations.par_iter().zip(states.par_iter()).map(one).collect()
-    } else {
-        observations.iter().zip(states).map(one).collect()
-    };
-    let mut q_sum = Matrix3::zeros();
-    for st in states.iter().filter(|s| s.failed.is_none()) {
-        q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
-    }
-    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
-    let mut g = alpha * params.lambda_identity;
-    for fb in frames.iter().flatten() {
-        if let Some(c) = &fb.corr {
-            s += c;
+impl Linearisation {
+    /// Linearises the objective at the current state (failed frames are left out) into this
+    /// linearisation's buffers, which are reused from one iteration to the next.
+    fn update(
+        &mut self,
+        group: &Group<'_>,
+        moments: &DMatrix,
+        states: &[FrameState],
+        alpha: &DVector,
+        id_pts: &[Vector3],
+        params: &SolverParams,
+    ) {
+        let basis = group.basis;
+        let (kid, k, k_exp) = (basis.k_id, basis.num_coefficients(), basis.k_exp);
+        let counts: Vec<usize> =
+            states
+                .iter()
+                .map(|st| {
+                    if st.failed.is_some() { 0 } else { 6 + st.free.iter().filter(|f| **f).count() }
+                })
+                .collect();
+        (self.rows, self.blocks) = offsets(&counts);
+        let total_rows = self.rows[counts.len()];
+        self.a.resize(self.blocks[counts.len()], 0.0);
+        self.c.resize(total_rows * kid, 0.0);
+        self.b.resize(total_rows, 0.0);
+        let g_frames = &mut self.g_frames;
+        g_frames.resize(states.len() * kid, 0.0);
+        let id_moments = point_moments(basis, id_pts);
+        let sh = Shared {
+            basis,
+            id_pts,
+            id_moments: &id_moments,
+            image_height: group.image_height,
+            params,
+        };
+        let items: Vec<(usize, FrameOut<'_>)> = split_at_offsets(&mut self.a, &self.blocks, 1)
+            .into_iter()
+            .zip(split_at_offsets(&mut self.c, &self.rows, kid))
+            .zip(split_at_offsets(&mut self.b, &self.rows, 1))
+            .zip(g_frames.chunks_mut(kid.max(1)))
+            .map(|(((a, c), b), g_alpha)| FrameOut { a, c, b, g_alpha })
+            .enumerate()
+            .filter(|(f, _)| states[*f].failed.is_none())
+            .collect();
+        let corrections = each_frame_with(
+            items,
+            || BlockScratch::new(k, k_exp),
+            |scr, (f, out)| {
+                let m = moments.column(f);
+                frame_blocks(&sh, &group.observations[f], &states[f], m.as_slice(), scr, out)
+            },
+        );
+        let mut q_sum = Matrix3::zeros();
+        for st in states.iter().filter(|s| s.failed.is_none()) {
+            q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
         }
-        g += &fb.g_alpha;
-    }
-    Linearisation { frames, s, g }
-}
-
-/// Adds `μ·diag(m)` to `m` (Marquardt's scale-invariant damping).
-fn damp(m: &mut DMatrix, mu: Real) {
-    for d in 0..m.nrows() {
-        m[(d, d)] *= 1.0 + mu;
-    }
-}
-
-/// `L⁻¹·B` in place for a lower-triangular n×n `l` and the columns of `b` (column-major,
-/// n rows): nalgebra's `solve_lower_triangular` operation for operation (so the same bits),
-/// without the per-column views and strided updates that made it a tenth of a clip fit's
-/// time. False on a zero pivot, as nalgebra's.
-fn forward_substitute(l: &DMatrix, b: &mut [Real]) -> bool {
-    let n = l.nrows();
-    let ls = l.as_slice();
-    for col in b.chunks_exact_mut(n.max(1)) {
-        for i in 0..n {
-            let diag = ls[i * n + i];
-            if diag == 0.0 {
-                return false;
-            }
-            let coeff = col[i] / diag;
-            col[i] = coeff;
-            for (y, &x) in col[i + 1..].iter_mut().zip(&ls[i * n + i + 1..(i + 1) * n]) {
-                *y += -coeff * x;
-            }
+        self.s = DMatrix::identity(kid, kid) * params.lambda_identity;
+        basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut self.s);
+        for corr in corrections.iter().flatten() {
+            self.s += corr;
+        }
+        self.g = alpha * params.lambda_identity;
+        for g_alpha in g_frames.chunks(kid.max(1)) {
+            axpy(1.0, g_alpha, self.g.as_mut_slice());
         }
     }
-    true
 }
 
-/// Solves the damped system and applies the step: returns the new identity and frame states,
-/// or None when a block is not positive definite. With `solve_identity` false the identity
-/// stays (δα = 0). Expressions are projected onto β ≥ 0 when the settings ask for it.
+/// The buffers of a step's elimination, reused by every try: per frame the Cholesky factor
+/// L of the damped `A_f` and `z_f = L⁻¹b_f`, stacked as in [`Linearisation`], and the
+/// back-substitution's `−δy`.
+#[derive(Default)]
+pub(crate) struct StepBuffers {
+    l: Vec<Real>,
+    z: Vec<Real>,
+    v: Vec<Real>,
+}
+
+/// Frames whose Schur terms are made in one product: their `W` (6 + free rows of k_id per
+/// frame, ~190 KB for 32 SFM frames) stays in cache, and the chunks' partial sums, added in
+/// chunk order, give the same total whatever the number of threads.
+const SCHUR_CHUNK: usize = 32;
+
+/// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))`, `w = L⁻¹C`, `z = L⁻¹b`
+/// (row-major, n rows). False when the damped block is not positive definite.
+fn eliminate(
+    a: &[Real],
+    c: &[Real],
+    b: &[Real],
+    mu: Real,
+    l: &mut [Real],
+    w: &mut [Real],
+    z: &mut [Real],
+) -> bool {
+    let n = b.len();
+    if n == 0 {
+        return true;
+    }
+    let kid = c.len() / n;
+    l.copy_from_slice(a);
+    for d in 0..n {
+        l[d * n + d] *= 1.0 + mu;
+    }
+    if !cholesky_in_place(l, n) {
+        return false;
+    }
+    // Row p of W: (C[p] − Σ_{q<p} L[p][q]·W[q]) / L[p][p]; likewise z.
+    for p in 0..n {
+        let (done, rest) = w.split_at_mut(p * kid);
+        let wp = &mut rest[..kid];
+        wp.copy_from_slice(&c[p * kid..(p + 1) * kid]);
+        let lp = &l[p * n..p * n + n];
+        for q in 0..p {
+            axpy(-lp[q], &done[q * kid..(q + 1) * kid], wp);
+        }
+        let inv = 1.0 / lp[p];
+        wp.iter_mut().for_each(|v| *v *= inv);
+        z[p] = (b[p] - dot(&lp[..p], &z[..p])) / lp[p];
+    }
+    z.iter().all(|v| v.is_finite())
+}
+
+/// A chunk's Schur terms `(WᵀW, Wᵀz)` for its stacked row-major W (k_id per row). The
+/// identity solve reads one triangle of S (the upper one, S being column-major), so only the
+/// blocks on and above the diagonal of a 2×2 split are made: ¾ of the product.
+fn schur_terms(w: &[Real], z: &[Real], kid: usize) -> (DMatrix, DVector) {
+    let nrows = z.len();
+    let mut s = DMatrix::zeros(kid, kid);
+    let mut r = DVector::zeros(kid);
+    if nrows == 0 {
+        return (s, r);
+    }
+    // Wᵀ is W read column-major; W itself has row stride k_id.
+    let wt = DMatrixView::from_slice(w, kid, nrows);
+    let wv = DMatrixView::from_slice_with_strides(w, nrows, kid, kid, 1);
+    let h = kid / 2;
+    for (r0, c0, nr, nc) in [(0, 0, h, h), (0, h, h, kid - h), (h, h, kid - h, kid - h)] {
+        s.view_mut((r0, c0), (nr, nc)).gemm(1.0, &wt.rows(r0, nr), &wv.columns(c0, nc), 0.0);
+    }
+    for (wr, &zr) in w.chunks_exact(kid).zip(z) {
+        axpy(zr, wr, r.as_mut_slice());
+    }
+    (s, r)
+}
+
+/// Solves the damped system and applies the step to `out` (the current states on entry):
+/// returns the new identity, or None when a block is not positive definite. With
+/// `solve_identity` false the identity stays (δα = 0). Expressions are projected onto β ≥ 0
+/// when the settings ask for it.
 pub(crate) fn step(
     lin: &Linearisation,
-    states: &[FrameState],
+    out: &mut [FrameState],
     alpha: &DVector,
     mu: Real,
     solve_identity: bool,
     params: &SolverParams,
-) -> Option<(DVector, Vec<FrameState>)> {
+    buf: &mut StepBuffers,
+) -> Option<DVector> {
     let kid = alpha.len();
+    let frames = lin.rows.len().saturating_sub(1);
+    let nrows = *lin.rows.last().unwrap_or(&0);
+    buf.l.resize(lin.a.len(), 0.0);
+    buf.z.resize(nrows, 0.0);
+    let (blocks, rows) = (&lin.blocks, &lin.rows);
+    let need_identity = solve_identity && kid > 0;
     // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
-    // CᵀA⁻¹C = WᵀW (a symmetric product run by the matrix-multiply kernel) and CᵀA⁻¹b = Wᵀz.
-    // In parallel each frame keeps its WᵀW for the ordered sum below; on one thread it is made
-    // there, into one buffer, instead of holding a k_id² matrix per frame (32 MB per 1,000).
-    let parallel = in_parallel(lin.frames.len());
-    let need_wtw = solve_identity && kid > 0;
-    let eliminate = |fb: &Option<FrameBlocks>| -> Option<Option<Eliminated>> {
-        let Some(fb) = fb else { return Some(None) };
-        let mut a = fb.a.clone();
-        damp(&mut a, mu);
-        let l = a.cholesky()?.unpack();
-        let mut w = fb.c.clone();
-        let mut z = fb.b.clone();
-        if !(forward_substitute(&l, w.as_mut_slice()) && forward_substitute(&l, z.as_mut_slice())) {
-            return None;
-        }
-        let wtw = (need_wtw && parallel).then(|| w.transpose() * &w);
-        Some(Some(Eliminated { l, w, z, wtw }))
-    };
-    let solved: Vec<Option<Eliminated>> = if parallel {
-        lin.frames.par_iter().map(eliminate).collect::<Option<Vec<_>>>()?
-    } else {
-        lin.frames.iter().map(eliminate).collect::<Option<Vec<_>>>()?
-    };
-    let mut dalpha = DVector::zeros(kid);
-    if need_wtw {
-        let mut s = lin.s.clone();
-        damp(&mut s, mu);
-        let mut r = lin.g.clone();
-        let mut buffer = DMatrix::zeros(kid, kid);
-        for e in solved.iter().flatten() {
-            match &e.wtw {
-                Some(wtw) => s -= wtw,
-                None => {
-                    // The same kernel call as `Wᵀ * W`, so the same bits.
-                    buffer.gemm(1.0, &e.w.transpose(), &e.w, 0.0);
-                    s -= &buffer;
-                }
+    // CᵀA⁻¹C = WᵀW and CᵀA⁻¹b = Wᵀz, summed a chunk of frames at a time as products of
+    // their stacked W.
+    let bounds: Vec<usize> = (0..frames).step_by(SCHUR_CHUNK).chain([frames]).collect();
+    let at = |offsets: &[usize]| bounds.iter().map(|&f| offsets[f]).collect::<Vec<_>>();
+    let chunks: Vec<_> = split_at_offsets(&mut buf.l, &at(blocks), 1)
+        .into_iter()
+        .zip(split_at_offsets(&mut buf.z, &at(rows), 1))
+        .zip(bounds.windows(2).map(|w| (w[0], w[1])))
+        .collect();
+    let parts = each_frame_with(chunks, Vec::new, |w: &mut Vec<Real>, ((l, z), (f0, f1))| {
+        let (b0, r0) = (blocks[f0], rows[f0]);
+        w.resize((rows[f1] - r0) * kid, 0.0);
+        for f in f0..f1 {
+            let (a, b) = (&lin.a[blocks[f]..blocks[f + 1]], &lin.b[rows[f]..rows[f + 1]]);
+            let c = &lin.c[rows[f] * kid..rows[f + 1] * kid];
+            let wf = &mut w[(rows[f] - r0) * kid..(rows[f + 1] - r0) * kid];
+            let lf = &mut l[blocks[f] - b0..blocks[f + 1] - b0];
+            let zf = &mut z[rows[f] - r0..rows[f + 1] - r0];
+            if !eliminate(a, c, b, mu, lf, wf, zf) {
+                return None;
             }
-            r.gemv_tr(-1.0, &e.w, &e.z, 1.0);
+        }
+        Some(need_identity.then(|| schur_terms(w, z, kid)))
+    });
+    let mut dalpha = DVector::zeros(kid);
+    if need_identity {
+        let mut s = lin.s.clone();
+        for d in 0..kid {
+            s[(d, d)] *= 1.0 + mu;
+        }
+        let mut r = lin.g.clone();
+        for part in parts {
+            let (ps, pr) = part??;
+            s -= ps;
+            r -= pr;
         }
         if !cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()) {
             return None;
         }
         dalpha = -r;
+    } else if parts.iter().any(Option::is_none) {
+        return None;
     }
-    let mut out = states.to_vec();
-    for ((st, fb), xy) in out.iter_mut().zip(&lin.frames).zip(&solved) {
-        let (Some(fb), Some(e)) = (fb, xy) else { continue };
-        // δy = −A⁻¹(b + C·δα) = −L⁻ᵀ(z + W·δα)
-        let mut v = e.z.clone();
-        v.gemv(1.0, &e.w, &dalpha, 1.0);
-        let dy = -e.l.tr_solve_lower_triangular(&v)?;
-        if !dy.iter().all(|v| v.is_finite()) {
-            return None;
+    let (l, z) = (&buf.l, &buf.z);
+    buf.v.resize(nrows, 0.0);
+    let update = |(f, (st, v)): (usize, (&mut FrameState, &mut [Real]))| -> bool {
+        let n = v.len();
+        if n == 0 {
+            return true;
         }
-        let rot = Rotation3::new(Vector3::new(dy[0], dy[1], dy[2]));
+        // δy = −A⁻¹(b + C·δα) = −L⁻ᵀ(z + L⁻¹·C·δα); v holds −δy.
+        let (r0, lf) = (rows[f], &l[blocks[f]..blocks[f + 1]]);
+        for (p, vp) in v.iter_mut().enumerate() {
+            *vp = dot(&lin.c[(r0 + p) * kid..(r0 + p + 1) * kid], dalpha.as_slice());
+        }
+        forward_substitute_rows(lf, n, v);
+        for (vp, &zp) in v.iter_mut().zip(&z[r0..r0 + n]) {
+            *vp += zp;
+        }
+        back_substitute_rows(lf, n, v);
+        if !v.iter().all(|x| x.is_finite()) {
+            return false;
+        }
+        let rot = Rotation3::new(-Vector3::new(v[0], v[1], v[2]));
         let pose = OrthoPose {
             r: rot.into_inner() * st.pose.r,
-            s: st.pose.s + dy[3],
-            tx: st.pose.tx + dy[4],
-            ty: st.pose.ty + dy[5],
+            s: st.pose.s - v[3],
+            tx: st.pose.tx - v[4],
+            ty: st.pose.ty - v[5],
         };
         if !pose.is_valid() {
-            return None;
+            return false;
         }
         st.pose = pose;
-        for (e, &fe) in fb.free.iter().enumerate() {
-            let v = st.beta[fe] + dy[6 + e];
-            st.beta[fe] = if params.nonnegative_expressions { v.max(0.0) } else { v };
+        let free = (0..st.free.len()).filter(|&e| st.free[e]);
+        for (e, dv) in free.zip(&v[6..]) {
+            let b = st.beta[e] - dv;
+            st.beta[e] = if params.nonnegative_expressions { b.max(0.0) } else { b };
         }
-    }
+        true
+    };
+    let vs = split_at_offsets(&mut buf.v, rows, 1);
+    let fine = if in_parallel(out.len()) {
+        out.par_iter_mut().zip(vs).enumerate().map(update).all(|ok| ok)
+    } else {
+        out.iter_mut().zip(vs).enumerate().all(update)
+    };
     let new_alpha = alpha + dalpha;
-    new_alpha.iter().all(|v| v.is_finite()).then_some((new_alpha, out))
+    (fine && new_alpha.iter().all(|v| v.is_finite())).then_some(new_alpha)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fit::camera::rotation_from_yaw_pitch_roll_deg;
+    use crate::fit::result::Solver;
+    use crate::landmarks::{FrameLandmarks, LandmarkPoint, LandmarkSet, N_LANDMARKS};
+    use crate::math::Point3;
+    use crate::model::{Expressions, LandmarkMap, MorphableModel, PcaModel};
+    use nalgebra::Vector6;
+
+    /// 68 vertices on a curved sheet, 5 identity modes, 3 expressions; landmark i ↦ vertex i,
+    /// weights that differ between landmarks.
+    fn basis() -> LandmarkBasis {
+        let n = N_LANDMARKS;
+        let mean = DVector::from_fn(3 * n, |r, _| {
+            let (i, axis) = (r / 3, r % 3);
+            let (x, y) = (((i % 9) as Real - 4.0) * 15.0, ((i / 9) as Real - 3.5) * 18.0);
+            [x, y, 50.0 - 0.005 * (x * x + y * y) + (i * 7 % 5) as Real][axis]
+        });
+        let model = MorphableModel {
+            shape: PcaModel {
+                mean,
+                basis: DMatrix::from_fn(3 * n, 5, |r, c| ((r * (c + 3)) as Real * 0.37).sin()),
+                eigenvalues: DVector::from_vec(vec![9.0, 4.0, 2.0, 1.0, 0.5]),
+            },
+            expressions: Some(Expressions {
+                names: vec!["a".into(), "b".into(), "c".into()],
+                deltas: DMatrix::from_fn(3 * n, 3, |r, c| ((r + 7 * c) as Real * 0.11).cos() * 3.0),
+            }),
+            triangles: vec![],
+        };
+        let map = LandmarkMap { to_vertex: (0..n).map(|i| (i, i)).collect() };
+        let weights: Vec<Real> = (0..n).map(|i| 1.0 + (i % 3) as Real * 0.5).collect();
+        LandmarkBasis::new(&model, &map, LandmarkSet::F5, &weights)
+    }
+
+    /// Three frames with different poses and expressions (some clamped), noisy observations,
+    /// and landmarks 5 and 30 unused in frame 1.
+    fn frames(basis: &LandmarkBasis, alpha: &DVector) -> (Vec<FrameObservations>, Vec<FrameState>) {
+        let id_pts = identity_points(basis, alpha);
+        let mut observations = Vec::new();
+        let mut states = Vec::new();
+        for f in 0..3 {
+            let fr = f as Real;
+            let pose = OrthoPose {
+                r: rotation_from_yaw_pitch_roll_deg(10.0 - 8.0 * fr, 4.0 * fr - 3.0, 2.0 - fr),
+                s: 1.5 + 0.2 * fr,
+                tx: 200.0 + 10.0 * fr,
+                ty: 150.0 - 5.0 * fr,
+            };
+            let beta = DVector::from_vec(vec![0.3 + 0.1 * fr, 0.0, 0.7]);
+            let points = (0..N_LANDMARKS)
+                .map(|i| {
+                    let x = landmark_point(basis, &id_pts, beta.as_slice(), i);
+                    let p = pose.project(&Point3::from(x), 720.0);
+                    let noise = ((i * 13 + f * 7) % 11) as Real * 0.3 - 1.5;
+                    let mut lp = LandmarkPoint::tracked(p.x + noise, p.y - 0.5 * noise);
+                    lp.visible = !(f == 1 && (i == 5 || i == 30));
+                    lp
+                })
+                .collect();
+            observations.push(FrameObservations::new(basis, &FrameLandmarks::new(f, points)));
+            states.push(FrameState { pose, beta, free: vec![true, false, f != 2], failed: None });
+        }
+        (observations, states)
+    }
+
+    fn params() -> SolverParams {
+        SolverParams {
+            lambda_identity: 0.7,
+            lambda_expression: 0.4,
+            iterations: 10,
+            temporal_smoothness: 0.0,
+            nonnegative_expressions: false,
+            solver: Solver::default(),
+            sigma2: 3.0,
+            min_points: 4,
+            tolerance: 1e-3,
+        }
+    }
+
+    /// A frame's Gauss–Newton Hessian and gradient over [pose (6) | coefficients (K)], summed
+    /// landmark by landmark from the full Jacobian rows.
+    fn dense_frame(
+        basis: &LandmarkBasis,
+        obs: &FrameObservations,
+        st: &FrameState,
+        id_pts: &[Vector3],
+        p: &SolverParams,
+    ) -> (DMatrix, DVector) {
+        let k = basis.num_coefficients();
+        let mut h = DMatrix::zeros(6 + k, 6 + k);
+        let mut g = DVector::zeros(6 + k);
+        for i in (0..basis.len()).filter(|&i| obs.active[i]) {
+            let x = landmark_point(basis, id_pts, st.beta.as_slice(), i);
+            let res = PoseResidual::new(&st.pose, &x, &obs.points[i], 720.0);
+            let (ju, jv) = res.jacobian(&st.pose);
+            let mut jrow = |jp: &Vector6<Real>, d: usize, r: Real| {
+                let mut j = DVector::zeros(6 + k);
+                j.rows_mut(0, 6).copy_from(jp);
+                for axis in 0..3 {
+                    let c = st.pose.s * st.pose.r[(d, axis)];
+                    for (q, b) in basis.row(i, axis).iter().enumerate() {
+                        j[6 + q] += c * b;
+                    }
+                }
+                let om = basis.weights[i] / p.sigma2;
+                h.ger(om, &j, &j, 1.0);
+                g.axpy(om * r, &j, 1.0);
+            };
+            jrow(&ju, 0, res.u);
+            jrow(&jv, 1, res.v);
+        }
+        (h, g)
+    }
+
+    /// The whole damped system over every frame's unknowns and α, built densely.
+    fn dense_system(
+        basis: &LandmarkBasis,
+        observations: &[FrameObservations],
+        states: &[FrameState],
+        alpha: &DVector,
+        p: &SolverParams,
+        mu: Real,
+    ) -> (DMatrix, DVector, Vec<Vec<usize>>) {
+        let kid = basis.k_id;
+        let id_pts = identity_points(basis, alpha);
+        let unknowns: Vec<Vec<usize>> = states
+            .iter()
+            .map(|st| {
+                let free = (0..basis.k_exp).filter(|&e| st.free[e]).map(|e| 6 + kid + e);
+                (0..6).chain(free).collect()
+            })
+            .collect();
+        let total: usize = unknowns.iter().map(Vec::len).sum::<usize>() + kid;
+        let mut m = DMatrix::zeros(total, total);
+        let mut rhs = DVector::zeros(total);
+        let a0 = total - kid;
+        for d in 0..kid {
+            m[(a0 + d, a0 + d)] = p.lambda_identity;
+            rhs[a0 + d] = p.lambda_identity * alpha[d];
+        }
+        let mut off = 0;
+        for ((obs, st), u) in observations.iter().zip(states).zip(&unknowns) {
+            let (h, g) = dense_frame(basis, obs, st, &id_pts, p);
+            for (a, &ua) in u.iter().enumerate() {
+                for (b, &ub) in u.iter().enumerate() {
+                    m[(off + a, off + b)] = h[(ua, ub)];
+                }
+                for q in 0..kid {
+                    m[(off + a, a0 + q)] = h[(ua, 6 + q)];
+                    m[(a0 + q, off + a)] = h[(ua, 6 + q)];
+                }
+                rhs[off + a] = g[ua];
+                if a >= 6 {
+                    let e = ua - 6 - kid;
+                    m[(off + a, off + a)] += p.lambda_expression;
+                    rhs[off + a] += p.lambda_expression * st.beta[e];
+                }
+            }
+            for q in 0..kid {
+                for r in 0..kid {
+                    m[(a0 + q, a0 + r)] += h[(6 + q, 6 + r)];
+                }
+                rhs[a0 + q] += g[6 + q];
+            }
+            off += u.len();
+        }
+        for d in 0..total {
+            m[(d, d)] *= 1.0 + mu;
+        }
+        (m, rhs, unknowns)
+    }
+
+    fn relative(a: &[Real], b: &[Real]) -> Real {
+        let d: Real = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+        let n: Real = b.iter().map(|y| y * y).sum();
+        (d / n.max(1e-300)).sqrt()
+    }
 
     #[test]
-    fn forward_substitution_matches_nalgebra_bit_for_bit() {
-        let m = DMatrix::from_fn(7, 7, |i, j| {
-            1.0 / (1.0 + i as Real + j as Real) + if i == j { 3.0 } else { 0.0 }
-        });
-        let l = m.cholesky().unwrap().unpack();
-        let c = DMatrix::from_fn(7, 5, |i, j| ((i * 5 + j) as Real * 0.73).sin());
-        let want = l.solve_lower_triangular(&c).unwrap();
-        let mut got = c.clone();
-        assert!(forward_substitute(&l, got.as_mut_slice()));
-        assert!(got.iter().zip(want.iter()).all(|(a, b)| a.to_bits() == b.to_bits()));
-        let mut singular = DMatrix::identity(3, 3);
-        singular[(1, 1)] = 0.0;
-        assert!(!forward_substitute(&singular, &mut [1.0, 2.0, 3.0]));
+    fn linearisation_from_moments_equals_the_landmark_sums() {
+        let basis = basis();
+        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
+        let (observations, states) = frames(&basis, &alpha);
+        let p = params();
+        let id_pts = identity_points(&basis, &alpha);
+        let group = Group::new(&basis, &observations, 720.0, &p);
+        let moments = observation_moments(&basis, &observations, 720.0);
+        let mut lin = Linearisation::default();
+        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
+        let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, 0.0);
+        let kid = basis.k_id;
+        let a0 = m.nrows() - kid;
+        let mut off = 0;
+        for (f, u) in unknowns.iter().enumerate() {
+            let n = u.len();
+            let a = &lin.a[lin.blocks[f]..lin.blocks[f + 1]];
+            let want_a: Vec<Real> = (0..n * n).map(|x| m[(off + x / n, off + x % n)]).collect();
+            assert!(relative(a, &want_a) < 1e-10, "frame {f} A");
+            let c = &lin.c[lin.rows[f] * kid..lin.rows[f + 1] * kid];
+            let want_c: Vec<Real> =
+                (0..n * kid).map(|x| m[(off + x / kid, a0 + x % kid)]).collect();
+            assert!(relative(c, &want_c) < 1e-10, "frame {f} C");
+            let b = &lin.b[lin.rows[f]..lin.rows[f + 1]];
+            assert!(relative(b, &rhs.as_slice()[off..off + n]) < 1e-10, "frame {f} b");
+            off += n;
+        }
+        let want_s: Vec<Real> = (0..kid * kid).map(|x| m[(a0 + x % kid, a0 + x / kid)]).collect();
+        assert!(relative(lin.s.as_slice(), &want_s) < 1e-10, "S");
+        assert!(relative(lin.g.as_slice(), &rhs.as_slice()[a0..]) < 1e-10, "g");
+    }
+
+    #[test]
+    fn step_solves_the_whole_damped_system() {
+        let basis = basis();
+        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
+        let (observations, states) = frames(&basis, &alpha);
+        let p = params();
+        let mu = 1e-3;
+        let id_pts = identity_points(&basis, &alpha);
+        let group = Group::new(&basis, &observations, 720.0, &p);
+        let moments = observation_moments(&basis, &observations, 720.0);
+        let mut lin = Linearisation::default();
+        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
+        let mut out = states.clone();
+        let new_alpha =
+            step(&lin, &mut out, &alpha, mu, true, &p, &mut StepBuffers::default()).unwrap();
+        let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, mu);
+        let want = -m.lu().solve(&rhs).unwrap();
+        let a0 = want.len() - basis.k_id;
+        assert!(relative((&new_alpha - &alpha).as_slice(), &want.as_slice()[a0..]) < 1e-8);
+        let mut off = 0;
+        for ((before, after), u) in states.iter().zip(&out).zip(&unknowns) {
+            let dy = &want.as_slice()[off..off + u.len()];
+            let rot = Rotation3::new(Vector3::new(dy[0], dy[1], dy[2])).into_inner();
+            assert!((after.pose.r - rot * before.pose.r).amax() < 1e-10);
+            assert!((after.pose.s - before.pose.s - dy[3]).abs() < 1e-10);
+            assert!((after.pose.tx - before.pose.tx - dy[4]).abs() < 1e-8);
+            assert!((after.pose.ty - before.pose.ty - dy[5]).abs() < 1e-8);
+            for (e, &ue) in u.iter().enumerate().skip(6) {
+                let fe = ue - 6 - basis.k_id;
+                assert!((after.beta[fe] - before.beta[fe] - dy[e]).abs() < 1e-8);
+            }
+            off += u.len();
+        }
     }
 }

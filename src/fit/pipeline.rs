@@ -5,11 +5,11 @@
 //! are one-call wrappers.
 
 use super::camera::{OrthoPose, rotation_from_yaw_pitch_roll_deg};
-use super::clip::{FrameState, SolverParams, fit_group};
+use super::clip::{FrameState, SolverParams, fit_group, identity_points, landmark_point};
 use super::result::{FitSettings, FrameFit};
 use super::shape::{EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis};
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
-use crate::math::{DVector, Point2, Point3, Real};
+use crate::math::{DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
 use rayon::prelude::*;
 
@@ -59,7 +59,8 @@ impl<'m> Fitter<'m> {
         let obs = FrameObservations::new(&self.basis, lm);
         let g =
             fit_group(&self.basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
-        self.frame_fit(&obs, &g.alpha, &g.frames[0], image_height)
+        let id_pts = identity_points(&self.basis, &g.alpha);
+        self.frame_fit(&obs, &g.alpha, &id_pts, &g.frames[0], image_height)
     }
 
     /// Fits frames as `settings.clip` says: one identity for all (clip) or each frame alone
@@ -86,21 +87,24 @@ impl<'m> Fitter<'m> {
         let obs: Vec<FrameObservations> =
             frames.par_iter().map(|lm| FrameObservations::new(&self.basis, lm)).collect();
         let g = fit_group(&self.basis, &obs, image_height, &self.params(), None);
+        let id_pts = identity_points(&self.basis, &g.alpha);
         let out: Vec<FrameFit> = obs
             .par_iter()
             .zip(g.frames.par_iter())
-            .map(|(o, st)| self.frame_fit(o, &g.alpha, st, image_height))
+            .map(|(o, st)| self.frame_fit(o, &g.alpha, &id_pts, st, image_height))
             .collect();
         report(out.len());
         out
     }
 
     /// Turns a solver state into the reported `FrameFit`: pose angles, residuals of the
-    /// used points, reprojection RMS and the failure checks.
+    /// used points, reprojection RMS and the failure checks. `id_pts` is the identity part
+    /// of the landmark points for `alpha`.
     fn frame_fit(
         &self,
         obs: &FrameObservations,
         alpha: &DVector,
+        id_pts: &[Vector3],
         st: &FrameState,
         image_height: Real,
     ) -> FrameFit {
@@ -128,7 +132,8 @@ impl<'m> Fitter<'m> {
             if !obs.active[i] {
                 continue;
             }
-            let p = st.pose.project(&self.basis.point(i, &c), image_height);
+            let x = landmark_point(&self.basis, id_pts, st.beta.as_slice(), i);
+            let p = st.pose.project(&Point3::from(x), image_height);
             let d = p - obs.points[i];
             fit.residuals[self.basis.landmarks[i]] = Some([d.x, d.y]);
             sse += d.norm_squared();

@@ -11,6 +11,7 @@
 use crate::landmarks::{LandmarkSet, N_LANDMARKS};
 use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
+use nalgebra::Dyn;
 
 use super::camera::{OrthoPose, PoseResidual};
 
@@ -37,10 +38,19 @@ pub struct LandmarkBasis {
     rows: Vec<Real>,
     /// Gram blocks over all landmarks: xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each).
     gram: [DMatrix; 6],
+    /// Per expression e, the nine rows `Σᵢ wᵢ·Eᵢ[a,e]·Bᵢ[b,:]` (a, b = x, y, z; row 3a + b;
+    /// K each): the expression rows of the ordered Gram blocks, which the joint solver's
+    /// pose–coefficient coupling is made of (`fit::joint`).
+    expression_moments: Vec<Real>,
+    /// `Σᵢ wᵢ·Bᵢ[b,:]` for b = x, y, z (3 rows of K).
+    row_sums: Vec<Real>,
+    /// The expression part of `rows` alone (landmark i, axis j at `[(3i + j)·k_exp..]`):
+    /// a frame's points are evaluated from it many times per iteration.
+    expression_rows: Vec<Real>,
 }
 
 /// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
-const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
+pub(crate) const GRAM_PAIRS: [(usize, usize); 6] = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)];
 
 /// Whether landmark `l` (0-based iBUG id) mapped to vertex `v` can drive a fit on a model of
 /// `n_vertices` vertices: in `set`, an existing vertex, and a finite weight > 0 (`weights`
@@ -98,31 +108,51 @@ impl LandmarkBasis {
                 }
             }
         }
-        let mut basis = Self {
+        let weights: Vec<Real> = pairs.iter().map(|p| p.2).collect();
+        // The rows of each axis as L×K matrices, plain and weighted, so that every Gram block
+        // is one matrix product: M_ab = Σᵢ wᵢ·Bᵢ[a,:]ᵀBᵢ[b,:] = B_aᵀ·diag(w)·B_b.
+        let axis = |a: usize, weighted: bool| {
+            DMatrix::from_fn(l, k, |i, c| {
+                rows[(3 * i + a) * k + c] * if weighted { weights[i] } else { 1.0 }
+            })
+        };
+        let plain: [DMatrix; 3] = std::array::from_fn(|a| axis(a, false));
+        let weighted: [DMatrix; 3] = std::array::from_fn(|a| axis(a, true));
+        let gram = GRAM_PAIRS.map(|(a, b)| {
+            let m = weighted[a].tr_mul(&plain[b]);
+            if a == b { m } else { &m + m.transpose() }
+        });
+        let mut expression_moments = vec![0.0; k_exp * 9 * k];
+        for (e, block) in expression_moments.chunks_exact_mut(9 * k.max(1)).enumerate() {
+            for (ab, row) in block.chunks_exact_mut(k).enumerate() {
+                let (a, b) = (ab / 3, ab % 3);
+                for i in 0..l {
+                    let f = weights[i] * rows[(3 * i + a) * k + k_id + e];
+                    axpy(f, &rows[(3 * i + b) * k..(3 * i + b + 1) * k], row);
+                }
+            }
+        }
+        let mut row_sums = vec![0.0; 3 * k];
+        for (b, row) in row_sums.chunks_exact_mut(k.max(1)).enumerate().take(3) {
+            for i in 0..l {
+                axpy(weights[i], &rows[(3 * i + b) * k..(3 * i + b + 1) * k], row);
+            }
+        }
+        let expression_rows =
+            rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
+        Self {
             landmarks: pairs.iter().map(|p| p.0).collect(),
             vertices: pairs.iter().map(|p| p.1).collect(),
-            weights: pairs.iter().map(|p| p.2).collect(),
+            weights,
             k_id,
             k_exp,
             mean,
             rows,
-            gram: std::array::from_fn(|_| DMatrix::zeros(0, 0)),
-        };
-        let mut gram: [DMatrix; 6] = std::array::from_fn(|_| DMatrix::zeros(k, k));
-        for i in 0..l {
-            let w = basis.weights[i];
-            for (g, &(a, b)) in gram.iter_mut().zip(&GRAM_PAIRS) {
-                let (ra, rb) = (basis.row(i, a), basis.row(i, b));
-                for p in 0..k {
-                    for q in 0..k {
-                        let v = if a == b { ra[p] * rb[q] } else { ra[p] * rb[q] + rb[p] * ra[q] };
-                        g[(p, q)] += w * v;
-                    }
-                }
-            }
+            gram,
+            expression_moments,
+            row_sums,
+            expression_rows,
         }
-        basis.gram = gram;
-        basis
     }
 
     /// Number of landmarks L.
@@ -146,15 +176,66 @@ impl LandmarkBasis {
         &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
     }
 
-    /// All rows as one K×3L column-major view (column 3i + j = row `j` of landmark `i`), so
-    /// products with every landmark's rows at once run as one matrix product.
-    pub(crate) fn rows_transposed(&self) -> nalgebra::DMatrixView<'_, Real> {
-        nalgebra::DMatrixView::from_slice(&self.rows, self.num_coefficients(), 3 * self.len())
+    /// Rows of axis `b` (0 x, 1 y, 2 z) of every landmark as one K×L view (column i =
+    /// `Bᵢ[b,:]`), for products over all landmarks at once.
+    pub(crate) fn axis_rows_transposed(
+        &self,
+        b: usize,
+    ) -> nalgebra::MatrixView<'_, Real, Dyn, Dyn, Dyn, Dyn> {
+        let k = self.num_coefficients();
+        let start = (b * k).min(self.rows.len());
+        nalgebra::MatrixView::<Real, Dyn, Dyn, Dyn, Dyn>::from_slice_with_strides(
+            &self.rows[start..],
+            k,
+            self.len(),
+            1,
+            3 * k,
+        )
+    }
+
+    /// The expression part of row `axis` of landmark `i` (k_exp coefficients).
+    #[inline]
+    pub(crate) fn expression_row(&self, i: usize, axis: usize) -> &[Real] {
+        let ke = self.k_exp;
+        &self.expression_rows[(3 * i + axis) * ke..(3 * i + axis + 1) * ke]
+    }
+
+    /// The nine rows `Σᵢ wᵢ·Eᵢ[a,e]·Bᵢ[b,:]` of expression `e` (row 3a + b, K each).
+    pub(crate) fn expression_moments(&self, e: usize) -> &[Real] {
+        let k9 = 9 * self.num_coefficients();
+        &self.expression_moments[e * k9..(e + 1) * k9]
+    }
+
+    /// `Σᵢ wᵢ·Bᵢ[b,:]` for b = x, y, z (3 rows of K).
+    pub(crate) fn row_sums(&self) -> &[Real] {
+        &self.row_sums
+    }
+
+    /// Column `j` of Gram block `g` (the order of `GRAM_PAIRS`), which is also its row.
+    pub(crate) fn gram_column(&self, g: usize, j: usize) -> &[Real] {
+        let k = self.num_coefficients();
+        &self.gram[g].as_slice()[j * k..(j + 1) * k]
     }
 
     /// Mean position of landmark `i`'s vertex.
     pub fn mean(&self, i: usize) -> Vector3 {
         self.mean[i]
+    }
+
+    /// The expression offset `Eᵢ·β` of landmark `i` (β of length k_exp).
+    #[inline]
+    pub(crate) fn expression_offset(&self, i: usize, beta: &[Real]) -> Vector3 {
+        let ke = self.k_exp;
+        let r = &self.expression_rows[3 * i * ke..3 * (i + 1) * ke];
+        let (rx, rest) = r.split_at(ke);
+        let (ry, rz) = rest.split_at(ke);
+        let mut o = Vector3::zeros();
+        for (((&b, &x), &y), &z) in beta.iter().zip(rx).zip(ry).zip(rz) {
+            o.x += x * b;
+            o.y += y * b;
+            o.z += z * b;
+        }
+        o
     }
 
     /// Landmark `i`'s vertex for coefficients `c` (length K; identity then expression).
@@ -248,6 +329,14 @@ pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
     (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
 }
 
+/// `y += a·x` over the shorter of the two.
+#[inline]
+pub(crate) fn axpy(a: Real, x: &[Real], y: &mut [Real]) {
+    for (y, &x) in y.iter_mut().zip(x) {
+        *y += a * x;
+    }
+}
+
 /// `Q = r1r1ᵀ + r2r2ᵀ = I − r3r3ᵀ` (R₂ᵀR₂) of a pose.
 pub(crate) fn projector(pose: &OrthoPose) -> crate::math::Matrix3 {
     let r3 = pose.r.row(2).transpose();
@@ -339,14 +428,21 @@ pub(crate) fn apply_forces(
     cols: std::ops::Range<usize>,
 ) -> DVector {
     let mut g = DVector::zeros(cols.len());
+    let gs = g.as_mut_slice();
+    if cols == (basis.k_id..basis.num_coefficients()) {
+        // The expression columns alone: their contiguous copy, three rows at once.
+        for (i, h) in forces.iter().enumerate() {
+            let [x, y, z] = [0, 1, 2].map(|j| basis.expression_row(i, j));
+            for (((g, &x), &y), &z) in gs.iter_mut().zip(x).zip(y).zip(z) {
+                *g -= h.x * x + h.y * y + h.z * z;
+            }
+        }
+        return g;
+    }
     for (i, h) in forces.iter().enumerate() {
         for j in 0..3 {
-            let hj = h[j];
-            if hj == 0.0 {
-                continue;
-            }
-            for (gv, r) in g.iter_mut().zip(&basis.row(i, j)[cols.clone()]) {
-                *gv -= hj * r;
+            if h[j] != 0.0 {
+                axpy(-h[j], &basis.row(i, j)[cols.clone()], gs);
             }
         }
     }
@@ -400,7 +496,14 @@ pub fn fit_coefficients_linear(
 /// pivot is not positive. Written out because the fit's 63–69-wide systems are solved many
 /// times per frame and a plain row-oriented loop vectorises well.
 pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) -> bool {
-    debug_assert!(a.len() >= n * n && b.len() >= n);
+    cholesky_in_place(a, n) && cholesky_substitute(a, n, b)
+}
+
+/// The Cholesky factor L (A = LLᵀ) of a symmetric positive definite n×n `a`, written over
+/// its lower triangle in row-major order (row j of L in row j); the upper triangle is left
+/// as it was. False when a pivot is not positive or not finite.
+pub(crate) fn cholesky_in_place(a: &mut [Real], n: usize) -> bool {
+    debug_assert!(a.len() >= n * n);
     for j in 0..n {
         let (head, rest) = a.split_at_mut(j * n);
         let row_j = &mut rest[..n];
@@ -416,19 +519,36 @@ pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) 
         }
         row_j[j] = d.sqrt();
     }
-    // Forward: L y = b; backward: Lᵀ x = y.
+    true
+}
+
+/// Solves `LLᵀx = b` in place for the factor [`cholesky_in_place`] wrote; false when the
+/// answer is not finite.
+pub(crate) fn cholesky_substitute(l: &[Real], n: usize, b: &mut [Real]) -> bool {
+    forward_substitute_rows(l, n, b);
+    back_substitute_rows(l, n, b);
+    b[..n].iter().all(|v| v.is_finite())
+}
+
+/// `b ← L⁻¹b` for the row-major lower-triangular factor of [`cholesky_in_place`].
+#[inline]
+pub(crate) fn forward_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
     for j in 0..n {
-        let row = &a[j * n..j * n + n];
+        let row = &l[j * n..j * n + n];
         b[j] = (b[j] - dot(&row[..j], &b[..j])) / row[j];
     }
+}
+
+/// `b ← L⁻ᵀb` for the row-major lower-triangular factor of [`cholesky_in_place`].
+#[inline]
+pub(crate) fn back_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
     for j in (0..n).rev() {
-        let bj = b[j] / a[j * n + j];
+        let bj = b[j] / l[j * n + j];
         b[j] = bj;
         for k in 0..j {
-            b[k] -= a[j * n + k] * bj;
+            b[k] -= l[j * n + k] * bj;
         }
     }
-    b.iter().all(|v| v.is_finite())
 }
 
 /// Minimises `½xᵀNx − gᵀx` subject to `x ≥ 0` (N symmetric positive definite, small):
@@ -437,26 +557,46 @@ pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) 
 /// unconstrained. Returns None on a numerical failure.
 pub fn nonnegative_quadratic(n: &DMatrix, g: &DVector, free: &mut [bool]) -> Option<DVector> {
     let k = g.len();
-    let mut x = DVector::zeros(k);
     free.iter_mut().for_each(|f| *f = false);
+    if !(n.iter().all(|v| v.is_finite()) && g.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    let mut x = DVector::zeros(k);
+    // The free set's system, solved in place: one buffer each, reused by every inner step.
+    let mut idx: Vec<usize> = Vec::with_capacity(k);
+    let mut sub = vec![0.0; k * k];
+    let mut z = vec![0.0; k];
+    let threshold = 1e-12 * (1.0 + g.amax());
     for _ in 0..(3 * k + 3) {
-        // Gradient of the objective is Nx − g; w = g − Nx is the descent direction.
-        let w = g - n * &x;
-        let Some((j, wj)) =
-            (0..k).filter(|&j| !free[j]).map(|j| (j, w[j])).max_by(|a, b| a.1.total_cmp(&b.1))
-        else {
-            break;
-        };
-        if wj <= 1e-12 * (1.0 + g.amax()) {
+        // Gradient of the objective is Nx − g; w = g − Nx is the descent direction. N is
+        // symmetric, so row j is column j (contiguous).
+        let mut best: Option<(usize, Real)> = None;
+        for j in (0..k).filter(|&j| !free[j]) {
+            let wj = g[j] - dot(n.column(j).as_slice(), x.as_slice());
+            if best.is_none_or(|(_, b)| wj >= b) {
+                best = Some((j, wj));
+            }
+        }
+        let Some((j, wj)) = best else { break };
+        if wj <= threshold {
             break;
         }
         free[j] = true;
         // Inner loop: solve on the free set, step back to feasibility if needed.
         loop {
-            let idx: Vec<usize> = (0..k).filter(|&j| free[j]).collect();
-            let sub = DMatrix::from_fn(idx.len(), idx.len(), |a, b| n[(idx[a], idx[b])]);
-            let rhs = DVector::from_fn(idx.len(), |a, _| g[idx[a]]);
-            let z = sub.cholesky()?.solve(&rhs);
+            idx.clear();
+            idx.extend((0..k).filter(|&j| free[j]));
+            let m = idx.len();
+            for (a, &ia) in idx.iter().enumerate() {
+                for (b, &ib) in idx.iter().enumerate() {
+                    sub[a * m + b] = n[(ia, ib)];
+                }
+                z[a] = g[ia];
+            }
+            if !cholesky_solve_in_place(&mut sub[..m * m], m, &mut z[..m]) {
+                return None;
+            }
+            let z = &z[..m];
             if z.iter().all(|&v| v > 0.0) {
                 for (a, &j) in idx.iter().enumerate() {
                     x[j] = z[a];

@@ -1,48 +1,66 @@
 //! The fitted meshes of many frames, as a files-mode fit writes them: every frame's full
-//! shape `mean + B·diag(σ)·α + E·β` (the model's `shape_at`), made frame after frame into
-//! one reused buffer.
+//! shape `mean + B·diag(σ)·α + E·β` (the model's `shape_at`), made a block of frames at a
+//! time.
 //!
-//! The identity part `mean + B·diag(σ)·α` is 3N × k_id multiply-adds (≈ 650k for the SFM
-//! model) where the expressions are 3N × k_exp (≈ 62k): a clip shares one α, so the identity
-//! part is built once per run of frames with the same α and only the expressions per frame.
-//! The sums run in the order `MorphableModel::shape_at` runs them (mean, then identity
-//! columns, then expression columns, one multiply-add each), so the values are the same to
-//! the bit.
+//! A block's meshes are the columns of one matrix product, run by the matrix-multiply kernel
+//! instead of one vector product per frame. A clip shares one α, so its identity part
+//! `mean + B·diag(σ)·α` (3N × k_id multiply-adds, ≈ 650k for the SFM model) is built once and
+//! each block adds only `E·[β_f …]` (3N × k_exp per frame); a block whose frames have other
+//! identities (per-frame fits, a failed frame in a clip) gets `mean + B·[σ∘α_f …]` as well.
 
 use super::result::FrameFit;
-use crate::math::Real;
+use crate::math::{DMatrix, DVector, Real};
 use crate::model::MorphableModel;
 
+/// Frames whose meshes are made in one product when they share one identity: only the
+/// expression columns are multiplied, and 16 meshes of the SFM model (1.3 MB) stay in cache.
+const SHARED_BLOCK: usize = 16;
+/// The same when identities differ: the matrix-multiply kernel copies ("packs") the whole
+/// identity basis once per product, which at 16 frames cost more than the multiply-adds;
+/// 64 meshes are 5.3 MB.
+const BLOCK: usize = 64;
+
 /// Calls `each(fit, shape)` for every fit in order with its fitted shape in model space (flat
-/// `x0 y0 z0 …`, length 3N, equal to [`super::fitted_shape`]); `shape` is only valid during
-/// the call.
+/// `x0 y0 z0 …`, length 3N, equal to [`super::fitted_shape`] up to rounding); `shape` is only
+/// valid during the call.
 pub fn for_each_fitted_shape(
     model: &MorphableModel,
     fits: &[FrameFit],
     mut each: impl FnMut(&FrameFit, &[Real]),
 ) {
-    let mut identity: Option<(&[Real], Vec<Real>)> = None;
-    let mut shape = vec![0.0; model.shape.mean.len()];
-    for fit in fits {
-        let same = identity.as_ref().is_some_and(|(alpha, _)| same_bits(alpha, &fit.identity));
-        if !same {
-            let part = model.shape.shape_at(&fit.identity);
-            identity = Some((&fit.identity, part.as_slice().to_vec()));
-        }
-        let Some((_, part)) = &identity else { continue };
-        shape.copy_from_slice(part);
-        if let Some(e) = &model.expressions {
-            let k = fit.expression.len().min(e.deltas.ncols());
-            // One column at a time, as nalgebra's gemv in `shape_at` adds them; the deltas
-            // are column-major, so each column is one contiguous slice.
-            let columns = e.deltas.as_slice().chunks_exact(e.deltas.nrows().max(1));
-            for (&b, column) in fit.expression[..k].iter().zip(columns) {
-                for (s, &d) in shape.iter_mut().zip(column) {
-                    *s += d * b;
-                }
+    let n3 = model.shape.mean.len();
+    let shared_identity = fits.windows(2).all(|w| same_bits(&w[0].identity, &w[1].identity));
+    let block_len = if shared_identity { SHARED_BLOCK } else { BLOCK };
+    let mut meshes = DMatrix::zeros(n3, block_len.min(fits.len()));
+    // The identity part of the last shared α, with that α.
+    let mut shared: Option<(&[Real], DVector)> = None;
+    for block in fits.chunks(block_len) {
+        let mut out = meshes.columns_mut(0, block.len());
+        let first = block[0].identity.as_slice();
+        if block.iter().all(|f| same_bits(&f.identity, first)) {
+            if !shared.as_ref().is_some_and(|(alpha, _)| same_bits(alpha, first)) {
+                shared = Some((first, model.shape.shape_at(first)));
             }
+            if let Some((_, base)) = &shared {
+                out.column_iter_mut().for_each(|mut c| c.copy_from(base));
+            }
+        } else {
+            out.column_iter_mut().for_each(|mut c| c.copy_from(&model.shape.mean));
+            let basis = &model.shape.basis;
+            let scaled = DMatrix::from_fn(basis.ncols(), block.len(), |c, f| {
+                block[f].identity.get(c).map_or(0.0, |a| a * model.shape.sigma(c))
+            });
+            out.gemm(1.0, basis, &scaled, 1.0);
         }
-        each(fit, &shape);
+        if let Some(e) = &model.expressions {
+            let beta = DMatrix::from_fn(e.deltas.ncols(), block.len(), |c, f| {
+                block[f].expression.get(c).copied().unwrap_or(0.0)
+            });
+            out.gemm(1.0, &e.deltas, &beta, 1.0);
+        }
+        for (fit, shape) in block.iter().zip(meshes.as_slice().chunks_exact(n3.max(1))) {
+            each(fit, shape);
+        }
     }
 }
 
@@ -56,7 +74,6 @@ fn same_bits(a: &[Real], b: &[Real]) -> bool {
 mod tests {
     use super::*;
     use crate::fit::fitted_shape;
-    use crate::math::{DMatrix, DVector};
     use crate::model::{Expressions, PcaModel};
 
     fn model() -> MorphableModel {
@@ -76,26 +93,30 @@ mod tests {
     }
 
     #[test]
-    fn matches_fitted_shape_bit_for_bit_with_shared_and_changing_identity() {
+    fn matches_fitted_shape_with_shared_and_changing_identity() {
         let m = model();
         let fit = |frame: usize, id: [Real; 3], ex: [Real; 2]| FrameFit {
             identity: id.to_vec(),
             expression: ex.to_vec(),
             ..FrameFit::unposed(frame)
         };
-        let fits = vec![
+        // Blocks of one identity, of mixed identities, and a failed frame's zeros.
+        let mut fits = vec![
             fit(0, [0.3, -1.2, 0.01], [0.5, 0.0]),
             fit(1, [0.3, -1.2, 0.01], [0.1, 0.9]),
             fit(2, [-0.7, 0.2, 1.5], [0.0, 0.3]),
             fit(3, [0.3, -1.2, 0.01], [1.0 / 3.0, 0.2]),
             FrameFit::unposed(4),
         ];
+        fits.extend((5..40).map(|f| fit(f, [0.3, -1.2, 0.01], [0.01 * f as Real, 0.2])));
+        fits.push(fit(40, [0.1, 0.2, 0.3], [0.0, 0.0]));
         let mut seen = 0;
         for_each_fitted_shape(&m, &fits, |f, s| {
             let want = fitted_shape(&m, f);
             assert_eq!(s.len(), want.len());
+            let scale = want.amax().max(1.0);
             assert!(
-                s.iter().zip(want.iter()).all(|(a, b)| a.to_bits() == b.to_bits()),
+                s.iter().zip(want.iter()).all(|(a, b)| (a - b).abs() <= 1e-13 * scale),
                 "frame {}",
                 f.frame
             );

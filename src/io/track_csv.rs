@@ -53,39 +53,94 @@ pub(crate) struct CsvTable {
 impl CsvTable {
     /// Index of the column called exactly `name`.
     pub fn column(&self, name: &str) -> Option<usize> {
-        self.header.iter().position(|h| h == name)
+        column(&self.header, name)
+    }
+}
+
+/// Index of the column called exactly `name`.
+fn column(header: &[String], name: &str) -> Option<usize> {
+    header.iter().position(|h| h == name)
+}
+
+/// CSV text read row by row into one reused record (fields trimmed, header required, all
+/// rows the same width): a landmark file holds a row per point, so keeping every row as
+/// its own record cost more than parsing them.
+pub(crate) struct CsvRows<'t> {
+    pub header: Vec<String>,
+    reader: csv::Reader<&'t [u8]>,
+    path: &'t Path,
+}
+
+impl<'t> CsvRows<'t> {
+    /// Reads the header.
+    ///
+    /// # Errors
+    /// No header, a column named twice, or CSV the reader rejects, naming the line.
+    pub fn new(text: &'t str, path: &'t Path) -> Result<Self> {
+        let text = crate::io::input::without_bom(text);
+        // Fields are trimmed here, only in the rows that need it: the reader's own trimming
+        // rewrote every row twice.
+        let mut reader = csv::ReaderBuilder::new().has_headers(true).from_reader(text.as_bytes());
+        let header: Vec<String> = reader
+            .headers()
+            .map_err(|e| csv_error(path, &e))?
+            .iter()
+            .map(|h| h.trim().to_string())
+            .collect();
+        if header.iter().all(String::is_empty) {
+            return Err(FormatError::at_line(path, 1, "empty file: a header line is required"));
+        }
+        let mut seen = std::collections::HashSet::with_capacity(header.len());
+        for h in &header {
+            if !seen.insert(h.as_str()) {
+                return Err(FormatError::at_line(
+                    path,
+                    1,
+                    format!("column `{}` appears twice", shorten(h)),
+                ));
+            }
+        }
+        Ok(Self { header, reader, path })
+    }
+
+    /// Index of the column called exactly `name`.
+    pub fn column(&self, name: &str) -> Option<usize> {
+        column(&self.header, name)
+    }
+
+    /// The next row into `rec`, trimmed; its 1-based line number, or None at the end.
+    ///
+    /// # Errors
+    /// A row of another width or bytes that are not UTF-8, naming the line.
+    pub fn next_row(&mut self, rec: &mut csv::StringRecord) -> Result<Option<usize>> {
+        if !self.reader.read_record(rec).map_err(|e| csv_error(self.path, &e))? {
+            return Ok(None);
+        }
+        let line = rec.position().map_or(0, |p| p.line() as usize);
+        // Only a field that starts or ends with whitespace, or holds non-ASCII text (which
+        // may be Unicode whitespace), can change.
+        let space = |b: &u8| char::from(*b).is_whitespace();
+        let padded = |f: &str| {
+            f.as_bytes().first().is_some_and(space)
+                || f.as_bytes().last().is_some_and(space)
+                || !f.is_ascii()
+        };
+        if rec.iter().any(padded) {
+            rec.trim();
+        }
+        Ok(Some(line))
     }
 }
 
 /// Reads CSV text (fields trimmed, header required, all rows the same width).
 pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
-    let text = crate::io::input::without_bom(text);
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(true)
-        .trim(csv::Trim::All)
-        .from_reader(text.as_bytes());
-    let header: Vec<String> =
-        reader.headers().map_err(|e| csv_error(path, &e))?.iter().map(str::to_string).collect();
-    if header.iter().all(String::is_empty) {
-        return Err(FormatError::at_line(path, 1, "empty file: a header line is required"));
-    }
-    let mut seen = std::collections::HashSet::with_capacity(header.len());
-    for h in &header {
-        if !seen.insert(h.as_str()) {
-            return Err(FormatError::at_line(
-                path,
-                1,
-                format!("column `{}` appears twice", shorten(h)),
-            ));
-        }
-    }
+    let mut reader = CsvRows::new(text, path)?;
     let mut rows = Vec::new();
-    for rec in reader.records() {
-        let rec = rec.map_err(|e| csv_error(path, &e))?;
-        let line = rec.position().map_or(0, |p| p.line() as usize);
-        rows.push((line, rec));
+    let mut rec = csv::StringRecord::new();
+    while let Some(line) = reader.next_row(&mut rec)? {
+        rows.push((line, rec.clone()));
     }
-    Ok(CsvTable { header, rows })
+    Ok(CsvTable { header: reader.header, rows })
 }
 
 /// A csv crate error as a one-line `FormatError` at the line where it happened.
@@ -177,7 +232,7 @@ pub(crate) fn parse_usize_field(
 /// assert!(t.frames[0].points[48].visible && !t.frames[0].points[0].visible);
 /// ```
 pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
-    let table = read_csv_table(text, path)?;
+    let mut table = CsvRows::new(text, path)?;
     for h in &table.header {
         if !KNOWN_COLUMNS.contains(&h.as_str()) {
             return Err(FormatError::at_line(
@@ -203,8 +258,9 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
         (table.column("timestamp"), table.column("frame_confidence"), table.column("success"));
 
     let mut frames: BTreeMap<usize, (FrameFields, Vec<Option<LandmarkPoint>>)> = BTreeMap::new();
-    for (line, rec) in &table.rows {
-        let line = *line;
+    let mut record = csv::StringRecord::new();
+    while let Some(line) = table.next_row(&mut record)? {
+        let rec = &record;
         let frame = parse_usize_field(rec, c_frame, "frame", path, line)?;
         let point = parse_usize_field(rec, c_point, "point", path, line)?;
         if point >= N_LANDMARKS {

@@ -7,8 +7,10 @@
 //! `None` where a frame has no value (untracked, occluded, failed fit); evaluation skips those.
 
 pub mod indices;
+pub mod lip_reach;
 pub mod mesh;
 pub mod mouth;
+pub mod pose;
 pub mod profile;
 
 use serde::{Deserialize, Serialize};
@@ -20,6 +22,7 @@ pub use indices::{
 };
 pub use mesh::{MeshMeasureOptions, ReferencePlane, UpperLip, measure_shape};
 pub use mouth::{measure_frame, measure_points, min_max_normalise, reference_length};
+pub use pose::PoseComparison;
 
 /// One per-frame value series; `None` marks a frame without a value.
 pub type Series = Vec<Option<f64>>;

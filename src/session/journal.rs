@@ -9,7 +9,7 @@
 //! line only costs that edit. The lines are small: the layer holds edits, not the tracker's
 //! landmarks.
 
-use super::{Corrections, Session, SessionError};
+use super::{Corrections, MapRole, Session, SessionError};
 use crate::math::Point2;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -27,6 +27,13 @@ pub struct JournalEntry {
     /// The inline landmark map, when the editor changed it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub landmark_map: Option<BTreeMap<usize, usize>>,
+    /// The mesh `landmark_map` labels (the model's, or a head with its own map).
+    #[serde(default, skip_serializing_if = "is_model")]
+    pub map_role: MapRole,
+}
+
+fn is_model(role: &MapRole) -> bool {
+    *role == MapRole::Model
 }
 
 /// The journal of the session at `session`: `NAME.lipmap.json.journal` beside it.
@@ -205,12 +212,14 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
         let Some(i) = next.clip_index(&name) else {
             return Err(invalid(0, format!("no clip {name:?} in the session")));
         };
+        let saved_map = next.map_of(e.map_role).inline.clone();
         let clip = &mut next.clips[i];
         let saved = JournalEntry {
             clip: name,
             corrections: clip.corrections.clone(),
             profile_corrections: clip.profile_corrections.clone(),
-            landmark_map: next.landmark_map.inline.clone(),
+            landmark_map: saved_map,
+            map_role: e.map_role,
         };
         let edits = edits_between(&saved, &e);
         replayed.edits += edits;
@@ -218,7 +227,7 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
         clip.corrections = e.corrections;
         clip.profile_corrections = e.profile_corrections;
         if let Some(map) = e.landmark_map {
-            next.landmark_map.inline = Some(map);
+            next.map_of_mut(e.map_role).inline = Some(map);
         }
     }
     next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
@@ -251,6 +260,7 @@ mod tests {
             corrections,
             profile_corrections: BTreeMap::new(),
             landmark_map: None,
+            map_role: MapRole::Model,
         }
     }
 

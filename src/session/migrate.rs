@@ -11,14 +11,24 @@ use serde::Deserialize;
 use serde_json::Value;
 
 /// The schema this build reads and writes.
-pub const CURRENT_SCHEMA: u32 = 1;
+pub const CURRENT_SCHEMA: u32 = 2;
 
 /// One upgrade step: a tree at version `from` to a tree at `from + 1`.
 pub type MigrationStep = fn(Value) -> Result<Value, String>;
 
-/// Upgrade steps by the version they start from, ascending. Empty while schema 1 is the
-/// only one ever released.
-pub const STEPS: &[(u32, MigrationStep)] = &[];
+/// Upgrade steps by the version they start from, ascending.
+pub const STEPS: &[(u32, MigrationStep)] = &[(1, separate_head_map)];
+
+/// Schema 2 gives a head that is another mesh than the model a map of its own
+/// (`head_map`). A schema-1 file has one map, which its fits used as the model's: it stays
+/// the model's map, and the head keeps sharing it, so the file means what it meant. The
+/// version bump is what matters: a schema-1 build would drop a head map it does not know.
+fn separate_head_map(tree: Value) -> Result<Value, String> {
+    match tree {
+        Value::Object(_) => Ok(tree),
+        _ => Err("the session is not a JSON object".into()),
+    }
+}
 
 /// What the top of a file says about its version.
 #[derive(Clone, Debug, PartialEq)]
@@ -118,5 +128,33 @@ mod tests {
                 .unwrap_err()
                 .contains("no upgrade from schema version 5")
         );
+    }
+
+    #[test]
+    fn a_schema_1_session_loads_with_its_one_map_as_the_model_and_head_map() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.lipmap.json");
+        // As a schema-1 build wrote it: a head, a model and one (labelled) map.
+        let old = r#"{
+  "schema_version": 1,
+  "name": "old",
+  "clips": [],
+  "head_mesh": "head.obj",
+  "model": {"path": "model.bin"},
+  "landmark_map": {"file": "map.toml", "inline": {"30": 12, "36": 40}}
+}"#;
+        std::fs::write(&path, old).unwrap();
+        let s = crate::session::Session::load(&path).unwrap();
+        assert_eq!(s.schema_version, CURRENT_SCHEMA);
+        assert_eq!(s.head_map, None);
+        let inline = s.landmark_map.inline.clone().unwrap();
+        assert_eq!(inline.into_iter().collect::<Vec<_>>(), vec![(30, 12), (36, 40)]);
+        assert_eq!(s.landmark_map.file.as_deref(), Some(dir.path().join("map.toml").as_path()));
+        use crate::session::MapRole;
+        assert_eq!(s.map_of(MapRole::Head), s.map_of(MapRole::Model));
+        s.save(&path).unwrap();
+        let again = crate::session::Session::load(&path).unwrap();
+        assert_eq!(again, s);
+        assert!(std::fs::read_to_string(&path).unwrap().contains("\"schema_version\": 2"));
     }
 }

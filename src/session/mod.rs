@@ -18,7 +18,7 @@ pub mod transferred;
 pub use cache::{CachedFrame, FitCacheEntry};
 pub use corrections::Corrections;
 pub use migrate::CURRENT_SCHEMA;
-pub use model::{Clip, ClipAudio, FramesRef, MapRef, ModelRef, Session, View};
+pub use model::{Clip, ClipAudio, FramesRef, MapRef, MapRole, ModelRef, Session, View};
 pub use store::{LockInfo, SessionLock};
 pub use transferred::TransferredHead;
 
@@ -154,12 +154,25 @@ impl Session {
         } else {
             let tree: serde_json::Value =
                 serde_json::from_str(&text).map_err(|e| parse_error(&abs, &e))?;
-            drop(text);
             let tree = migrate::migrate(tree, version, migrate::STEPS, CURRENT_SCHEMA)
                 .map_err(|message| SessionError::Schema { path: abs.clone(), message })?;
-            store::with_base_dir(&base, || serde_json::from_value(tree)).map_err(|e| {
-                SessionError::Schema { path: abs.clone(), message: format!("after upgrade: {e}") }
-            })?
+            match store::with_base_dir(&base, || serde_json::from_value(tree)) {
+                Ok(session) => session,
+                // A problem the upgrade did not make is in the file as written: parsing the
+                // text itself names its line and column, which the upgraded tree has lost.
+                Err(e) => {
+                    return Err(
+                        match store::with_base_dir(&base, || serde_json::from_str::<Session>(&text))
+                        {
+                            Err(at) => parse_error(&abs, &at),
+                            Ok(_) => SessionError::Schema {
+                                path: abs,
+                                message: format!("after upgrade: {e}"),
+                            },
+                        },
+                    );
+                }
+            }
         };
         session.base_dir = base;
         if session.name.is_empty() {

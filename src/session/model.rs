@@ -28,13 +28,20 @@ pub struct Session {
     pub name: String,
     #[serde(default)]
     pub clips: Vec<Clip>,
-    /// Head mesh (OBJ) the landmark map refers to.
+    /// The head mesh (OBJ) the motion finally drives: the model's own mesh (one map serves
+    /// both) or another mesh with its own map (`head_map`).
     #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
     pub head_mesh: Option<PathBuf>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<ModelRef>,
+    /// The model's map: which model vertex is which iBUG point, what `fit` uses. When the
+    /// head is the model's own mesh it is the head's map too.
     #[serde(default)]
     pub landmark_map: MapRef,
+    /// The head's own map, present exactly when the head is another mesh than the model (a
+    /// scan, a MakeHuman figure): what `transfer` and `indices` read on the head.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub head_map: Option<MapRef>,
     #[serde(default)]
     pub fit_settings: FitSettings,
     /// Cached fits of every clip (see `cache`).
@@ -167,6 +174,26 @@ pub struct MapRef {
     pub inline: Option<BTreeMap<usize, usize>>,
 }
 
+/// Which of a session's meshes a map belongs to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MapRole {
+    /// The morphable model's mesh: the map `fit` uses.
+    #[default]
+    Model,
+    /// The head the motion drives: the map `transfer` and `indices` use.
+    Head,
+}
+
+impl MapRole {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Model => "model",
+            Self::Head => "head",
+        }
+    }
+}
+
 impl MapRef {
     /// The inline map as a `LandmarkMap`, if there is one.
     pub fn inline_map(&self) -> Option<LandmarkMap> {
@@ -204,6 +231,7 @@ impl Session {
             head_mesh: None,
             model: None,
             landmark_map: MapRef::default(),
+            head_map: None,
             fit_settings: FitSettings::default(),
             fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
@@ -211,6 +239,28 @@ impl Session {
             speech_model: None,
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
         }
+    }
+
+    /// The map of the mesh `role` names: the model's map, or the head's own map when the
+    /// head is another mesh (else the model's, which then serves both).
+    pub fn map_of(&self, role: MapRole) -> &MapRef {
+        match (role, &self.head_map) {
+            (MapRole::Head, Some(m)) => m,
+            _ => &self.landmark_map,
+        }
+    }
+
+    /// [`Session::map_of`], to change it.
+    pub fn map_of_mut(&mut self, role: MapRole) -> &mut MapRef {
+        match (role, &mut self.head_map) {
+            (MapRole::Head, Some(m)) => m,
+            _ => &mut self.landmark_map,
+        }
+    }
+
+    /// Whether the head is another mesh than the model, with a map of its own.
+    pub fn head_has_own_map(&self) -> bool {
+        self.head_map.is_some()
     }
 
     /// Folder the session's paths are relative to on disk.

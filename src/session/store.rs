@@ -374,7 +374,18 @@ fn current_host() -> String {
 /// is never stolen from a live editor, at the price of deleting truly stale locks by hand.
 fn process_alive(pid: u32) -> bool {
     let proc_root = Path::new("/proc");
-    if proc_root.join("self").exists() { proc_root.join(pid.to_string()).exists() } else { true }
+    if !proc_root.join("self").exists() {
+        return true;
+    }
+    // A killed editor stays a zombie until its parent (a shell, tmux) reaps it: its /proc
+    // entry is still there, but it holds nothing. The state is the field after the `(comm)`.
+    match fs::read_to_string(proc_root.join(pid.to_string()).join("stat")) {
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .is_none_or(|state| !matches!(state, "Z" | "X")),
+        Err(_) => proc_root.join(pid.to_string()).exists(),
+    }
 }
 
 /// `YYYY-MM-DD HH:MM:SS UTC` from Unix seconds (Howard Hinnant's civil-from-days algorithm).
@@ -503,6 +514,28 @@ impl Drop for SessionLock {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_killed_unreaped_editor_is_not_alive() {
+        let mut child = std::process::Command::new("sleep").arg("30").spawn().unwrap();
+        let pid = child.id();
+        assert!(process_alive(pid));
+        child.kill().unwrap();
+        // Not waited for yet: a zombie, whose /proc entry stays until it is reaped.
+        let gone = (0..200).any(|_| {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            !process_alive(pid)
+        });
+        assert!(proc_entry_exists(pid), "still unreaped, so /proc keeps it");
+        child.wait().unwrap();
+        assert!(gone, "a zombie holds no lock");
+    }
+
+    #[cfg(target_os = "linux")]
+    fn proc_entry_exists(pid: u32) -> bool {
+        Path::new("/proc").join(pid.to_string()).exists()
+    }
 
     #[test]
     fn relativize_and_resolve_are_inverse() {

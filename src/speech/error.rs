@@ -20,6 +20,9 @@ pub enum SpeechError {
     /// A numerically degenerate case: a constant signal, a singular covariance.
     #[error("degenerate {0}")]
     Degenerate(String),
+    /// A value of a model (or its file) out of its range, named by its field.
+    #[error("{field}: {reason}")]
+    Field { field: String, reason: String },
     /// Features computed differently from those a model was trained on.
     #[error("the model was trained on {field} = {model}, these features have {field} = {input}")]
     FeatureMismatch { field: &'static str, model: String, input: String },
@@ -27,4 +30,29 @@ pub enum SpeechError {
 
 pub(crate) fn bad(name: &'static str, reason: impl Into<String>) -> SpeechError {
     SpeechError::BadParameter { name, reason: reason.into() }
+}
+
+/// `Field` error for `field` (a path such as `visual.mean[3]`).
+pub(crate) fn field_error(field: impl Into<String>, reason: impl Into<String>) -> SpeechError {
+    SpeechError::Field { field: field.into(), reason: reason.into() }
+}
+
+/// Checks that every value of `values` is finite and within ±`bound`, naming the first that
+/// is not as `field[i]`.
+pub(crate) fn check_finite_within(
+    field: &str,
+    values: impl IntoIterator<Item = f64>,
+    bound: f64,
+) -> Result<(), SpeechError> {
+    match values.into_iter().enumerate().find(|(_, v)| !v.is_finite() || v.abs() > bound) {
+        Some((i, v)) => Err(field_error(
+            format!("{field}[{i}]"),
+            format!(
+                "{} is not a finite number within ±{}",
+                crate::math::short_number(v),
+                crate::math::short_number(bound)
+            ),
+        )),
+        None => Ok(()),
+    }
 }

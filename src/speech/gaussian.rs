@@ -19,10 +19,11 @@ pub struct Gaussian {
     cache: Option<Cache>,
 }
 
+/// A Gaussian as a file holds it.
 #[derive(Deserialize)]
-struct GaussianParams {
-    mean: DVector,
-    cov: DMatrix,
+pub(crate) struct GaussianParams {
+    pub(crate) mean: DVector,
+    pub(crate) cov: DMatrix,
 }
 
 impl TryFrom<GaussianParams> for Gaussian {
@@ -56,13 +57,30 @@ impl Gaussian {
                 got: self.cov.nrows(),
             });
         }
+        // A Cholesky factorisation does not see NaN (every comparison with it is false), and
+        // an asymmetric matrix is factorised from its lower half only.
+        if self.mean.iter().chain(self.cov.iter()).any(|v| !v.is_finite()) {
+            return Err(SpeechError::Degenerate(
+                "Gaussian (a mean or covariance value is not finite)".into(),
+            ));
+        }
+        let scale = self.cov.diagonal().abs().max().max(f64::MIN_POSITIVE);
+        if (&self.cov - self.cov.transpose()).abs().max() > 1e-9 * scale {
+            return Err(SpeechError::Degenerate("covariance (not symmetric)".into()));
+        }
         let chol =
             self.cov.clone().cholesky().ok_or_else(|| {
                 SpeechError::Degenerate("covariance (not positive definite)".into())
             })?;
         let log_det = 2.0 * chol.l_dirty().diagonal().iter().map(|v| v.ln()).sum::<f64>();
         let log_norm = -0.5 * (d as f64 * (2.0 * std::f64::consts::PI).ln() + log_det);
-        self.cache = Some(Cache { precision: chol.inverse(), log_norm });
+        let precision = chol.inverse();
+        if !log_norm.is_finite() || precision.iter().any(|v| !v.is_finite()) {
+            return Err(SpeechError::Degenerate(
+                "covariance (too close to singular to invert)".into(),
+            ));
+        }
+        self.cache = Some(Cache { precision, log_norm });
         Ok(())
     }
 

@@ -5,8 +5,8 @@
 //! Training is in [`super::baum_welch`], the forward–backward pass in
 //! [`super::forward_backward`], inversion in [`super::inversion`].
 
-use super::error::SpeechError;
-use super::gaussian::Gaussian;
+use super::error::{SpeechError, check_finite_within, field_error};
+use super::gaussian::{Gaussian, GaussianParams};
 use crate::math::DMatrix;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -18,8 +18,11 @@ pub struct Component {
     pub gaussian: Gaussian,
 }
 
-/// A continuous-density HMM with Gaussian-mixture emissions.
+/// A continuous-density HMM with Gaussian-mixture emissions. Read from a file, every
+/// Gaussian is checked as it is built and a fault is named by its place
+/// (`hmm.states[3][1].gaussian.mean[7]: …`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "HmmParams")]
 pub struct Hmm {
     /// π_j, initial state probabilities.
     pub initial: Vec<f64>,
@@ -27,6 +30,54 @@ pub struct Hmm {
     pub transitions: DMatrix,
     /// B: `states[j][k]` is component k of state j; every state has the same M.
     pub states: Vec<Vec<Component>>,
+}
+
+/// Largest magnitude of a mean or covariance value a model file may hold. Features are
+/// normalised (cepstra to unit variance) or in model units (mouth motion, millimetres for
+/// the usual models), so anything near this is a damaged file, not a model.
+pub const MAX_PARAMETER: f64 = 1e6;
+
+#[derive(Deserialize)]
+struct ComponentParams {
+    weight: f64,
+    gaussian: GaussianParams,
+}
+
+#[derive(Deserialize)]
+struct HmmParams {
+    initial: Vec<f64>,
+    transitions: DMatrix,
+    states: Vec<Vec<ComponentParams>>,
+}
+
+impl TryFrom<HmmParams> for Hmm {
+    type Error = SpeechError;
+    fn try_from(p: HmmParams) -> Result<Self, SpeechError> {
+        let mut states = Vec::with_capacity(p.states.len());
+        for (j, state) in p.states.into_iter().enumerate() {
+            let mut comps = Vec::with_capacity(state.len());
+            for (k, c) in state.into_iter().enumerate() {
+                let at = format!("hmm.states[{j}][{k}]");
+                check_finite_within(
+                    &format!("{at}.gaussian.mean"),
+                    c.gaussian.mean.iter().copied(),
+                    MAX_PARAMETER,
+                )?;
+                check_finite_within(
+                    &format!("{at}.gaussian.cov"),
+                    c.gaussian.cov.iter().copied(),
+                    MAX_PARAMETER,
+                )?;
+                let gaussian = Gaussian::new(c.gaussian.mean, c.gaussian.cov)
+                    .map_err(|e| field_error(format!("{at}.gaussian"), e.to_string()))?;
+                comps.push(Component { weight: c.weight, gaussian });
+            }
+            states.push(comps);
+        }
+        let hmm = Hmm { initial: p.initial, transitions: p.transitions, states };
+        hmm.validate()?;
+        Ok(hmm)
+    }
 }
 
 impl Hmm {
@@ -72,16 +123,13 @@ impl Hmm {
             v.iter().all(|x| x.is_finite() && *x >= 0.0)
                 && (v.iter().sum::<f64>() - 1.0).abs() < 1e-6
         };
+        let not_distribution = "not a probability distribution (values in [0, 1] summing to 1)";
         if !is_distribution(&mut self.initial.iter().copied()) {
-            return Err(SpeechError::Degenerate(
-                "initial probabilities (not a distribution)".into(),
-            ));
+            return Err(field_error("hmm.initial", not_distribution));
         }
         for (i, row) in self.transitions.row_iter().enumerate() {
             if !is_distribution(&mut row.iter().copied()) {
-                return Err(SpeechError::Degenerate(format!(
-                    "transition row {i} (not a distribution)"
-                )));
+                return Err(field_error(format!("hmm.transitions row {i}"), not_distribution));
             }
         }
         for (j, state) in self.states.iter().enumerate() {
@@ -89,7 +137,7 @@ impl Hmm {
                 return Err(mismatch("mixture components per state", m, state.len()));
             }
             if !is_distribution(&mut state.iter().map(|c| c.weight)) {
-                return Err(SpeechError::Degenerate(format!("mixture weights of state {j}")));
+                return Err(field_error(format!("hmm.states[{j}] weights"), not_distribution));
             }
             if let Some(c) = state.iter().find(|c| c.gaussian.dim() != d) {
                 return Err(mismatch("component dimension", d, c.gaussian.dim()));

@@ -142,6 +142,11 @@ impl VisualBasis {
         Ok(d * &self.components)
     }
 
+    /// The features of no displacement from the neutral (K): the mouth at rest.
+    pub fn rest(&self) -> Vec<f64> {
+        (-self.mean.transpose() * &self.components).iter().copied().collect()
+    }
+
     /// Mouth vertices from features (T × K) around `neutral`.
     ///
     /// # Errors

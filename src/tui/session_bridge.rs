@@ -12,7 +12,7 @@ use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
 use crate::model::LandmarkMap;
 use crate::session::journal::{Journal, JournalEntry};
-use crate::session::{Session, SessionLock};
+use crate::session::{MapRole, Session, SessionLock};
 use crate::tui::app::{App, FrameImage, FrameProvider};
 use anyhow::Context;
 use std::path::{Path, PathBuf};
@@ -65,6 +65,8 @@ pub struct SessionBridge {
     pub path: PathBuf,
     pub session: Session,
     pub clip: usize,
+    /// Which mesh's map the head view labels (see `workflow::map::label_role`).
+    role: MapRole,
     /// Map as loaded, so an unchanged map from a file is not copied inline.
     loaded_map: Option<LandmarkMap>,
     /// The map file this bridge wrote (the only map file it may overwrite).
@@ -118,17 +120,26 @@ impl SessionBridge {
                 Arc::new(NoFrames(e.to_string()))
             }
         };
-        if let Some(mesh_path) = &session.head_mesh {
+        // The head view labels the mesh that needs a map: the model's (its mean) or the head's.
+        let role = crate::workflow::map::label_role(&session);
+        let label_file = crate::workflow::map::mesh_file_of(&session, role).map(Path::to_path_buf);
+        let labels_model_mean =
+            session.model.as_ref().is_some_and(|m| Some(&m.path) == label_file.as_ref());
+        if let Some(mesh_path) = label_file.as_ref().filter(|_| !labels_model_mean) {
             match crate::io::obj::read_obj(mesh_path) {
                 Ok(mesh) => app.set_mesh(Arc::new(mesh)),
                 Err(e) => problems.push(format!("mesh: {e}")),
             }
         }
+        app.head.label_role = role;
+        app.head.label_mesh_name = label_file
+            .as_deref()
+            .and_then(Path::file_name)
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        app.head.head_has_own_map = session.head_has_own_map();
         // A figure's helper and joint geometry is never offered for labelling.
         let obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-        let head_obj = session.head_mesh.clone().filter(|p| obj(p));
-        let model_obj = session.model.as_ref().map(|m| m.path.clone()).filter(|p| obj(p));
-        if let Some(p) = head_obj.or(model_obj) {
+        if let Some(p) = label_file.clone().filter(|p| obj(p)) {
             app.head.label_candidates =
                 crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
             app.head.occluders =
@@ -147,15 +158,26 @@ impl SessionBridge {
         }
         if let Some(m) = &session.model {
             match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
-                Ok(model) => app.model = Some(Arc::new(model)),
+                Ok(model) => {
+                    if labels_model_mean {
+                        app.set_mesh(Arc::new(model.mean_mesh()));
+                    }
+                    app.model = Some(Arc::new(model));
+                }
                 Err(e) => problems.push(format!("model: {e:#}")),
             }
         }
         // The session's rule: an inline map (from labelling) wins over the file.
-        let map = session.landmark_map.resolve().unwrap_or_else(|e| {
-            problems.push(format!("map: {e}"));
-            None
-        });
+        let mut resolve = |r: &crate::session::MapRef, what: &str| {
+            r.resolve().unwrap_or_else(|e| {
+                problems.push(format!("{what}: {e}"));
+                None
+            })
+        };
+        let map = resolve(session.map_of(role), "map");
+        if role == MapRole::Head {
+            app.model_map = resolve(&session.landmark_map, "model map");
+        }
         app.map = map.clone();
         app.frame_head();
         for fit in session.cached_fits(clip, &session.fit_settings) {
@@ -179,6 +201,7 @@ impl SessionBridge {
             path: path.to_path_buf(),
             session,
             clip,
+            role,
             loaded_map: map,
             written_map: None,
             saver: None,
@@ -201,7 +224,7 @@ impl SessionBridge {
             c.profile_corrections = layer.profile_corrections;
         }
         if let Some(map) = layer.landmark_map {
-            self.session.landmark_map.inline = Some(map);
+            self.session.map_of_mut(self.role).inline = Some(map);
         }
         Ok(())
     }
@@ -234,6 +257,7 @@ impl SessionBridge {
             corrections: fresh,
             profile_corrections,
             landmark_map,
+            map_role: self.role,
         })
     }
 
@@ -324,7 +348,7 @@ impl SessionBridge {
     pub fn load_map_file(&self) -> anyhow::Result<(PathBuf, LandmarkMap)> {
         let path = self
             .session
-            .landmark_map
+            .map_of(self.role)
             .file
             .clone()
             .context("the session has no map file (lipmap import SESSION --mapping FILE)")?;
@@ -435,7 +459,11 @@ impl SessionBridge {
         let target = (1..1000)
             .map(|k| {
                 let n = if k == 1 { String::new() } else { format!(".{k}") };
-                dir.join(format!("{}.ibug_map{n}.txt", self.session.name))
+                let kind = match self.role {
+                    MapRole::Model => "ibug_map",
+                    MapRole::Head => "head_map",
+                };
+                dir.join(format!("{}.{kind}{n}.txt", self.session.name))
             })
             .find(|p| Some(p) == ours.as_ref() || !p.exists())
             .context("no free file name for the landmark map")?;
@@ -444,8 +472,8 @@ impl SessionBridge {
         }
         let names = &crate::reference::current().names;
         crate::io::landmark_map_toml::write_landmark_map(&target, map, names)?;
-        self.session.landmark_map.file = Some(target.clone());
-        self.session.landmark_map.set_inline(map);
+        self.session.map_of_mut(self.role).file = Some(target.clone());
+        self.session.map_of_mut(self.role).set_inline(map);
         self.loaded_map = Some(map.clone());
         self.written_map = Some(target.clone());
         Ok(target)

@@ -8,13 +8,16 @@ use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
 use super::resources::{check_map_for_fit, check_map_vertices};
 use super::session::{clip_or_first, open_for_edit_at};
+use super::track::{TrackerFiles, load_tracker, track_frames};
 use crate::fit::FitSettings;
 use crate::io::frames::{DEFAULT_FOLDER_FPS, FrameOptions, FrameSource};
 use crate::io::textgrid::TierChoice;
 use crate::io::{alignment_format, landmark_format, landmark_map_toml, model_source, obj};
 use crate::landmarks::LandmarkSet;
 use crate::model::{LandmarkMap, MapCheck, Mesh, check_map};
-use crate::session::{Clip, FramesRef, ModelRef, Session, SessionLock, View, absolute};
+use crate::session::{
+    Clip, FramesRef, MapRef, MapRole, ModelRef, Session, SessionLock, View, absolute,
+};
 use std::path::{Path, PathBuf};
 
 /// One clip's input files.
@@ -24,8 +27,8 @@ pub struct ClipInputs {
     pub frames: PathBuf,
     /// Frames per second (`None`: the video's, or [`DEFAULT_FOLDER_FPS`] for a folder).
     pub fps: Option<f64>,
-    /// Tracked landmarks in any format lipmap reads.
-    pub landmarks: PathBuf,
+    /// Where the landmarks come from.
+    pub landmarks: LandmarkInput,
     /// A phone alignment and the TextGrid tier to read from it.
     pub alignment: Option<(PathBuf, Option<TierChoice>)>,
     /// Side-view frames, for protrusion.
@@ -34,6 +37,27 @@ pub struct ClipInputs {
     pub name: Option<String>,
     /// The clip's audio (for speech-driven animation).
     pub audio: Option<AudioInput>,
+}
+
+/// A clip's landmarks: a tracker's file, or tracked by lipmap on the clip's frames.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum LandmarkInput {
+    /// Landmarks in any format lipmap reads.
+    File(PathBuf),
+    /// Tracked with lipmap's own tracker (`workflow::track`) from these files.
+    Track(TrackerFiles),
+}
+
+impl Default for LandmarkInput {
+    fn default() -> Self {
+        Self::File(PathBuf::new())
+    }
+}
+
+impl From<PathBuf> for LandmarkInput {
+    fn from(p: PathBuf) -> Self {
+        Self::File(p)
+    }
 }
 
 /// A side view's frames and timing.
@@ -52,7 +76,8 @@ pub struct NewSession {
     /// Where the session file goes.
     pub path: PathBuf,
     pub clip: ClipInputs,
-    /// The head mesh the landmark map names vertices of.
+    /// The head the motion drives: the model's own mesh, or another mesh that gets a map of
+    /// its own.
     pub head: Option<PathBuf>,
     pub model: PathBuf,
     pub blendshapes: Option<PathBuf>,
@@ -75,6 +100,8 @@ pub struct Import {
     pub audio: Option<(AudioInput, Option<String>)>,
     /// A head mesh (OBJ) that becomes the session's head, replacing the one it named.
     pub head: Option<PathBuf>,
+    /// A map file for a head that is another mesh than the model (its own map).
+    pub head_mapping: Option<PathBuf>,
 }
 
 /// Whether a session's map can be fitted with, as far as creating it can tell.
@@ -101,7 +128,24 @@ pub struct Created {
     pub path: PathBuf,
     pub clip: AddedClip,
     pub map: MapState,
+    /// The head, when one was given, and what its map is.
+    pub head: Option<HeadMesh>,
     pub warnings: Vec<Warning>,
+}
+
+/// A session's head and whether it needs a map of its own.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HeadMesh {
+    pub file: PathBuf,
+    pub vertices: usize,
+    pub model_vertices: usize,
+}
+
+impl HeadMesh {
+    /// Another mesh than the model: it needs its own map (the model's names other vertices).
+    pub fn needs_own_map(&self) -> bool {
+        self.vertices != self.model_vertices
+    }
 }
 
 /// A map file set on a session, and what it replaced.
@@ -133,9 +177,11 @@ pub struct HeadSet {
     pub vertices: usize,
     /// The head file the session named before.
     pub replaced: Option<PathBuf>,
-    /// The session's map checked on the new head (`None`: the session has no map yet). A map
-    /// labelled on another mesh names the wrong vertices here, and this says so.
+    /// The head's map checked on the new head (`None`: no map yet): its own map when it is
+    /// another mesh than the model, else the model's.
     pub map_check: Option<MapCheck>,
+    /// The head is another mesh than the model and has (or needs) its own map.
+    pub own_map: bool,
 }
 
 /// What an import changed.
@@ -145,6 +191,8 @@ pub struct Imported {
     pub clip: Option<AddedClip>,
     pub map: Option<MapSet>,
     pub head: Option<HeadSet>,
+    /// The head's own map file that was set, and its check on the head.
+    pub head_map: Option<(PathBuf, MapCheck)>,
     /// The existing clip given audio, and the audio file.
     pub audio: Option<(String, PathBuf)>,
     pub warnings: Vec<Warning>,
@@ -163,7 +211,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
             path.display()
         )));
     }
-    let (mut clip, mut warnings) = read_clip(&new.clip)?;
+    let (mut clip, warnings) = read_clip(&new.clip)?;
     if let Some(audio) = &new.clip.audio {
         clip.audio = Some(read_clip_audio(&clip, path, audio)?);
     }
@@ -173,13 +221,20 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
         check_map_vertices(map, model.num_vertices(), Some(file))?;
     }
     let settings = FitSettings { set: new.set, ..FitSettings::default() };
-    if let Some(head) = &new.head {
-        let mesh = obj::read_obj(head)?;
-        warnings.extend(head_model_mismatch(head, &mesh, model.num_vertices()));
-    }
+    let head = match &new.head {
+        Some(file) => Some(HeadMesh {
+            file: file.clone(),
+            vertices: obj::read_obj(file)?.vertices.len(),
+            model_vertices: model.num_vertices(),
+        }),
+        None => None,
+    };
     let _lock = SessionLock::acquire(path)?;
     let mut session = Session::new(path);
     session.head_mesh = new.head.as_deref().map(absolute);
+    if head.as_ref().is_some_and(HeadMesh::needs_own_map) {
+        session.head_map = Some(MapRef::default());
+    }
     session.model = Some(ModelRef {
         path: absolute(&new.model),
         blendshapes: new.blendshapes.as_deref().map(absolute),
@@ -200,20 +255,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
             Some(problem) => MapState::Problem(problem),
         },
     };
-    Ok(Created { path: path.clone(), clip: added, map, warnings })
-}
-
-/// A warning when a head mesh and the model differ in vertex count: the fitted shape cannot
-/// then be shown on that head, only its landmarks' map read on it.
-fn head_model_mismatch(head: &Path, mesh: &Mesh, model_vertices: usize) -> Option<Warning> {
-    (mesh.vertices.len() != model_vertices).then(|| {
-        Warning(format!(
-            "lipmap: warning: {} has {} vertices but the model has {}",
-            head.display(),
-            mesh.vertices.len(),
-            model_vertices
-        ))
-    })
+    Ok(Created { path: path.clone(), clip: added, map, head, warnings })
 }
 
 /// Adds a clip, sets the landmark map and/or the head mesh of an existing session, under its
@@ -227,6 +269,7 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         && import.mapping.is_none()
         && import.audio.is_none()
         && import.head.is_none()
+        && import.head_mapping.is_none()
     {
         return Err(Error::Invalid(
             "give a clip to add (--frames and --landmarks), a landmark map (--mapping FILE), a head mesh (--head HEAD.obj) or a clip's audio (--audio FILE.wav)"
@@ -255,15 +298,14 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         }
         _ => None,
     };
-    let head = match &import.head {
-        Some(file) => {
-            let mesh = obj::read_obj(file)?;
-            if let Some(m) = &session.model {
-                let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
-                warnings.extend(head_model_mismatch(file, &mesh, n));
-            }
-            Some((file, mesh))
+    let model_vertices = match &session.model {
+        Some(m) if import.head.is_some() || import.head_mapping.is_some() => {
+            Some(model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices())
         }
+        _ => None,
+    };
+    let head = match &import.head {
+        Some(file) => Some((file, obj::read_obj(file)?)),
         None => None,
     };
     let map =
@@ -271,7 +313,11 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
     // Checked after a map given in the same import is set, so the check is of the pair the
     // session now holds.
     let head = match head {
-        Some((file, mesh)) => Some(set_head(session, file, &mesh)?),
+        Some((file, mesh)) => Some(set_head(session, file, &mesh, model_vertices)?),
+        None => None,
+    };
+    let head_map = match &import.head_mapping {
+        Some(file) => Some(set_head_map_from_file(session, file)?),
         None => None,
     };
     let clip = match clip {
@@ -290,21 +336,60 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
     // The journal's edits were restored on opening and are now in the file.
     warnings.splice(0..0, std::mem::take(&mut opened.notices));
     opened.save()?;
-    Ok(Imported { path: path.clone(), clip, map, head, audio, warnings })
+    Ok(Imported { path: path.clone(), clip, map, head, head_map, audio, warnings })
 }
 
-/// Makes `file` (already read as `mesh`) the session's head and checks the session's map on
-/// it. Fits are of the model, not the head, so the fit cache stays.
-fn set_head(session: &mut Session, file: &Path, mesh: &Mesh) -> Result<HeadSet> {
+/// Makes `file` (already read as `mesh`) the session's head and checks the head's map on
+/// it. A head with another vertex count than the model (`model_vertices`) is another mesh:
+/// it gets a map of its own (kept when the same head is set again), and the model keeps its
+/// map for fitting. Fits are of the model, not the head, so the fit cache stays.
+fn set_head(
+    session: &mut Session,
+    file: &Path,
+    mesh: &Mesh,
+    model_vertices: Option<usize>,
+) -> Result<HeadSet> {
     let file_abs = absolute(file);
     let replaced = session.head_mesh.replace(file_abs).filter(|old| *old != absolute(file));
-    let map = session.landmark_map.resolve()?.filter(|m| !m.is_empty());
+    let own_map = model_vertices.is_some_and(|n| n != mesh.vertices.len());
+    session.head_map = match (own_map, session.head_map.take()) {
+        (false, _) => None,
+        (true, Some(kept)) if replaced.is_none() => Some(kept),
+        (true, _) => Some(MapRef::default()),
+    };
+    let map = session.map_of(MapRole::Head).resolve()?.filter(|m| !m.is_empty());
     Ok(HeadSet {
         file: file.to_path_buf(),
         vertices: mesh.vertices.len(),
         replaced,
         map_check: map.map(|m| check_map(&m, &mesh.vertices)),
+        own_map,
     })
+}
+
+/// Sets the map file of a head that is another mesh than the model, after checking its
+/// vertices exist on the head.
+///
+/// # Errors
+/// No head, or a head that is the model's own mesh (its map is the model's, `--mapping`);
+/// an unreadable map or head; a vertex the head lacks.
+fn set_head_map_from_file(session: &mut Session, file: &Path) -> Result<(PathBuf, MapCheck)> {
+    let Some(head) = session.head_mesh.clone() else {
+        return Err(Error::Invalid(
+            "the session has no head: give it one with --head HEAD.obj".into(),
+        ));
+    };
+    if !session.head_has_own_map() {
+        return Err(Error::Invalid(format!(
+            "{} is the model's own mesh: its map is the model's (--mapping FILE)",
+            head.display()
+        )));
+    }
+    let map = landmark_map_toml::read_landmark_map(file)?;
+    let mesh = obj::read_obj(&head)?;
+    check_map_vertices(&map, mesh.vertices.len(), Some(file))?;
+    session.head_map = Some(MapRef { file: Some(absolute(file)), inline: None });
+    Ok((file.to_path_buf(), check_map(&map, &mesh.vertices)))
 }
 
 /// Reads one clip's files into a [`Clip`], checking them before anything is written; the
@@ -315,7 +400,6 @@ fn set_head(session: &mut Session, file: &Path, mesh: &Mesh) -> Result<HeadSet> 
 pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     let mut warnings = Vec::new();
     let frames_path = &inputs.frames;
-    let landmarks = &inputs.landmarks;
     let frames =
         FrameSource::open(frames_path, &FrameOptions { fps: inputs.fps, ..Default::default() })?;
     if frames_path.is_dir() && inputs.fps.is_none() {
@@ -323,6 +407,25 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     }
     let mut front = View::new(frames_ref(frames_path), frames.fps());
     front.size = Some(frames.size());
+    let landmarks = match &inputs.landmarks {
+        LandmarkInput::File(file) => file,
+        LandmarkInput::Track(files) => {
+            let tracked = track_frames(&load_tracker(files)?, &frames, &super::no_progress)?;
+            if let Some(first) = tracked.lost.first() {
+                warnings.push(Warning(format!(
+                    "lipmap: warning: no face found on {} of {} (first: frame {first}); they have no landmarks",
+                    tracked.lost.len(),
+                    frames_path.display()
+                )));
+            }
+            let mut clip = Clip::new(
+                inputs.name.clone().unwrap_or_else(|| default_clip_name(frames_path)),
+                front,
+            );
+            clip.tracked = tracked.track;
+            return finish_clip(clip, inputs, &frames, warnings);
+        }
+    };
     let tracked = landmark_format::read_track(landmarks)?;
     if tracked.is_empty() {
         return Err(Error::Invalid(format!("{}: no frames of landmarks", landmarks.display())));
@@ -356,6 +459,16 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     let mut clip = Clip::new(name, front);
     clip.tracked = tracked;
     clip.landmarks_file = Some(absolute(landmarks));
+    finish_clip(clip, inputs, &frames, warnings)
+}
+
+/// Adds the alignment and the side view to a clip whose landmarks are read.
+fn finish_clip(
+    mut clip: Clip,
+    inputs: &ClipInputs,
+    frames: &FrameSource,
+    warnings: Vec<Warning>,
+) -> Result<(Clip, Vec<Warning>)> {
     if let Some((file, tier)) = &inputs.alignment {
         clip.alignment = Some(alignment_format::read_alignment(file, tier.as_ref())?);
         clip.alignment_file = Some(absolute(file));
@@ -498,6 +611,7 @@ mod tests {
             mapping: None,
             audio: None,
             head: None,
+            head_mapping: None,
         })
         .unwrap_err();
         assert!(e.to_string().contains("--mapping FILE"), "{e}");

@@ -19,6 +19,10 @@ pub enum Error {
     /// A map the fit cannot use.
     #[error(transparent)]
     MapCheck(#[from] super::resources::MapCheckError),
+    /// A map the fit refuses before anything is fitted (unusable, or failing the anatomy
+    /// check without `--accept-map-warnings`).
+    #[error(transparent)]
+    FitRefused(#[from] super::resources::FitRefusal),
     /// A map naming vertices the model lacks.
     #[error(transparent)]
     MapRange(#[from] super::resources::MapRangeError),

@@ -21,14 +21,15 @@ use crate::eval::{worst_frames_by_error, worst_frames_by_residual};
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::closure::{ClosureError, seal_inner_lips};
 use crate::measure::mouth::trajectory_from_track;
-use crate::measure::{Measure, MeshMeasureOptions, Trajectory};
+use crate::measure::{Measure, MeshMeasureOptions, PoseComparison, Trajectory};
 use crate::model::{LandmarkMap, MorphableModel};
 use crate::session::Session;
 
 /// The evaluation input of one clip's parts: the video's W/H from `track` and the fitted
 /// head's W/H/P from its fits (measured through `map` with its mouth corners completed,
-/// frame by frame without keeping meshes), both `n` frames long. Side-view P is the caller's
-/// to add.
+/// frame by frame without keeping meshes), both `n` frames long, W and H compared as `pose`
+/// says; and how many measured frames a frontal comparison left out because the head turned
+/// past its limit. Side-view P is the caller's to add.
 #[allow(clippy::too_many_arguments)]
 pub fn utterance_from_parts(
     name: &str,
@@ -39,19 +40,30 @@ pub fn utterance_from_parts(
     map: &LandmarkMap,
     fits: &[FrameFit],
     options: &MeshMeasureOptions,
-) -> Utterance {
+    pose: PoseComparison,
+) -> (Utterance, usize) {
     let n = track.frames.last().map_or(0, |f| f.frame + 1);
-    let video = trajectory_from_track(track, Some(n));
+    let mut video = pad(trajectory_from_track(track, Some(n)), n);
     let map = map.with_commissures_completed();
-    let head = head_trajectory(model, &map, fits, n, options);
-    Utterance {
+    let mut head = pad(head_trajectory(model, &map, fits, n, options, pose), n);
+    let mut turned = 0;
+    for f in fits.iter().filter(|f| f.is_usable_within(n) && !pose.admits(f.yaw, f.pitch)) {
+        let measured = head.w[f.frame].is_some() || head.h[f.frame].is_some();
+        turned += usize::from(measured);
+        for t in [&mut video, &mut head] {
+            t.w[f.frame] = None;
+            t.h[f.frame] = None;
+        }
+    }
+    let u = Utterance {
         name: name.to_string(),
         speaker: None,
         alignment: alignment.clone(),
         fps,
-        video: pad(video, n),
-        head: pad(head, n),
-    }
+        video,
+        head,
+    };
+    (u, turned)
 }
 
 /// One clip as an evaluation takes it, however the front holds it: the session's clip
@@ -70,6 +82,8 @@ pub struct ClipInput<'a> {
     pub side_view: bool,
     /// The side view's P per front frame, when measured.
     pub side_p: Option<&'a [Option<f64>]>,
+    /// How W and H are compared under head pose.
+    pub pose: PoseComparison,
 }
 
 /// The utterance of one clip: the video's and the fitted head's W/H/P
@@ -82,7 +96,8 @@ pub fn utterance_of(
     options: &MeshMeasureOptions,
 ) -> (Utterance, Vec<Warning>) {
     let (options, warning) = head_p_options(model, map, input.side_view, options);
-    let mut u = utterance_from_parts(
+    let mut warnings: Vec<Warning> = warning.into_iter().collect();
+    let (mut u, turned) = utterance_from_parts(
         input.name,
         input.alignment,
         input.fps,
@@ -91,12 +106,78 @@ pub fn utterance_of(
         map,
         input.fits,
         &options,
+        input.pose,
     );
+    if turned > 0 {
+        warnings.push(Warning(format!(
+            "lipmap: clip `{}`: {turned} of {} fitted frames turned past the pose limit (|yaw| or \
+             |pitch| above {}°) and are left out of the frontal W/H comparison; \
+             `lipmap eval --pose image-plane` compares every frame in the image plane",
+            input.name,
+            input.fits.iter().filter(|f| f.is_usable()).count(),
+            match input.pose {
+                PoseComparison::Frontal { limit_deg } => limit_deg,
+                PoseComparison::ImagePlane => 0.0,
+            }
+        )));
+    }
+    warnings.extend(lip_seal_limit(model, map, input, &u));
     if let Some(p) = input.side_p {
         u.video.p = p.to_vec();
         u.video.p.resize(u.head.p.len(), None);
     }
-    (u, warning.into_iter().collect())
+    (u, warnings)
+}
+
+/// Share of the clip's widest fitted opening above which a head that cannot close further
+/// is said to be held open by its model: the sealed-lips target (`docs/closure.md`).
+const SEAL_SHARE: f64 = 0.1;
+
+/// When the video's lips meet but the model cannot bring its inner lips within
+/// [`SEAL_SHARE`] of the clip's widest fitted opening (its smallest gap reachable with the
+/// fitted identity and β ≥ 0), a warning naming that limit: the head's H error on those
+/// frames is the model's, not the fit's.
+fn lip_seal_limit(
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    input: &ClipInput<'_>,
+    u: &Utterance,
+) -> Option<Warning> {
+    let gap = crate::measure::lip_reach::InnerLipGap::of(model, map)?;
+    let usable: Vec<&FrameFit> =
+        input.fits.iter().filter(|f| f.is_usable_within(u.video.h.len())).collect();
+    let widest = usable.iter().map(|f| gap.length(&f.identity, &f.expression)).fold(0.0, f64::max);
+    // Sealed as the video reads it (after closing the tracked inner lips).
+    let sealed: Vec<&&FrameFit> =
+        usable.iter().filter(|f| u.video.h[f.frame] == Some(0.0)).collect();
+    if sealed.is_empty() || widest <= 0.0 {
+        return None;
+    }
+    let mut reach = 0.0_f64;
+    let mut last: Option<&[f64]> = None;
+    for f in &sealed {
+        // Clip fits share one identity: solve once per distinct identity.
+        if last != Some(f.identity.as_slice()) {
+            reach = reach.max(gap.smallest(&f.identity)?.0);
+            last = Some(&f.identity);
+        }
+    }
+    if reach <= SEAL_SHARE * widest {
+        return None;
+    }
+    let mut kept: Vec<f64> =
+        sealed.iter().map(|f| gap.length(&f.identity, &f.expression)).collect();
+    kept.sort_by(f64::total_cmp);
+    Some(Warning(format!(
+        "lipmap: clip `{}`: the model cannot seal its lips: its smallest reachable inner-lip \
+         gap with the fitted identity is {reach:.3} ({:.0} % of the clip's widest fitted \
+         opening {widest:.3}, model units); on the {} sealed frames the head keeps a median \
+         {:.3}, of which {reach:.3} is the model's limit, not fitting error",
+        input.name,
+        100.0 * reach / widest,
+        sealed.len(),
+        kept[kept.len() / 2],
+    )))
 }
 
 /// The evaluation input of one clip of a session: [`utterance_of`] its effective landmarks,
@@ -114,6 +195,7 @@ pub fn utterance_of_clip(
     clip: usize,
     fits: &[FrameFit],
     options: &MeshMeasureOptions,
+    pose: PoseComparison,
 ) -> Result<(Utterance, Vec<Warning>)> {
     let c = session.clip(clip)?;
     let mut track = session.effective_track(clip)?;
@@ -150,6 +232,7 @@ pub fn utterance_of_clip(
         fits,
         side_view: c.side.is_some(),
         side_p: side_p.as_deref(),
+        pose,
     };
     let (u, more) = utterance_of(&res.model, &res.map, &input, options);
     warnings.splice(0..0, more);
@@ -184,7 +267,8 @@ impl ClipsEvaluated {
 }
 
 /// Fits (from cache where valid) and measures the clips `clips` of a session with
-/// `settings`, clip by clip; the head's P as `head_p` says. Progress: one stage per clip.
+/// `settings`, clip by clip; W and H compared as `pose` says, the head's P as `head_p` says.
+/// Progress: one stage per clip.
 ///
 /// # Errors
 /// As [`fit_clip_cached`] and [`utterance_of_clip`]; a render failure with `HeadP::Render`.
@@ -194,6 +278,7 @@ pub fn utterances_with(
     clips: &[usize],
     settings: &FitSettings,
     head_p: HeadP,
+    pose: PoseComparison,
     progress: ProgressFn<'_>,
 ) -> Result<ClipsEvaluated> {
     let mut out = ClipsEvaluated::default();
@@ -202,8 +287,9 @@ pub fn utterances_with(
         progress(Progress::Stage { what: format!("fitting {name} ({})", settings.set), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let clip_fits = fit_clip_cached(session, res, c, settings, Some(&steps))?;
+        let options = MeshMeasureOptions::default();
         let (mut u, warnings) =
-            utterance_of_clip(session, res, c, &clip_fits.fits, &MeshMeasureOptions::default())?;
+            utterance_of_clip(session, res, c, &clip_fits.fits, &options, pose)?;
         out.warnings.extend(warnings);
         if let HeadP::Render { pitch_deg } = head_p {
             progress(Progress::Stage { what: format!("rendering {name} from the side"), total: 0 });
@@ -252,6 +338,16 @@ pub struct EvalReport {
 impl EvalReport {
     pub fn tables(&self) -> [&Table; 5] {
         [&self.sentences, &self.phonemes, &self.visemes, &self.worst_frames, &self.worst_fits]
+    }
+
+    /// Names the pose comparison in the tables whose W and H it shaped (all but the fit
+    /// residuals).
+    pub fn name_pose_comparison(&mut self, pose: PoseComparison) {
+        for t in
+            [&mut self.sentences, &mut self.phonemes, &mut self.visemes, &mut self.worst_frames]
+        {
+            t.name_pose_comparison(pose);
+        }
     }
 }
 
@@ -307,12 +403,13 @@ pub fn evaluate_clip(
     n_worst: usize,
 ) -> ClipEvaluation {
     let (utterance, warnings) = utterance_of(model, map, input, &MeshMeasureOptions::default());
-    let report = evaluate(
+    let mut report = evaluate(
         std::slice::from_ref(&utterance),
         &[(input.name, input.fits)],
         normalisation,
         n_worst,
     );
+    report.name_pose_comparison(input.pose);
     ClipEvaluation { utterance, report, warnings }
 }
 
@@ -324,6 +421,8 @@ pub struct EvalRequest {
     /// Sealed lips, when it is to replace the session's setting (saved with the fits).
     pub closure: Option<crate::landmarks::closure::Closure>,
     pub head_p: HeadP,
+    /// How W and H are compared under head pose.
+    pub pose: PoseComparison,
     pub normalisation: Normalisation,
     /// Rows of the worst-frame tables.
     pub worst: usize,
@@ -335,6 +434,7 @@ impl Default for EvalRequest {
             clip: None,
             closure: None,
             head_p: HeadP::Mesh,
+            pose: PoseComparison::default(),
             normalisation: Normalisation::default(),
             worst: DEFAULT_WORST_ROWS,
         }
@@ -392,7 +492,15 @@ pub fn evaluate_session(
         opened.session.fit_settings.closure = c;
     }
     let settings = opened.session.fit_settings.clone();
-    let done = utterances_with(&mut opened.session, &res, &clips, &settings, req.head_p, progress)?;
+    let done = utterances_with(
+        &mut opened.session,
+        &res,
+        &clips,
+        &settings,
+        req.head_p,
+        req.pose,
+        progress,
+    )?;
     warnings.extend(done.warnings.iter().cloned());
     opened.save_if_locked()?;
     require_some_fit(&done.fits)?;
@@ -401,7 +509,8 @@ pub fn evaluate_session(
         .zip(&done.fits)
         .map(|(&c, (_, fits))| clip_flag_lines(&opened.session, c, fits))
         .collect::<std::result::Result<_, _>>()?;
-    let report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+    let mut report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+    report.name_pose_comparison(req.pose);
     let (transferred, more) =
         transferred_head_tables(&opened.session, &res, &done, req.normalisation, req.worst);
     warnings.extend(more);
@@ -454,8 +563,15 @@ pub fn compare_sets(
     let mut configs = Vec::new();
     for &set in sets {
         let settings = FitSettings { set, ..base.clone() };
-        let done =
-            utterances_with(&mut opened.session, &res, &clips, &settings, req.head_p, progress)?;
+        let done = utterances_with(
+            &mut opened.session,
+            &res,
+            &clips,
+            &settings,
+            req.head_p,
+            req.pose,
+            progress,
+        )?;
         warnings.extend(done.warnings);
         let utterances = req.normalisation.apply(&done.utterances);
         configs.push(Configuration { name: set.to_string(), utterances });
@@ -487,5 +603,65 @@ mod tests {
             require_some_fit(&Vec::new()).unwrap_err().to_string(),
             "no frame has landmarks to fit"
         );
+    }
+
+    #[test]
+    fn a_frontal_comparison_leaves_out_and_counts_the_turned_frames_of_video_and_head() {
+        use crate::landmarks::{FrameLandmarks, LandmarkPoint, Track};
+        let head = crate::demo::head::build_head();
+        let n3 = 3 * head.mesh.num_vertices();
+        let model = MorphableModel {
+            shape: crate::model::PcaModel {
+                mean: head.mesh.to_flat(),
+                basis: crate::math::DMatrix::zeros(n3, 0),
+                eigenvalues: crate::math::DVector::zeros(0),
+            },
+            expressions: None,
+            triangles: Vec::new(),
+        };
+        let yaws = [0.0, 30.0, 10.0, -40.0, 0.0];
+        let fits: Vec<FrameFit> = yaws
+            .iter()
+            .enumerate()
+            .map(|(f, &yaw)| FrameFit { yaw, scale: 2.0, ..FrameFit::unposed(f) })
+            .collect();
+        let map = head.landmarks.with_commissures_completed();
+        let frames = fits
+            .iter()
+            .map(|fit| {
+                let shape = crate::fit::fitted_shape(&model, fit);
+                let points = crate::measure::mesh::landmark_points_3d(&shape, &map)
+                    .into_iter()
+                    .map(|p| {
+                        p.map_or_else(LandmarkPoint::missing, |p| {
+                            let q = crate::fit::project(fit, p, 480.0);
+                            LandmarkPoint::tracked(q.x, q.y)
+                        })
+                    })
+                    .collect();
+                FrameLandmarks::new(fit.frame, points)
+            })
+            .collect();
+        let track = Track::new(frames);
+        let alignment = crate::alignment::Alignment::default();
+        let opts = MeshMeasureOptions::default();
+        let parts = |pose| {
+            utterance_from_parts("c", &alignment, 25.0, &track, &model, &map, &fits, &opts, pose)
+        };
+        let (u, turned) = parts(PoseComparison::frontal());
+        assert_eq!(turned, 2);
+        for (f, &yaw) in yaws.iter().enumerate() {
+            let kept = f64::abs(yaw) <= 15.0;
+            assert_eq!(u.video.w[f].is_some(), kept, "frame {f}");
+            assert_eq!(u.head.h[f].is_some(), kept, "frame {f}");
+        }
+        // In the image plane every frame is compared, and the head measured through the
+        // camera that made the video's points reads the video's W on the turned frames too.
+        let (u, turned) = parts(PoseComparison::ImagePlane);
+        assert_eq!(turned, 0);
+        for f in 0..yaws.len() {
+            let (v, h) = (u.video.w[f].unwrap(), u.head.w[f].unwrap());
+            assert!((v - h).abs() < 1e-9, "frame {f}: video {v} head {h}");
+        }
     }
 }

@@ -71,6 +71,8 @@ pub struct ExportRequest {
     pub worst: usize,
     /// Width of the charts in pixels.
     pub plot_width: u32,
+    /// How W and H are compared under head pose (named in every table and chart).
+    pub pose: crate::measure::PoseComparison,
 }
 
 /// Files written of one kind, and the folder they are in.
@@ -246,8 +248,15 @@ pub fn export(
     let (res, warnings) = load_resources(&opened.session, &opened.path)?;
     report.warnings.extend(warnings);
     let settings = opened.session.fit_settings.clone();
-    let done =
-        utterances_with(&mut opened.session, &res, &clips, &settings, HeadP::Mesh, progress)?;
+    let done = utterances_with(
+        &mut opened.session,
+        &res,
+        &clips,
+        &settings,
+        HeadP::Mesh,
+        req.pose,
+        progress,
+    )?;
     report.warnings.extend(done.warnings.iter().cloned());
     // Save only when something is fitted now: an up-to-date session stays untouched.
     if done.refitted > 0 {
@@ -282,7 +291,8 @@ pub fn export(
         report.meshes = Some(Written { files: written, dir });
     }
     if req.plan.tables {
-        let eval = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+        let mut eval = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+        eval.name_pose_comparison(req.pose);
         let dir = req.out.join("tables");
         ensure_real_dir(&dir)?;
         for (table, file) in eval.tables().iter().zip(TABLE_FILES) {
@@ -295,7 +305,7 @@ pub fn export(
         let dir = req.out.join("plots");
         ensure_real_dir(&dir)?;
         for u in &done.utterances {
-            let img = trajectory_chart(u, req.normalisation, req.plot_width);
+            let img = trajectory_chart(u, req.normalisation, req.pose, req.plot_width);
             let p = plot_path(&req.out, &file_of(&u.name));
             write_atomic(&p, |w| {
                 let enc = image::codecs::png::PngEncoder::new(w);
@@ -364,6 +374,7 @@ fn mesh_faces(res: &Resources) -> Vec<Vec<u32>> {
 pub fn trajectory_chart(
     u: &Utterance,
     normalisation: Normalisation,
+    pose: crate::measure::PoseComparison,
     width: u32,
 ) -> image::RgbImage {
     let compared = normalisation.apply(std::slice::from_ref(u)).remove(0);
@@ -392,7 +403,11 @@ pub fn trajectory_chart(
         .collect();
     let alignment = (!compared.alignment.phones.is_empty()).then_some(&compared.alignment);
     draw_trajectories(&TrajectoryPlot {
-        title: format!("{}: mouth measures, video landmarks (2D) vs fitted 3D head", u.name),
+        title: format!(
+            "{}: mouth measures, video landmarks (2D) vs fitted 3D head, W/H {}",
+            u.name,
+            pose.short_label()
+        ),
         fps: u.fps,
         alignment,
         panels,

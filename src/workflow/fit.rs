@@ -5,7 +5,7 @@
 
 use super::error::{Progress, ProgressFn, Result, Warning};
 use super::flags::clip_flag_lines;
-use super::resources::{Resources, check_map_for_fit, load_resources};
+use super::resources::{Resources, check_before_fit, load_resources};
 use super::session::{EditSession, image_height, select_clips};
 use crate::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
 use crate::landmarks::FrameLandmarks;
@@ -34,8 +34,8 @@ impl ClipFits {
 /// `progress` receives (frames done, frames to do).
 ///
 /// # Errors
-/// Unknown clip; landmarks missing for a frame the cache names; a map the fit cannot use
-/// ([`check_map_for_fit`]), before anything is fitted.
+/// Unknown clip; landmarks missing for a frame the cache names; when anything needs
+/// fitting, a map the fit refuses ([`check_before_fit`]), before anything is fitted.
 pub fn fit_clip_cached(
     session: &mut Session,
     res: &Resources,
@@ -43,8 +43,10 @@ pub fn fit_clip_cached(
     settings: &FitSettings,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ClipFits> {
-    check_map_for_fit(&res.map, res.model.num_vertices(), settings)?;
     let stale = session.stale_frames_with(clip, settings);
+    if !stale.is_empty() {
+        check_before_fit(&res.model, &res.map, settings, res.accept_map_warnings)?;
+    }
     let height = image_height(session, clip)?;
     let track = session.fit_input_track(clip, settings)?;
     let to_fit: Vec<FrameLandmarks> = if stale.is_empty() {
@@ -104,11 +106,21 @@ pub fn fit_session(
     opened: &mut EditSession,
     settings: &FitSettings,
     only: Option<&str>,
+    accept_map_warnings: bool,
     progress: ProgressFn<'_>,
 ) -> Result<SessionFitted> {
     let session = &mut opened.session;
     session.fit_settings = settings.clone();
-    let (res, warnings) = load_resources(session, &opened.path)?;
+    let (mut res, mut warnings) = load_resources(session, &opened.path)?;
+    res.accept_map_warnings = accept_map_warnings;
+    // Said once, before the fits, rather than refused (the user accepted them).
+    if let Ok(accepted) = check_before_fit(&res.model, &res.map, settings, accept_map_warnings) {
+        warnings.extend(
+            accepted.iter().map(|p| {
+                Warning(format!("lipmap: warning: fitting with a model map problem: {p}"))
+            }),
+        );
+    }
     let mut out = SessionFitted { clips: Vec::new(), warnings };
     for c in select_clips(session, only)? {
         let name = session.clip(c)?.name.clone();
@@ -136,4 +148,87 @@ pub fn shapes_by_frame(
         shapes[f.frame] = Some(fitted_shape(model, f));
     }
     shapes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::session::MapRole;
+    use crate::workflow::create::{ClipInputs, NewSession, create_session};
+    use crate::workflow::map::{check_session_map, label_role};
+    use crate::workflow::{Error, FitRefusal, open_for_edit_at};
+
+    /// The eos SFM map with the eyes' and the outer mouth's vertices exchanged.
+    fn swapped(map: &crate::model::LandmarkMap) -> crate::model::LandmarkMap {
+        let mut out = map.clone();
+        for k in 0..12 {
+            let (eye, mouth) = (36 + k, 48 + k);
+            if let (Some(a), Some(b)) = (map.vertex(eye), map.vertex(mouth)) {
+                out.to_vertex.insert(eye, b);
+                out.to_vertex.insert(mouth, a);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn sfm_model_and_makehuman_head_get_two_maps_and_a_swapped_map_is_refused() {
+        let (Some(eos), Some(data)) =
+            (crate::testdata::shared("peer/eos/share"), crate::testdata::shared("data"))
+        else {
+            return;
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let map_file = eos.join("ibug_to_sfm.txt");
+        let new = |path: &std::path::Path, mapping: &std::path::Path| NewSession {
+            path: path.to_path_buf(),
+            clip: ClipInputs {
+                frames: data.join("carphone/frames"),
+                landmarks: crate::workflow::create::LandmarkInput::File(
+                    data.join("carphone/dlib68_pts"),
+                ),
+                fps: Some(30.0),
+                ..Default::default()
+            },
+            head: Some(data.join("makehuman/base.obj")),
+            model: eos.join("sfm_shape_3448.bin"),
+            blendshapes: None,
+            mapping: Some(mapping.to_path_buf()),
+            set: crate::landmarks::LandmarkSet::F4,
+            force: false,
+        };
+        // Two meshes, two maps: the model's is the eos map, the head's is still to label.
+        let path = dir.path().join("s.lipmap.json");
+        let created = create_session(&new(&path, &map_file)).unwrap();
+        assert!(created.head.as_ref().is_some_and(|h| h.needs_own_map()));
+        let opened = open_for_edit_at(&path).unwrap();
+        let s = &opened.session;
+        assert_eq!(s.head_map, Some(crate::session::MapRef::default()));
+        assert_eq!(label_role(s), MapRole::Head);
+        let model_check = check_session_map(s, MapRole::Model).unwrap().unwrap();
+        assert!(model_check.is_plausible(), "{}", model_check.summary());
+        assert!(check_session_map(s, MapRole::Head).unwrap().is_none());
+        drop(opened);
+
+        // The swapped map: refused with its problems, fitted when accepted.
+        let sfm = crate::io::landmark_map_toml::read_landmark_map(&map_file).unwrap();
+        let bad = dir.path().join("swapped.toml");
+        let names = &crate::reference::current().names;
+        crate::io::landmark_map_toml::write_landmark_map(&bad, &swapped(&sfm), names).unwrap();
+        let path = dir.path().join("w.lipmap.json");
+        create_session(&new(&path, &bad)).unwrap();
+        let mut opened = open_for_edit_at(&path).unwrap();
+        let settings = opened.session.fit_settings.clone();
+        let quiet = |_: Progress| {};
+        let e = fit_session(&mut opened, &settings, None, false, &quiet).unwrap_err();
+        let Error::FitRefused(FitRefusal::Implausible { problems }) = &e else {
+            panic!("expected the map refused, got {e}")
+        };
+        assert!(problems.iter().any(|p| p.contains("swapped left/right")), "{problems:?}");
+        assert!(e.to_string().contains("--accept-map-warnings"), "{e}");
+        assert!(opened.session.fit_cache.is_empty(), "nothing fitted");
+        let fitted = fit_session(&mut opened, &settings, None, true, &quiet).unwrap();
+        assert_eq!(fitted.clips[0].fits.fits.len(), 120);
+        assert!(fitted.warnings.iter().any(|w| w.0.contains("swapped left/right")));
+    }
 }

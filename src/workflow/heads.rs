@@ -174,7 +174,7 @@ pub fn load_head(path: &Path, mapping: Option<&Path>, mode: Interpolation) -> Re
         check_map_vertices(&map, model.num_vertices(), Some(&map_path))?;
         let head_obj = path.join("head.obj");
         let head = head_obj.is_file().then(|| obj::read_obj(&head_obj)).transpose()?;
-        Resources { model, map, head }
+        Resources { model, map, head, head_map: None, accept_map_warnings: false }
     } else if path.is_file() && file_name(path).ends_with(".json") {
         // A head's session is only read: its journal's map edits count, nothing is saved.
         let session = read_session(path)?.session;
@@ -297,7 +297,14 @@ pub fn head_utterances(
         progress(Progress::Stage { what, total });
         let report = |done: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip(&res.model, &res.map, &track.frames, height, settings, Some(&report));
-        let (u, w) = utterance_of_clip(session, res, c, &fits, &MeshMeasureOptions::default())?;
+        let (u, w) = utterance_of_clip(
+            session,
+            res,
+            c,
+            &fits,
+            &MeshMeasureOptions::default(),
+            crate::measure::PoseComparison::default(),
+        )?;
         utterances.push(driver.measure(u, &fits)?);
         warnings.extend(w);
     }

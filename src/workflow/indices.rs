@@ -225,12 +225,27 @@ pub fn head_indices(
     })
 }
 
-/// [`head_indices`] of loaded resources.
+/// [`head_indices`] of loaded resources: a head that is another mesh than the model is read
+/// through its own map.
 ///
 /// # Errors
 /// As [`head_indices`].
 pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
-    head_indices(&res.model, &res.map, res.head.as_ref())
+    match (&res.head, &res.head_map) {
+        (Some(mesh), Some(map)) => mesh_indices(mesh, map, "head mesh, its own map"),
+        _ => head_indices(&res.model, &res.map, res.head.as_ref()),
+    }
+}
+
+/// The indices of `mesh` as it is, through `map`.
+fn mesh_indices(mesh: &Mesh, map: &LandmarkMap, what: &str) -> Result<HeadNeutral> {
+    let indices = nonempty(shape_indices_partial(&mesh.to_flat(), map))
+        .with_context(|| format!("head indices on the {what}"))?;
+    Ok(HeadNeutral {
+        indices,
+        source: format!("head: {what}, frontal projection"),
+        check: check_map(map, &mesh.vertices),
+    })
 }
 
 /// The head's indices of a session: its head mesh (which needs no model) or its model's
@@ -239,6 +254,15 @@ pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
 /// # Errors
 /// No map; neither head mesh nor model; unreadable files; unmapped index points.
 pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
+    if let (Some(head), Some(r)) = (&session.head_mesh, &session.head_map) {
+        let map = r.resolve()?.filter(|m| !m.is_empty()).ok_or_else(|| {
+            Error::Invalid(format!(
+                "the head {} has no map yet: label it in the TUI (view 2) or set one with `lipmap import SESSION --head-mapping MAP.toml`",
+                head.display()
+            ))
+        })?;
+        return mesh_indices(&obj::read_obj(head)?, &map, "head mesh, its own map");
+    }
     let map: LandmarkMap = session.landmark_map.resolve()?.ok_or(Error::NoMap { session: None })?;
     if session.model.is_some() {
         return resources_head_indices(&Resources::load(session)?);

@@ -1,8 +1,9 @@
-//! The landmark map's use cases: the head a map is labelled on (the session's head mesh, else
-//! the model's mean), checking the session's map against anatomy, and suggesting a whole map
-//! from the labels made so far (`lipmap map suggest`, the TUI's `O`).
+//! The landmark maps' use cases: which mesh needs labelling ([`label_role`]: the model, or a
+//! head that is another mesh with its own map), the mesh a map is labelled on, checking a
+//! map against anatomy on its own mesh, and suggesting a whole map from the labels made so
+//! far (`lipmap map suggest`, the TUI's `O`).
 //!
-//! Start with [`suggest_session_map`] and [`check_session_map`].
+//! Start with [`label_role`], [`suggest_session_map`] and [`check_session_map`].
 
 use super::error::{Error, Result};
 use super::session::{clip_or_first, image_height};
@@ -12,7 +13,7 @@ use crate::io::{model_source, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::Point3;
 use crate::model::{LandmarkMap, MapCheck, check_map};
-use crate::session::Session;
+use crate::session::{MapRole, Session};
 use std::path::Path;
 
 /// The head a session's map is labelled on: its vertices, triangles, and which vertices may
@@ -35,23 +36,50 @@ impl LabelHead {
     }
 }
 
-/// The session's head mesh (OBJ), else its model's mean shape.
+/// The mesh that needs labelling first: the model while its map maps nothing (a fit needs
+/// it), else a head with its own map (what transfer and indices read), else the model (whose
+/// map is then the head's too).
+pub fn label_role(session: &Session) -> MapRole {
+    let empty =
+        |r: &crate::session::MapRef| r.resolve().ok().flatten().is_none_or(|m| m.is_empty());
+    if session.model.is_some() && empty(&session.landmark_map) {
+        MapRole::Model
+    } else if session.head_has_own_map() {
+        MapRole::Head
+    } else {
+        MapRole::Model
+    }
+}
+
+/// The mesh file the map of `role` names vertices of: the head OBJ for a head with its own
+/// map; for the model, its head mesh when that is the model's own mesh, else the model file.
+pub fn mesh_file_of(session: &Session, role: MapRole) -> Option<&Path> {
+    let model = session.model.as_ref().map(|m| m.path.as_path());
+    match role {
+        MapRole::Head => session.head_mesh.as_deref().or(model),
+        MapRole::Model if session.head_has_own_map() => model,
+        MapRole::Model => session.head_mesh.as_deref().or(model),
+    }
+}
+
+/// The mesh the map of `role` is labelled on ([`mesh_file_of`]): an OBJ as it is, a model
+/// as its mean shape.
 ///
 /// # Errors
 /// Neither a head nor a model ([`Error::NoModel`]); a file that does not parse.
-pub fn label_head(session: &Session) -> Result<LabelHead> {
+pub fn label_mesh(session: &Session, role: MapRole) -> Result<LabelHead> {
     let is_obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-    let (vertices, triangles, source) = match (&session.head_mesh, &session.model) {
-        (Some(path), _) => {
-            let mesh = obj::read_obj(path)?;
-            let tris = mesh.triangles();
-            (mesh.vertices, tris, path.clone())
-        }
-        (None, Some(m)) => {
+    let source = mesh_file_of(session, role).ok_or(Error::NoModel)?.to_path_buf();
+    let (vertices, triangles) = match (&session.model, is_obj(&source)) {
+        (Some(m), _) if m.path == source => {
             let model = model_source::load_model(&m.path, m.blendshapes.as_deref())?;
-            (model.mean_mesh().vertices, model.triangles.clone(), m.path.clone())
+            (model.mean_mesh().vertices, model.triangles.clone())
         }
-        (None, None) => return Err(Error::NoModel),
+        _ => {
+            let mesh = obj::read_obj(&source)?;
+            let tris = mesh.triangles();
+            (mesh.vertices, tris)
+        }
     };
     let (eligible, occluding) = if is_obj(&source) {
         (obj::labelable_vertices(&source)?, obj::occluding_vertices(&source)?)
@@ -62,15 +90,15 @@ pub fn label_head(session: &Session) -> Result<LabelHead> {
     Ok(LabelHead { vertices, triangles, eligible })
 }
 
-/// The session's map checked on its head; `None` when it has no map (or an empty one).
+/// The map of `role` checked on its own mesh; `None` when it maps nothing.
 ///
 /// # Errors
-/// As [`label_head`]; a map file that does not parse.
-pub fn check_session_map(session: &Session) -> Result<Option<MapCheck>> {
-    let Some(map) = session.landmark_map.resolve()?.filter(|m| !m.is_empty()) else {
+/// As [`label_mesh`]; a map file that does not parse.
+pub fn check_session_map(session: &Session, role: MapRole) -> Result<Option<MapCheck>> {
+    let Some(map) = session.map_of(role).resolve()?.filter(|m| !m.is_empty()) else {
         return Ok(None);
     };
-    let head = label_head(session)?;
+    let head = label_mesh(session, role)?;
     Ok(Some(check_map(&map, &head.vertices)))
 }
 
@@ -87,7 +115,7 @@ pub struct SuggestedMap {
     pub check: MapCheck,
 }
 
-/// Suggests the rest of the session's map from its labels on `frame` of `clip` (default:
+/// Suggests the rest of the map of `role` from its labels on `frame` of `clip` (default:
 /// the clip's first frame with the most visible landmarks), with the pose estimated from the
 /// labels.
 ///
@@ -96,11 +124,12 @@ pub struct SuggestedMap {
 /// or model file that does not parse.
 pub fn suggest_session_map(
     session: &Session,
+    role: MapRole,
     clip: Option<&str>,
     frame: Option<usize>,
 ) -> Result<SuggestedMap> {
     let c = clip_or_first(session, clip)?;
-    let labels = session.landmark_map.resolve()?.unwrap_or_default();
+    let labels = session.map_of(role).resolve()?.unwrap_or_default();
     let landmarks = match frame {
         Some(n) => session
             .effective_frame(c, n)
@@ -108,7 +137,7 @@ pub fn suggest_session_map(
         None => best_frame(session, c)
             .ok_or_else(|| Error::Invalid("the clip has no frame with landmarks".into()))?,
     };
-    let head = label_head(session)?;
+    let head = label_mesh(session, role)?;
     let h = image_height(session, c)?;
     let proposal = suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None)
         .map_err(|e| Error::Invalid(format!("frame {}: {e}", landmarks.frame)))?;

@@ -9,9 +9,11 @@
 //! the full shape, so the measures are the same numbers.
 
 use crate::fit::FrameFit;
-use crate::math::DVector;
-use crate::measure::mesh::measure_shape;
-use crate::measure::{MeshMeasureOptions, MouthMeasures, Trajectory, UpperLip};
+use crate::math::{DVector, Point2};
+use crate::measure::mesh::{landmark_points_3d, measure_shape};
+use crate::measure::{
+    MeshMeasureOptions, MouthMeasures, PoseComparison, Trajectory, UpperLip, measure_points,
+};
 use crate::model::{LandmarkMap, MorphableModel};
 
 /// The rows of a model that a mesh measure reads, with the map and options renumbered to
@@ -81,22 +83,62 @@ impl MeasuredVertices {
         }
     }
 
-    /// W, H, P of `fit`'s shape, using `buffer` for the shape.
-    fn measure(&self, fit: &FrameFit, buffer: &mut DVector) -> Option<MouthMeasures> {
+    /// W, H, P of `fit`'s shape as `pose` compares it, using `buffer` for the shape.
+    fn measure(
+        &self,
+        fit: &FrameFit,
+        buffer: &mut DVector,
+        pose: PoseComparison,
+    ) -> Option<MouthMeasures> {
         self.shape_into(fit, buffer);
-        measure_shape(buffer, &self.map, &self.options).ok()
+        measure_posed(buffer, &self.map, &self.options, fit, pose)
     }
+}
+
+/// W, H, P of a fitted shape: P always on the mesh (the side view is compared with the
+/// head's own profile), W and H on the mesh or, for [`PoseComparison::ImagePlane`], on the
+/// landmark vertices as the frame's fitted camera projects them.
+fn measure_posed(
+    shape: &DVector,
+    map: &LandmarkMap,
+    options: &MeshMeasureOptions,
+    fit: &FrameFit,
+    pose: PoseComparison,
+) -> Option<MouthMeasures> {
+    let mut m = measure_shape(shape, map, options).ok()?;
+    if pose == PoseComparison::ImagePlane {
+        let seen = measure_points(&image_plane_landmarks(shape, map, fit)).ok()?;
+        (m.w, m.h) = (seen.w, seen.h);
+    }
+    Some(m)
+}
+
+/// The 68 landmark vertices of `shape` projected with `fit`'s camera (`None` where unmapped).
+fn image_plane_landmarks(
+    shape: &DVector,
+    map: &LandmarkMap,
+    fit: &FrameFit,
+) -> Vec<Option<Point2>> {
+    // W and H are ratios of distances, which the image height (it only flips y) leaves
+    // unchanged: any height gives the same measures.
+    landmark_points_3d(shape, map)
+        .into_iter()
+        .map(|p| p.map(|p| crate::fit::project(fit, p, 0.0)))
+        .collect()
 }
 
 /// The fitted head's W/H/P trajectory of a clip, `n_frames` long (frame = index; failed or
 /// missing fits and unmeasurable shapes are `None`), measured through `map` as given (the
-/// caller completes its mouth corners). Keeps one shape buffer, never a mesh per frame.
+/// caller completes its mouth corners), W and H as `pose` compares them (frames past a
+/// frontal limit are the caller's to leave out). Keeps one shape buffer, never a mesh per
+/// frame.
 pub fn head_trajectory(
     model: &MorphableModel,
     map: &LandmarkMap,
     fits: &[FrameFit],
     n_frames: usize,
     options: &MeshMeasureOptions,
+    pose: PoseComparison,
 ) -> Trajectory {
     let Some(cut) = MeasuredVertices::new(model, map, options) else {
         // The whole mesh is needed per frame: still one shape at a time.
@@ -107,8 +149,9 @@ pub fn head_trajectory(
         let frames: Vec<Option<MouthMeasures>> = by_frame
             .iter()
             .map(|f| {
-                let shape = crate::fit::fitted_shape(model, (*f)?);
-                measure_shape(&shape, map, options).ok()
+                let fit = (*f)?;
+                let shape = crate::fit::fitted_shape(model, fit);
+                measure_posed(&shape, map, options, fit, pose)
             })
             .collect();
         return Trajectory::from_frames(&frames);
@@ -116,7 +159,7 @@ pub fn head_trajectory(
     let mut frames: Vec<Option<MouthMeasures>> = vec![None; n_frames];
     let mut buffer = DVector::zeros(0);
     for f in fits.iter().filter(|f| f.is_usable_within(n_frames)) {
-        frames[f.frame] = cut.measure(f, &mut buffer);
+        frames[f.frame] = cut.measure(f, &mut buffer, pose);
     }
     Trajectory::from_frames(&frames)
 }
@@ -178,7 +221,7 @@ mod tests {
             },
         ] {
             let full = head_trajectory_from_shapes(&model, &map, &fits, 7, &options);
-            let cut = head_trajectory(&model, &map, &fits, 7, &options);
+            let cut = head_trajectory(&model, &map, &fits, 7, &options, PoseComparison::frontal());
             assert_eq!(cut, full, "{options:?}");
             assert!(
                 cut.w[0].is_some()
@@ -190,8 +233,41 @@ mod tests {
         let region = MeshMeasureOptions { upper_lip: UpperLip::Region, ..Default::default() };
         assert!(MeasuredVertices::new(&model, &map, &region).is_none());
         assert_eq!(
-            head_trajectory(&model, &map, &fits, 7, &region),
+            head_trajectory(&model, &map, &fits, 7, &region, PoseComparison::frontal()),
             head_trajectory_from_shapes(&model, &map, &fits, 7, &region)
         );
+    }
+
+    #[test]
+    fn image_plane_w_is_foreshortened_by_a_turn_and_equals_the_frontal_w_head_on() {
+        let head = crate::demo::head::build_head();
+        let n3 = 3 * head.mesh.num_vertices();
+        let model = MorphableModel {
+            shape: PcaModel {
+                mean: head.mesh.to_flat(),
+                basis: DMatrix::zeros(n3, 0),
+                eigenvalues: DVector::zeros(0),
+            },
+            expressions: None,
+            triangles: Vec::new(),
+        };
+        let map = head.landmarks.with_commissures_completed();
+        let opts = MeshMeasureOptions::default();
+        let posed =
+            |yaw: f64, roll: f64| FrameFit { yaw, roll, scale: 3.0, ..FrameFit::unposed(0) };
+        let measure = |fit: FrameFit, pose| {
+            let t = head_trajectory(&model, &map, &[fit], 1, &opts, pose);
+            (t.w[0].unwrap(), t.h[0].unwrap())
+        };
+        let frontal = measure(posed(0.0, 0.0), PoseComparison::frontal());
+        let head_on = measure(posed(0.0, 0.0), PoseComparison::ImagePlane);
+        assert!((frontal.0 - head_on.0).abs() < 1e-9 && (frontal.1 - head_on.1).abs() < 1e-9);
+        // A roll (in-plane) changes nothing; a 60° turn shows a narrower mouth in the image
+        // while the mesh's frontal W stays.
+        let rolled = measure(posed(0.0, 30.0), PoseComparison::ImagePlane);
+        assert!((rolled.0 - frontal.0).abs() < 1e-9, "{rolled:?} vs {frontal:?}");
+        let turned = measure(posed(60.0, 0.0), PoseComparison::ImagePlane);
+        assert_eq!(measure(posed(60.0, 0.0), PoseComparison::frontal()), frontal);
+        assert!(turned.0 < 0.8 * frontal.0, "{turned:?} vs {frontal:?}");
     }
 }

@@ -29,6 +29,7 @@ pub mod session;
 pub mod side_view;
 pub mod speech;
 pub mod speech_session;
+pub mod track;
 pub mod transfer;
 pub mod untrusted;
 pub mod validate;
@@ -43,8 +44,8 @@ pub use evaluate::{
 };
 pub use fit::{ClipFits, ClipFitted, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame};
 pub use resources::{
-    MIN_FIT_LANDMARKS, MapCheckError, MapRangeError, Resources, check_map_for_fit,
-    check_map_vertices, load_resources, shadowed_map_file,
+    FitRefusal, MIN_FIT_LANDMARKS, MapCheckError, MapRangeError, Resources, check_before_fit,
+    check_map_for_fit, check_map_vertices, load_resources, shadowed_map_file,
 };
 pub use session::{
     EditSession, ReadSession, clip_length, clip_or_first, find_clip, image_height, open_for_edit,

@@ -9,12 +9,18 @@ use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use crate::session::Session;
 use std::path::{Path, PathBuf};
 
-/// What a session's fits need, loaded once: the model, the landmark map and the head mesh.
+/// What a session's fits need, loaded once: the model, the model's landmark map and the
+/// head mesh (with its own map when it is another mesh than the model).
 #[derive(Clone, Debug)]
 pub struct Resources {
     pub model: MorphableModel,
     pub map: LandmarkMap,
     pub head: Option<Mesh>,
+    /// The head's own map, when the head is another mesh than the model (`None`: `map`
+    /// serves both, or the head has no map yet).
+    pub head_map: Option<LandmarkMap>,
+    /// Fit even when the model map fails the anatomy check ([`check_before_fit`]).
+    pub accept_map_warnings: bool,
 }
 
 impl Resources {
@@ -38,7 +44,11 @@ impl Resources {
         };
         check_map_vertices(&map, model.num_vertices(), map_file)?;
         let head = session.head_mesh.as_deref().map(obj::read_obj).transpose()?;
-        Ok(Self { model, map, head })
+        let head_map = match &session.head_map {
+            Some(r) => r.resolve()?.filter(|m| !m.is_empty()),
+            None => None,
+        };
+        Ok(Self { model, map, head, head_map, accept_map_warnings: false })
     }
 }
 
@@ -148,6 +158,58 @@ pub fn check_map_for_fit(
         return Err(MapCheckError::TooFew { usable, set: settings.set });
     }
     Ok(usable)
+}
+
+/// Why a fit must not start: a map it cannot use ([`check_map_for_fit`]) or one that fails
+/// the anatomy check on the model's mean (`lipmap map check`) and was not accepted.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FitRefusal {
+    #[error(transparent)]
+    Unusable(#[from] MapCheckError),
+    /// The map's problems, one line each, as `lipmap map check` lists them.
+    #[error(
+        "the model map fails the anatomy check: {}; fix it (TUI view 2, `lipmap map suggest`) or fit anyway with --accept-map-warnings",
+        problems_summary(problems)
+    )]
+    Implausible { problems: Vec<String> },
+}
+
+/// "N problems: the first; the second; and N-2 more", for a one-line message.
+pub fn problems_summary(problems: &[String]) -> String {
+    match problems {
+        [] => "no problem".into(),
+        [p] => format!("1 problem: {p}"),
+        [p, q] => format!("2 problems: {p}; {q}"),
+        [p, q, rest @ ..] => {
+            format!("{} problems: {p}; {q}; and {} more", problems.len(), rest.len())
+        }
+    }
+}
+
+/// The one rule for "can this be fitted", for both fronts: the map must be usable by a fit
+/// with `settings` ([`check_map_for_fit`]) and plausible on the model's mean shape
+/// ([`crate::model::check_map`]: no shared vertices, no left/right crossings, human
+/// proportions) unless `accept_map_warnings`. Returns the problems accepted (empty when the
+/// map is plausible).
+///
+/// # Errors
+/// [`FitRefusal`].
+pub fn check_before_fit(
+    model: &MorphableModel,
+    map: &LandmarkMap,
+    settings: &FitSettings,
+    accept_map_warnings: bool,
+) -> Result<Vec<String>, FitRefusal> {
+    check_map_for_fit(map, model.num_vertices(), settings)?;
+    let problems: Vec<String> = crate::model::check_map(map, &model.mean_mesh().vertices)
+        .problems
+        .iter()
+        .map(ToString::to_string)
+        .collect();
+    if !problems.is_empty() && !accept_map_warnings {
+        return Err(FitRefusal::Implausible { problems });
+    }
+    Ok(problems)
 }
 
 /// The session's map file when an inline map (labelled in the TUI) shadows it and the file

@@ -367,6 +367,7 @@ mod tests {
             corrections,
             profile_corrections: Default::default(),
             landmark_map: None,
+            map_role: Default::default(),
         };
         (path, entry)
     }

@@ -60,7 +60,7 @@ pub fn drive_clip_with_session_model(session: &mut Session, clip: usize) -> Resu
         Some(driven) => Ok(driven.utterance_hmm),
         None => Err(Error::Invalid(warnings.first().map_or_else(
             || "the clip gives no speech-driven head".into(),
-            |w| w.0.strip_prefix("lipmap: ").unwrap_or(&w.0).to_string(),
+            |w| w.0.strip_prefix("lipmap: warning: ").unwrap_or(&w.0).to_string(),
         ))),
     }
 }

@@ -64,6 +64,39 @@ pub fn default_mapping(head: &Path) -> Result<PathBuf> {
         })
 }
 
+/// The map file of the session's head when `head` is that head (`None` for any other head):
+/// its own map when it is another mesh than the model, else the model's. A map labelled in
+/// the TUI is written beside the session as `NAME.head_map.toml` first (and recorded as the
+/// head map's file), so the transferred head names a file as every other does.
+///
+/// # Errors
+/// The session's head has no map yet (what to do, in one line); a map file that does not
+/// parse; the map file cannot be written.
+pub fn session_head_mapping(session: &mut Session, head: &Path) -> Result<Option<PathBuf>> {
+    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+    if session.head_mesh.as_deref().map(abs) != Some(abs(head)) {
+        return Ok(None);
+    }
+    let role = crate::session::MapRole::Head;
+    let Some(map) = session.map_of(role).resolve()?.filter(|m| !m.is_empty()) else {
+        return Err(Error::Invalid(format!(
+            "the head {} has no map yet: label it in the TUI (view 2) or give one with --mapping MAP.toml",
+            head.display()
+        )));
+    };
+    let r = session.map_of(role).clone();
+    if let (Some(file), None) = (&r.file, &r.inline) {
+        return Ok(Some(file.clone()));
+    }
+    let file = session.base_dir().join(format!("{}.head_map.toml", session.name));
+    landmark_map_toml::write_landmark_map(&file, &map, &crate::reference::current().names)?;
+    // The model's map keys the fit cache: a file written from it is not recorded there.
+    if session.head_has_own_map() {
+        session.map_of_mut(role).file = Some(file.clone());
+    }
+    Ok(Some(file))
+}
+
 /// The interpolation named `biharmonic` or `barycentric`.
 ///
 /// # Errors

@@ -88,7 +88,7 @@ pub fn validate_file(path: &Path) -> Result<FileSummary> {
     Ok(match detect_kind(path) {
         FileKind::Session => {
             let read = read_session(path)?;
-            let map = super::map::check_session_map(&read.session)
+            let map = super::map::check_session_map(&read.session, crate::session::MapRole::Model)
                 .map(|c| c.map(|c| c.summary()))
                 .map_err(|e| e.to_string())
                 .transpose();
@@ -123,9 +123,9 @@ pub fn validate_file(path: &Path) -> Result<FileSummary> {
             FileSummary::Target { offsets: makehuman_target::read_target(path)?.len() }
         }
         FileKind::Audio => {
-            let a = crate::io::wav::read_wav(path)?;
-            let seconds = a.samples.len() as f64 / f64::from(a.sample_rate);
-            FileSummary::Audio { seconds, sample_rate: a.sample_rate }
+            // Read through block by block: an hour's samples are never held.
+            let a = crate::io::wav::check_wav(path)?;
+            FileSummary::Audio { seconds: a.seconds(), sample_rate: a.sample_rate }
         }
         FileKind::SpeechModel => {
             let m = super::speech::load_speech_model(path)?;

@@ -129,7 +129,10 @@ pub struct App {
 
     // ---- the session's resources and the fits made with them ----
     pub model: Option<Arc<MorphableModel>>,
+    /// The map the head view labels (`head.label_role` says whose).
     pub map: Option<LandmarkMap>,
+    /// The model's map while the head view labels a head's own map; see [`App::fit_map`].
+    pub model_map: Option<LandmarkMap>,
     pub mesh: Option<Arc<Mesh>>,
     pub fit_settings: FitSettings,
     pub fits: Fits,
@@ -178,6 +181,7 @@ impl App {
             switch_clip: None,
             model: None,
             map: None,
+            model_map: None,
             mesh: None,
             fit_settings: FitSettings::default(),
             fits: Fits::default(),
@@ -200,6 +204,15 @@ impl App {
         app
     }
 
+    /// The model's map, what fits use: the labelled map when the head view labels the model,
+    /// else the model's own.
+    pub fn fit_map(&self) -> Option<&LandmarkMap> {
+        match self.head.label_role {
+            crate::session::MapRole::Model => self.map.as_ref(),
+            crate::session::MapRole::Head => self.model_map.as_ref(),
+        }
+    }
+
     /// Sets the head mesh and precomputes its unique edges for the wireframe.
     pub fn set_mesh(&mut self, mesh: Arc<Mesh>) {
         self.head.edges = Arc::new(super::screens::head::state::wire_edges(&mesh, None));
@@ -210,8 +223,12 @@ impl App {
     /// Frames the head screen on the face (see [`HeadFraming::of_face`]).
     pub fn frame_head(&mut self) {
         if let Some(mesh) = &self.mesh {
-            self.head.framing =
-                HeadFraming::of_face(mesh, self.model.as_deref(), self.map.as_ref());
+            self.head.framing = HeadFraming::of_face(
+                mesh,
+                self.model.as_deref(),
+                self.map.as_ref(),
+                self.head.label_candidates.as_deref().map(Vec::as_slice),
+            );
         }
     }
 

@@ -34,7 +34,7 @@ impl AnalysisJob {
             generation,
             name,
             model: app.model.clone()?,
-            map: app.map.clone()?,
+            map: app.fit_map()?.clone(),
             track: app.fit_input_track(),
             alignment: app.alignment.clone().unwrap_or_default(),
             fps: app.fps,
@@ -59,6 +59,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         fits: &job.fits,
         side_view: job.side_p.is_some(),
         side_p: job.side_p.as_deref(),
+        pose: crate::measure::PoseComparison::default(),
     };
     let evaluated =
         evaluate_clip(&job.model, &job.map, &input, Normalisation::MinMax, DEFAULT_WORST_ROWS);

@@ -20,7 +20,7 @@ impl FitJob {
     /// The fit of `frames` (all when `None`) of the app's current track, as request
     /// `generation`; `None` without a model or a map.
     pub fn of(app: &App, generation: u64, frames: Option<&[usize]>) -> Option<Self> {
-        let (model, map) = (app.model.clone()?, app.map.clone()?);
+        let (model, map) = (app.model.clone()?, app.fit_map()?.clone());
         let input = app.fit_input_track();
         let frames = match frames {
             Some(list) => list.iter().filter_map(|f| input.get(*f).cloned()).collect(),

@@ -10,7 +10,7 @@ use crate::tui::screens::analysis::{AnalysisData, AnalysisTable, AnalysisView, S
 /// Queues a fresh analysis of the clip (when there are fits to analyse, with a model and a
 /// map); replies to older requests are dropped.
 pub fn request_analysis(app: &mut App) {
-    if !app.fits.by_frame.is_empty() && app.model.is_some() && app.map.is_some() {
+    if !app.fits.by_frame.is_empty() && app.model.is_some() && app.fit_map().is_some() {
         app.analysis.generation += 1;
         app.effects.push(Effect::Analyse { generation: app.analysis.generation });
     }

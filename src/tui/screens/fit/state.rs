@@ -9,4 +9,7 @@ pub struct FitScreen {
     pub running: bool,
     pub progress: (usize, usize),
     pub error: Option<String>,
+    /// The model map's anatomy problems shown to the user, who is asked whether to fit
+    /// anyway (`f` again with the same problems is yes; see `workflow::check_before_fit`).
+    pub map_problems: Vec<String>,
 }

@@ -12,13 +12,33 @@ pub fn run_fit(app: &mut App) {
         app.status = "cannot fit: the session has no model".into();
         return;
     };
-    let map = app.map.clone().unwrap_or_default();
-    // One message now rather than every frame failing the same way.
-    if let Err(e) =
-        crate::workflow::check_map_for_fit(&map, model.num_vertices(), &app.fit_settings)
-    {
-        app.status = format!("cannot fit: {e}; label more in the head view (2), `O` suggests");
-        return;
+    let map = app.fit_map().cloned().unwrap_or_default();
+    // The CLI's rule, so the TUI refuses and asks exactly where `lipmap fit` does. Asked
+    // once per list of problems: `f` again with the same list is the user's yes.
+    let asked = std::mem::take(&mut app.fit.map_problems);
+    match crate::workflow::check_before_fit(model, &map, &app.fit_settings, false) {
+        Ok(_) => {}
+        Err(crate::workflow::FitRefusal::Implausible { problems }) if problems == asked => {}
+        Err(crate::workflow::FitRefusal::Implausible { problems }) => {
+            app.status = format!(
+                "the model map fails the anatomy check ({} problems, listed in the fit view 3): \
+                 press f again to fit anyway (as `lipmap fit --accept-map-warnings`), or fix \
+                 the map in the head view (2)",
+                problems.len()
+            );
+            app.fit.map_problems = problems;
+            return;
+        }
+        Err(e) => {
+            let fix = match app.head.label_role {
+                crate::session::MapRole::Model => "label more in the head view (2), `O` suggests",
+                crate::session::MapRole::Head => {
+                    "give the model a map: lipmap import SESSION --mapping FILE"
+                }
+            };
+            app.status = format!("cannot fit: {e}; {fix}");
+            return;
+        }
     }
     if app.fits.stale.is_empty()
         && app.track.frames.iter().all(|f| app.fits.by_frame.contains_key(&f.frame))
@@ -86,4 +106,49 @@ pub fn fits_stored(app: &mut App) {
 
 pub fn fits_not_stored(app: &mut App, error: String) {
     app.status = format!("fit cache not updated: {error}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tui::fixtures::synthetic_app;
+    use std::sync::Arc;
+
+    /// The SFM model with the eyes' and the outer mouth's vertices exchanged in its map: the
+    /// TUI refuses, lists the problems `lipmap fit` lists, and fits when asked again.
+    #[test]
+    fn a_swapped_map_is_listed_and_asked_about_before_the_tui_fits() {
+        let Some(eos) = crate::testdata::shared("peer/eos/share") else { return };
+        let model =
+            crate::io::model_source::load_model(&eos.join("sfm_shape_3448.bin"), None).unwrap();
+        let sfm =
+            crate::io::landmark_map_toml::read_landmark_map(&eos.join("ibug_to_sfm.txt")).unwrap();
+        let mut bad = sfm.clone();
+        for k in 0..12 {
+            if let (Some(a), Some(b)) = (sfm.vertex(36 + k), sfm.vertex(48 + k)) {
+                bad.to_vertex.insert(36 + k, b);
+                bad.to_vertex.insert(48 + k, a);
+            }
+        }
+        let cli = crate::workflow::check_before_fit(&model, &bad, &Default::default(), false);
+        let Err(crate::workflow::FitRefusal::Implausible { problems }) = cli else {
+            panic!("the CLI's rule must refuse the swapped map")
+        };
+        let mut app = synthetic_app(3, 64, 48, false);
+        app.model = Some(Arc::new(model));
+        app.map = Some(bad);
+        run_fit(&mut app);
+        assert!(!app.effects.iter().any(|e| matches!(e, Effect::Fit { .. })), "no fit started");
+        assert_eq!(app.fit.map_problems, problems, "the same list as `lipmap fit`");
+        assert!(app.status.contains("f again"), "{}", app.status);
+        run_fit(&mut app);
+        assert!(app.effects.iter().any(|e| matches!(e, Effect::Fit { .. })), "asked, then fitted");
+        // The good map fits without a question.
+        let mut app2 = synthetic_app(3, 64, 48, false);
+        app2.model = app.model.clone();
+        app2.map = Some(sfm);
+        run_fit(&mut app2);
+        assert!(app2.effects.iter().any(|e| matches!(e, Effect::Fit { .. })));
+        assert!(app2.fit.map_problems.is_empty());
+    }
 }

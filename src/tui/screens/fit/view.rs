@@ -114,6 +114,16 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             lines.push(Line::from("press f to fit the clip").fg(Color::DarkGray));
         }
     }
+    if !app.fit.map_problems.is_empty() {
+        lines.push(
+            Line::from(format!("model map: {} problems", app.fit.map_problems.len()))
+                .fg(Color::LightRed)
+                .bold(),
+        );
+        lines
+            .extend(app.fit.map_problems.iter().map(|p| Line::from(p.clone()).fg(Color::LightRed)));
+        lines.push(Line::from("f again: fit anyway").fg(Color::Yellow));
+    }
     if app.fits.stale.contains(&f) {
         lines.push(Line::from("edited since fit").fg(Color::Yellow));
     }
@@ -163,7 +173,7 @@ fn fitted_mesh(app: &App, fit: &crate::fit::FrameFit) -> Option<(Mesh, HeadFrami
         Some(head) => (Mesh::from_flat(shape.as_slice(), head.faces.clone()), app.head.framing),
         None => {
             let mesh = model.to_mesh(&shape);
-            let framing = HeadFraming::of_face(&mesh, Some(model), app.map.as_ref());
+            let framing = HeadFraming::of_face(&mesh, Some(model), app.fit_map(), None);
             (mesh, framing)
         }
     })

@@ -28,6 +28,13 @@ pub struct HeadScreen {
     pub occluders: Option<Arc<Vec<bool>>>,
     /// The session's transferred heads the screen can show.
     pub heads: TransferredHeads,
+    /// Whose map the screen labels: the model's (what `fit` uses) or the head's own (what
+    /// transfer and indices use, when the head is another mesh).
+    pub label_role: crate::session::MapRole,
+    /// The file name of the mesh being labelled, shown with the role.
+    pub label_mesh_name: String,
+    /// The session's head is another mesh than the model, so there are two maps.
+    pub head_has_own_map: bool,
 }
 
 /// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
@@ -90,12 +97,20 @@ impl HeadFraming {
     /// The face of `mesh`: the mapped landmarks' box enlarged by half, once five or more are
     /// mapped (the face itself); else the vertices the model's expressions move, when they
     /// are a part of the mesh (the head of a full figure with facial blendshapes); else the
-    /// whole mesh.
-    pub fn of_face(mesh: &Mesh, model: Option<&MorphableModel>, map: Option<&LandmarkMap>) -> Self {
+    /// front of the head found from the geometry ([`face_region`], the vertices `eligible`
+    /// excludes left out).
+    pub fn of_face(
+        mesh: &Mesh,
+        model: Option<&MorphableModel>,
+        map: Option<&LandmarkMap>,
+        eligible: Option<&[bool]>,
+    ) -> Self {
         let n = mesh.vertices.len();
         let pick =
             |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
-        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
+        let whole = pick(&face_region(&mesh.vertices, eligible))
+            .or_else(|| HeadFraming::around(&mesh.vertices))
+            .unwrap_or_default();
         let mapped: Vec<usize> =
             map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
         if mapped.len() >= 5
@@ -114,6 +129,49 @@ impl HeadFraming {
             _ => whole,
         }
     }
+}
+
+/// Figures are about this many heads tall (crown to soles).
+const HEADS_PER_FIGURE: f64 = 7.5;
+
+/// The front of the head of a mesh, as vertex indices (those `eligible` allows, all when
+/// `None`): for a full figure (its longest side over 2.5 times the others), the top
+/// 1/[`HEADS_PER_FIGURE`] along that side; then the front half of that along the shorter
+/// remaining axis (a figure's depth, not its arm span), taking +axis as the front as
+/// MakeHuman, eos and the demo head face. Empty when nothing is eligible.
+pub fn face_region(vertices: &[crate::math::Point3], eligible: Option<&[bool]>) -> Vec<usize> {
+    let ok = |v: usize| eligible.is_none_or(|e| e.get(v) == Some(&true));
+    let idx: Vec<usize> = (0..vertices.len()).filter(|&v| ok(v)).collect();
+    let Some(all) = HeadFraming::around(idx.iter().map(|&v| &vertices[v])) else {
+        return idx;
+    };
+    let (lo, hi) = idx.iter().fold((all.centre.coords, all.centre.coords), |(lo, hi), &v| {
+        (lo.inf(&vertices[v].coords), hi.sup(&vertices[v].coords))
+    });
+    let extent = hi - lo;
+    let up = extent.imax();
+    let others: Vec<usize> = (0..3).filter(|&a| a != up).collect();
+    let (a, b) = (others[0], others[1]);
+    if extent[up] < 2.5 * extent[a].max(extent[b]) {
+        // A head or a bust: the whole of it is the head; its front is still the face.
+        let depth = if extent[a] < extent[b] { a } else { b };
+        return front_half(vertices, idx, depth);
+    }
+    let top = hi[up] - extent[up] / HEADS_PER_FIGURE;
+    let head: Vec<usize> = idx.into_iter().filter(|&v| vertices[v][up] >= top).collect();
+    let depth = if extent[a] < extent[b] { a } else { b };
+    front_half(vertices, head, depth)
+}
+
+/// The vertices of `idx` in front of their middle along `axis`.
+fn front_half(vertices: &[crate::math::Point3], idx: Vec<usize>, axis: usize) -> Vec<usize> {
+    let (lo, hi) = idx
+        .iter()
+        .map(|&v| vertices[v][axis])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
+    let mid = (lo + hi) / 2.0;
+    let front: Vec<usize> = idx.iter().copied().filter(|&v| vertices[v][axis] >= mid).collect();
+    if front.is_empty() { idx } else { front }
 }
 
 /// The unique edges of `mesh`'s faces for a wireframe, leaving out the vertices `keep`
@@ -172,7 +230,7 @@ impl PreparedHead {
             mesh.faces.retain(|f| f.iter().all(|&v| k.get(v as usize) == Some(&true)));
         }
         let edges = Arc::new(wire_edges(&mesh, keep));
-        let framing = HeadFraming::of_face(&mesh, None, Some(map));
+        let framing = HeadFraming::of_face(&mesh, None, Some(map), keep);
         Self { name, mode, transfer, mesh: Arc::new(mesh), edges, framing }
     }
 }
@@ -261,16 +319,24 @@ mod tests {
     #[test]
     fn head_framing_finds_the_face_of_a_full_figure() {
         let (mesh, model) = figure();
-        let whole = HeadFraming::of_face(&mesh, None, None);
-        assert!(whole.radius > 90.0, "no model, no map: the whole mesh ({whole:?})");
-        let face = HeadFraming::of_face(&mesh, Some(&model), None);
+        // No model, no map: the front of the figure's top, from the geometry alone.
+        let geometric = HeadFraming::of_face(&mesh, None, None, None);
+        assert!((geometric.centre.y - 10.0).abs() < 1e-9, "{geometric:?}");
+        assert!(geometric.radius < 1.0, "{geometric:?}");
+        // Helper geometry is never framed: without the face vertices, the top of the column.
+        let mut eligible = vec![true; 110];
+        eligible[100..].iter_mut().for_each(|e| *e = false);
+        let helper_free = HeadFraming::of_face(&mesh, None, None, Some(&eligible));
+        assert!(helper_free.centre.y < 0.0 && helper_free.centre.y > -18.0, "{helper_free:?}");
+        assert!(helper_free.radius < 15.0, "{helper_free:?}");
+        let face = HeadFraming::of_face(&mesh, Some(&model), None, None);
         assert!((face.centre.y - 10.0).abs() < 1e-9 && face.radius < 1.0, "{face:?}");
         // Without expressions, five mapped vertices frame the view instead.
         let mut map = LandmarkMap::default();
         for (l, v) in [(0, 100), (8, 103), (16, 109), (30, 105), (48, 107)] {
             map.to_vertex.insert(l, v);
         }
-        let mapped = HeadFraming::of_face(&mesh, None, Some(&map));
+        let mapped = HeadFraming::of_face(&mesh, None, Some(&map), None);
         assert!((mapped.centre.y - 10.0).abs() < 1e-9 && mapped.radius < 1.0, "{mapped:?}");
     }
 }

@@ -145,7 +145,12 @@ fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
     let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
         crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
     };
-    let fit = app.fits.by_frame.get(&app.frame()).filter(|f| f.is_usable());
+    // A fit is of the model: its shape is the labelled mesh only while the model is labelled.
+    let fit = app
+        .fits
+        .by_frame
+        .get(&app.frame())
+        .filter(|f| f.is_usable() && app.head.label_role == crate::session::MapRole::Model);
     if let (Some(model), Some(fit)) = (&app.model, fit) {
         let shape = crate::fit::fitted_shape(model, fit);
         let tris = match &app.mesh {

@@ -392,7 +392,15 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let mapped = app.map.as_ref().map_or(0, |m| m.len());
     let current = app.map.as_ref().and_then(|m| m.vertex(h.label));
     let mut lines = vec![
-        Line::from("labelling").bold(),
+        Line::from(format!("labelling the {} map", app.head.label_role.name().to_uppercase()))
+            .bold(),
+        Line::from(format!("on {}", app.head.label_mesh_name)).fg(Color::Gray),
+        Line::from(match (app.head.head_has_own_map, app.head.label_role) {
+            (false, _) => "(one map: model = head)",
+            (true, crate::session::MapRole::Model) => "(fit uses it; head map next)",
+            (true, crate::session::MapRole::Head) => "(for transfer, indices)",
+        })
+        .fg(Color::DarkGray),
         Line::from(format!("{} {}", h.label, crate::reference::current().names.name(h.label)))
             .fg(Color::Yellow),
         Line::from(match current {

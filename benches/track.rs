@@ -1,0 +1,100 @@
+//! Tracking speed: lipmap's tracker (`workflow::track::track_images`, the loop `lipmap track`
+//! runs: grey conversion, detection on the first frame, two cascade runs per frame) on the
+//! demo's 720×480 front frames, decoded beforehand (decoding is excluded; ffmpeg or the PNG
+//! decoder does it in `lipmap track`). Prints frames per second against the ≥ 100 target,
+//! and the cascade alone. Skips with a notice without Debian's predictor and detector.
+//! Run: `cargo bench --bench track`.
+
+use lipmap::demo::{DemoOptions, generate};
+use lipmap::io::frames::{FrameOptions, FrameSource};
+use lipmap::track::{
+    CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, box_from_shape,
+    run_cascade,
+};
+use lipmap::workflow::no_progress;
+use lipmap::workflow::track::{TrackerFiles, load_tracker, track_images};
+use std::path::Path;
+use std::time::Instant;
+
+fn main() {
+    for f in [DEBIAN_PREDICTOR_PATH, DEBIAN_CASCADE_PATH] {
+        if !Path::new(f).is_file() {
+            println!("track: skipped, {f} not found (apt-get install libdlib-data opencv-data)");
+            return;
+        }
+    }
+    let t0 = Instant::now();
+    let tracker = load_tracker(&TrackerFiles::default()).expect("Debian's predictor and detector");
+    println!("track: predictor and detector read in {:.2} s", t0.elapsed().as_secs_f64());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let opts = DemoOptions {
+        out_dir: dir.path().join("demo"),
+        sentences: 2,
+        side_view: false,
+        write_model: false,
+        ..DemoOptions::default()
+    };
+    let out = generate(&opts).expect("demo");
+    let mut frames: Vec<GrayImage> = Vec::new();
+    for clip in &out.speakers[0].clips {
+        let src = FrameSource::open(
+            clip.front_dir.as_ref().expect("front frames"),
+            &FrameOptions::default(),
+        )
+        .expect("demo frames");
+        for i in 0..src.len() {
+            let img = src.get(i).expect("decodes");
+            frames.push(GrayImage::from_rgb(
+                img.width() as usize,
+                img.height() as usize,
+                img.as_raw(),
+            ));
+        }
+    }
+    let (w, h) = (frames[0].width, frames[0].height);
+    // Grey conversion is inside the timing, as in `lipmap track`: keep RGB copies.
+    let rgb: Vec<Vec<u8>> =
+        frames.iter().map(|g| g.pixels.iter().flat_map(|&v| [v, v, v]).collect()).collect();
+    let mut best = f64::INFINITY;
+    let mut tracked = None;
+    for _ in 0..3 {
+        let t = Instant::now();
+        let r = track_images(
+            &tracker,
+            rgb.len(),
+            |i| Ok(GrayImage::from_rgb(w, h, &rgb[i])),
+            &no_progress,
+        )
+        .expect("tracks");
+        best = best.min(t.elapsed().as_secs_f64());
+        tracked = Some(r);
+    }
+    let r = tracked.expect("ran");
+    let fps = rgb.len() as f64 / best;
+    println!(
+        "track: {} frames of {w}×{h}, best of 3: {:.1} ms, {fps:.0} frames/s (target ≥ 100: {}); detected on {} frames, lost {}",
+        rgb.len(),
+        best * 1e3,
+        if fps >= 100.0 { "met" } else { "NOT met" },
+        r.detected.len(),
+        r.lost.len()
+    );
+    // One cascade run alone (the tracker makes two per frame).
+    let shape: Vec<_> =
+        r.track.frames[0].points.iter().map(|p| nalgebra::Vector2::new(p.x, p.y)).collect();
+    let face = box_from_shape(&tracker.predictor.mean_shape, &shape).expect("a box");
+    let reps = 500;
+    let t = Instant::now();
+    for _ in 0..reps {
+        std::hint::black_box(run_cascade(
+            &tracker.predictor,
+            frames[0].view(),
+            &face,
+            &CascadeStart::default(),
+        ));
+    }
+    println!(
+        "track: one cascade run (15 stages × 500 trees) {:.3} ms",
+        t.elapsed().as_secs_f64() * 1e3 / reps as f64
+    );
+}

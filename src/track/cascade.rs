@@ -1,0 +1,214 @@
+//! The cascade of regression trees (Kazemi & Sullivan, "One Millisecond Face Alignment with
+//! an Ensemble of Regression Trees", CVPR 2014): from a start shape in a face box, each stage
+//! reads its feature pixels at offsets anchored on the current shape (warped by the
+//! similarity from the mean shape, §2.3.1), walks every tree of its forest by pixel-intensity
+//! differences against thresholds (§2.3.2), and adds the leaves' shape increments (eq. 1).
+//!
+//! Everything is done as dlib's `shape_predictor::operator()` does it, so the same file gives
+//! the same points: shapes live in the box-normalised frame, a feature pixel is the nearest
+//! pixel (`floor(x + 0.5)`) of a grey image (`(r + g + b) / 3`, integer), 0 outside it, and
+//! the increments are summed in `f32` in the trees' order.
+//!
+//! Two departures, both opt-in through [`CascadeStart`]: the cascade may start from any shape
+//! (tracking from the previous frame, re-aligning a corrected frame) rather than the mean
+//! shape, and points may be *held*: reset to given positions after every stage, so the
+//! trees see a face whose held points are where the user put them and move the others to
+//! agree (`realign`).
+
+use super::predictor_file::{ShapePredictor, Stage};
+use super::similarity::{FaceBox, similarity_scaled_rotation};
+use nalgebra::Vector2;
+
+/// A grey 8-bit image borrowed row-major (`width · height` bytes).
+#[derive(Clone, Copy, Debug)]
+pub struct GrayView<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: &'a [u8],
+}
+
+impl GrayView<'_> {
+    /// The pixel nearest `p` (dlib's rounding), 0 outside the image.
+    #[inline]
+    fn nearest(&self, p: Vector2<f64>) -> f32 {
+        let (x, y) = ((p.x + 0.5).floor(), (p.y + 0.5).floor());
+        if x >= 0.0 && y >= 0.0 && x < self.width as f64 && y < self.height as f64 {
+            f32::from(self.pixels[y as usize * self.width + x as usize])
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A grey 8-bit image owned row-major.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct GrayImage {
+    pub width: usize,
+    pub height: usize,
+    pub pixels: Vec<u8>,
+}
+
+impl GrayImage {
+    /// An RGB image (3 bytes per pixel, row-major) in dlib's grey levels.
+    pub fn from_rgb(width: usize, height: usize, rgb: &[u8]) -> Self {
+        Self { width, height, pixels: gray_from_rgb(rgb) }
+    }
+
+    pub fn view(&self) -> GrayView<'_> {
+        GrayView { width: self.width, height: self.height, pixels: &self.pixels }
+    }
+}
+
+/// An RGB image's grey levels as dlib computes them: `(r + g + b) / 3`, rounded down.
+pub fn gray_from_rgb(rgb: &[u8]) -> Vec<u8> {
+    rgb.chunks_exact(3)
+        .map(|p| ((u16::from(p[0]) + u16::from(p[1]) + u16::from(p[2])) / 3) as u8)
+        .collect()
+}
+
+/// Where the cascade starts and which points it keeps fixed.
+#[derive(Clone, Debug, Default)]
+pub struct CascadeStart<'a> {
+    /// The start shape in pixels (`None`: the mean shape placed in the box, as dlib does).
+    pub shape: Option<&'a [Vector2<f64>]>,
+    /// Points reset to these pixel positions after every stage (and before the first).
+    pub held: &'a [(usize, Vector2<f64>)],
+}
+
+/// Runs the whole cascade on `image` in `face`, from `start`, and returns the shape in
+/// pixels. Held indices past the shape are ignored; a start shape of the wrong length is
+/// replaced by the mean shape.
+pub fn run_cascade(
+    predictor: &ShapePredictor,
+    image: GrayView<'_>,
+    face: &FaceBox,
+    start: &CascadeStart<'_>,
+) -> Vec<Vector2<f64>> {
+    let n = predictor.num_parts();
+    let mut shape: Vec<f32> = match start.shape {
+        Some(s) if s.len() == n => s
+            .iter()
+            .flat_map(|&p| {
+                let q = face.to_normalised(p);
+                [q.x, q.y]
+            })
+            .collect(),
+        _ => predictor.mean_shape.iter().flat_map(|p| [p.x, p.y]).collect(),
+    };
+    let held: Vec<(usize, Vector2<f32>)> = start
+        .held
+        .iter()
+        .filter(|(i, _)| *i < n)
+        .map(|&(i, p)| (i, face.to_normalised(p)))
+        .collect();
+    let hold = |shape: &mut [f32]| {
+        for &(i, p) in &held {
+            shape[2 * i] = p.x;
+            shape[2 * i + 1] = p.y;
+        }
+    };
+    hold(&mut shape);
+    let mut features = Vec::new();
+    for stage in &predictor.stages {
+        feature_pixels(predictor, stage, image, face, &shape, &mut features);
+        add_forest(stage, &features, &mut shape);
+        hold(&mut shape);
+    }
+    shape.chunks_exact(2).map(|p| face.to_image(Vector2::new(p[0], p[1]))).collect()
+}
+
+/// The intensities of a stage's feature pixels for the current `shape` (flat x, y pairs in
+/// the box-normalised frame), into `out`.
+fn feature_pixels(
+    predictor: &ShapePredictor,
+    stage: &Stage,
+    image: GrayView<'_>,
+    face: &FaceBox,
+    shape: &[f32],
+    out: &mut Vec<f32>,
+) {
+    let current: Vec<Vector2<f32>> =
+        shape.chunks_exact(2).map(|p| Vector2::new(p[0], p[1])).collect();
+    let warp = similarity_scaled_rotation(&predictor.mean_shape, &current);
+    out.clear();
+    out.extend(stage.anchors.iter().zip(&stage.offsets).map(|(&a, d)| {
+        let p = warp * d + current[a as usize];
+        image.nearest(face.to_image(p))
+    }));
+}
+
+/// Adds the leaf each tree of the stage's forest reaches on `features` to `shape`.
+fn add_forest(stage: &Stage, features: &[f32], shape: &mut [f32]) {
+    let len = shape.len();
+    for tree in &stage.trees {
+        let n_splits = tree.splits.len();
+        let mut i = 0;
+        while i < n_splits {
+            let s = &tree.splits[i];
+            i = if features[s.a as usize] - features[s.b as usize] > s.threshold {
+                2 * i + 1
+            } else {
+                2 * i + 2
+            };
+        }
+        let leaf = &tree.leaves[(i - n_splits) * len..(i - n_splits + 1) * len];
+        for (v, d) in shape.iter_mut().zip(leaf) {
+            *v += d;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::track::predictor_file::{Split, Tree};
+
+    /// One point, one stage, two feature pixels left and right of it: the tree moves the
+    /// point toward the brighter side.
+    fn seeker() -> ShapePredictor {
+        ShapePredictor {
+            mean_shape: vec![Vector2::new(0.5, 0.5)],
+            stages: vec![
+                Stage {
+                    anchors: vec![0, 0],
+                    offsets: vec![Vector2::new(-0.2, 0.0), Vector2::new(0.2, 0.0)],
+                    trees: vec![Tree {
+                        splits: vec![Split { a: 0, b: 1, threshold: 10.0 }],
+                        leaves: vec![-0.1, 0.0, 0.1, 0.0],
+                    }],
+                };
+                3
+            ],
+        }
+    }
+
+    fn image_bright_right_of(x0: usize) -> (Vec<u8>, usize, usize) {
+        let (w, h) = (100, 50);
+        let px = (0..w * h).map(|i| if i % w >= x0 { 200 } else { 20 }).collect();
+        (px, w, h)
+    }
+
+    #[test]
+    fn the_trees_walk_the_shape_toward_the_evidence() {
+        let (px, width, height) = image_bright_right_of(70);
+        let img = GrayView { width, height, pixels: &px };
+        let face = FaceBox { left: 0.0, top: 0.0, width: 100.0, height: 50.0 };
+        let out = run_cascade(&seeker(), img, &face, &CascadeStart::default());
+        // From x = 50: 50+20 = 70 is bright, so each of 3 stages moves it right by 10 px.
+        assert!((out[0].x - 80.0).abs() < 1e-4, "{:?}", out[0]);
+        let held = [(0, Vector2::new(42.0, 25.0))];
+        let start = CascadeStart { shape: None, held: &held };
+        let out = run_cascade(&seeker(), img, &face, &start);
+        assert!((out[0] - held[0].1).norm() < 1e-4);
+    }
+
+    #[test]
+    fn pixels_outside_the_image_read_zero_and_grey_is_dlibs_mean() {
+        let px = [9u8; 4];
+        let img = GrayView { width: 2, height: 2, pixels: &px };
+        assert_eq!(img.nearest(Vector2::new(1.49, 1.2)), 9.0);
+        assert_eq!(img.nearest(Vector2::new(1.5, 0.0)), 0.0);
+        assert_eq!(img.nearest(Vector2::new(-0.51, 0.0)), 0.0);
+        assert_eq!(gray_from_rgb(&[255, 255, 254, 1, 1, 0]), [254, 0]);
+    }
+}

@@ -79,12 +79,7 @@ fn model() -> &'static PathBuf {
 fn eval(session: &Path) -> ([f64; 4], bool) {
     let out = ok(lipmap(&["speech", "eval", s(model()), s(session), "--json"]), "speech eval");
     let tables: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let (_, scores) = tables
-        .as_object()
-        .unwrap()
-        .iter()
-        .find(|(title, _)| title.starts_with("Visual parameters"))
-        .unwrap();
+    let scores = &tables["scores"]["rows"];
     let row = |i: usize| (scores[i]["ACC"].as_f64().unwrap(), scores[i]["AMSE"].as_f64().unwrap());
     let ((acc, amse), (lacc, lamse)) = (row(0), row(1));
     let eval_text = ok(lipmap(&["speech", "eval", s(model()), s(session)]), "speech eval");

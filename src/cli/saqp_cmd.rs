@@ -253,7 +253,7 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     save_predictor(&a.out, &trained.file)?;
     writeln!(
         out,
-        "trained the {} quality predictor on {} sentences ({} kept; held out: r {:.3}, {}); SATF lambda {} order {}, omega_m {}; wrote {}",
+        "trained the {} quality predictor on {} sentences ({} kept; r {:.3}, {}); SATF lambda {} order {}, omega_m {}; wrote {}",
         synth.name(),
         trained.file.sentences,
         p.calibration.name(),
@@ -269,7 +269,10 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
 
 fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
     let model = load_predictor(&a.model)?;
-    let headers = ["phones", "E", "predicted", "sigma", "unseen phones"].map(String::from).to_vec();
+    let headers =
+        ["phones", "E", "coverage", "predicted", "sigma", "unseen phones", "extrapolated"]
+            .map(String::from)
+            .to_vec();
     let mut t = Table::new(
         format!(
             "Predicted quality (Likert 1 worst - 5 best) of {} motion",
@@ -278,20 +281,23 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         headers,
     )
     .keyed("predictions");
-    let mut any_unseen = false;
+    let (mut any_unseen, mut any_extrapolated) = (false, false);
     for file in &a.phones {
         let q = predict_quality(&model, file)?;
         any_unseen |= !q.unseen.is_empty();
+        any_extrapolated |= !q.extrapolated.is_empty();
         t.push_row(vec![
             Cell::Text(file.display().to_string()),
             Cell::Num(q.e),
+            Cell::Num(q.coverage),
             Cell::Num(q.prediction.mean),
             Cell::Num(q.prediction.std()),
             Cell::Text(q.unseen.join(" ")),
+            Cell::Text(q.extrapolated.join(" ")),
         ]);
     }
     t.notes.push(format!(
-        "E: the sequence's SATF error against the {} training sentences; sigma: the prediction's standard deviation",
+        "E: the sequence's SATF error against the {} training sentences; coverage: how well their recorded phones match its contexts (0–1); sigma: the prediction's standard deviation",
         model.sentences
     ));
     let skill = &model.predictor.skill;
@@ -304,6 +310,13 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
             model.predictor.gp.target_mean
         )
     });
+    if any_extrapolated {
+        let p = &model.predictor;
+        let ((e0, e1), (c0, c1)) = (p.input_range(0), p.input_range(1));
+        t.notes.push(format!(
+            "extrapolated: an input outside those of the training sentences (E {e0:.1}–{e1:.1}, coverage {c0:.2}–{c1:.2}): the score is less sure than sigma says"
+        ));
+    }
     if any_unseen {
         t.notes.push(
             "unseen phones have no statistics of their own in the training corpus (another phone set?): they are fitted loosely, so E is low and the prediction too kind"

@@ -68,9 +68,15 @@ pub fn read_json_model(path: &Path, kind: &JsonModelKind) -> Result<serde_json::
         return Err(FormatError::whole(
             path,
             format!(
-                "{what} version {} is not the version {} this lipmap reads",
+                "{what} version {} is not the version {} this lipmap reads{}",
                 version.map_or_else(|| "(missing)".to_string(), |v| v.to_string()),
-                kind.version
+                kind.version,
+                // An older model holds less than this lipmap needs: only retraining makes it.
+                if version.is_some_and(|v| v < u64::from(kind.version)) {
+                    format!("; make a new one with `{}`", kind.made_by)
+                } else {
+                    String::new()
+                }
             ),
         ));
     }
@@ -99,6 +105,14 @@ mod tests {
         let e = read_json_model(&p, &SPEECH_MODEL).unwrap_err().to_string();
         assert!(
             e.ends_with("speech model version (missing) is not the version 2 this lipmap reads"),
+            "{e}"
+        );
+        std::fs::write(&p, r#"{"format":"lipmap saqp model","version":1}"#).unwrap();
+        let e = read_json_model(&p, &QUALITY_MODEL).unwrap_err().to_string();
+        assert!(
+            e.ends_with(
+                "is not the version 2 this lipmap reads; make a new one with `lipmap saqp train`"
+            ),
             "{e}"
         );
         std::fs::write(&p, "[").unwrap();

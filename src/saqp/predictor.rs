@@ -197,8 +197,13 @@ impl Predictor {
         let ids = set.intern_all(phones, inventory, visemes);
         let fit = fit_trajectory(name, &self.stats, &set, &ids, phones, self.fps, self.satf)?;
         let index = ContextIndex::new(&set, self.sequences.iter().map(Vec::as_slice).collect());
-        let inputs = predictor_inputs(&fit, &index, &set, &ids);
-        let p = predict_with(self.calibration, &self.gp, &self.linear, &[inputs])?;
+        let inputs_used = predictor_inputs(&fit, &index, &set, &ids);
+        let p = predict_with(
+            self.calibration,
+            &self.gp,
+            &self.linear,
+            std::slice::from_ref(&inputs_used),
+        )?;
         if !(p[0].mean.is_finite() && p[0].std().is_finite() && fit.e.is_finite()) {
             return Err(SaqpError::Gp(format!(
                 "sentence `{name}`: the prediction is not a finite number (a damaged model?)"
@@ -216,7 +221,35 @@ impl Predictor {
                 unseen.push(label.to_string());
             }
         }
-        Ok(QualityEstimate { e: fit.e, prediction: p[0], unseen })
+        let extrapolated = INPUT_NAMES
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| {
+                // A tenth of the range either way is still among the training pairs' kind:
+                // a corpus sentence itself, scored against every sentence and so against
+                // its own occurrences too, sits just past the highest coverage.
+                let (lo, hi) = self.input_range(k);
+                let margin = 0.1 * (hi - lo);
+                !(lo - margin..=hi + margin).contains(&inputs_used[k])
+            })
+            .map(|(_, name)| *name)
+            .collect();
+        Ok(QualityEstimate {
+            e: fit.e,
+            coverage: inputs_used[1],
+            prediction: p[0],
+            unseen,
+            extrapolated,
+        })
+    }
+
+    /// The smallest and largest value of input `k` ([`INPUT_NAMES`]) among the training
+    /// pairs.
+    pub fn input_range(&self, k: usize) -> (f64, f64) {
+        self.gp
+            .inputs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x[k]), hi.max(x[k])))
     }
 }
 
@@ -225,8 +258,13 @@ impl Predictor {
 pub struct QualityEstimate {
     /// The SATF error of the sequence against the training corpus.
     pub e: f64,
+    /// Its coverage by the corpus ([`ContextIndex::coverage`]), the predictor's other input.
+    pub coverage: f64,
     /// Predicted Likert score (1 worst – 5 best) and its standard deviation.
     pub prediction: GpPrediction,
     /// Phone labels (grouping labels) without statistics of their own in the corpus.
     pub unseen: Vec<String>,
+    /// The inputs ([`INPUT_NAMES`]) outside the range the predictor was trained on (by more
+    /// than a tenth of it): there the score is an extrapolation, less sure than its σ says.
+    pub extrapolated: Vec<&'static str>,
 }

@@ -117,16 +117,11 @@ fn eval(dir: &Path, whole_meshes: bool) {
     let t_load = t0.elapsed();
     let clips = workflow::select_clips(&opened.session, None).unwrap();
     let settings = opened.session.fit_settings.clone();
-    let mut done = workflow::utterances_with(
-        &mut opened.session,
-        &res,
-        &clips,
-        &settings,
-        HeadP::Mesh,
-        Default::default(),
-        &no_progress,
-    )
-    .unwrap();
+    let which =
+        workflow::ClipsToMeasure { clips: &clips, head_p: HeadP::Mesh, pose: Default::default() };
+    let mut done =
+        workflow::utterances_with(&mut opened.session, &res, which, &settings, &no_progress)
+            .unwrap();
     if whole_meshes {
         // The path before: every clip's fitted meshes built whole, then measured.
         let map = res.map.with_commissures_completed();

@@ -1,5 +1,5 @@
 //! Memory on hostile and long inputs, through the release binary as a user runs it: the
-//! issue's bound is under 1 GB of memory for an input under 1 MB, and memory that grows with
+//! bound is under 1 GB of memory for an input under 1 MB, and memory that grows with
 //! the data, never with a number read from a file.
 //!
 //! Inputs, all made here from the demo (4 sentences, no frames):
@@ -10,7 +10,7 @@
 //!   carried onto the MakeHuman head when `../shared/data` is present;
 //! - an hour of speech (130 demo sentences' voices, pauses included, repeated) at 16 kHz
 //!   mono and at 48 kHz stereo, animated by a model trained with default settings on those
-//!   130 sentences: bounded by 300 MB and 60 s (issue 30), whatever the hour's size.
+//!   130 sentences: bounded by 300 MB and 60 s, whatever the hour's size.
 //!
 //! Each command's peak resident memory is read from `wait4`'s rusage; prints MB and the
 //! ratio to the bound. Run: `cargo bench --bench hostile`.
@@ -53,7 +53,7 @@ fn report(what: &str, input_bytes: u64, args: &[&str]) {
     );
 }
 
-/// Bounds of `speech animate` on an hour of audio (issue 30).
+/// Bounds of `speech animate` on an hour of audio.
 const HOUR_BOUND_MB: f64 = 300.0;
 const HOUR_BOUND_S: f64 = 60.0;
 

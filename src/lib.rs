@@ -13,8 +13,8 @@
 //! - storage and formats: [`session`] (the session file, lock and journal) and [`io`] (one
 //!   reader/writer per format);
 //! - core, plain values in and out: [`landmarks`], [`alignment`], [`model`], [`fit`],
-//!   [`measure`], [`eval`], [`saqp`], [`transfer`], [`speech`], [`render`], [`plot`],
-//!   [`math`];
+//!   [`measure`], [`eval`], [`saqp`], [`transfer`], [`speech`], [`track`], [`render`],
+//!   [`plot`], [`math`], [`table_text`];
 //! - [`demo`], the synthetic speaker generator.
 
 pub mod alignment;

@@ -35,7 +35,7 @@ fn dist(a: (f64, f64), b: (f64, f64)) -> f64 {
     ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt()
 }
 
-/// The 12 indices by hand from issue 6's definitions, in the published order.
+/// The 12 indices by hand from their definitions (`measure::indices`), in the published order.
 fn hand_indices(p: &[(f64, f64)]) -> [f64; 12] {
     let nasion = ((p[39].0 + p[42].0) / 2.0, (p[39].1 + p[42].1) / 2.0);
     let d1 = dist(p[8], nasion);

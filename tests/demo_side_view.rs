@@ -1,4 +1,4 @@
-//! Issue 6's judged figure: on every default demo speaker, P from the side video after
+//! The side view's target: on every default demo speaker, P from the side video after
 //! automatic extraction alone matches the true P with RMSE ≤ 0.05, min–max per sentence
 //! (and at most 2 frames of a sentence without P).
 //!

@@ -18,7 +18,7 @@ fn hypot(a: (f64, f64), b: (f64, f64)) -> f64 {
     ((a.0 - b.0).powi(2) + (a.1 - b.1).powi(2)).sqrt()
 }
 
-/// D1..D13 by hand from the raw coordinates, following issue 6's definitions literally.
+/// D1..D13 by hand from the raw coordinates, following the definitions in `measure::indices::distances` literally.
 fn hand_distances(p: &[(f64, f64)]) -> [f64; 13] {
     let nasion = ((p[39].0 + p[42].0) / 2.0, (p[39].1 + p[42].1) / 2.0);
     [

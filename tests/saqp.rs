@@ -172,42 +172,29 @@ fn bad_input_gets_a_one_line_error_naming_what() {
             })
             .collect()
     };
-    let err = predictor
-        .predict(
-            "new",
-            &phones(&["sil", "XX", "QQ", "sil"]),
-            &Default::default(),
-            &Default::default(),
-        )
-        .unwrap_err();
+    // The default phone inventory and viseme tables.
+    let tables = (Default::default(), Default::default());
+    let predict = |p: &saqp::Predictor, name: &str, labels: &[&str]| {
+        p.predict(name, &phones(labels), &tables.0, &tables.1)
+    };
+    let err = predict(&predictor, "new", &["sil", "XX", "QQ", "sil"]).unwrap_err();
     assert_eq!(err, SaqpError::AllPhonesUnseen("new".into()));
-    let q = predictor
-        .predict(
-            "new",
-            &phones(&["sil", "B", "IH", "N", "sil"]),
-            &Default::default(),
-            &Default::default(),
-        )
-        .unwrap();
+    let q = predict(&predictor, "new", &["sil", "B", "IH", "N", "sil"]).unwrap();
     let (e, p) = (q.e, q.prediction);
     assert!(e.is_finite() && p.mean.is_finite() && p.std() > 0.0);
     assert!(q.unseen.is_empty(), "{:?}", q.unseen);
     // The same phones written in IPA are the same phones (the phone inventory's keys).
-    let tables = (Default::default(), Default::default());
-    let ipa =
-        predictor.predict("new", &phones(&["", "b", "ɪ", "n", ""]), &tables.0, &tables.1).unwrap();
+    let ipa = predict(&predictor, "new", &["", "b", "ɪ", "n", ""]).unwrap();
     assert!(ipa.unseen.is_empty(), "{:?}", ipa.unseen);
     assert_eq!(ipa.e, e);
     // A phone outside the inventory is named, not silently scored as if it were known.
-    let mixed = predictor
-        .predict("new", &phones(&["sil", "B", "œ", "N", "sil"]), &tables.0, &tables.1)
-        .unwrap();
+    let mixed = predict(&predictor, "new", &["sil", "B", "œ", "N", "sil"]).unwrap();
     assert_eq!(mixed.unseen, vec!["œ".to_string()]);
     // A sentence far longer than any of the corpus's: E past the training range, named.
     let mut long = vec!["sil"];
     long.extend(["B", "IH", "N", "L", "UW"].repeat(30));
     long.push("sil");
-    let far = predictor.predict("long", &phones(&long), &tables.0, &tables.1).unwrap();
+    let far = predict(&predictor, "long", &long).unwrap();
     assert!(far.extrapolated.contains(&"E"), "{far:?}");
     assert!(far.prediction.mean.is_finite());
     let (lo, hi) = predictor.input_range(1);
@@ -215,14 +202,7 @@ fn bad_input_gets_a_one_line_error_naming_what() {
     // The predictor survives serde.
     let json = serde_json::to_string(&predictor).unwrap();
     let back: saqp::Predictor = serde_json::from_str(&json).unwrap();
-    let q2 = back
-        .predict(
-            "new",
-            &phones(&["sil", "B", "IH", "N", "sil"]),
-            &Default::default(),
-            &Default::default(),
-        )
-        .unwrap();
+    let q2 = predict(&back, "new", &["sil", "B", "IH", "N", "sil"]).unwrap();
     let (e2, p2) = (q2.e, q2.prediction);
     assert!((e - e2).abs() < 1e-9 * e.abs().max(1.0) && (p.mean - p2.mean).abs() < 1e-9);
 }

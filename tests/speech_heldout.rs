@@ -1,4 +1,4 @@
-//! Held-out figures of `lipmap speech` through the release binary, against the issue's
+//! Held-out figures of `lipmap speech` through the release binary, against the
 //! targets: a model trained with default settings on one demo corpus (130 sentences, the
 //! default seed) and scored on corpora it never saw:
 //! - the same voice, other sentences (seeds 101–103, seeds the settings were not tuned on):

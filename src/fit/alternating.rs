@@ -37,7 +37,7 @@ pub(crate) fn solve(
             id_pts = identity_points(basis, &alpha);
         }
         group.expression_step(&mut states, &id_pts);
-        // Stop once the objective stops falling (DESIGN §5.3).
+        // Stop once the objective stops falling (docs/fitting.md, "Method").
         let cost = group.objective(&states, &id_pts, &alpha, params);
         if cost.is_nan() || cost >= last * (1.0 - params.tolerance) {
             break;

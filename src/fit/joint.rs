@@ -20,7 +20,7 @@ use super::clip::{
 };
 use super::shape::{
     FrameObservations, GRAM_PAIRS, LandmarkBasis, axpy, back_substitute_rows, cholesky_in_place,
-    cholesky_solve_in_place, dot, forward_substitute_rows, projector,
+    cholesky_solve_in_place, dot, forward_substitute_rows, projector, vectorised,
 };
 use crate::math::{DMatrix, DVector, Matrix3, Point2, Real, Vector3};
 use nalgebra::{DMatrixView, Rotation3};
@@ -167,9 +167,15 @@ fn observation_moments(
     m
 }
 
-/// `Σᵢ wᵢ·Xᵢ[a]·Bᵢ[b,:]` (row 3a + b) over all landmarks for the points `pts`: the part of
-/// the pose–coefficient coupling that the frames share (their identity part).
-fn point_moments(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
+vectorised! {
+    /// `Σᵢ wᵢ·Xᵢ[a]·Bᵢ[b,:]` (row 3a + b) over all landmarks for the points `pts`: the part
+    /// of the pose–coefficient coupling that the frames share (their identity part).
+    fn point_moments<'a>(basis: &'a LandmarkBasis, pts: &'a [Vector3]) -> Vec<Real>
+        = point_moments_kernel
+}
+
+#[inline(always)]
+fn point_moments_kernel(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
     let k = basis.num_coefficients();
     let mut m = vec![0.0; 9 * k];
     for (i, p) in pts.iter().enumerate() {
@@ -182,7 +188,7 @@ fn point_moments(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
 }
 
 /// `out = c₀·x₀ + c₁·x₁ + c₂·x₂` (rows of equal length).
-#[inline]
+#[inline(always)]
 fn combine3(out: &mut [Real], c: [Real; 3], x: [&[Real]; 3]) {
     for (((o, &a), &b), &d) in out.iter_mut().zip(x[0]).zip(x[1]).zip(x[2]) {
         *o = c[0] * a + c[1] * b + c[2] * d;
@@ -190,7 +196,7 @@ fn combine3(out: &mut [Real], c: [Real; 3], x: [&[Real]; 3]) {
 }
 
 /// Row `j` (of length k) of `m`.
-#[inline]
+#[inline(always)]
 fn row(m: &[Real], j: usize, k: usize) -> &[Real] {
     &m[j * k..(j + 1) * k]
 }
@@ -320,15 +326,27 @@ impl BlockScratch {
     }
 }
 
-/// Builds frame f's blocks. The pose block is summed landmark by landmark; the
-/// pose–coefficient coupling and the coefficient gradient come from moments: with camera
-/// points `cᵢ = R·xᵢ` and rotated rows `Pᵢ = R·Bᵢ`, every row of `H_pc` is a combination
-/// of `Σᵢ wᵢ·cᵢ[a]·Pᵢ[b,:] = R·(Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:])·Rᵀ` and `R·Σᵢ wᵢ·Bᵢ`, and
-/// `Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:]` is the identity part (shared by the frames) plus `Σ_e β_e` times
-/// the precomputed expression moments; the coefficient blocks come from the Gram blocks.
-/// Landmarks the frame does not use are subtracted one by one. Returns the identity-block
-/// correction for those landmarks, if any.
-fn frame_blocks(
+vectorised! {
+    /// Builds frame f's blocks. The pose block is summed landmark by landmark; the
+    /// pose–coefficient coupling and the coefficient gradient come from moments: with camera
+    /// points `cᵢ = R·xᵢ` and rotated rows `Pᵢ = R·Bᵢ`, every row of `H_pc` is a combination
+    /// of `Σᵢ wᵢ·cᵢ[a]·Pᵢ[b,:] = R·(Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:])·Rᵀ` and `R·Σᵢ wᵢ·Bᵢ`, and
+    /// `Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:]` is the identity part (shared by the frames) plus `Σ_e β_e` times
+    /// the precomputed expression moments; the coefficient blocks come from the Gram blocks.
+    /// Landmarks the frame does not use are subtracted one by one. Returns the identity-block
+    /// correction for those landmarks, if any.
+    fn frame_blocks<'a>(
+        sh: &'a Shared<'a>,
+        obs: &'a FrameObservations,
+        st: &'a FrameState,
+        moments: &'a [Real],
+        scr: &'a mut BlockScratch,
+        out: FrameOut<'a>,
+    ) -> Option<DMatrix> = frame_blocks_kernel
+}
+
+#[inline(always)]
+fn frame_blocks_kernel(
     sh: &Shared<'_>,
     obs: &FrameObservations,
     st: &FrameState,

@@ -15,6 +15,36 @@ use nalgebra::Dyn;
 
 use super::camera::{OrthoPose, PoseResidual};
 
+/// Declares `fn name<'a>(args…) -> Out`, which runs the `#[inline(always)]` function
+/// `kernel(args…)` compiled for the widest vector instructions the CPU has (AVX2 where
+/// present, detected at run time by pulp; the build itself targets baseline x86-64, two
+/// doubles per instruction): the loops of `kernel` and of the `#[inline(always)]` helpers it
+/// calls, such as [`dot`] and [`axpy`], then work on four doubles at a time. Vector width does
+/// not change the results: each lane does the same operations in the same order.
+///
+/// Only code inlined into pulp's target-feature function gets the wider instructions: a
+/// closure or a function reached through `FnOnce` is compiled on its own, for the baseline,
+/// hence a declared function calling `kernel` by name.
+macro_rules! vectorised {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
+        -> $out:ty = $kernel:path) => {
+        $(#[$meta])*
+        $vis fn $name<$lt>($($arg: $ty),*) -> $out {
+            struct Op<$lt>($($ty),*);
+            impl<$lt> pulp::WithSimd for Op<$lt> {
+                type Output = $out;
+                #[inline(always)]
+                fn with_simd<S: pulp::Simd>(self, _: S) -> $out {
+                    let Op($($arg),*) = self;
+                    $kernel($($arg),*)
+                }
+            }
+            pulp::Arch::new().dispatch(Op($($arg),*))
+        }
+    };
+}
+pub(crate) use vectorised;
+
 /// eos's data-term variance: `Ω = I/σ²` with σ = √3 px (its default). lipmap keeps the
 /// convention so its λ means what eos's λ means.
 pub const EOS_SIGMA_SQUARED: Real = 3.0;
@@ -170,7 +200,7 @@ impl LandmarkBasis {
     }
 
     /// Row `axis` (0 x, 1 y, 2 z) of landmark `i`: K coefficients.
-    #[inline]
+    #[inline(always)]
     pub fn row(&self, i: usize, axis: usize) -> &[Real] {
         let k = self.num_coefficients();
         &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
@@ -250,18 +280,30 @@ impl LandmarkBasis {
 
     /// Landmark points `mean + B·c` for the coefficients `c[cols]` only (the rest taken as 0).
     pub fn points_partial(&self, c: &[Real], cols: std::ops::Range<usize>) -> Vec<Vector3> {
-        (0..self.len())
-            .map(|i| {
-                let mut p = self.mean[i];
-                for j in 0..3 {
-                    p[j] += dot(&self.row(i, j)[cols.clone()], &c[cols.clone()]);
-                }
-                p
-            })
-            .collect()
+        points_partial(self, c, cols)
+    }
+
+    #[inline(always)]
+    fn points_partial_kernel(
+        basis: &Self,
+        c: &[Real],
+        cols: std::ops::Range<usize>,
+    ) -> Vec<Vector3> {
+        // A plain loop: an iterator's `collect` would run in a function of its own, outside
+        // the vectorised kernel.
+        let mut out = Vec::with_capacity(basis.len());
+        for (i, &mean) in basis.mean.iter().enumerate() {
+            let mut p = mean;
+            for j in 0..3 {
+                p[j] += dot(&basis.row(i, j)[cols.clone()], &c[cols.clone()]);
+            }
+            out.push(p);
+        }
+        out
     }
 
     /// Adds `scale · Σⱼₖ Qⱼₖ·Mⱼₖ[rows, cols]` over ALL landmarks to `out` (shape rows × cols).
+    /// One pass over `out`, a column at a time, the six blocks added in `GRAM_PAIRS` order.
     pub(crate) fn add_gram_block(
         &self,
         q: &crate::math::Matrix3,
@@ -270,14 +312,33 @@ impl LandmarkBasis {
         cols: std::ops::Range<usize>,
         out: &mut DMatrix,
     ) {
-        for (g, &(a, b)) in self.gram.iter().zip(&GRAM_PAIRS) {
-            let f = scale * q[(a, b)];
-            if f == 0.0 {
-                continue;
-            }
-            out.zip_apply(&g.view((rows.start, cols.start), (rows.len(), cols.len())), |o, v| {
-                *o += f * v
+        add_gram(self, GRAM_PAIRS.map(|(a, b)| scale * q[(a, b)]), rows, cols, out);
+    }
+
+    #[inline(always)]
+    fn add_gram_kernel(
+        basis: &Self,
+        f: [Real; 6],
+        rows: std::ops::Range<usize>,
+        cols: std::ops::Range<usize>,
+        out: &mut DMatrix,
+    ) {
+        let (k, n) = (basis.num_coefficients(), rows.len());
+        for (oc, c) in cols.enumerate() {
+            let g: [&[Real]; 6] = std::array::from_fn(|i| {
+                &basis.gram[i].as_slice()[c * k + rows.start..c * k + rows.end]
             });
+            let g = g.map(|x| &x[..n]);
+            let o = &mut out.as_mut_slice()[oc * n..(oc + 1) * n];
+            for r in 0..n {
+                o[r] = o[r]
+                    + f[0] * g[0][r]
+                    + f[1] * g[1][r]
+                    + f[2] * g[2][r]
+                    + f[3] * g[3][r]
+                    + f[4] * g[4][r]
+                    + f[5] * g[5][r];
+            }
         }
     }
 
@@ -311,9 +372,26 @@ impl LandmarkBasis {
     }
 }
 
+vectorised! {
+    /// [`LandmarkBasis::points_partial`], vectorised.
+    fn points_partial<'a>(basis: &'a LandmarkBasis, c: &'a [Real], cols: std::ops::Range<usize>)
+        -> Vec<Vector3> = LandmarkBasis::points_partial_kernel
+}
+
+vectorised! {
+    /// [`LandmarkBasis::add_gram_block`] with the six factors made, vectorised.
+    fn add_gram<'a>(
+        basis: &'a LandmarkBasis,
+        f: [Real; 6],
+        rows: std::ops::Range<usize>,
+        cols: std::ops::Range<usize>,
+        out: &'a mut DMatrix,
+    ) -> () = LandmarkBasis::add_gram_kernel
+}
+
 /// Dot product with four independent partial sums: a single running sum is a serial chain
 /// the compiler may not reorder (floating point), four lanes let it vectorise.
-#[inline]
+#[inline(always)]
 pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
@@ -330,7 +408,7 @@ pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
 }
 
 /// `y += a·x` over the shorter of the two.
-#[inline]
+#[inline(always)]
 pub(crate) fn axpy(a: Real, x: &[Real], y: &mut [Real]) {
     for (y, &x) in y.iter_mut().zip(x) {
         *y += a * x;
@@ -494,30 +572,82 @@ pub fn fit_coefficients_linear(
 /// Solves `A·x = b` in place for a symmetric positive definite `A` (n×n, either storage order,
 /// only the lower triangle read and overwritten by its Cholesky factor). Returns false when a
 /// pivot is not positive. Written out because the fit's 63–69-wide systems are solved many
-/// times per frame and a plain row-oriented loop vectorises well.
+/// times per frame (see [`cholesky_in_place`] for the loop order).
 pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) -> bool {
     cholesky_in_place(a, n) && cholesky_substitute(a, n, b)
 }
 
+/// Columns of L factored before their update of the rows below (see [`cholesky_in_place`]).
+const PANEL: usize = 4;
+
 /// The Cholesky factor L (A = LLᵀ) of a symmetric positive definite n×n `a`, written over
 /// its lower triangle in row-major order (row j of L in row j); the upper triangle is left
 /// as it was. False when a pivot is not positive or not finite.
+///
+/// The outer-product form (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2): column k
+/// of L is scaled by its pivot and subtracted as a rank-1 update from every later row; each
+/// row's update is a contiguous multiply-add independent of the others, which vectorises
+/// (an entry made as a dot product of two rows waits for the entry before it and its
+/// division). The columns are taken [`PANEL`] at a time: a panel is factored, then each later
+/// row gets the panel's [`PANEL`] updates in one pass, in the same order as one at a time, so
+/// the factor is the same to the bit; one pass per row and panel instead of per column
+/// matters at the fit's sizes (~63), where a row's update is only a few vectors long.
 pub(crate) fn cholesky_in_place(a: &mut [Real], n: usize) -> bool {
     debug_assert!(a.len() >= n * n);
-    for j in 0..n {
-        let (head, rest) = a.split_at_mut(j * n);
-        let row_j = &mut rest[..n];
-        // L[j][k] for k < j, stored in row j.
-        for k in 0..j {
-            let row_k = &head[k * n..k * n + n];
-            let s = dot(&row_j[..k], &row_k[..k]);
-            row_j[k] = (row_j[k] - s) / row_k[k];
+    cholesky_vectorised(a, n)
+}
+
+vectorised! {
+    fn cholesky_vectorised<'a>(a: &'a mut [Real], n: usize) -> bool = cholesky_panels
+}
+
+#[inline(always)]
+fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
+    // The panel's columns of L below the panel, column by column, read contiguously.
+    let mut below = vec![0.0; PANEL * n];
+    let mut k = 0;
+    while k < n {
+        let end = (k + PANEL).min(n);
+        for c in k..end {
+            let d = a[c * n + c];
+            if !d.is_finite() || d <= 0.0 {
+                return false;
+            }
+            let d = d.sqrt();
+            a[c * n + c] = d;
+            let inv = 1.0 / d;
+            for i in c + 1..n {
+                let l = a[i * n + c] * inv;
+                a[i * n + c] = l;
+                // The rest of the panel's columns in this row.
+                for m in c + 1..end.min(i + 1) {
+                    a[i * n + m] -= l * a[m * n + c];
+                }
+            }
         }
-        let d = row_j[j] - dot(&row_j[..j], &row_j[..j]);
-        if !d.is_finite() || d <= 0.0 {
-            return false;
+        for (c, col) in below.chunks_exact_mut(n).take(end - k).enumerate() {
+            for i in end..n {
+                col[i] = a[i * n + k + c];
+            }
         }
-        row_j[j] = d.sqrt();
+        for i in end..n {
+            let row = &mut a[i * n + k..i * n + i + 1];
+            let (l, row) = row.split_at_mut(end - k);
+            let len = row.len();
+            let run = |c: usize| &below[c * n + end..c * n + end + len];
+            if let [l0, l1, l2, l3] = *l {
+                let (b0, b1, b2, b3) = (run(0), run(1), run(2), run(3));
+                for ((((r, &x0), &x1), &x2), &x3) in row.iter_mut().zip(b0).zip(b1).zip(b2).zip(b3)
+                {
+                    *r = *r - l0 * x0 - l1 * x1 - l2 * x2 - l3 * x3;
+                }
+            } else {
+                for (c, &lc) in l.iter().enumerate() {
+                    axpy(-lc, run(c), row);
+                }
+            }
+        }
+        k = end;
     }
     true
 }
@@ -634,14 +764,24 @@ mod tests {
 
     #[test]
     fn in_place_cholesky_matches_nalgebra() {
-        let m = DMatrix::from_fn(5, 5, |i, j| {
-            1.0 / (1.0 + i as Real + j as Real) + if i == j { 2.0 } else { 0.0 }
-        });
-        let b = DVector::from_fn(5, |i, _| i as Real - 1.5);
-        let want = m.clone().cholesky().unwrap().solve(&b);
-        let (mut a, mut x) = (m.as_slice().to_vec(), b.as_slice().to_vec());
-        assert!(cholesky_solve_in_place(&mut a, 5, &mut x));
-        assert!((DVector::from_vec(x) - want).amax() < 1e-12);
+        // Sizes below, at and across the panel width, and the fit's identity size.
+        for n in [1, 3, 4, 5, 11, 63] {
+            let m = DMatrix::from_fn(n, n, |i, j| {
+                1.0 / (1.0 + i as Real + j as Real) + if i == j { 2.0 } else { 0.0 }
+            });
+            let b = DVector::from_fn(n, |i, _| i as Real - 1.5);
+            let chol = m.clone().cholesky().unwrap();
+            let want = chol.solve(&b);
+            let (mut a, mut x) = (m.as_slice().to_vec(), b.as_slice().to_vec());
+            assert!(cholesky_solve_in_place(&mut a, n, &mut x), "n = {n}");
+            assert!((DVector::from_vec(x) - want).amax() < 1e-12, "n = {n}");
+            let l = chol.l();
+            for i in 0..n {
+                for j in 0..=i {
+                    assert!((a[i * n + j] - l[(i, j)]).abs() < 1e-12, "n = {n}, L[{i}][{j}]");
+                }
+            }
+        }
         let mut singular = vec![1.0, 1.0, 1.0, 1.0];
         assert!(!cholesky_solve_in_place(&mut singular, 2, &mut [1.0, 2.0]));
     }

@@ -266,21 +266,29 @@ impl ClipsEvaluated {
     }
 }
 
-/// Fits (from cache where valid) and measures the clips `clips` of a session with
-/// `settings`, clip by clip; W and H compared as `pose` says, the head's P as `head_p` says.
-/// Progress: one stage per clip.
+/// Which clips of a session [`utterances_with`] fits and measures, and how: W and H compared
+/// as `pose` says, the head's P as `head_p` says.
+#[derive(Clone, Copy, Debug)]
+pub struct ClipsToMeasure<'a> {
+    /// Clip indices, in the order the results keep.
+    pub clips: &'a [usize],
+    pub head_p: HeadP,
+    pub pose: PoseComparison,
+}
+
+/// Fits (from cache where valid) and measures the clips `which` names with `settings`, clip
+/// by clip. Progress: one stage per clip.
 ///
 /// # Errors
 /// As [`fit_clip_cached`] and [`utterance_of_clip`]; a render failure with `HeadP::Render`.
 pub fn utterances_with(
     session: &mut Session,
     res: &Resources,
-    clips: &[usize],
+    which: ClipsToMeasure<'_>,
     settings: &FitSettings,
-    head_p: HeadP,
-    pose: PoseComparison,
     progress: ProgressFn<'_>,
 ) -> Result<ClipsEvaluated> {
+    let ClipsToMeasure { clips, head_p, pose } = which;
     let mut out = ClipsEvaluated::default();
     for &c in clips {
         let name = session.clip(c)?.name.clone();
@@ -428,6 +436,13 @@ pub struct EvalRequest {
     pub worst: usize,
 }
 
+impl EvalRequest {
+    /// The clips `clips` measured as this request asks.
+    pub fn measuring<'a>(&self, clips: &'a [usize]) -> ClipsToMeasure<'a> {
+        ClipsToMeasure { clips, head_p: self.head_p, pose: self.pose }
+    }
+}
+
 impl Default for EvalRequest {
     fn default() -> Self {
         Self {
@@ -492,15 +507,8 @@ pub fn evaluate_session(
         opened.session.fit_settings.closure = c;
     }
     let settings = opened.session.fit_settings.clone();
-    let done = utterances_with(
-        &mut opened.session,
-        &res,
-        &clips,
-        &settings,
-        req.head_p,
-        req.pose,
-        progress,
-    )?;
+    let done =
+        utterances_with(&mut opened.session, &res, req.measuring(&clips), &settings, progress)?;
     warnings.extend(done.warnings.iter().cloned());
     opened.save_if_locked()?;
     require_some_fit(&done.fits)?;
@@ -563,15 +571,8 @@ pub fn compare_sets(
     let mut configs = Vec::new();
     for &set in sets {
         let settings = FitSettings { set, ..base.clone() };
-        let done = utterances_with(
-            &mut opened.session,
-            &res,
-            &clips,
-            &settings,
-            req.head_p,
-            req.pose,
-            progress,
-        )?;
+        let which = req.measuring(&clips);
+        let done = utterances_with(&mut opened.session, &res, which, &settings, progress)?;
         warnings.extend(done.warnings);
         let utterances = req.normalisation.apply(&done.utterances);
         configs.push(Configuration { name: set.to_string(), utterances });

@@ -8,7 +8,7 @@
 //! (`io::atomic`), which replaces a symlink at a file's place instead of writing through it.
 
 use super::error::{Error, Progress, ProgressFn, Result, Warning};
-use super::evaluate::{Normalisation, evaluate, utterances_with};
+use super::evaluate::{ClipsToMeasure, Normalisation, evaluate, utterances_with};
 use super::resources::{Resources, load_resources};
 use super::session::{ReadSession, select_clips};
 use super::side_view::HeadP;
@@ -248,15 +248,8 @@ pub fn export(
     let (res, warnings) = load_resources(&opened.session, &opened.path)?;
     report.warnings.extend(warnings);
     let settings = opened.session.fit_settings.clone();
-    let done = utterances_with(
-        &mut opened.session,
-        &res,
-        &clips,
-        &settings,
-        HeadP::Mesh,
-        req.pose,
-        progress,
-    )?;
+    let which = ClipsToMeasure { clips: &clips, head_p: HeadP::Mesh, pose: req.pose };
+    let done = utterances_with(&mut opened.session, &res, which, &settings, progress)?;
     report.warnings.extend(done.warnings.iter().cloned());
     // Save only when something is fitted now: an up-to-date session stays untouched.
     if done.refitted > 0 {

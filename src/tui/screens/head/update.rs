@@ -166,32 +166,51 @@ fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
     }
 }
 
+/// What a suggestion is made from: the head and camera of [`suggestion_basis`], the current
+/// frame's landmarks, the labels so far and the frame's height in pixels.
+struct SuggestionInputs {
+    vertices: Vec<crate::math::Point3>,
+    triangles: Vec<[u32; 3]>,
+    pose: Option<OrthoPose>,
+    frame: crate::landmarks::FrameLandmarks,
+    map: LandmarkMap,
+    image_height: f64,
+}
+
+/// [`SuggestionInputs`] for the current frame; None (the status saying why) while labels
+/// cannot be set, or when there is no head or no frame.
+fn suggestion_inputs(app: &mut App) -> Option<SuggestionInputs> {
+    if !labelling(app) {
+        return None;
+    }
+    let Some((vertices, triangles, pose)) = suggestion_basis(app) else {
+        app.status = "no head to label".into();
+        return None;
+    };
+    let frame = app.track.frames.get(app.frame_pos)?.clone();
+    let map = app.map.clone().unwrap_or_default();
+    let image_height = f64::from(app.frame_dims().1);
+    Some(SuggestionInputs { vertices, triangles, pose, frame, map, image_height })
+}
+
 /// Puts the cursor on the vertex the current frame suggests for the landmark.
 pub fn suggest_label(app: &mut App) {
-    if !labelling(app) {
-        return;
-    }
-    let Some((vertices, tris, pose)) = suggestion_basis(app) else {
-        app.status = "no head to label".into();
-        return;
-    };
-    let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
-    let map = app.map.clone().unwrap_or_default();
+    let Some(s) = suggestion_inputs(app) else { return };
     let l = app.head.view.label;
-    let how = if pose.is_some() { "fitted pose" } else { "pose from the labels" };
-    let h = f64::from(app.frame_dims().1);
+    let how = if s.pose.is_some() { "fitted pose" } else { "pose from the labels" };
     // A vertex another landmark holds is not offered again: one vertex per landmark.
     let mut eligible = match app.head.label_candidates.as_deref() {
         Some(e) => e.clone(),
-        None => vec![true; vertices.len()],
+        None => vec![true; s.vertices.len()],
     };
-    for (_, v) in map.pairs().filter(|(other, _)| *other != l) {
+    for (_, v) in s.map.pairs().filter(|(other, _)| *other != l) {
         if let Some(e) = eligible.get_mut(v) {
             *e = false;
         }
     }
-    let head = SuggestHead { vertices: &vertices, triangles: &tris, eligible: Some(&eligible) };
-    match crate::fit::suggest::suggest_label(&head, &map, frame, h, pose, l) {
+    let head =
+        SuggestHead { vertices: &s.vertices, triangles: &s.triangles, eligible: Some(&eligible) };
+    match crate::fit::suggest::suggest_label(&head, &s.map, &s.frame, s.image_height, s.pose, l) {
         Ok(s) => {
             if let Some(mesh) = &app.mesh {
                 let rot = head::rotation(app.head.view.yaw, app.head.view.pitch);
@@ -213,22 +232,13 @@ pub fn suggest_label(app: &mut App) {
 
 /// Labels every unmapped landmark with its suggested vertex, as one undoable edit.
 pub fn suggest_all_labels(app: &mut App) {
-    if !labelling(app) {
-        return;
-    }
-    let Some((vertices, tris, pose)) = suggestion_basis(app) else {
-        app.status = "no head to label".into();
-        return;
-    };
-    let Some(frame) = app.track.frames.get(app.frame_pos) else { return };
-    let map = app.map.clone().unwrap_or_default();
-    let h = f64::from(app.frame_dims().1);
+    let Some(s) = suggestion_inputs(app) else { return };
     let head = SuggestHead {
-        vertices: &vertices,
-        triangles: &tris,
+        vertices: &s.vertices,
+        triangles: &s.triangles,
         eligible: app.head.label_candidates.as_deref().map(Vec::as_slice),
     };
-    match crate::fit::map_suggest::suggest_map(&head, &map, frame, h, pose) {
+    match crate::fit::map_suggest::suggest_map(&head, &s.map, &s.frame, s.image_height, s.pose) {
         Ok(proposal) => {
             let list: Vec<(usize, Option<usize>)> =
                 proposal.accepted.iter().map(|s| (s.landmark, Some(s.vertex))).collect();

@@ -12,6 +12,7 @@
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
+use super::PointNo;
 use super::track::Track;
 use std::fmt;
 
@@ -55,11 +56,14 @@ impl fmt::Display for FlagReason {
         match self {
             Self::Jump { point, px, face_fraction } => {
                 let what = if MOUTH_CORNERS.contains(point) { "mouth corner" } else { "point" };
+                let point = PointNo(*point);
                 write!(f, "{what} {point} jumped {px:.1} px ({face_fraction:.3} of eye distance)")
             }
             Self::LipOrder { upper, lower, face_fraction } => write!(
                 f,
-                "lip order: point {lower} above point {upper} by {face_fraction:.3} of eye distance"
+                "lip order: point {} above point {} by {face_fraction:.3} of eye distance",
+                PointNo(*lower),
+                PointNo(*upper)
             ),
             Self::ShapeBreak { face_fraction } => {
                 write!(f, "lip shape off its neighbours by {face_fraction:.3} of eye distance")
@@ -67,7 +71,7 @@ impl fmt::Display for FlagReason {
             Self::TrackerFailed => write!(f, "tracker failed"),
             Self::LowConfidence { value } => write!(f, "low confidence {value:.2}"),
             Self::FitFailed { reason } => write!(f, "fit failed: {reason}"),
-            Self::HighResidual { rms_px } => write!(f, "fit residual {rms_px:.1} px"),
+            Self::HighResidual { rms_px } => write!(f, "reprojection RMS {rms_px:.1} px"),
             Self::MeasureOutlier { measure, z, range_fraction } => {
                 write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
             }

@@ -120,8 +120,9 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
     for (frame, points) in &clip.corrections.points {
         if let Some((i, p)) = points.iter().find(|(_, p)| far(p.x) || far(p.y)) {
             return Err(format!(
-                "correction of frame {frame} point {i}: ({}, {}) is not within \
+                "correction of frame {frame} point {}: ({}, {}) is not within \
                  ±{MAX_COORDINATE_PX:e} px",
+                crate::landmarks::PointNo(*i),
                 short_number(p.x),
                 short_number(p.y)
             ));

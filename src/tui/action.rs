@@ -172,7 +172,7 @@ actions! {
         NextPoint => frames::next_point, "select next point";
         PrevPoint => frames::prev_point, "select previous point";
         /// Ask for a point number (0-based iBUG) and select it.
-        GotoPointPrompt => overlays::goto_point_prompt, "select point by number (0-67)…";
+        GotoPointPrompt => overlays::goto_point_prompt, "select point by number (1–68)…";
         /// Cycle what moves together: point → its group → mouth → all points.
         CycleScope => frames::cycle_scope, "what moves: point / group / mouth / all";
         ToggleVisible => frames::toggle_visible, "toggle visible / occluded";
@@ -199,7 +199,7 @@ actions! {
         NextLabel => head::next_label, "label the next landmark";
         PrevLabel => head::prev_label, "label the previous landmark";
         /// Ask for the landmark number to label.
-        GotoLabelPrompt => overlays::goto_label_prompt, "label landmark number…";
+        GotoLabelPrompt => overlays::goto_label_prompt, "label landmark number (1–68)…";
         /// Assign the vertex under the 3D cursor to the landmark being labelled.
         ConfirmLabel => head::confirm_label, "assign the vertex under the cursor";
         /// Remove the landmark's vertex from the map.

@@ -160,6 +160,7 @@ pub fn landmarks_path(out: &Path, file: &str, format: LandmarkFormat) -> PathBuf
         LandmarkFormat::OpenFace => dir.join(format!("{file}.openface.csv")),
         LandmarkFormat::DlibXml => dir.join(format!("{file}.xml")),
         LandmarkFormat::LipmapCsv => dir.join(format!("{file}.csv")),
+        LandmarkFormat::EosCsv => dir.join(format!("{file}.eos.csv")),
     }
 }
 

@@ -279,18 +279,32 @@ fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) 
     Ok(())
 }
 
+/// A path as recorded for a transferred head: the file's canonical path when it exists (so
+/// `../data/base.obj` and `/abs/data/base.obj` are one head), else made absolute.
+fn recorded_path(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p)
+        .or_else(|_| std::path::absolute(p))
+        .unwrap_or_else(|_| p.to_path_buf())
+}
+
 /// Records (or updates) the head in the session's transferred heads; returns its name.
+/// Transferring onto a head again replaces its entry (one head, one set of tables), whatever
+/// path named the file; entries an older lipmap recorded twice for one file become one.
 pub fn record_head(
     session: &mut Session,
     head: &Path,
     mapping: &Path,
     mode: Interpolation,
 ) -> String {
-    let mesh = std::path::absolute(head).unwrap_or_else(|_| head.to_path_buf());
-    let mapping = std::path::absolute(mapping).unwrap_or_else(|_| mapping.to_path_buf());
+    let mesh = recorded_path(head);
+    let mapping = recorded_path(mapping);
     let mode = mode_name(mode).to_string();
     let heads = &mut session.transferred_heads;
-    if let Some(h) = heads.iter_mut().find(|h| h.mesh == mesh) {
+    if let Some(first) = heads.iter().position(|h| recorded_path(&h.mesh) == mesh) {
+        let name = heads[first].name.clone();
+        heads.retain(|h| h.name == name || recorded_path(&h.mesh) != mesh);
+        let h = &mut heads[first];
+        h.mesh = mesh;
         h.mapping = mapping;
         h.mode = mode;
         return h.name.clone();

@@ -4,6 +4,8 @@
 //!
 //! Editing keys work here as in the frames view (mode chain fit → frames → global).
 
+use crate::glossary::names::{REPROJECTION_ERROR, REPROJECTION_RMS};
+use crate::landmarks::PointNo;
 use crate::math::Matrix3;
 use crate::model::Mesh;
 use crate::render::HeadViewport;
@@ -85,7 +87,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let mut lines: Vec<Line> = Vec::new();
     match fit {
         Some(fit) => {
-            lines.push(Line::from(format!("frame {f}  rms {:.2} px", fit.reproj_rms_px)).bold());
+            lines.push(Line::from(format!("frame {f}")).bold());
+            lines.push(Line::from(format!("{REPROJECTION_RMS} {:.2} px", fit.reproj_rms_px)));
             if let Some(why) = &fit.failed {
                 lines.push(Line::from(format!("failed: {why}")).fg(Color::LightRed));
             }
@@ -100,10 +103,10 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 .filter_map(|(i, r)| r.map(|r| (i, r[0].hypot(r[1]))))
                 .collect();
             worst.sort_by(|a, b| b.1.total_cmp(&a.1));
-            lines.push(Line::from("worst points (px)").fg(Color::Gray));
+            lines.push(Line::from(format!("worst points, {REPROJECTION_ERROR}")).fg(Color::Gray));
             for (i, r) in worst.iter().take(6) {
                 let mark = if *i == app.frames.selected { "▸" } else { " " };
-                lines.push(Line::from(format!("{mark}{i:>2} {r:6.2}")));
+                lines.push(Line::from(format!("{mark}{:>2} {r:6.2} px", PointNo(*i))));
             }
         }
         None => {

@@ -4,6 +4,7 @@
 //! `landmark_markers` is shared with the fit view; `draw_graphics` puts a terminal graphics
 //! protocol image over the half-blocks of either view when one is in use.
 
+use crate::glossary::names::{REPROJECTION_ERROR, REPROJECTION_RMS};
 use crate::landmarks::{LandmarkPoint, PointSource};
 use crate::tui::app::App;
 use crate::tui::overlays::Overlay;
@@ -148,7 +149,7 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     lines.push(Line::from(""));
     let sel = app.frames.selected;
     lines.push(
-        Line::from(format!("{sel} {}", crate::reference::current().names.name(sel)))
+        Line::from(crate::reference::current().names.label(sel))
             .bold()
             .fg(Color::LightMagenta),
     );
@@ -167,10 +168,12 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
             lines.push(Line::from(format!("confidence {c:.2}")));
         }
     }
-    if let Some(r) =
-        app.fits.by_frame.get(&f).and_then(|fit| fit.residuals.get(sel).copied().flatten())
-    {
-        lines.push(Line::from(format!("fit residual {:.2} px", r[0].hypot(r[1]))));
+    // The point's own error and the frame's RMS, named as the fit view and `eval` name them.
+    if let Some(fit) = app.fits.by_frame.get(&f).filter(|fit| fit.is_usable()) {
+        if let Some(r) = fit.residuals.get(sel).copied().flatten() {
+            lines.push(Line::from(format!("{REPROJECTION_ERROR} {:.2} px", r[0].hypot(r[1]))));
+        }
+        lines.push(Line::from(format!("frame {REPROJECTION_RMS} {:.2} px", fit.reproj_rms_px)));
     }
     lines.push(Line::from(format!(
         "moves: {}   zoom {}×",

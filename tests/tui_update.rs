@@ -35,7 +35,7 @@ fn point(app: &App, frame: usize, i: usize) -> lipmap::landmarks::LandmarkPoint 
 fn nudge_undo_redo() {
     let mut a = app();
     let before = point(&a, 0, 62);
-    let step = image_mapping(&a, a.term_size).unwrap().step_px();
+    let step = image_mapping(&a, a.term_size).unwrap().nudge_px();
     run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::Nudge { dx: 0, dy: 10 }]);
     let p = point(&a, 0, 62);
     assert!((p.x - before.x - step).abs() < 1e-9);
@@ -66,6 +66,28 @@ fn zoom_makes_steps_sub_pixel_and_is_kept_across_frames() {
     assert_eq!(a.frames.image_view.zoom, 16.0);
     run(&mut a, [Action::ZoomReset]);
     assert_eq!(a.frames.image_view.zoom, 1.0);
+}
+
+#[test]
+fn a_step_is_an_image_pixel_at_any_terminal_size_and_finer_zoomed_in() {
+    // A 720×480 frame on 80×24 has a display pixel of over 10 image pixels: `L` still moves
+    // the point by the 10 image pixels the help says.
+    for size in [(80, 24), (160, 45)] {
+        let mut a = synthetic_app(3, 720, 480, false);
+        a.term_size = size;
+        assert!(image_mapping(&a, size).unwrap().step_px() > 1.0, "{size:?}");
+        let before = point(&a, 0, 62);
+        run(&mut a, [Action::Nudge { dx: 10, dy: 0 }, Action::Nudge { dx: 0, dy: -1 }]);
+        let p = point(&a, 0, 62);
+        assert_eq!((p.x - before.x, p.y - before.y), (10.0, -1.0), "{size:?}");
+        run(&mut a, [Action::ZoomIn, Action::ZoomIn, Action::ZoomIn, Action::ZoomIn]);
+        let fine = image_mapping(&a, size).unwrap().nudge_px();
+        assert!(fine < 1.0, "{size:?}: {fine}");
+        run(&mut a, [Action::Nudge { dx: 10, dy: 0 }]);
+        assert!((point(&a, 0, 62).x - p.x - 10.0 * fine).abs() < 1e-9);
+    }
+    let help = Action::Nudge { dx: 10, dy: 0 }.describe();
+    assert!(help.starts_with("move point 10 image pixels"), "{help}");
 }
 
 #[test]

@@ -121,12 +121,17 @@ impl Table {
         self.rows.push(row);
     }
 
-    /// Names the pose comparison W and H were made under ([`PoseComparison`]) in the title
-    /// and in every W or H column header (`RMSE W [image plane]`), so no table, CSV column
-    /// or chart built from it can be read as the other comparison.
-    pub fn name_pose_comparison(&mut self, pose: PoseComparison) {
+    /// Names what the table compared in its title (`conditions`, e.g. the landmark set, the
+    /// normalisation and the pose comparison, [`crate::workflow::EvalConditions`]) and, when
+    /// `pose` is given, the pose comparison W and H were made under in every W or H column
+    /// header (`RMSE W [image plane]`), so no table, CSV column or chart built from it can be
+    /// read as another comparison.
+    pub fn name_conditions(&mut self, conditions: &str, pose: Option<PoseComparison>) {
+        if !conditions.is_empty() {
+            self.title = format!("{} — {conditions}", self.title);
+        }
+        let Some(pose) = pose else { return };
         let label = pose.short_label();
-        self.title = format!("{} — W/H {label}", self.title);
         for h in &mut self.headers {
             let names_wh = [Measure::W, Measure::H].iter().any(|m| {
                 let m = m.as_str();
@@ -354,10 +359,11 @@ pub fn worst_error_table(frames: &[WorstFrame]) -> Table {
     t
 }
 
-/// The worst frames by fit residual.
+/// The worst frames by reprojection RMS.
 pub fn worst_fit_table(fits: &[WorstFit]) -> Table {
     let headers = ["rank", "clip", "frame", "reproj RMS px", "failed"];
-    let mut t = Table::new("worst frames by fit residual", headers.map(String::from).to_vec());
+    let title = format!("worst frames by {} (px)", crate::glossary::names::REPROJECTION_RMS);
+    let mut t = Table::new(title, headers.map(String::from).to_vec());
     for (k, f) in fits.iter().enumerate() {
         t.push_row(vec![
             Cell::Int(k as i64 + 1),

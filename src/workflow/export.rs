@@ -293,7 +293,11 @@ pub fn export(
     }
     if req.plan.tables {
         let mut eval = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
-        eval.name_pose_comparison(req.pose);
+        eval.name_conditions(&super::EvalConditions {
+            set: Some(settings.set),
+            normalisation: req.normalisation,
+            pose: req.pose,
+        });
         let dir = req.out.join("tables");
         ensure_real_dir(&dir)?;
         for (table, file) in eval.tables().iter().zip(TABLE_FILES) {

@@ -371,7 +371,7 @@ pub fn transferred_head_tables(
     session: &Session,
     res: &Resources,
     done: &ClipsEvaluated,
-    normalisation: super::Normalisation,
+    conditions: &super::EvalConditions,
     n_worst: usize,
 ) -> (Vec<crate::eval::Table>, Vec<super::Warning>) {
     let mut tables = Vec::new();
@@ -379,10 +379,14 @@ pub fn transferred_head_tables(
     for entry in &session.transferred_heads {
         match transferred_utterances(res, entry, done) {
             Ok(utterances) => {
-                let r = super::evaluate(&utterances, &done.fit_refs(), normalisation, n_worst);
-                for mut t in [r.sentences, r.phonemes, r.visemes] {
+                let mut r =
+                    super::evaluate(&utterances, &done.fit_refs(), conditions.normalisation, n_worst);
+                for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes] {
                     t.title =
                         format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
+                }
+                r.name_conditions(conditions);
+                for mut t in [r.sentences, r.phonemes, r.visemes] {
                     t.key = format!("transferred_{}", t.key);
                     tables.push(t.for_item(&entry.name));
                 }

@@ -60,7 +60,7 @@ pub fn fit_markers(app: &App) -> Vec<Marker> {
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image, side) = image_and_side(area);
+    let (image, side) = image_and_side(app, area);
     let f = app.frame();
     let fit = app.fits.by_frame.get(&f);
     draw_image(app, frame, image, &fit_markers(app));
@@ -130,6 +130,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     if app.fits.stale.contains(&f) {
         lines.push(Line::from("edited since fit").fg(Color::Yellow));
     }
+    let lines = crate::tui::widgets::wrap::wrap_lines(lines, usize::from(content.width));
     let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
     frame.render_widget(Paragraph::new(lines), Rect::new(content.x, y, content.width, text_h));
     y += text_h;

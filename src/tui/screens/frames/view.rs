@@ -117,7 +117,7 @@ pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> b
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image, side) = image_and_side(area);
+    let (image, side) = image_and_side(app, area);
     let markers = landmark_markers(app);
     draw_image(app, frame, image, &markers);
     if side.width > 0 {

@@ -136,8 +136,8 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(r) = &reach {
         writeln!(
             out,
-            "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
-             β ≥ 0)",
+            "inner lips   gap {:.3} model units at rest (mean identity), smallest reachable {:.3} \
+             (expressions β ≥ 0)",
             r.neutral, r.smallest,
         )?;
     }

@@ -86,6 +86,10 @@ pub struct Table {
     /// Decimals for real numbers in text output (CSV and JSON keep full precision).
     #[serde(skip)]
     pub precision: usize,
+    /// Column headings for people where they differ from `headers` (`mouth weight ω_m` for
+    /// `omega_m`): text output and the TUI show these, CSV and JSON keep `headers` as keys.
+    #[serde(skip)]
+    pub labels: Vec<(String, String)>,
 }
 
 impl Table {
@@ -99,7 +103,27 @@ impl Table {
             rows: Vec::new(),
             notes: Vec::new(),
             precision: 3,
+            labels: Vec::new(),
         }
+    }
+
+    /// The table with column `header` shown to people as `label` (machine formats keep
+    /// `header`).
+    #[must_use]
+    pub fn labelled(mut self, header: &str, label: &str) -> Self {
+        self.labels.push((header.to_string(), label.to_string()));
+        self
+    }
+
+    /// Column `c`'s heading as people read it: its label, else its header.
+    pub fn heading(&self, c: usize) -> &str {
+        let h = self.headers.get(c).map_or("", String::as_str);
+        self.labels.iter().find(|(k, _)| k == h).map_or(h, |(_, l)| l.as_str())
+    }
+
+    /// Every column's heading as people read it ([`Table::heading`]).
+    pub fn headings(&self) -> Vec<String> {
+        (0..self.headers.len()).map(|c| self.heading(c).to_string()).collect()
     }
 
     /// The table with its stable key ([`Table::key`]).
@@ -180,7 +204,7 @@ impl Table {
             .map(|c| {
                 rows.iter()
                     .map(|r| r[c].chars().count())
-                    .chain(std::iter::once(self.headers[c].chars().count()))
+                    .chain(std::iter::once(self.heading(c).chars().count()))
                     .max()
                     .unwrap_or(0)
             })
@@ -205,7 +229,7 @@ impl Table {
         if !self.title.is_empty() {
             writeln!(w, "{}", self.title)?;
         }
-        line(w, &self.headers)?;
+        line(w, &self.headings())?;
         let total = widths.iter().sum::<usize>() + 2 * widths.len().saturating_sub(1);
         writeln!(w, "{}", "-".repeat(total))?;
         for r in &rows {

@@ -197,6 +197,9 @@ pub struct TransferReport {
     pub residual: f64,
     pub controls: usize,
     pub triangles_dropped: usize,
+    /// The head's outer-eye-corner distance in its own units (both corners labelled): the
+    /// yardstick the residuals are read against.
+    pub eye_distance: Option<f64>,
     /// (clip name, frames written, folder).
     pub clips: Vec<(String, usize, PathBuf)>,
 }
@@ -254,8 +257,17 @@ pub fn transfer_session(
         residual: transfer.placement.residual,
         controls: transfer.target_controls.len(),
         triangles_dropped: transfer.triangles_dropped,
+        eye_distance: eye_distance(&target.mesh, &target.map),
         clips,
     })
+}
+
+/// The distance between a head's labelled outer eye corners, in its own units.
+fn eye_distance(mesh: &Mesh, map: &crate::model::LandmarkMap) -> Option<f64> {
+    use crate::landmarks::ibug::point::{LEFT_EXOCANTHION, RIGHT_EXOCANTHION};
+    let at = |l: usize| map.vertex(l).and_then(|v| mesh.vertices.get(v));
+    let d = (at(RIGHT_EXOCANTHION)? - at(LEFT_EXOCANTHION)?).norm();
+    (d > 0.0).then_some(d)
 }
 
 fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) -> Result<()> {

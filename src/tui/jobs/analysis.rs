@@ -154,5 +154,5 @@ pub(super) fn table_for_tui(
             AnalysisRow { cells, keys, frame, clip: None }
         })
         .collect();
-    AnalysisTable { title: t.title.clone(), columns: t.headers.clone(), rows }
+    AnalysisTable { title: t.title.clone(), columns: t.headings(), rows }
 }

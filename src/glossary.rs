@@ -161,6 +161,6 @@ mod tests {
         let e = lookup("placement residual").unwrap().to_text();
         assert!(e.starts_with("placement residual  (head units (its OBJ's own"), "{e}");
         assert!(e.contains("also: residual_rigid, rigid residual, placement"), "{e}");
-        assert!(e.contains("once the model is placed on the head"), "{e}");
+        assert!(e.contains("after a similarity transform alone"), "{e}");
     }
 }

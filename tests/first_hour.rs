@@ -130,3 +130,37 @@ fn help_explains_a_term_by_any_of_its_names_and_still_shows_commands() {
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("lipmap help terms"));
 }
+
+#[test]
+fn eval_tables_state_set_scaling_and_comparison_and_points_are_one_based() {
+    let dir = tempfile::tempdir().unwrap();
+    let session = common::demo_session(dir.path());
+    let text = stdout(&lipmap(&["eval", s(&session)]));
+    // The demo fits with all 68 points.
+    let conditions = "fit on F5 (68 points) · min–max scaled per sentence · W/H frontal ≤15°";
+    for title in ["RMSE per sentence (video vs head)", "RMSE per phoneme", "RMSE per viseme class"]
+    {
+        assert!(text.contains(&format!("{title} — {conditions}")), "{title}: {text}");
+    }
+    assert!(
+        text.contains("worst frames by reprojection RMS (px) — fit on F5 (68 points)"),
+        "{text}"
+    );
+    // Another set (a session setting), scaling and comparison are named as such. Flags name
+    // points 1–68.
+    let fit = lipmap(&["fit", s(&session), "--set", "F1"]);
+    let err = String::from_utf8_lossy(&fit.stderr).into_owned();
+    stdout(&fit);
+    let other =
+        stdout(&lipmap(&["eval", s(&session), "--normalise", "none", "--pose", "image-plane"]));
+    assert!(other.contains("fit on F1 (20 points) · ratios unscaled · W/H image plane"), "{other}");
+    for line in err.lines().filter(|l| l.contains(" jumped ")) {
+        let n: usize = line
+            .split(" jumped ")
+            .next()
+            .and_then(|l| l.rsplit(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{line}"));
+        assert!((1..=68).contains(&n), "{line}");
+    }
+}

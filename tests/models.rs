@@ -2,9 +2,7 @@
 //! mesh and targets) and synthetic pose folders; shared data is skipped when absent.
 
 use lipmap::io::error::Location;
-use lipmap::io::landmark_map_toml::{
-    format_landmark_map, parse_landmark_map, read_landmark_map,
-};
+use lipmap::io::landmark_map_toml::{format_landmark_map, parse_landmark_map, read_landmark_map};
 use lipmap::io::model_file::{Precision, read_model_file, write_model_file};
 use lipmap::io::model_source::{ModelSourceKind, detect_model_source, load_model, load_model_with};
 use lipmap::io::{eos_bin, npy_model, obj};
@@ -263,7 +261,10 @@ fn model_build_counts_the_pose_files_it_read() {
         .unwrap();
     let text = String::from_utf8_lossy(&run.stdout);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
-    assert!(text.contains("31 pose files read (40 vertices each), varying in 3 directions"), "{text}");
+    assert!(
+        text.contains("31 pose files read (40 vertices each), varying in 3 directions"),
+        "{text}"
+    );
     assert!(text.contains("% of the variance)"), "{text}");
 }
 

@@ -70,6 +70,26 @@ fn frames_view_while_decoding() {
 }
 
 #[test]
+fn frames_view_with_the_side_panel_hidden() {
+    check("frames_no_panel", &[Action::ToggleSidePanel]);
+}
+
+#[test]
+fn a_long_status_message_wraps_instead_of_being_cut() {
+    let long = "suggested 59 landmarks (lowest confidence 0.31), left 9: 4 anatomy, 5 not \
+                visible; e.g. 61 not tracked as visible in this frame; u undoes";
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.status = long.into();
+        let t = render(&app);
+        let text: String = t.backend().buffer().content().iter().map(|c| c.symbol()).collect();
+        let squeezed: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(squeezed.contains("this frame; u undoes"), "{size:?}: the end is shown");
+        insta::assert_snapshot!(format!("status_wrapped_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
 fn help_overlay() {
     check("help", &[Action::ToggleHelp]);
 }

@@ -147,30 +147,26 @@ fn propagate_through_the_prompt() {
     assert!((1..=3).all(|f| point(&a, f, 62) == a.tracked.get(f).unwrap().points[62]));
 }
 
+/// Types `text` into a freshly opened prompt of `open` and submits it.
+fn answer(app: &mut App, open: Action, text: &str) {
+    run(app, [open]);
+    run(app, text.chars().map(Action::PromptChar));
+    run(app, [Action::PromptSubmit]);
+}
+
 #[test]
 fn prompt_goto_point_and_bad_input() {
     let mut a = app();
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('4'),
-            Action::PromptChar('8'),
-            Action::PromptSubmit,
-        ],
-    );
+    // People number points 1–68: 49 is the right mouth corner, index 48.
+    answer(&mut a, Action::GotoPointPrompt, "49");
     assert_eq!(a.frames.selected, 48);
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('9'),
-            Action::PromptChar('9'),
-            Action::PromptSubmit,
-        ],
-    );
-    assert_eq!(a.frames.selected, 48);
-    assert!(a.status.contains("no landmark"));
+    answer(&mut a, Action::GotoPointPrompt, "68");
+    assert_eq!(a.frames.selected, 67);
+    for bad in ["69", "0", "99"] {
+        answer(&mut a, Action::GotoPointPrompt, bad);
+        assert_eq!(a.frames.selected, 67, "{bad}");
+        assert_eq!(a.status, format!("`{bad}` is not a point number (1–68)"));
+    }
     run(&mut a, [Action::GotoPointPrompt, Action::Cancel]);
     assert!(a.overlays.is_empty());
 }
@@ -201,15 +197,7 @@ fn flagged_frame_navigation_finds_the_glitch() {
     run(&mut a, [Action::NextFlagged]);
     assert_eq!(a.frame(), GLITCH_FRAME);
     // Fixing the glitch clears its flag.
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('4'),
-            Action::PromptChar('8'),
-            Action::PromptSubmit,
-        ],
-    );
+    answer(&mut a, Action::GotoPointPrompt, "49");
     let fixed = lipmap::tui::fixtures::face_points(GLITCH_FRAME, 160, 120)[48];
     let cur = point(&a, GLITCH_FRAME, 48);
     let edit =
@@ -350,11 +338,11 @@ fn head_labelling_assigns_and_undoes() {
             Action::ShowHead,
             Action::GotoLabelPrompt,
             Action::PromptChar('3'),
-            Action::PromptChar('3'),
+            Action::PromptChar('4'),
             Action::PromptSubmit,
         ],
     );
-    assert_eq!(a.head.view.label, 33);
+    assert_eq!(a.head.view.label, 33, "landmark 34 as people number it");
     run(&mut a, [Action::ConfirmLabel]);
     let v = a.map.as_ref().unwrap().vertex(33).expect("the cursor at the centre picks a vertex");
     // Facing the viewer, the picked vertex is on the front (+z) side of the head.

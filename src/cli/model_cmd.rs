@@ -1,11 +1,11 @@
 //! `lipmap model build|info`: build a 3DMM by PCA over a folder of pose OBJs (optionally with
 //! blendshapes) and write lipmap's model file; print a model's size and variance explained.
 
+use super::output::plural;
 use crate::io::model_file::{self, Precision};
 use crate::io::model_source;
 use crate::measure::lip_reach::InnerLipGap;
 use crate::model::pca::{Keep, variance_explained};
-use super::output::plural;
 use anyhow::{Result, bail};
 use std::io::Write;
 use std::path::PathBuf;

@@ -87,7 +87,9 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     opened.save()?;
     // Head units mean nothing alone: the head's eye distance is the yardstick.
     let of_eyes = |r: f64| {
-        report.eye_distance.map_or(String::new(), |d| format!(", {:.0} % of its eye distance", 100.0 * r / d))
+        report
+            .eye_distance
+            .map_or(String::new(), |d| format!(", {:.0} % of its eye distance", 100.0 * r / d))
     };
     writeln!(
         out,
@@ -112,6 +114,9 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{clip}: {frames} frames -> {file}")?;
     }
     writeln!(out, "recorded head `{}` in {}", report.head_name, opened.path.display())?;
-    writeln!(out, "(the terms: `lipmap help placement residual`, `lipmap help {TRIANGLES_DROPPED}`)")?;
+    writeln!(
+        out,
+        "(the terms: `lipmap help placement residual`, `lipmap help {TRIANGLES_DROPPED}`)"
+    )?;
     Ok(())
 }

@@ -73,10 +73,9 @@ fn describe(summary: &FileSummary) -> String {
             plural(*frames, "frame"),
             plural_vertices(*vertices)
         ),
-        FileSummary::FitResults { frames, failed } => format!(
-            "fit results (fit.csv), {}, {failed} failed",
-            plural(*frames, "frame")
-        ),
+        FileSummary::FitResults { frames, failed } => {
+            format!("fit results (fit.csv), {}, {failed} failed", plural(*frames, "frame"))
+        }
         FileSummary::FrameList { frames } => {
             format!("frame list (frames.csv beside a shapes.npy), {}", plural(*frames, "frame"))
         }
@@ -85,7 +84,11 @@ fn describe(summary: &FileSummary) -> String {
             if columns.len() > 4 {
                 cols.push_str(", …");
             }
-            format!("table, {} × {} ({cols})", plural(*rows, "row"), plural(columns.len(), "column"))
+            format!(
+                "table, {} × {} ({cols})",
+                plural(*rows, "row"),
+                plural(columns.len(), "column")
+            )
         }
         FileSummary::Array { rows, columns } if columns % 3 == 0 => format!(
             "array {rows} × {columns}: {} of {} (per-frame shapes as shapes.npy, or blendshapes)",

@@ -386,8 +386,10 @@ pub fn worst_error_table(frames: &[WorstFrame]) -> Table {
 /// The worst frames by reprojection RMS.
 pub fn worst_fit_table(fits: &[WorstFit]) -> Table {
     let headers = ["rank", "clip", "frame", "reproj RMS px", "failed"];
-    let title = format!("worst frames by {} (px)", crate::glossary::names::REPROJECTION_RMS);
-    let mut t = Table::new(title, headers.map(String::from).to_vec());
+    let rms = crate::glossary::names::REPROJECTION_RMS;
+    let mut t =
+        Table::new(format!("worst frames by {rms} (px)"), headers.map(String::from).to_vec())
+            .labelled(headers[3], &format!("{rms} (px)"));
     for (k, f) in fits.iter().enumerate() {
         t.push_row(vec![
             Cell::Int(k as i64 + 1),

@@ -45,12 +45,19 @@ pub fn parse_eos_csv(text: &str, path: &Path) -> Result<Track> {
         return Err(FormatError::at_line(
             path,
             1,
-            format!("unknown column `{}` (expected {EOS_CSV_HEADER}[,u_clean,v_clean])", shorten(h)),
+            format!(
+                "unknown column `{}` (expected {EOS_CSV_HEADER}[,u_clean,v_clean])",
+                shorten(h)
+            ),
         ));
     }
     let need = |name: &str| {
         table.column(name).ok_or_else(|| {
-            FormatError::at_line(path, 1, format!("missing column `{name}` (expected {EOS_CSV_HEADER})"))
+            FormatError::at_line(
+                path,
+                1,
+                format!("missing column `{name}` (expected {EOS_CSV_HEADER})"),
+            )
         })
     };
     let (c_frame, c_id, c_u, c_v) = (need("frame")?, need("ibug_id")?, need("u")?, need("v")?);
@@ -126,9 +133,15 @@ mod tests {
     fn bad_rows_name_their_line() {
         let p = Path::new("e.csv");
         let err = |text: &str| parse_eos_csv(text, p).unwrap_err().to_string();
-        assert_eq!(err("frame,ibug_id,u,v\n0,0,1,2\n"), "e.csv:2: column `ibug_id`: 0 is not an iBUG id (1–68)");
+        assert_eq!(
+            err("frame,ibug_id,u,v\n0,0,1,2\n"),
+            "e.csv:2: column `ibug_id`: 0 is not an iBUG id (1–68)"
+        );
         assert!(err("frame,ibug_id,u,v\n0,69,1,2\n").contains("69 is not an iBUG id"));
-        assert!(err("frame,ibug_id,u,v\n0,5,1,2\n0,5,3,4\n").starts_with("e.csv:3: iBUG id 5 of frame 0"));
+        assert!(
+            err("frame,ibug_id,u,v\n0,5,1,2\n0,5,3,4\n")
+                .starts_with("e.csv:3: iBUG id 5 of frame 0")
+        );
         assert!(err("frame,ibug_id,u\n0,5,1\n").contains("missing column `v`"));
         assert!(err("frame,ibug_id,u,v,w\n0,5,1,2,3\n").contains("unknown column `w`"));
         assert!(err("frame,ibug_id,u,v\n0,5,nan,2\n").starts_with("e.csv:2: column `u`"));

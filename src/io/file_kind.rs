@@ -127,10 +127,20 @@ fn csv_kind(path: &Path) -> FileKind {
         FileKind::FitResults
     } else if cols == ["frame"] {
         FileKind::FrameList
-    } else if super::landmark_format::detect_text(&cols.join(",")).is_some() {
+    } else if is_landmark_header(&cols) {
         FileKind::Landmarks
     } else {
         FileKind::Table
+    }
+}
+
+/// Whether a CSV header is a landmark format's: lipmap's or eos's by their first columns, an
+/// OpenFace CSV only with its landmark columns (a table with a `frame` column is no track).
+fn is_landmark_header(cols: &[String]) -> bool {
+    use super::landmark_format::{LandmarkFormat, detect_text};
+    match detect_text(&cols.join(",")) {
+        Some(LandmarkFormat::OpenFace) => cols.iter().any(|c| c == "x_0"),
+        other => other.is_some(),
     }
 }
 
@@ -197,6 +207,10 @@ mod tests {
         assert_eq!(detect_kind(&fit), FileKind::FitResults);
         assert_eq!(detect_kind(&file("frames.csv", "frame\n0\n")), FileKind::FrameList);
         assert_eq!(detect_kind(&file("s.csv", "sentence,RMSE W\n")), FileKind::Table);
+        let worst = file("w.csv", "rank,clip,frame,reproj RMS px,failed\n");
+        assert_eq!(detect_kind(&worst), FileKind::Table);
+        let openface = file("o.csv", "frame, face_id, timestamp, confidence, success, x_0\n");
+        assert_eq!(detect_kind(&openface), FileKind::Landmarks);
         assert_eq!(detect_kind(&file("shapes.npy", "")), FileKind::Array);
         assert_eq!(detect_kind(&file("plot.png", "")), FileKind::Image);
         let map = file("lc.json", "{\"ibug_to_sfm_vertex\": {\"31\": 114}}");

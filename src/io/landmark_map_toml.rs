@@ -145,13 +145,14 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap, names: &LandmarkNames<
 /// Invalid JSON (with serde_json's line), ids outside 1..=68, non-integer vertices (naming
 /// the field).
 pub fn parse_landmark_map_json(text: &str, path: &Path) -> Result<LandmarkMap> {
-    let v: serde_json::Value = serde_json::from_str(super::input::without_bom(text)).map_err(|e| {
-        FormatError::new(
-            path,
-            crate::io::error::Location::LineColumn(e.line(), e.column()),
-            e.to_string(),
-        )
-    })?;
+    let v: serde_json::Value =
+        serde_json::from_str(super::input::without_bom(text)).map_err(|e| {
+            FormatError::new(
+                path,
+                crate::io::error::Location::LineColumn(e.line(), e.column()),
+                e.to_string(),
+            )
+        })?;
     let obj = v
         .get("ibug_to_sfm_vertex")
         .unwrap_or(&v)

@@ -9,10 +9,10 @@
 //! floors stop a perfectly still clip from flagging sub-pixel noise. Start at `flag_frames`;
 //! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
+use super::PointNo;
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
-use super::PointNo;
 use super::track::Track;
 use std::fmt;
 
@@ -328,6 +328,18 @@ mod tests {
         fn failure(&self) -> Option<&str> {
             self.failed.as_deref()
         }
+    }
+
+    #[test]
+    fn reasons_number_points_as_people_do() {
+        let jump = FlagReason::Jump { point: 56, px: 3.6, face_fraction: 0.113 };
+        assert_eq!(jump.to_string(), "point 57 jumped 3.6 px (0.113 of eye distance)");
+        let corner = FlagReason::Jump { point: 48, px: 1.0, face_fraction: 0.1 };
+        assert!(corner.to_string().starts_with("mouth corner 49 jumped"));
+        let order = FlagReason::LipOrder { upper: 61, lower: 67, face_fraction: 0.05 };
+        assert!(order.to_string().starts_with("lip order: point 68 above point 62"));
+        let high = FlagReason::HighResidual { rms_px: 2.34 };
+        assert_eq!(high.to_string(), "reprojection RMS 2.3 px");
     }
 
     /// No fits: the flags of the track alone.

@@ -142,7 +142,8 @@ impl MapProblem {
 impl fmt::Display for MapProblem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         use crate::landmarks::PointNo as N;
-        let one = |ls: &[usize]| ls.iter().map(|&l| N(l).to_string()).collect::<Vec<_>>().join(", ");
+        let one =
+            |ls: &[usize]| ls.iter().map(|&l| N(l).to_string()).collect::<Vec<_>>().join(", ");
         match self {
             Self::SharedVertex { vertex, landmarks } => {
                 write!(f, "landmarks {} share vertex {vertex}", one(landmarks))

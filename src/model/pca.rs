@@ -193,7 +193,12 @@ pub fn build_pca_with_summary(shapes: &[DVector], keep: Keep) -> Result<PcaSumma
         }
     }
     let eigenvalues = DVector::from_iterator(k, all_eigenvalues.iter().take(k).copied());
-    Ok(PcaSummary { model: PcaModel { mean, basis, eigenvalues }, all_eigenvalues, method, shapes: n })
+    Ok(PcaSummary {
+        model: PcaModel { mean, basis, eigenvalues },
+        all_eigenvalues,
+        method,
+        shapes: n,
+    })
 }
 
 fn check_keep(keep: Keep) -> Result<(), ModelError> {

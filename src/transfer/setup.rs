@@ -323,14 +323,12 @@ impl Transfer {
 /// Every mapped vertex must exist; the error names the iBUG point as people number it.
 fn check_map(map: &LandmarkMap, vertices: usize, side: &'static str) -> Result<(), TransferError> {
     match map.pairs().find(|&(_, v)| v >= vertices) {
-        Some((l, vertex)) => {
-            Err(TransferError::LandmarkOutOfRange {
-                side,
-                landmark: crate::landmarks::PointNo(l),
-                vertex,
-                vertices,
-            })
-        }
+        Some((l, vertex)) => Err(TransferError::LandmarkOutOfRange {
+            side,
+            landmark: crate::landmarks::PointNo(l),
+            vertex,
+            vertices,
+        }),
         None => Ok(()),
     }
 }

@@ -319,6 +319,14 @@ pub enum Normalisation {
 }
 
 impl Normalisation {
+    /// How tables name the scale: `min–max scaled per sentence` or `ratios unscaled`.
+    pub fn label(self) -> String {
+        match self {
+            Normalisation::MinMax => format!("{} per sentence", crate::glossary::names::MIN_MAX),
+            Normalisation::None => "ratios unscaled".to_string(),
+        }
+    }
+
     /// `utterances` on the scale they are compared on.
     pub fn apply(self, utterances: &[Utterance]) -> Vec<Utterance> {
         match self {
@@ -370,12 +378,8 @@ pub struct EvalConditions {
 impl EvalConditions {
     /// `fit on F4 (51 points) · min–max scaled per sentence · W/H frontal ≤15°`.
     pub fn label(&self) -> String {
-        let scale = match self.normalisation {
-            Normalisation::MinMax => format!("{} per sentence", crate::glossary::names::MIN_MAX),
-            Normalisation::None => "ratios unscaled".to_string(),
-        };
         let mut parts: Vec<String> = self.set.map(set_label).into_iter().collect();
-        parts.push(scale);
+        parts.push(self.normalisation.label());
         parts.push(format!("W/H {}", self.pose.short_label()));
         parts.join(" · ")
     }
@@ -545,8 +549,11 @@ pub fn evaluate_session(
         .map(|(&c, (_, fits))| clip_flag_lines(&opened.session, c, fits))
         .collect::<std::result::Result<_, _>>()?;
     let mut report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
-    let conditions =
-        EvalConditions { set: Some(settings.set), normalisation: req.normalisation, pose: req.pose };
+    let conditions = EvalConditions {
+        set: Some(settings.set),
+        normalisation: req.normalisation,
+        pose: req.pose,
+    };
     report.name_conditions(&conditions);
     let (transferred, more) =
         transferred_head_tables(&opened.session, &res, &done, &conditions, req.worst);

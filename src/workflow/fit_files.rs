@@ -46,7 +46,6 @@ impl FitFilesReport {
     }
 }
 
-
 /// Fits every frame of `input.landmarks` and writes `fit.csv` and `shapes.npy` into
 /// `input.out`. `progress` gets one stage ("fitting clip" or "fitting frames") and its steps.
 ///

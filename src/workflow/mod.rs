@@ -39,9 +39,8 @@ pub use error::{
 };
 pub use evaluate::{
     ClipEvaluation, ClipInput, ClipsEvaluated, DEFAULT_WORST_ROWS, EvalConditions, EvalReport,
-    EvalRequest,
-    NamedFits, Normalisation, SessionEvaluation, evaluate, evaluate_clip, evaluate_session,
-    utterance_from_parts, utterance_of, utterance_of_clip, utterances_with,
+    EvalRequest, NamedFits, Normalisation, SessionEvaluation, evaluate, evaluate_clip,
+    evaluate_session, utterance_from_parts, utterance_of, utterance_of_clip, utterances_with,
 };
 pub use fit::{ClipFits, ClipFitted, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame};
 pub use resources::{

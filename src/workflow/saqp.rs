@@ -22,6 +22,7 @@ use super::{Progress, ProgressFn};
 use crate::alignment::Phone;
 use crate::eval::{Cell, Table};
 use crate::fit::{FrameFit, GapError, fill_gaps};
+use crate::glossary::names::{LARGEST_TRAINING_ERROR, MOUTH_WEIGHT, SATF_ERROR, SMOOTHING_WEIGHT};
 use crate::io::alignment_format::read_alignment;
 use crate::io::motion_csv::read_motion_csv;
 use crate::io::obj::read_obj;
@@ -36,9 +37,6 @@ use crate::session::Session;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use crate::glossary::names::{
-    LARGEST_TRAINING_ERROR, MOUTH_WEIGHT, SATF_ERROR, SMOOTHING_WEIGHT,
-};
 
 /// The machine keys (CSV and JSON columns) of ω_m and ξ, as the model files name them.
 const OMEGA_M: &str = "omega_m";
@@ -700,8 +698,7 @@ pub fn synths_table(report: &CvReport) -> Table {
 }
 
 /// Where the saqp tables' terms are explained.
-pub const TERMS_HINT: &str =
-    "terms: `lipmap help TERM` (E, coverage, omega_m, xi, RMSE ratio, bridged; `lipmap help terms` lists them)";
+pub const TERMS_HINT: &str = "terms: `lipmap help TERM` (E, coverage, omega_m, xi, RMSE ratio, bridged; `lipmap help terms` lists them)";
 
 /// Per synthesizer: ω_m and ξ, the GP's hyperparameters, the line's coefficients, and both
 /// calibrations' leave-one-sentence-out RMSE on the training pairs.

@@ -988,7 +988,11 @@ pub fn evaluate_speech(
     let linear = scores(&truth, &stack(|d| &d.linear))?;
     let report = |f: fn(&DrivenClip) -> &Utterance| {
         let utterances: Vec<Utterance> = driven.iter().map(|d| f(d).clone()).collect();
-        evaluate(&utterances, &[], normalisation, 10)
+        let mut r = evaluate(&utterances, &[], normalisation, 10);
+        for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes, &mut r.worst_frames] {
+            t.name_conditions(&normalisation.label(), None);
+        }
+        r
     };
     Ok(SpeechEvaluation {
         clips: driven.len(),

@@ -294,9 +294,7 @@ fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) 
 /// A path as recorded for a transferred head: the file's canonical path when it exists (so
 /// `../data/base.obj` and `/abs/data/base.obj` are one head), else made absolute.
 fn recorded_path(p: &Path) -> PathBuf {
-    std::fs::canonicalize(p)
-        .or_else(|_| std::path::absolute(p))
-        .unwrap_or_else(|_| p.to_path_buf())
+    std::fs::canonicalize(p).or_else(|_| std::path::absolute(p)).unwrap_or_else(|_| p.to_path_buf())
 }
 
 /// Records (or updates) the head in the session's transferred heads; returns its name.
@@ -391,8 +389,12 @@ pub fn transferred_head_tables(
     for entry in &session.transferred_heads {
         match transferred_utterances(res, entry, done) {
             Ok(utterances) => {
-                let mut r =
-                    super::evaluate(&utterances, &done.fit_refs(), conditions.normalisation, n_worst);
+                let mut r = super::evaluate(
+                    &utterances,
+                    &done.fit_refs(),
+                    conditions.normalisation,
+                    n_worst,
+                );
                 for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes] {
                     t.title =
                         format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);

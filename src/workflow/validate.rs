@@ -9,8 +9,8 @@ use super::error::{Error, Result, Warning};
 use super::session::read_session;
 use crate::io::file_kind::{FileKind, detect_kind};
 use crate::io::frames::{FrameOptions, FrameSource};
-use crate::io::{alignment_format, landmark_format, landmark_map_toml, makehuman_target};
 use crate::io::track_csv::read_csv_table;
+use crate::io::{alignment_format, landmark_format, landmark_map_toml, makehuman_target};
 use crate::io::{model_source, obj};
 use std::path::{Path, PathBuf};
 

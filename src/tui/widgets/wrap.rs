@@ -50,7 +50,9 @@ pub fn wrap_lines(lines: Vec<Line<'static>>, width: usize) -> Vec<Line<'static>>
             out.push(line);
             continue;
         }
-        out.extend(wrap_words(&text, width).into_iter().map(|r| Line::from(Span::styled(r, style))));
+        out.extend(
+            wrap_words(&text, width).into_iter().map(|r| Line::from(Span::styled(r, style))),
+        );
     }
     out
 }
@@ -71,13 +73,14 @@ mod tests {
         assert_eq!(wrap_words("a bb ccc", 4), ["a bb", "ccc"]);
         assert_eq!(wrap_words("abcdefgh", 3), ["abc", "def", "gh"]);
         assert_eq!(wrap_words("", 5), [""]);
-        assert_eq!(wrap_words("yaw -12° pitch", 8), ["yaw", "-12°", "pitch"]);
+        assert_eq!(wrap_words("yaw -12° pitch", 8), ["yaw -12°", "pitch"], "° is one column");
     }
 
     #[test]
     fn wrapped_lines_keep_their_style() {
         use ratatui::style::{Color, Stylize};
-        let lines = vec![Line::from("yaw -12° pitch -10° roll -11°").fg(Color::Red), Line::from("ok")];
+        let lines =
+            vec![Line::from("yaw -12° pitch -10° roll -11°").fg(Color::Red), Line::from("ok")];
         let out = wrap_lines(lines, 20);
         assert_eq!(out.len(), 3);
         assert_eq!(out[0].to_string(), "yaw -12° pitch -10°");

@@ -110,7 +110,8 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
         })
         .collect();
     let n_tables = app.analysis.data.tables.len();
-    let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
+    // The table's place first: a long title (it names what was compared) is cut at the end.
+    let title = format!(" {}/{n_tables} {} ", view.table + 1, table.title);
     // Columns packed to the left: numbers next to their labels, the spare width at the end.
     let t = Table::new(rows, widths)
         .flex(ratatui::layout::Flex::Start)
@@ -227,9 +228,9 @@ fn fitting_phone_labels(
         let next = shown.get(k + 1).map_or(i64::from(cols) + 1, |n| col(n.0));
         let room = usize::try_from(next - col(*s) - 1).unwrap_or(0);
         let bare = label.trim_end_matches(|c: char| c.is_ascii_digit());
-        let fits = [label.as_str(), bare].into_iter().find(|l| {
-            !l.is_empty() && ratatui::text::Span::raw(*l).width() <= room
-        });
+        let fits = [label.as_str(), bare]
+            .into_iter()
+            .find(|l| !l.is_empty() && ratatui::text::Span::raw(*l).width() <= room);
         if let Some(l) = fits {
             out.push((*s, l.to_string()));
         }

@@ -149,9 +149,7 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     lines.push(Line::from(""));
     let sel = app.frames.selected;
     lines.push(
-        Line::from(crate::reference::current().names.label(sel))
-            .bold()
-            .fg(Color::LightMagenta),
+        Line::from(crate::reference::current().names.label(sel)).bold().fg(Color::LightMagenta),
     );
     if let Some(p) = app.track.frames.get(app.frame_pos).and_then(|fr| fr.points.get(sel)) {
         lines.push(Line::from(vec![

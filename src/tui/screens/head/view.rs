@@ -401,8 +401,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             (true, crate::session::MapRole::Head) => "(for transfer, indices)",
         })
         .fg(Color::DarkGray),
-        Line::from(crate::reference::current().names.label(h.label))
-            .fg(Color::Yellow),
+        Line::from(crate::reference::current().names.label(h.label)).fg(Color::Yellow),
         Line::from(match current {
             Some(v) => format!("now vertex {v}"),
             None => "not mapped".into(),

@@ -90,6 +90,19 @@ fn a_long_status_message_wraps_instead_of_being_cut() {
 }
 
 #[test]
+fn a_status_message_longer_than_its_rows_says_it_is_cut() {
+    let mut app = app_at((80, 24));
+    app.status = "every word of this warning matters ".repeat(12) + "last";
+    let t = render(&app);
+    let buffer = t.backend().buffer();
+    let row = |y: u16| -> String { (0..80).map(|x| buffer[(x, y)].symbol()).collect() };
+    let rows = lipmap::tui::draw::MAX_STATUS_ROWS;
+    assert!(row(24 - rows).starts_with("every word"), "{}", row(24 - rows));
+    assert!(row(23).trim_end().ends_with('…'), "{}", row(23));
+    assert!(!row(23).contains("last"));
+}
+
+#[test]
 fn help_overlay() {
     check("help", &[Action::ToggleHelp]);
 }

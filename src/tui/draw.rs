@@ -21,8 +21,9 @@ use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 
-/// The most rows a status message takes (the rest of a longer one is cut).
-pub const MAX_STATUS_ROWS: u16 = 3;
+/// The most rows a status message takes (the rest of a longer one is cut, its last row
+/// ending in `…`). Four rows at 80 columns hold the longest warnings lipmap gives.
+pub const MAX_STATUS_ROWS: u16 = 4;
 
 /// The fixed parts of the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -190,8 +191,16 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     };
     let left = Rect::new(area.x, area.y, message_width(app, area.width), area.height);
     let right = Rect::new(area.x + left.width, area.y, area.width - left.width, 1);
-    let rows: Vec<Line> =
-        wrap_words(&msg, usize::from(left.width)).into_iter().map(Line::from).collect();
+    let mut rows = wrap_words(&msg, usize::from(left.width));
+    if rows.len() > usize::from(area.height) {
+        // The message goes on past the rows there are: say so on the last one.
+        rows.truncate(usize::from(area.height));
+        if let Some(last) = rows.last_mut() {
+            let keep = usize::from(left.width).saturating_sub(1);
+            *last = last.chars().take(keep).collect::<String>() + "…";
+        }
+    }
+    let rows: Vec<Line> = rows.into_iter().map(Line::from).collect();
     frame.render_widget(Paragraph::new(rows), left);
     frame.render_widget(Paragraph::new(Line::from(status_right(app))), right);
 }

@@ -4,6 +4,10 @@
 
 use ratatui::text::{Line, Span};
 
+/// A space [`wrap_words`] never breaks at: it keeps a value with its unit (`1.28 px`) or its
+/// name (`roll 13°`) on one row. It draws as a space.
+pub const NBSP: char = '\u{a0}';
+
 /// Terminal columns `s` takes.
 fn cols(s: &str) -> usize {
     Span::raw(s).width()
@@ -74,6 +78,8 @@ mod tests {
         assert_eq!(wrap_words("abcdefgh", 3), ["abc", "def", "gh"]);
         assert_eq!(wrap_words("", 5), [""]);
         assert_eq!(wrap_words("yaw -12° pitch", 8), ["yaw -12°", "pitch"], "° is one column");
+        let pose = format!("pitch{NBSP}-12° roll{NBSP}13°");
+        assert_eq!(wrap_words(&pose, 12), ["pitch\u{a0}-12°", "roll\u{a0}13°"]);
     }
 
     #[test]

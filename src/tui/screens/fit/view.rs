@@ -15,6 +15,7 @@ use crate::tui::screens::head::HeadFraming;
 use crate::tui::screens::head::view::{Overlay, draw_shaded_mesh, label_triangles, rotation};
 use crate::tui::screens::image_and_side;
 use crate::tui::widgets::halfblock::Marker;
+use crate::tui::widgets::wrap::NBSP;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Style, Stylize};
@@ -88,12 +89,12 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     match fit {
         Some(fit) => {
             lines.push(Line::from(format!("frame {f}")).bold());
-            lines.push(Line::from(format!("{REPROJECTION_RMS} {:.2} px", fit.reproj_rms_px)));
+            lines.push(Line::from(format!("{REPROJECTION_RMS} {:.2}{NBSP}px", fit.reproj_rms_px)));
             if let Some(why) = &fit.failed {
                 lines.push(Line::from(format!("failed: {why}")).fg(Color::LightRed));
             }
             lines.push(Line::from(format!(
-                "yaw {:.0}° pitch {:.0}° roll {:.0}°",
+                "yaw{NBSP}{:.0}° pitch{NBSP}{:.0}° roll{NBSP}{:.0}°",
                 fit.yaw, fit.pitch, fit.roll
             )));
             let mut worst: Vec<(usize, f64)> = fit

@@ -12,6 +12,7 @@ use crate::tui::screens::View;
 use crate::tui::screens::image_and_side;
 use crate::tui::widgets::graphics::GraphicsState;
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
+use crate::tui::widgets::wrap::NBSP;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style, Stylize};
@@ -169,9 +170,10 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     // The point's own error and the frame's RMS, named as the fit view and `eval` name them.
     if let Some(fit) = app.fits.by_frame.get(&f).filter(|fit| fit.is_usable()) {
         if let Some(r) = fit.residuals.get(sel).copied().flatten() {
-            lines.push(Line::from(format!("{REPROJECTION_ERROR} {:.2} px", r[0].hypot(r[1]))));
+            lines.push(Line::from(format!("{REPROJECTION_ERROR} {:.2}{NBSP}px", r[0].hypot(r[1]))));
         }
-        lines.push(Line::from(format!("frame {REPROJECTION_RMS} {:.2} px", fit.reproj_rms_px)));
+        lines
+            .push(Line::from(format!("frame {REPROJECTION_RMS} {:.2}{NBSP}px", fit.reproj_rms_px)));
     }
     lines.push(Line::from(format!(
         "moves: {}   zoom {}×",

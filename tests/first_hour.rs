@@ -164,3 +164,43 @@ fn eval_tables_state_set_scaling_and_comparison_and_points_are_one_based() {
         assert!((1..=68).contains(&n), "{line}");
     }
 }
+
+#[test]
+fn carphone_session_from_dlib_tracks_speaks_in_points_1_to_68_and_names_what_eval_compared() {
+    let (Some(carphone), Some(eos)) =
+        (lipmap::testdata::shared("data/carphone"), lipmap::testdata::shared("peer/eos/share"))
+    else {
+        eprintln!("skipped: ../shared/data/carphone or ../shared/peer/eos is absent");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("cp.lipmap.json");
+    let made = stdout(&lipmap(&[
+        "new",
+        s(&session),
+        "--frames",
+        s(&carphone.join("frames")),
+        "--fps",
+        "29.97",
+        "--landmarks",
+        s(&carphone.join("dlib68_pts")),
+        "--model",
+        s(&eos.join("sfm_shape_3448.bin")),
+        "--blendshapes",
+        s(&eos.join("expression_blendshapes_3448.bin")),
+        "--mapping",
+        s(&eos.join("ibug_to_sfm.txt")),
+    ]));
+    assert!(made.contains("120 frames of landmarks, 50 landmarks mapped"), "{made}");
+    let fit = lipmap(&["fit", s(&session)]);
+    let said = stdout(&fit) + &String::from_utf8_lossy(&fit.stderr);
+    assert!(said.contains("median reprojection RMS"), "{said}");
+    // dlib's slip on the lower lip midpoint in frame 118 is iBUG point 57 (index 56).
+    assert!(said.contains("frame 118: point 57 jumped"), "{said}");
+    let eval = lipmap(&["eval", s(&session)]);
+    let text = stdout(&eval);
+    let conditions = "fit on F4 (51 points) · min–max scaled per sentence · W/H frontal ≤15°";
+    assert!(text.contains(&format!("RMSE per sentence (video vs head) — {conditions}")), "{text}");
+    let warned = String::from_utf8_lossy(&eval.stderr);
+    assert!(warned.contains("82 of 120 fitted frames turned past the pose limit"), "{warned}");
+}

@@ -16,6 +16,16 @@ fn s(p: &Path) -> &str {
     p.to_str().unwrap()
 }
 
+/// eos's SFM model, its expression blendshapes and `map`, as `fit` and `new` take them.
+fn sfm_args(share: &Path, map: &Path) -> Vec<String> {
+    let model = share.join("sfm_shape_3448.bin");
+    let blendshapes = share.join("expression_blendshapes_3448.bin");
+    [("--model", model.as_path()), ("--blendshapes", &blendshapes), ("--mapping", map)]
+        .into_iter()
+        .flat_map(|(flag, path)| [flag.to_string(), s(path).to_string()])
+        .collect()
+}
+
 fn stdout(o: &Output) -> String {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     String::from_utf8_lossy(&o.stdout).into_owned()
@@ -34,22 +44,12 @@ fn readme_headless_fit_reads_eos_landmarks_and_maps_and_validate_names_its_outpu
         (share.join("ibug_to_sfm.txt"), dir.path().join("fit_toml")),
         (eos.join("model/landmarks_and_contours.json"), dir.path().join("fit_json")),
     ] {
-        let text = stdout(&lipmap(&[
-            "fit",
-            "--model",
-            s(&share.join("sfm_shape_3448.bin")),
-            "--blendshapes",
-            s(&share.join("expression_blendshapes_3448.bin")),
-            "--mapping",
-            s(&map),
-            "--landmarks",
-            s(&landmarks),
-            "--image-size",
-            "1280x720",
-            "--clip",
-            "--out",
-            s(&out),
-        ]));
+        let model = sfm_args(&share, &map);
+        let mut args = vec!["fit"];
+        args.extend(model.iter().map(String::as_str));
+        let landmarks = ["--landmarks", s(&landmarks), "--image-size", "1280x720"];
+        args.extend(landmarks.into_iter().chain(["--clip", "--out", s(&out)]));
+        let text = stdout(&lipmap(&args));
         assert!(text.contains("60 frames") && text.contains("reprojection RMS"), "{text}");
     }
     let fit = dir.path().join("fit_toml");
@@ -175,22 +175,12 @@ fn carphone_session_from_dlib_tracks_speaks_in_points_1_to_68_and_names_what_eva
     };
     let dir = tempfile::tempdir().unwrap();
     let session = dir.path().join("cp.lipmap.json");
-    let made = stdout(&lipmap(&[
-        "new",
-        s(&session),
-        "--frames",
-        s(&carphone.join("frames")),
-        "--fps",
-        "29.97",
-        "--landmarks",
-        s(&carphone.join("dlib68_pts")),
-        "--model",
-        s(&eos.join("sfm_shape_3448.bin")),
-        "--blendshapes",
-        s(&eos.join("expression_blendshapes_3448.bin")),
-        "--mapping",
-        s(&eos.join("ibug_to_sfm.txt")),
-    ]));
+    let (frames, tracks) = (carphone.join("frames"), carphone.join("dlib68_pts"));
+    let model = sfm_args(&eos, &eos.join("ibug_to_sfm.txt"));
+    let mut args = vec!["new", s(&session), "--frames", s(&frames), "--fps", "29.97"];
+    args.extend(["--landmarks", s(&tracks)]);
+    args.extend(model.iter().map(String::as_str));
+    let made = stdout(&lipmap(&args));
     assert!(made.contains("120 frames of landmarks, 50 landmarks mapped"), "{made}");
     let fit = lipmap(&["fit", s(&session)]);
     let said = stdout(&fit) + &String::from_utf8_lossy(&fit.stderr);

@@ -15,13 +15,15 @@
 //! - core, plain values in and out: [`landmarks`], [`alignment`], [`model`], [`fit`],
 //!   [`measure`], [`eval`], [`saqp`], [`transfer`], [`speech`], [`track`], [`render`],
 //!   [`plot`], [`math`], [`table_text`];
-//! - [`demo`], the synthetic speaker generator.
+//! - [`demo`], the synthetic speaker generator; [`glossary`], the names of what lipmap
+//!   prints and their explanations (`docs/glossary.md`).
 
 pub mod alignment;
 pub mod cli;
 pub mod demo;
 pub mod eval;
 pub mod fit;
+pub mod glossary;
 pub mod io;
 pub mod landmarks;
 pub mod math;

@@ -195,6 +195,14 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     let stdout = text(&out.stdout);
     assert!(stdout.contains("head mesh set to") && stdout.contains("(19158 vertices)"), "{stdout}");
     assert!(stdout.contains("no landmark map yet") && stdout.contains("lipmap map suggest"));
+    // With no label yet, `map suggest` names the step to take now (labelling in the TUI), not
+    // a fit, which needs a map.
+    let m = i.root.join("suggested.toml");
+    let out = lipmap(&["map", "suggest", s(&session), "--out", s(&m)]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = err_lines(&out).join("\n");
+    assert!(e.contains("label at least 4 landmarks") && e.contains("lipmap tui"), "{e}");
+    assert!(!e.contains("fit it"), "{e}");
     // The SFM model is another mesh: a setup with two maps, said in one line, not a warning.
     assert!(err_lines(&out).iter().all(|l| !l.contains("warning")), "{}", text(&out.stderr));
     assert!(stdout.contains("another mesh than the model"), "{stdout}");

@@ -65,6 +65,17 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     let tables = String::from_utf8_lossy(&eval.stdout);
     assert!(eval.status.success(), "{}", String::from_utf8_lossy(&eval.stderr));
     assert!(tables.contains("transferred head `head`"), "{tables}");
+    // The same head again, named through another path: it replaces the first result (one
+    // head, one set of tables), never a second head `head#2`.
+    let demo = head.parent().unwrap();
+    let again = demo.join("..").join(demo.file_name().unwrap()).join("head.obj");
+    let second = transfer(&session, &again, &map, &out);
+    assert!(second.status.success(), "{}", String::from_utf8_lossy(&second.stderr));
+    assert!(String::from_utf8_lossy(&second.stdout).contains("head `head`"));
+    let eval = Command::new(env!("CARGO_BIN_EXE_lipmap")).arg("eval").arg(&session).output();
+    let tables = String::from_utf8_lossy(&eval.unwrap().stdout).into_owned();
+    assert_eq!(tables.matches("RMSE per phoneme").count(), 2, "model + one head: {tables}");
+    assert!(!tables.contains("head#2"), "{tables}");
 
     // Too few landmarks labelled on the head.
     let few = dir.path().join("few.toml");

@@ -14,11 +14,12 @@ use lipmap::testdata::shared;
 use std::path::{Path, PathBuf};
 
 /// Formats a whole multi-frame track can take (a single `.pts` holds one frame only).
-const TRACK_FORMATS: [LandmarkFormat; 4] = [
+const TRACK_FORMATS: [LandmarkFormat; 5] = [
     LandmarkFormat::PtsFolder,
     LandmarkFormat::OpenFace,
     LandmarkFormat::DlibXml,
     LandmarkFormat::LipmapCsv,
+    LandmarkFormat::EosCsv,
 ];
 
 fn file_name(format: LandmarkFormat, step: usize) -> String {
@@ -28,6 +29,7 @@ fn file_name(format: LandmarkFormat, step: usize) -> String {
         LandmarkFormat::OpenFace => format!("s{step}_openface.csv"),
         LandmarkFormat::DlibXml => format!("s{step}.xml"),
         LandmarkFormat::LipmapCsv => format!("s{step}_lipmap.csv"),
+        LandmarkFormat::EosCsv => format!("s{step}_eos.csv"),
     }
 }
 

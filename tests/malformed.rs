@@ -120,7 +120,7 @@ const CASES: &[(&str, Reader, &str)] = &[
     (
         "landmarks_unknown.csv",
         landmarks,
-        ":1: not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV)",
+        ":1: not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV, eos CSV)",
     ),
     // dlib imglab XML
     ("dlib_part_68.xml", landmarks, ":9: part name `68` is out of range 00..67"),

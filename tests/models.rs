@@ -2,9 +2,7 @@
 //! mesh and targets) and synthetic pose folders; shared data is skipped when absent.
 
 use lipmap::io::error::Location;
-use lipmap::io::landmark_map_toml::{
-    format_landmark_map, parse_landmark_map, read_landmark_map, read_landmark_map_json,
-};
+use lipmap::io::landmark_map_toml::{format_landmark_map, parse_landmark_map, read_landmark_map};
 use lipmap::io::model_file::{Precision, read_model_file, write_model_file};
 use lipmap::io::model_source::{ModelSourceKind, detect_model_source, load_model, load_model_with};
 use lipmap::io::{eos_bin, npy_model, obj};
@@ -144,7 +142,7 @@ fn ibug_mapping_reads_writes_and_agrees_with_json() {
     assert_eq!(map.vertex(30), Some(114), "iBUG 31 (nose tip) is point 30");
     assert_eq!(map.vertex(8), Some(33));
     assert_eq!(map.vertex(60), None, "iBUG 61 is not defined in eos's file");
-    assert_eq!(read_landmark_map_json(&json).unwrap(), map);
+    assert_eq!(read_landmark_map(&json).unwrap(), map);
     let again = parse_landmark_map(
         &format_landmark_map(&map, &lipmap::landmarks::LandmarkNames::builtin()),
         &toml,
@@ -241,6 +239,33 @@ fn pose_folder_pca_reconstructs_every_pose() {
         .unwrap();
     let e = load_model(tmp.path(), None).unwrap_err();
     assert!(e.path.ends_with("pose_999.obj"), "{e}");
+}
+
+#[test]
+fn model_build_counts_the_pose_files_it_read() {
+    let tmp = tempfile::tempdir().unwrap();
+    let poses = tmp.path().join("poses");
+    std::fs::create_dir(&poses).unwrap();
+    write_pose_folder(&poses, 25);
+    // Copies of one pose add files but no direction of variation.
+    for k in 0..6 {
+        std::fs::copy(poses.join("pose_000.obj"), poses.join(format!("copy_{k}.obj"))).unwrap();
+    }
+    let out = tmp.path().join("m.lmm");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_lipmap"))
+        .args(["model", "build"])
+        .arg(&poses)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(
+        text.contains("31 pose files read (40 vertices each), varying in 3 directions"),
+        "{text}"
+    );
+    assert!(text.contains("% of the variance)"), "{text}");
 }
 
 #[test]

@@ -300,7 +300,10 @@ fn duplicate_clip_names_and_non_finite_values_are_refused() {
     assert!(!file.exists(), "nothing may be written for an invalid session");
     s.clips.pop();
     s.clips[0].tracked.frames[0].points[5].x = f64::NAN;
-    assert!(s.save(&file).unwrap_err().to_string().contains("point 5 is not finite"));
+    assert!(
+        s.save(&file).unwrap_err().to_string().contains("point 6 is not finite"),
+        "index 5 is point 6 to people"
+    );
     s.clips[0].tracked.frames[0].points[5].x = 1.0;
     // A non-finite fit is stored as a failed frame instead of making the file unloadable.
     let settings = FitSettings::default();

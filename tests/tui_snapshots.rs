@@ -70,6 +70,39 @@ fn frames_view_while_decoding() {
 }
 
 #[test]
+fn frames_view_with_the_side_panel_hidden() {
+    check("frames_no_panel", &[Action::ToggleSidePanel]);
+}
+
+#[test]
+fn a_long_status_message_wraps_instead_of_being_cut() {
+    let long = "suggested 59 landmarks (lowest confidence 0.31), left 9: 4 anatomy, 5 not \
+                visible; e.g. 61 not tracked as visible in this frame; u undoes";
+    for size in SIZES {
+        let mut app = app_at(size);
+        app.status = long.into();
+        let t = render(&app);
+        let text: String = t.backend().buffer().content().iter().map(|c| c.symbol()).collect();
+        let squeezed: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        assert!(squeezed.contains("this frame; u undoes"), "{size:?}: the end is shown");
+        insta::assert_snapshot!(format!("status_wrapped_{}x{}", size.0, size.1), t.backend());
+    }
+}
+
+#[test]
+fn a_status_message_longer_than_its_rows_says_it_is_cut() {
+    let mut app = app_at((80, 24));
+    app.status = "every word of this warning matters ".repeat(12) + "last";
+    let t = render(&app);
+    let buffer = t.backend().buffer();
+    let row = |y: u16| -> String { (0..80).map(|x| buffer[(x, y)].symbol()).collect() };
+    let rows = lipmap::tui::draw::MAX_STATUS_ROWS;
+    assert!(row(24 - rows).starts_with("every word"), "{}", row(24 - rows));
+    assert!(row(23).trim_end().ends_with('…'), "{}", row(23));
+    assert!(!row(23).contains("last"));
+}
+
+#[test]
 fn help_overlay() {
     check("help", &[Action::ToggleHelp]);
 }

@@ -35,7 +35,7 @@ fn point(app: &App, frame: usize, i: usize) -> lipmap::landmarks::LandmarkPoint 
 fn nudge_undo_redo() {
     let mut a = app();
     let before = point(&a, 0, 62);
-    let step = image_mapping(&a, a.term_size).unwrap().step_px();
+    let step = image_mapping(&a, a.term_size).unwrap().nudge_px();
     run(&mut a, [Action::Nudge { dx: 1, dy: 0 }, Action::Nudge { dx: 0, dy: 10 }]);
     let p = point(&a, 0, 62);
     assert!((p.x - before.x - step).abs() < 1e-9);
@@ -66,6 +66,28 @@ fn zoom_makes_steps_sub_pixel_and_is_kept_across_frames() {
     assert_eq!(a.frames.image_view.zoom, 16.0);
     run(&mut a, [Action::ZoomReset]);
     assert_eq!(a.frames.image_view.zoom, 1.0);
+}
+
+#[test]
+fn a_step_is_an_image_pixel_at_any_terminal_size_and_finer_zoomed_in() {
+    // A 720×480 frame on 80×24 has a display pixel of over 10 image pixels: `L` still moves
+    // the point by the 10 image pixels the help says.
+    for size in [(80, 24), (160, 45)] {
+        let mut a = synthetic_app(3, 720, 480, false);
+        a.term_size = size;
+        assert!(image_mapping(&a, size).unwrap().step_px() > 1.0, "{size:?}");
+        let before = point(&a, 0, 62);
+        run(&mut a, [Action::Nudge { dx: 10, dy: 0 }, Action::Nudge { dx: 0, dy: -1 }]);
+        let p = point(&a, 0, 62);
+        assert_eq!((p.x - before.x, p.y - before.y), (10.0, -1.0), "{size:?}");
+        run(&mut a, [Action::ZoomIn, Action::ZoomIn, Action::ZoomIn, Action::ZoomIn]);
+        let fine = image_mapping(&a, size).unwrap().nudge_px();
+        assert!(fine < 1.0, "{size:?}: {fine}");
+        run(&mut a, [Action::Nudge { dx: 10, dy: 0 }]);
+        assert!((point(&a, 0, 62).x - p.x - 10.0 * fine).abs() < 1e-9);
+    }
+    let help = Action::Nudge { dx: 10, dy: 0 }.describe();
+    assert!(help.starts_with("move point 10 image pixels"), "{help}");
 }
 
 #[test]
@@ -125,30 +147,26 @@ fn propagate_through_the_prompt() {
     assert!((1..=3).all(|f| point(&a, f, 62) == a.tracked.get(f).unwrap().points[62]));
 }
 
+/// Types `text` into a freshly opened prompt of `open` and submits it.
+fn answer(app: &mut App, open: Action, text: &str) {
+    run(app, [open]);
+    run(app, text.chars().map(Action::PromptChar));
+    run(app, [Action::PromptSubmit]);
+}
+
 #[test]
 fn prompt_goto_point_and_bad_input() {
     let mut a = app();
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('4'),
-            Action::PromptChar('8'),
-            Action::PromptSubmit,
-        ],
-    );
+    // People number points 1–68: 49 is the right mouth corner, index 48.
+    answer(&mut a, Action::GotoPointPrompt, "49");
     assert_eq!(a.frames.selected, 48);
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('9'),
-            Action::PromptChar('9'),
-            Action::PromptSubmit,
-        ],
-    );
-    assert_eq!(a.frames.selected, 48);
-    assert!(a.status.contains("no landmark"));
+    answer(&mut a, Action::GotoPointPrompt, "68");
+    assert_eq!(a.frames.selected, 67);
+    for bad in ["69", "0", "99"] {
+        answer(&mut a, Action::GotoPointPrompt, bad);
+        assert_eq!(a.frames.selected, 67, "{bad}");
+        assert_eq!(a.status, format!("`{bad}` is not a point number (1–68)"));
+    }
     run(&mut a, [Action::GotoPointPrompt, Action::Cancel]);
     assert!(a.overlays.is_empty());
 }
@@ -179,15 +197,7 @@ fn flagged_frame_navigation_finds_the_glitch() {
     run(&mut a, [Action::NextFlagged]);
     assert_eq!(a.frame(), GLITCH_FRAME);
     // Fixing the glitch clears its flag.
-    run(
-        &mut a,
-        [
-            Action::GotoPointPrompt,
-            Action::PromptChar('4'),
-            Action::PromptChar('8'),
-            Action::PromptSubmit,
-        ],
-    );
+    answer(&mut a, Action::GotoPointPrompt, "49");
     let fixed = lipmap::tui::fixtures::face_points(GLITCH_FRAME, 160, 120)[48];
     let cur = point(&a, GLITCH_FRAME, 48);
     let edit =
@@ -328,11 +338,11 @@ fn head_labelling_assigns_and_undoes() {
             Action::ShowHead,
             Action::GotoLabelPrompt,
             Action::PromptChar('3'),
-            Action::PromptChar('3'),
+            Action::PromptChar('4'),
             Action::PromptSubmit,
         ],
     );
-    assert_eq!(a.head.view.label, 33);
+    assert_eq!(a.head.view.label, 33, "landmark 34 as people number it");
     run(&mut a, [Action::ConfirmLabel]);
     let v = a.map.as_ref().unwrap().vertex(33).expect("the cursor at the centre picks a vertex");
     // Facing the viewer, the picked vertex is on the front (+z) side of the head.

@@ -6,7 +6,7 @@ use crate::io::landmark_format::{self, LandmarkFormat};
 use anyhow::{Context, Result, bail};
 use std::path::PathBuf;
 
-/// Convert landmarks (.pts, folder of .pts, OpenFace CSV, dlib XML, lipmap CSV) or phone
+/// Convert landmarks (.pts, folder of .pts, OpenFace CSV, dlib XML, lipmap CSV, eos CSV) or phone
 /// alignments (TextGrid, HTK/Festival .lab, xlabel, start,end,phone CSV).
 #[derive(clap::Args, Debug)]
 pub struct ConvertArgs {

@@ -28,7 +28,8 @@ pub struct FitArgs {
     /// Landmark map: eos TOML (1-based iBUG ids) or eos's landmarks_and_contours.json.
     #[arg(long)]
     pub mapping: Option<PathBuf>,
-    /// lipmap landmark CSV: frame,point,x,y[,visible,confidence,source] (pixels, y down).
+    /// Landmarks in any format lipmap reads: lipmap CSV (frame,point,x,y,…), eos's CSV
+    /// (frame,ibug_id,u,v), .pts, OpenFace, dlib XML (pixels, y down).
     #[arg(long)]
     pub landmarks: Option<PathBuf>,
     /// Image size in pixels, WxH.

@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 pub struct IndicesArgs {
     /// A session (`NAME` for sessions/NAME.lipmap.json, or a `.lipmap.json` path) or a
-    /// landmark file (.pts, OpenFace CSV, dlib XML, lipmap CSV, folder of .pts). With
+    /// landmark file (.pts, OpenFace CSV, dlib XML, lipmap CSV, eos CSV, folder of .pts). With
     /// --compute-bounds: one neutral-frame landmark file (or session) per speaker.
     #[arg(required = true, num_args = 1..)]
     pub inputs: Vec<String>,

@@ -4,6 +4,7 @@
 
 use crate::cli::progress::print_warnings;
 use crate::io::landmark_map_toml::write_landmark_map;
+use crate::landmarks::PointNo;
 use crate::session::MapRole;
 use crate::workflow::map::{check_session_map, label_role, mesh_file_of, suggest_session_map};
 use crate::workflow::{read_session, session_path};
@@ -64,14 +65,14 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
                 writeln!(
                     out,
                     "{:>8}  {:>6}  {:>6.2}  {:>10.2}",
-                    x.landmark + 1,
+                    PointNo(x.landmark),
                     x.vertex,
                     x.distance_px,
                     x.confidence
                 )?;
             }
             for (l, why) in &s.proposal.left {
-                writeln!(out, "left {}: {why}", l + 1)?;
+                writeln!(out, "left {}: {why}", PointNo(*l))?;
             }
             writeln!(out, "{}", s.check.summary())?;
             write_landmark_map(&a.out, &s.map, &crate::reference::current().names)?;

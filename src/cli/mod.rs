@@ -8,6 +8,7 @@ pub mod exit;
 pub mod export;
 pub mod fit_cmd;
 pub mod fit_files;
+pub mod help_cmd;
 pub mod indices;
 pub mod map_cmd;
 pub mod model_cmd;
@@ -33,7 +34,7 @@ use std::io::Write;
 
 /// lipmap: map a speaker's tracked lip motion onto a 3D head and measure how well it follows.
 #[derive(Parser, Debug)]
-#[command(name = "lipmap", version, about, long_about = None)]
+#[command(name = "lipmap", version, about, long_about = None, disable_help_subcommand = true)]
 pub struct Cli {
     /// A folder of reference tables replacing the built-in ones: any of visemes.toml,
     /// facial_index_bounds.csv, ibug68.csv, keymap.toml (`lipmap tables --out DIR` writes them
@@ -98,6 +99,9 @@ pub enum Command {
     /// predict a phone sequence's quality.
     #[command(subcommand)]
     Saqp(saqp_cmd::SaqpCommand),
+    /// A command's options, or what a term lipmap prints means (`lipmap help omega_m`,
+    /// `lipmap help terms`).
+    Help(help_cmd::HelpArgs),
 }
 
 /// What the binary does once a command has run: exit, or open a session in the TUI (the
@@ -195,6 +199,10 @@ fn run_command(command: Command) -> Result<Outcome> {
         }
         Command::Tables(args) => {
             tables_cmd::run(&args, &mut out)?;
+            Ok(Outcome::Ok)
+        }
+        Command::Help(args) => {
+            help_cmd::run(&args, &mut out)?;
             Ok(Outcome::Ok)
         }
         Command::Validate(args) => {

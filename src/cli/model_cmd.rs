@@ -1,6 +1,7 @@
 //! `lipmap model build|info`: build a 3DMM by PCA over a folder of pose OBJs (optionally with
 //! blendshapes) and write lipmap's model file; print a model's size and variance explained.
 
+use super::output::plural;
 use crate::io::model_file::{self, Precision};
 use crate::io::model_source;
 use crate::measure::lip_reach::InnerLipGap;
@@ -73,15 +74,18 @@ fn build(a: &BuildArgs, out: &mut dyn Write) -> Result<()> {
     }
     let precision = if a.f64 { Precision::F64 } else { Precision::F32 };
     model_file::write_model_file(&a.out, &model, precision)?;
+    // Counts what was read: pose files, and apart from that the directions they vary in
+    // (identical or linearly dependent poses add files but no direction).
     writeln!(
         out,
-        "{}: {} vertices, {} components ({:.1} % of variance, {} poses), {} expressions",
+        "{}: {} read ({} vertices each), varying in {}; kept {} ({:.1} % of the variance), {}",
         a.out.display(),
+        plural(summary.shapes, "pose file"),
         model.num_vertices(),
-        model.num_shape_components(),
+        plural(summary.all_eigenvalues.len(), "direction"),
+        plural(model.num_shape_components(), "component"),
         100.0 * summary.variance_explained(),
-        summary.all_eigenvalues.len() + 1,
-        model.num_expressions()
+        plural(model.num_expressions(), "expression")
     )?;
     Ok(())
 }
@@ -92,7 +96,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     let cumulative: Vec<f64> = (1..=e.len()).map(|k| variance_explained(e, k)).collect();
     let reach = match &a.mapping {
         Some(path) => {
-            let map = crate::workflow::fit_files::read_mapping(path)?;
+            let map = crate::io::landmark_map_toml::read_landmark_map(path)?;
             let reach = lip_reach(&model, &map);
             if reach.is_none() {
                 bail!(
@@ -132,8 +136,8 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     if let Some(r) = &reach {
         writeln!(
             out,
-            "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
-             β ≥ 0)",
+            "inner lips   gap {:.3} model units at rest (mean identity), smallest reachable {:.3} \
+             (expressions β ≥ 0)",
             r.neutral, r.smallest,
         )?;
     }

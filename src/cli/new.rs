@@ -26,7 +26,7 @@ pub struct ClipArgs {
     /// Frames per second (default: the video's, or 25 for an image folder, with a notice).
     #[arg(long, requires = "frames")]
     pub fps: Option<f64>,
-    /// Tracked landmarks: .pts file or folder, OpenFace CSV, dlib XML, lipmap CSV.
+    /// Tracked landmarks: .pts file or folder, OpenFace CSV, dlib XML, lipmap CSV, eos CSV.
     #[arg(long, requires = "frames", group = "landmark_source")]
     pub landmarks: Option<PathBuf>,
     /// Track the landmarks with lipmap's own tracker (dlib's shape predictor) instead of
@@ -136,7 +136,7 @@ pub struct NewArgs {
     /// Expression blendshapes (eos .bin, folder of .target or OBJ).
     #[arg(long)]
     pub blendshapes: Option<PathBuf>,
-    /// The model's landmark map in eos TOML format (iBUG ids 1-based), what `fit` uses.
+    /// The model's landmark map in eos TOML format (iBUG ids 1-based) or its JSON, what `fit` uses.
     /// Optional: the model can be labelled in the TUI (view 2), or a map set later with
     /// `lipmap import SESSION --mapping FILE`.
     #[arg(long)]

@@ -4,6 +4,7 @@
 use crate::cli::output::{FormatArgs, plural, write_tables};
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::eval::{Cell, Table};
+use crate::glossary::names::{FILLED_FRAMES, MOUTH_WEIGHT, SATF_ERROR, SMOOTHING_WEIGHT};
 use crate::saqp::{CvOptions, SatfParams, SynthKind};
 use crate::workflow::saqp::{
     CorpusOptions, SaqpSettings, cross_validate_corpus, held_out_table, load_predictor,
@@ -200,7 +201,7 @@ fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
     let sc = session_corpus(&a.learn.sessions, &settings.corpus, &show_on(&bar))?;
     bar.finish_and_clear();
     eprintln!(
-        "cross-validating on {} ({} frames, {} bridged{}; {})…",
+        "cross-validating on {} ({} frames, {} {FILLED_FRAMES}{}; {})…",
         plural(sc.corpus.sentences.len(), "sentence"),
         sc.frames,
         sc.bridged,
@@ -253,7 +254,7 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     save_predictor(&a.out, &trained.file)?;
     writeln!(
         out,
-        "trained the {} quality predictor on {} sentences ({} kept; r {:.3}, {}); SATF lambda {} order {}, omega_m {}; wrote {}",
+        "trained the {} quality predictor on {} sentences ({} kept; r {:.3}, {}); {SMOOTHING_WEIGHT} {} order {}, {MOUTH_WEIGHT} {}; wrote {}",
         synth.name(),
         trained.file.sentences,
         p.calibration.name(),
@@ -280,7 +281,10 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         ),
         headers,
     )
-    .keyed("predictions");
+    .keyed("predictions")
+    .labelled("E", SATF_ERROR)
+    .labelled("predicted", "predicted (Likert)")
+    .labelled("sigma", "σ");
     let (mut any_unseen, mut any_extrapolated) = (false, false);
     for file in &a.phones {
         let q = predict_quality(&model, file)?;
@@ -297,7 +301,7 @@ fn predict(a: &PredictArgs, out: &mut dyn Write) -> Result<()> {
         ]);
     }
     t.notes.push(format!(
-        "E: the sequence's SATF error against the {} training sentences; coverage: how well their recorded phones match its contexts (0–1); sigma: the prediction's standard deviation",
+        "{SATF_ERROR}: how poorly the training corpus of {} sentences fits the sequence's phones; coverage: how well their recorded phones match its contexts (0–1); σ: the prediction's standard deviation (Likert points)",
         model.sentences
     ));
     let skill = &model.predictor.skill;
@@ -343,7 +347,7 @@ fn markers(a: &MarkersArgs, out: &mut dyn Write) -> Result<()> {
     }
     let mouth = markers.iter().filter(|m| m.1).count();
     t.notes.push(format!(
-        "{} markers, {mouth} on the mouth (weighted by omega_m); a --synth-files CSV gives these vertices per frame",
+        "{} markers, {mouth} on the mouth (weighted by the {MOUTH_WEIGHT}); a --synth-files CSV gives these vertices per frame",
         markers.len()
     ));
     write_tables(&[&t], a.output.format(), out)

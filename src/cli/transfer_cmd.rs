@@ -4,6 +4,7 @@
 
 use crate::cli::output::terminal_safe;
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
+use crate::glossary::names::{PLACEMENT_RESIDUAL, TRIANGLES_DROPPED};
 use crate::transfer::Interpolation;
 use crate::workflow::{self, open_for_edit, select_clips};
 use anyhow::Result;
@@ -84,10 +85,21 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     let report =
         workflow::transfer::transfer_session(&mut opened.session, &res, &request, &show_on(&bar))?;
     opened.save()?;
+    // Head units mean nothing alone: the head's eye distance is the yardstick.
+    let of_eyes = |r: f64| {
+        report
+            .eye_distance
+            .map_or(String::new(), |d| format!(", {:.0} % of its eye distance", 100.0 * r / d))
+    };
     writeln!(
         out,
-        "placement residual {:.4} (rigid {:.4}), {} controls, {} control triangles dropped",
-        report.residual, report.residual_rigid, report.controls, report.triangles_dropped
+        "{PLACEMENT_RESIDUAL} {:.4} head units{} ({:.4} after a similarity transform alone); \
+         {} control points, {} {TRIANGLES_DROPPED} (spanning the lip gap, or slivers)",
+        report.residual,
+        of_eyes(report.residual),
+        report.residual_rigid,
+        report.controls,
+        report.triangles_dropped
     )?;
     writeln!(
         out,
@@ -102,5 +114,9 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(out, "{clip}: {frames} frames -> {file}")?;
     }
     writeln!(out, "recorded head `{}` in {}", report.head_name, opened.path.display())?;
+    writeln!(
+        out,
+        "(the terms: `lipmap help placement residual`, `lipmap help {TRIANGLES_DROPPED}`)"
+    )?;
     Ok(())
 }

@@ -1,7 +1,8 @@
-//! `lipmap validate FILE...`: parse any file lipmap reads (landmarks, alignments, meshes,
-//! models, landmark maps, blendshape targets, sessions, videos and frame folders, WAVs, speech
-//! and quality models, synthesized motion) and print `ok` and what it holds, or the one-line
-//! error. The use case is `workflow::validate`; this module words its summary.
+//! `lipmap validate FILE...`: parse any file lipmap reads or writes (landmarks, alignments,
+//! meshes, models, landmark maps, blendshape targets, sessions, videos and frame folders,
+//! WAVs, speech and quality models, synthesized motion, fit results, shapes arrays, tables,
+//! plots) and print `ok` and what it holds, or the one-line error. The use case is
+//! `workflow::validate`; this module words its summary.
 
 use crate::cli::output::plural;
 use crate::workflow::validate::{FileSummary, validate_file};
@@ -72,6 +73,30 @@ fn describe(summary: &FileSummary) -> String {
             plural(*frames, "frame"),
             plural_vertices(*vertices)
         ),
+        FileSummary::FitResults { frames, failed } => {
+            format!("fit results (fit.csv), {}, {failed} failed", plural(*frames, "frame"))
+        }
+        FileSummary::FrameList { frames } => {
+            format!("frame list (frames.csv beside a shapes.npy), {}", plural(*frames, "frame"))
+        }
+        FileSummary::Table { rows, columns } => {
+            let mut cols = columns.iter().take(4).cloned().collect::<Vec<_>>().join(", ");
+            if columns.len() > 4 {
+                cols.push_str(", …");
+            }
+            format!(
+                "table, {} × {} ({cols})",
+                plural(*rows, "row"),
+                plural(columns.len(), "column")
+            )
+        }
+        FileSummary::Array { rows, columns } if columns % 3 == 0 => format!(
+            "array {rows} × {columns}: {} of {} (per-frame shapes as shapes.npy, or blendshapes)",
+            plural(*rows, "shape"),
+            plural_vertices(columns / 3)
+        ),
+        FileSummary::Array { rows, columns } => format!("array {rows} × {columns}"),
+        FileSummary::Image { size: [w, h] } => format!("image, {w}x{h}"),
         FileSummary::Frames { folder, frames, fps, size: [w, h] } => {
             // 29.97002997… prints as 29.97, 25.0 as 25.
             let rate = format!("{fps:.2}");

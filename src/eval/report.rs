@@ -86,6 +86,10 @@ pub struct Table {
     /// Decimals for real numbers in text output (CSV and JSON keep full precision).
     #[serde(skip)]
     pub precision: usize,
+    /// Column headings for people where they differ from `headers` (`mouth weight ω_m` for
+    /// `omega_m`): text output and the TUI show these, CSV and JSON keep `headers` as keys.
+    #[serde(skip)]
+    pub labels: Vec<(String, String)>,
 }
 
 impl Table {
@@ -99,7 +103,27 @@ impl Table {
             rows: Vec::new(),
             notes: Vec::new(),
             precision: 3,
+            labels: Vec::new(),
         }
+    }
+
+    /// The table with column `header` shown to people as `label` (machine formats keep
+    /// `header`).
+    #[must_use]
+    pub fn labelled(mut self, header: &str, label: &str) -> Self {
+        self.labels.push((header.to_string(), label.to_string()));
+        self
+    }
+
+    /// Column `c`'s heading as people read it: its label, else its header.
+    pub fn heading(&self, c: usize) -> &str {
+        let h = self.headers.get(c).map_or("", String::as_str);
+        self.labels.iter().find(|(k, _)| k == h).map_or(h, |(_, l)| l.as_str())
+    }
+
+    /// Every column's heading as people read it ([`Table::heading`]).
+    pub fn headings(&self) -> Vec<String> {
+        (0..self.headers.len()).map(|c| self.heading(c).to_string()).collect()
     }
 
     /// The table with its stable key ([`Table::key`]).
@@ -121,12 +145,17 @@ impl Table {
         self.rows.push(row);
     }
 
-    /// Names the pose comparison W and H were made under ([`PoseComparison`]) in the title
-    /// and in every W or H column header (`RMSE W [image plane]`), so no table, CSV column
-    /// or chart built from it can be read as the other comparison.
-    pub fn name_pose_comparison(&mut self, pose: PoseComparison) {
+    /// Names what the table compared in its title (`conditions`, e.g. the landmark set, the
+    /// normalisation and the pose comparison, [`crate::workflow::EvalConditions`]) and, when
+    /// `pose` is given, the pose comparison W and H were made under in every W or H column
+    /// header (`RMSE W [image plane]`), so no table, CSV column or chart built from it can be
+    /// read as another comparison.
+    pub fn name_conditions(&mut self, conditions: &str, pose: Option<PoseComparison>) {
+        if !conditions.is_empty() {
+            self.title = format!("{} — {conditions}", self.title);
+        }
+        let Some(pose) = pose else { return };
         let label = pose.short_label();
-        self.title = format!("{} — W/H {label}", self.title);
         for h in &mut self.headers {
             let names_wh = [Measure::W, Measure::H].iter().any(|m| {
                 let m = m.as_str();
@@ -175,7 +204,7 @@ impl Table {
             .map(|c| {
                 rows.iter()
                     .map(|r| r[c].chars().count())
-                    .chain(std::iter::once(self.headers[c].chars().count()))
+                    .chain(std::iter::once(self.heading(c).chars().count()))
                     .max()
                     .unwrap_or(0)
             })
@@ -200,7 +229,7 @@ impl Table {
         if !self.title.is_empty() {
             writeln!(w, "{}", self.title)?;
         }
-        line(w, &self.headers)?;
+        line(w, &self.headings())?;
         let total = widths.iter().sum::<usize>() + 2 * widths.len().saturating_sub(1);
         writeln!(w, "{}", "-".repeat(total))?;
         for r in &rows {
@@ -354,10 +383,13 @@ pub fn worst_error_table(frames: &[WorstFrame]) -> Table {
     t
 }
 
-/// The worst frames by fit residual.
+/// The worst frames by reprojection RMS.
 pub fn worst_fit_table(fits: &[WorstFit]) -> Table {
     let headers = ["rank", "clip", "frame", "reproj RMS px", "failed"];
-    let mut t = Table::new("worst frames by fit residual", headers.map(String::from).to_vec());
+    let rms = crate::glossary::names::REPROJECTION_RMS;
+    let mut t =
+        Table::new(format!("worst frames by {rms} (px)"), headers.map(String::from).to_vec())
+            .labelled(headers[3], &format!("{rms} (px)"));
     for (k, f) in fits.iter().enumerate() {
         t.push_row(vec![
             Cell::Int(k as i64 + 1),

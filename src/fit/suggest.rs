@@ -41,14 +41,19 @@ pub struct LabelSuggestion {
 /// Why no suggestion could be made.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SuggestError {
+    // A fit's pose would do too, but it needs a map of at least as many landmarks: the
+    // step that can be taken is labelling.
     #[error(
-        "label at least {MIN_LABELS_FOR_POSE} landmarks visible in this frame first \
-         (or fit it), {0} so far"
+        "label at least {MIN_LABELS_FOR_POSE} landmarks visible in this frame by hand first, \
+         {0} so far"
     )]
     TooFewLabels(usize),
     #[error("the pose from the labels is degenerate: {0}")]
     Pose(String),
-    #[error("landmark {0} is not tracked as visible in this frame")]
+    #[error(
+        "landmark {} is not tracked as visible in this frame",
+        crate::landmarks::PointNo(*.0)
+    )]
     NotVisible(usize),
     #[error("the head has no vertices")]
     NoVertices,

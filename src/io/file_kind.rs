@@ -33,6 +33,16 @@ pub enum FileKind {
     QualityModel,
     /// Synthesized motion for `saqp --synth-files` (`frame,vertex,x,y,z`).
     Motion,
+    /// Per-frame fit results (`fit.csv`: `frame,yaw,pitch,roll,…`).
+    FitResults,
+    /// The frame numbers of a `shapes.npy` (`frames.csv`: one `frame` column).
+    FrameList,
+    /// A table lipmap wrote (`export` tables, `--format csv`): any other CSV.
+    Table,
+    /// One `.npy` array: per-frame shapes (`shapes.npy`) or blendshapes, rows × 3N.
+    Array,
+    /// One image (a plot, a frame).
+    Image,
 }
 
 /// File extensions taken for videos (decoded with ffmpeg; anything ffmpeg reads works with
@@ -63,18 +73,23 @@ pub fn detect_kind(path: &Path) -> FileKind {
     }
     match ext.as_deref() {
         Some("wav") => FileKind::Audio,
-        // A model names its format near the top; other JSON is landmarks.
+        // A model names its format near the top, an eos map its object; other JSON is
+        // landmarks.
         Some("json") => {
             let head = head_of(path);
             if names_format(&head, &SPEECH_MODEL) {
                 FileKind::SpeechModel
             } else if names_format(&head, &QUALITY_MODEL) {
                 FileKind::QualityModel
+            } else if head.contains("\"ibug_to_sfm_vertex\"") {
+                FileKind::LandmarkMap
             } else {
                 FileKind::Landmarks
             }
         }
-        Some("csv") if header_columns(path).iter().any(|c| c == "vertex") => FileKind::Motion,
+        Some("csv") => csv_kind(path),
+        Some("npy") if path.is_file() => FileKind::Array,
+        Some("png" | "jpg" | "jpeg" | "ppm") if path.is_file() => FileKind::Image,
         Some(e) if VIDEO_EXTENSIONS.contains(&e) && !path.is_dir() => FileKind::Video,
         Some("obj") => FileKind::Mesh,
         Some("bin" | "npz" | "npy" | "lipmodel") => FileKind::Model,
@@ -98,6 +113,34 @@ pub fn detect_kind(path: &Path) -> FileKind {
             }
         }
         _ => FileKind::Landmarks,
+    }
+}
+
+/// What a CSV (not an alignment) holds, by its header: synthesized motion, fit results, a
+/// frame list, landmarks in a format lipmap reads, or else a table.
+fn csv_kind(path: &Path) -> FileKind {
+    let cols = header_columns(path);
+    let starts = |names: &[&str]| cols.len() >= names.len() && cols[..names.len()] == *names;
+    if cols.iter().any(|c| c == "vertex") {
+        FileKind::Motion
+    } else if starts(&["frame", "yaw", "pitch", "roll"]) {
+        FileKind::FitResults
+    } else if cols == ["frame"] {
+        FileKind::FrameList
+    } else if is_landmark_header(&cols) {
+        FileKind::Landmarks
+    } else {
+        FileKind::Table
+    }
+}
+
+/// Whether a CSV header is a landmark format's: lipmap's or eos's by their first columns, an
+/// OpenFace CSV only with its landmark columns (a table with a `frame` column is no track).
+fn is_landmark_header(cols: &[String]) -> bool {
+    use super::landmark_format::{LandmarkFormat, detect_text};
+    match detect_text(&cols.join(",")) {
+        Some(LandmarkFormat::OpenFace) => cols.iter().any(|c| c == "x_0"),
+        other => other.is_some(),
     }
 }
 
@@ -159,6 +202,19 @@ mod tests {
         assert_eq!(detect_kind(&file("p.csv", "\u{feff}start,end,phone\n")), FileKind::Alignment);
         assert_eq!(detect_kind(&file("m.csv", "frame,vertex,x,y,z\n")), FileKind::Motion);
         assert_eq!(detect_kind(&file("t.csv", "frame,point,x,y\n")), FileKind::Landmarks);
+        assert_eq!(detect_kind(&file("e.csv", "frame,ibug_id,u,v\n")), FileKind::Landmarks);
+        let fit = file("fit.csv", "frame,yaw,pitch,roll,scale,tx,ty,reproj_rms_px,failed\n");
+        assert_eq!(detect_kind(&fit), FileKind::FitResults);
+        assert_eq!(detect_kind(&file("frames.csv", "frame\n0\n")), FileKind::FrameList);
+        assert_eq!(detect_kind(&file("s.csv", "sentence,RMSE W\n")), FileKind::Table);
+        let worst = file("w.csv", "rank,clip,frame,reproj RMS px,failed\n");
+        assert_eq!(detect_kind(&worst), FileKind::Table);
+        let openface = file("o.csv", "frame, face_id, timestamp, confidence, success, x_0\n");
+        assert_eq!(detect_kind(&openface), FileKind::Landmarks);
+        assert_eq!(detect_kind(&file("shapes.npy", "")), FileKind::Array);
+        assert_eq!(detect_kind(&file("plot.png", "")), FileKind::Image);
+        let map = file("lc.json", "{\"ibug_to_sfm_vertex\": {\"31\": 114}}");
+        assert_eq!(detect_kind(&map), FileKind::LandmarkMap);
         assert_eq!(detect_kind(&file("map.txt", "[landmark_mappings]\n")), FileKind::LandmarkMap);
         assert_eq!(detect_kind(&file("a.txt", "0 1 sil\n")), FileKind::Alignment);
         assert_eq!(detect_kind(&file("v.MP4", "")), FileKind::Video);

@@ -2,13 +2,14 @@
 //! line, and read or write a `Track` in any of them. Start at `read_track` / `write_track`.
 //!
 //! Detection rules: a directory is a `.pts` folder; `.pts` is one iBUG frame; `.xml` is dlib
-//! imglab; `.csv` is lipmap CSV when its header starts with `frame,point` (after trimming)
-//! and OpenFace when it has an `x_0` or `frame`/`timestamp`/`success` column. Other
+//! imglab; `.csv` is lipmap CSV when its header starts with `frame,point` (after trimming),
+//! eos's CSV when it starts with `frame,ibug_id`, and OpenFace when it has an `x_0` or
+//! `frame`/`timestamp`/`success` column. Other
 //! extensions are sniffed from the content the same way (`version:`/`n_points:`/`{` = pts,
 //! `<` = XML).
 
 use super::error::{FormatError, Result};
-use super::{dlib_xml, openface, pts, track_csv};
+use super::{dlib_xml, eos_csv, openface, pts, track_csv};
 use crate::landmarks::track::Track;
 use std::fmt;
 use std::path::Path;
@@ -27,13 +28,16 @@ pub enum LandmarkFormat {
     DlibXml,
     /// lipmap CSV (`frame,point,x,y,visible,confidence,source`), lossless.
     LipmapCsv,
+    /// eos's CSV (`frame,ibug_id,u,v`, 1-based ids): visible points only.
+    EosCsv,
 }
 
 impl LandmarkFormat {
-    pub const ALL: [LandmarkFormat; 5] =
-        [Self::Pts, Self::PtsFolder, Self::OpenFace, Self::DlibXml, Self::LipmapCsv];
+    pub const ALL: [LandmarkFormat; 6] =
+        [Self::Pts, Self::PtsFolder, Self::OpenFace, Self::DlibXml, Self::LipmapCsv, Self::EosCsv];
 
-    /// The short name used on the command line (`pts`, `pts-dir`, `openface`, `dlib`, `csv`).
+    /// The short name used on the command line (`pts`, `pts-dir`, `openface`, `dlib`, `csv`,
+    /// `eos-csv`).
     pub fn name(self) -> &'static str {
         match self {
             Self::Pts => "pts",
@@ -41,6 +45,7 @@ impl LandmarkFormat {
             Self::OpenFace => "openface",
             Self::DlibXml => "dlib",
             Self::LipmapCsv => "csv",
+            Self::EosCsv => "eos-csv",
         }
     }
 
@@ -74,7 +79,10 @@ impl FromStr for LandmarkFormat {
             "openface" => Ok(Self::OpenFace),
             "dlib" | "xml" | "dlib-xml" => Ok(Self::DlibXml),
             "csv" | "lipmap" | "lipmap-csv" => Ok(Self::LipmapCsv),
-            _ => Err(format!("unknown landmark format `{s}` (pts, pts-dir, openface, dlib, csv)")),
+            "eos-csv" | "eos" => Ok(Self::EosCsv),
+            _ => Err(format!(
+                "unknown landmark format `{s}` (pts, pts-dir, openface, dlib, csv, eos-csv)"
+            )),
         }
     }
 }
@@ -92,6 +100,9 @@ pub fn detect_text(text: &str) -> Option<LandmarkFormat> {
     let cols: Vec<&str> = first.split(',').map(str::trim).collect();
     if cols.len() >= 4 && cols[..2] == ["frame", "point"] {
         return Some(LandmarkFormat::LipmapCsv);
+    }
+    if eos_csv::is_eos_header(first) {
+        return Some(LandmarkFormat::EosCsv);
     }
     if cols.iter().any(|c| matches!(*c, "x_0" | "frame" | "timestamp" | "success" | "face_id")) {
         return Some(LandmarkFormat::OpenFace);
@@ -120,7 +131,7 @@ pub fn detect(path: &Path) -> Result<LandmarkFormat> {
         FormatError::at_line(
             path,
             1,
-            "not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV)",
+            "not a landmark file lipmap knows (.pts, OpenFace CSV, dlib XML, lipmap CSV, eos CSV)",
         )
     })
 }
@@ -141,6 +152,7 @@ pub fn parse_track(text: &str, path: &Path, format: LandmarkFormat) -> Result<Tr
         LandmarkFormat::OpenFace => openface::parse_openface_csv(text, path),
         LandmarkFormat::DlibXml => dlib_xml::parse_dlib_xml(text, path),
         LandmarkFormat::LipmapCsv => track_csv::parse_track_csv(text, path),
+        LandmarkFormat::EosCsv => eos_csv::parse_eos_csv(text, path),
     }?;
     check_track_bounds(track, path)
 }
@@ -210,6 +222,7 @@ pub fn write_track(track: &Track, path: &Path, format: LandmarkFormat) -> Result
         LandmarkFormat::OpenFace => openface::write_openface_csv(track, path),
         LandmarkFormat::DlibXml => dlib_xml::write_dlib_xml(track, path),
         LandmarkFormat::LipmapCsv => track_csv::write_track_csv(track, path),
+        LandmarkFormat::EosCsv => eos_csv::write_eos_csv(track, path),
     }
 }
 
@@ -224,6 +237,8 @@ mod tests {
         assert_eq!(detect_text("\u{feff}version: 1\n"), Some(LandmarkFormat::Pts));
         assert_eq!(detect_text("<?xml version='1.0'?>"), Some(LandmarkFormat::DlibXml));
         assert_eq!(detect_text("start,end,phone\n"), None);
+        let eos = "frame,ibug_id,u,v,u_clean,v_clean\n";
+        assert_eq!(detect_text(eos), Some(LandmarkFormat::EosCsv));
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! eos landmark mapping files (TOML: `[landmark_mappings]` then `31 = 114 # nose tip`) read
-//! into and written from a [`LandmarkMap`]; also eos's exported `landmarks_and_contours.json`.
+//! into and written from a [`LandmarkMap`]; also eos's exported `landmarks_and_contours.json`,
+//! read by the same [`read_landmark_map`] wherever a map is read.
 //!
 //! In these files the iBUG ids are **1-based** (1..68) and vertex indices 0-based; lipmap is
 //! 0-based everywhere, so ids are converted here and nowhere else. Other sections
@@ -15,14 +16,18 @@ use std::path::Path;
 /// The TOML table holding the mapping.
 pub const SECTION: &str = "landmark_mappings";
 
-/// Reads an eos TOML mapping file.
+/// Reads an eos landmark map: its TOML mapping file, or its JSON form (a `.json` name, or
+/// text that opens with `{`: [`parse_landmark_map_json`]).
 ///
 /// # Errors
 /// Unreadable file, TOML syntax errors, a missing `[landmark_mappings]` table, an id outside
-/// 1..=68 or a vertex that is not a non-negative integer: each names the line.
+/// 1..=68 or a vertex that is not a non-negative integer: each names the line (the JSON
+/// form's errors as [`parse_landmark_map_json`]'s).
 pub fn read_landmark_map(path: &Path) -> Result<LandmarkMap> {
     let text = super::input::read_input_string(path)?;
-    parse_landmark_map(&text, path)
+    let json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"))
+        || super::input::without_bom(&text).trim_start().starts_with('{');
+    if json { parse_landmark_map_json(&text, path) } else { parse_landmark_map(&text, path) }
 }
 
 /// Parses mapping-file text; `path` is used only in error messages.
@@ -132,21 +137,22 @@ pub fn write_landmark_map(path: &Path, map: &LandmarkMap, names: &LandmarkNames<
         .map_err(|e| FormatError::io(path, e))
 }
 
-/// Reads eos's exported `landmarks_and_contours.json`: the object `ibug_to_sfm_vertex`
-/// (1-based iBUG id strings → 0-based vertex), or a top-level object of that form.
+/// Parses eos's exported `landmarks_and_contours.json`: the object `ibug_to_sfm_vertex`
+/// (1-based iBUG id strings → 0-based vertex), or a top-level object of that form; `path`
+/// is used only in errors.
 ///
 /// # Errors
-/// Unreadable or invalid JSON (with serde_json's line), ids outside 1..=68, non-integer
-/// vertices (naming the field).
-pub fn read_landmark_map_json(path: &Path) -> Result<LandmarkMap> {
-    let text = super::input::read_input_string(path)?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-        FormatError::new(
-            path,
-            crate::io::error::Location::LineColumn(e.line(), e.column()),
-            e.to_string(),
-        )
-    })?;
+/// Invalid JSON (with serde_json's line), ids outside 1..=68, non-integer vertices (naming
+/// the field).
+pub fn parse_landmark_map_json(text: &str, path: &Path) -> Result<LandmarkMap> {
+    let v: serde_json::Value =
+        serde_json::from_str(super::input::without_bom(text)).map_err(|e| {
+            FormatError::new(
+                path,
+                crate::io::error::Location::LineColumn(e.line(), e.column()),
+                e.to_string(),
+            )
+        })?;
     let obj = v
         .get("ibug_to_sfm_vertex")
         .unwrap_or(&v)
@@ -158,7 +164,8 @@ pub fn read_landmark_map_json(path: &Path) -> Result<LandmarkMap> {
             key.parse().ok().filter(|id| (1..=N_LANDMARKS).contains(id)).ok_or_else(|| {
                 FormatError::at_field(path, key.as_str(), "not an iBUG id in 1..=68")
             })?;
-        let vertex = value.as_u64().ok_or_else(|| {
+        // As in the TOML form, whose integers are i64.
+        let vertex = value.as_u64().filter(|&v| i64::try_from(v).is_ok()).ok_or_else(|| {
             FormatError::at_field(path, key.as_str(), "vertex must be a non-negative integer")
         })?;
         map.to_vertex.insert(id - 1, vertex as usize);

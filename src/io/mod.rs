@@ -12,6 +12,7 @@ pub mod audio_track;
 pub mod bounds_table;
 pub mod dlib_xml;
 pub mod eos_bin;
+pub mod eos_csv;
 pub mod file_kind;
 pub mod htk_lab;
 pub mod json_model;

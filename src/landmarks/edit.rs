@@ -37,7 +37,7 @@ impl fmt::Display for EditError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::NoSuchFrame(n) => write!(f, "no frame {n} in the track"),
-            Self::NoSuchPoint(i) => write!(f, "no landmark {i}"),
+            Self::NoSuchPoint(i) => write!(f, "no landmark {}", super::PointNo(*i)),
             Self::NoPreviousFrame(n) => write!(f, "frame {n} has no previous frame"),
             Self::NonFinite => write!(f, "the edit would make a coordinate non-finite"),
         }

@@ -9,6 +9,7 @@
 //! floors stop a perfectly still clip from flagging sub-pixel noise. Start at `flag_frames`;
 //! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
+use super::PointNo;
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
@@ -55,11 +56,14 @@ impl fmt::Display for FlagReason {
         match self {
             Self::Jump { point, px, face_fraction } => {
                 let what = if MOUTH_CORNERS.contains(point) { "mouth corner" } else { "point" };
+                let point = PointNo(*point);
                 write!(f, "{what} {point} jumped {px:.1} px ({face_fraction:.3} of eye distance)")
             }
             Self::LipOrder { upper, lower, face_fraction } => write!(
                 f,
-                "lip order: point {lower} above point {upper} by {face_fraction:.3} of eye distance"
+                "lip order: point {} above point {} by {face_fraction:.3} of eye distance",
+                PointNo(*lower),
+                PointNo(*upper)
             ),
             Self::ShapeBreak { face_fraction } => {
                 write!(f, "lip shape off its neighbours by {face_fraction:.3} of eye distance")
@@ -67,7 +71,7 @@ impl fmt::Display for FlagReason {
             Self::TrackerFailed => write!(f, "tracker failed"),
             Self::LowConfidence { value } => write!(f, "low confidence {value:.2}"),
             Self::FitFailed { reason } => write!(f, "fit failed: {reason}"),
-            Self::HighResidual { rms_px } => write!(f, "fit residual {rms_px:.1} px"),
+            Self::HighResidual { rms_px } => write!(f, "reprojection RMS {rms_px:.1} px"),
             Self::MeasureOutlier { measure, z, range_fraction } => {
                 write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
             }
@@ -324,6 +328,18 @@ mod tests {
         fn failure(&self) -> Option<&str> {
             self.failed.as_deref()
         }
+    }
+
+    #[test]
+    fn reasons_number_points_as_people_do() {
+        let jump = FlagReason::Jump { point: 56, px: 3.6, face_fraction: 0.113 };
+        assert_eq!(jump.to_string(), "point 57 jumped 3.6 px (0.113 of eye distance)");
+        let corner = FlagReason::Jump { point: 48, px: 1.0, face_fraction: 0.1 };
+        assert!(corner.to_string().starts_with("mouth corner 49 jumped"));
+        let order = FlagReason::LipOrder { upper: 61, lower: 67, face_fraction: 0.05 };
+        assert!(order.to_string().starts_with("lip order: point 68 above point 62"));
+        let high = FlagReason::HighResidual { rms_px: 2.34 };
+        assert_eq!(high.to_string(), "reprojection RMS 2.3 px");
     }
 
     /// No fits: the flags of the track alone.

@@ -1,5 +1,11 @@
-//! The iBUG-68 convention (0-based everywhere in lipmap): names, anatomical groups and the
-//! cumulative landmark sets F1..F5 used to choose which points drive a fit.
+//! The iBUG-68 convention: names, anatomical groups and the cumulative landmark sets F1..F5
+//! used to choose which points drive a fit.
+//!
+//! Inside lipmap a point is its 0-based index (0..67); people read the points 1-based (1–68,
+//! as the 300-W annotation figure, eos's map files and most papers number them), so every
+//! message, table and screen shows a point through [`PointNo`] (`PointNo(62)` prints `63`)
+//! and reads one typed by a person through [`parse_point_no`]. Files keep their own
+//! conventions (docs/session-format.md lists them).
 //!
 //! The group ranges and named points below are the markup's convention, which the measures
 //! and fitting sets rely on; the names shown to users and the display groups are data
@@ -23,6 +29,43 @@ pub const RIGHT_EYE: Range<usize> = 36..42;
 pub const LEFT_EYE: Range<usize> = 42..48;
 pub const OUTER_LIP: Range<usize> = 48..60;
 pub const INNER_LIP: Range<usize> = 60..68;
+
+/// A 0-based iBUG point as people read it: its `Display` is the 1-based number (1–68).
+///
+/// ```
+/// use lipmap::landmarks::ibug::PointNo;
+/// assert_eq!(format!("point {}", PointNo(62)), "point 63");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PointNo(pub usize);
+
+impl fmt::Display for PointNo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0 + 1)
+    }
+}
+
+/// A run of 0-based points as people read them, `49–68` for `48..68`.
+pub fn point_range(range: &Range<usize>) -> String {
+    format!("{}–{}", PointNo(range.start), PointNo(range.end.saturating_sub(1)))
+}
+
+/// A point number typed by a person (1–68) as its 0-based index.
+///
+/// # Errors
+/// Text that is not a whole number from 1 to 68, in words for a status line.
+///
+/// ```
+/// use lipmap::landmarks::ibug::parse_point_no;
+/// assert_eq!(parse_point_no(" 63 "), Ok(62));
+/// assert!(parse_point_no("0").is_err());
+/// ```
+pub fn parse_point_no(text: &str) -> Result<usize, String> {
+    match text.trim().parse::<usize>() {
+        Ok(n @ 1..=N_LANDMARKS) => Ok(n - 1),
+        _ => Err(format!("`{}` is not a point number (1–{N_LANDMARKS})", text.trim())),
+    }
+}
 
 /// Named points used by the measures (0-based).
 pub mod point {
@@ -131,16 +174,22 @@ impl<'a> LandmarkNames<'a> {
     }
 
     /// A short human name for a 0-based iBUG point, e.g. `inner lip top` for 62: the point's
-    /// own name, else its group's name and 1-based place in it; `point i` for an index past
-    /// the table.
+    /// own name, else its group's name and 1-based place in it; `point N` (1-based) for an
+    /// index past the table.
     pub fn name(&self, index: usize) -> String {
         if let Some(Some(n)) = self.names.get(index) {
             return n.to_string();
         }
         match self.group_of(index) {
             Some(g) => format!("{} {}", g.name, index - g.range.start + 1),
-            None => format!("point {index}"),
+            None => format!("point {}", PointNo(index)),
         }
+    }
+
+    /// A 0-based point as a list or panel shows it: its 1-based number and its name,
+    /// `63 inner lip top` for 62.
+    pub fn label(&self, index: usize) -> String {
+        format!("{} {}", PointNo(index), self.name(index))
     }
 }
 
@@ -250,7 +299,7 @@ mod tests {
             let own = named.iter().find(|n| n.0 == i).map(|n| n.1);
             assert_eq!(names.names[i], own, "point {i}");
         }
-        assert_eq!(LandmarkNames::builtin().name(68), "point 68");
+        assert_eq!(LandmarkNames::builtin().name(68), "point 69");
     }
 
     #[test]
@@ -280,5 +329,20 @@ mod tests {
         assert_eq!(names.name(49), "outer lip 2");
         assert_eq!(names.group_of(49).map(|g| g.name), Some("outer lip"));
         assert_eq!(names.group_of(68), None);
+        assert_eq!(names.label(62), "63 inner lip top");
+        assert_eq!(names.label(0), "1 jaw 1");
+    }
+
+    #[test]
+    fn people_number_points_from_one() {
+        assert_eq!(PointNo(0).to_string(), "1");
+        assert_eq!(PointNo(67).to_string(), "68");
+        assert_eq!(point_range(&INNER_LIP), "61–68");
+        assert_eq!(point_range(&(OUTER_LIP.start..INNER_LIP.end)), "49–68");
+        assert_eq!(parse_point_no("1"), Ok(0));
+        assert_eq!(parse_point_no("68"), Ok(67));
+        for bad in ["0", "69", "-1", "x", ""] {
+            assert!(parse_point_no(bad).unwrap_err().contains("1–68"), "{bad}");
+        }
     }
 }

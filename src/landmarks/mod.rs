@@ -10,7 +10,7 @@ mod flags_procrustes;
 pub mod ibug;
 pub mod track;
 
-pub use ibug::{LandmarkNames, LandmarkSet, N_LANDMARKS};
+pub use ibug::{LandmarkNames, LandmarkSet, N_LANDMARKS, PointNo};
 pub use track::{FrameLandmarks, LandmarkPoint, PointSource, Track};
 
 /// The largest frame number lipmap accepts: 2²⁰ − 1, 9.7 hours at 30 fps or 17 minutes at
@@ -25,12 +25,13 @@ pub const MAX_FRAME: usize = (1 << 20) - 1;
 pub const MAX_COORDINATE_PX: f64 = 1e6;
 
 /// The first point of `frame` with a coordinate beyond [`MAX_COORDINATE_PX`] (or not
-/// finite), as `point N (x, y)` for a message.
+/// finite), as `point N (x, y)` for a message (N 1-based, as people number the points).
 pub fn point_out_of_bounds(frame: &FrameLandmarks) -> Option<String> {
     let ok = |v: f64| v.is_finite() && v.abs() <= MAX_COORDINATE_PX;
     frame.points.iter().enumerate().find(|(_, p)| !(ok(p.x) && ok(p.y))).map(|(i, p)| {
         format!(
-            "point {i} ({}, {}) is not within ±{MAX_COORDINATE_PX:e} px",
+            "point {} ({}, {}) is not within ±{MAX_COORDINATE_PX:e} px",
+            PointNo(i),
             crate::math::short_number(p.x),
             crate::math::short_number(p.y)
         )

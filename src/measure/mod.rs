@@ -72,10 +72,13 @@ pub struct MouthMeasures {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum MeasureError {
     /// A landmark the measure needs is not visible (2D) or not mapped to a vertex (mesh).
-    #[error("landmark {0} is missing (not visible or not mapped)")]
+    #[error("landmark {} is missing (not visible or not mapped)", crate::landmarks::PointNo(*.0))]
     MissingLandmark(usize),
     /// A mapped vertex index lies outside the shape.
-    #[error("vertex {vertex} (landmark {landmark}) is outside a shape of {n_vertices} vertices")]
+    #[error(
+        "vertex {vertex} (landmark {}) is outside a shape of {n_vertices} vertices",
+        crate::landmarks::PointNo(*.landmark)
+    )]
     VertexOutOfRange { landmark: usize, vertex: usize, n_vertices: usize },
     /// The normalising length is zero or not finite, so the ratio is meaningless.
     #[error("reference length {0} is degenerate")]

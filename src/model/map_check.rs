@@ -141,29 +141,30 @@ impl MapProblem {
 /// Landmarks in messages are 1-based, as in eos's map files and the iBUG figure.
 impl fmt::Display for MapProblem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use crate::landmarks::PointNo as N;
         let one =
-            |ls: &[usize]| ls.iter().map(|l| (l + 1).to_string()).collect::<Vec<_>>().join(", ");
+            |ls: &[usize]| ls.iter().map(|&l| N(l).to_string()).collect::<Vec<_>>().join(", ");
         match self {
             Self::SharedVertex { vertex, landmarks } => {
                 write!(f, "landmarks {} share vertex {vertex}", one(landmarks))
             }
             Self::VertexOutOfRange { landmark, vertex } => {
-                write!(f, "landmark {} is on vertex {vertex}, beyond the mesh", landmark + 1)
+                write!(f, "landmark {} is on vertex {vertex}, beyond the mesh", N(*landmark))
             }
             Self::WrongSide { landmark } => {
-                write!(f, "landmark {} is on the wrong side of the midline", landmark + 1)
+                write!(f, "landmark {} is on the wrong side of the midline", N(*landmark))
             }
             Self::PairSwapped { right, left } => {
-                write!(f, "landmarks {} and {} are swapped left/right", right + 1, left + 1)
+                write!(f, "landmarks {} and {} are swapped left/right", N(*right), N(*left))
             }
             Self::OutOfOrder { first, second } => {
-                write!(f, "landmarks {} and {} are out of order", first + 1, second + 1)
+                write!(f, "landmarks {} and {} are out of order", N(*first), N(*second))
             }
             Self::NotAbove { landmark, reference } => {
-                write!(f, "landmark {} is not above landmark {}", landmark + 1, reference + 1)
+                write!(f, "landmark {} is not above landmark {}", N(*landmark), N(*reference))
             }
             Self::NotBelow { landmark, reference } => {
-                write!(f, "landmark {} is not below landmark {}", landmark + 1, reference + 1)
+                write!(f, "landmark {} is not below landmark {}", N(*landmark), N(*reference))
             }
             Self::Proportion { name, value, range } => write!(
                 f,

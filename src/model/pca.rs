@@ -53,6 +53,8 @@ pub struct PcaSummary {
     pub all_eigenvalues: DVector,
     /// The eigenproblem used.
     pub method: PcaMethod,
+    /// How many shapes the model was built from.
+    pub shapes: usize,
 }
 
 impl PcaSummary {
@@ -191,7 +193,12 @@ pub fn build_pca_with_summary(shapes: &[DVector], keep: Keep) -> Result<PcaSumma
         }
     }
     let eigenvalues = DVector::from_iterator(k, all_eigenvalues.iter().take(k).copied());
-    Ok(PcaSummary { model: PcaModel { mean, basis, eigenvalues }, all_eigenvalues, method })
+    Ok(PcaSummary {
+        model: PcaModel { mean, basis, eigenvalues },
+        all_eigenvalues,
+        method,
+        shapes: n,
+    })
 }
 
 fn check_keep(keep: Keep) -> Result<(), ModelError> {

@@ -120,8 +120,9 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
     for (frame, points) in &clip.corrections.points {
         if let Some((i, p)) = points.iter().find(|(_, p)| far(p.x) || far(p.y)) {
             return Err(format!(
-                "correction of frame {frame} point {i}: ({}, {}) is not within \
+                "correction of frame {frame} point {}: ({}, {}) is not within \
                  ±{MAX_COORDINATE_PX:e} px",
+                crate::landmarks::PointNo(*i),
                 short_number(p.x),
                 short_number(p.y)
             ));
@@ -278,12 +279,12 @@ mod tests {
             let p = crate::landmarks::LandmarkPoint::tracked(1.0, 2.0);
             s.clips[0].corrections.set(1_000_000_000_000, 3, p).unwrap();
         });
-        refused("tracked frame 0: point 0 (1e300, 2)", |s| {
+        refused("tracked frame 0: point 1 (1e300, 2)", |s| {
             let mut points = vec![crate::landmarks::LandmarkPoint::tracked(1.0, 2.0); N_LANDMARKS];
             points[0].x = 1e300;
             s.clips[0].tracked.frames.push(crate::landmarks::FrameLandmarks::new(0, points));
         });
-        refused("correction of frame 3 point 4: (-2000000, 1)", |s| {
+        refused("correction of frame 3 point 5: (-2000000, 1)", |s| {
             let p = crate::landmarks::LandmarkPoint::tracked(-2e6, 1.0);
             s.clips[0].corrections.set(3, 4, p).unwrap();
         });

@@ -26,9 +26,10 @@ impl Corrections {
     /// A message when `point` is not a 0-based iBUG index or a coordinate is not finite.
     pub fn set(&mut self, frame: usize, point: usize, mut p: LandmarkPoint) -> Result<(), String> {
         if point >= N_LANDMARKS {
-            return Err(format!("point {point} is not an iBUG-68 index (0..{N_LANDMARKS})"));
+            return Err(format!("point index {point} is not an iBUG-68 index (0..{N_LANDMARKS})"));
         }
         if !(p.x.is_finite() && p.y.is_finite()) || p.confidence.is_some_and(|c| !c.is_finite()) {
+            let point = crate::landmarks::PointNo(point);
             return Err(format!("frame {frame} point {point}: coordinates must be finite"));
         }
         if p.source == PointSource::Tracked {

@@ -253,8 +253,9 @@ impl Session {
                 }
                 if let Some(i) = f.points.iter().position(bad_point) {
                     return Err(format!(
-                        "clip {c:?}: tracked frame {} point {i} is not finite",
-                        f.frame
+                        "clip {c:?}: tracked frame {} point {} is not finite",
+                        f.frame,
+                        crate::landmarks::PointNo(i)
                     ));
                 }
             }
@@ -263,7 +264,7 @@ impl Session {
                     pts.iter().find(|(i, p)| **i >= crate::landmarks::N_LANDMARKS || bad_point(p))
                 {
                     return Err(format!(
-                        "clip {c:?}: correction of frame {frame} point {i} is out of range or not finite"
+                        "clip {c:?}: correction of frame {frame} point index {i} is out of range or not finite"
                     ));
                 }
             }

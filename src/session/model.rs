@@ -390,7 +390,7 @@ pub(crate) mod compact_track {
         for i in c.hidden {
             points
                 .get_mut(i)
-                .ok_or_else(|| format!("frame {n}: hidden point {i} out of range"))?
+                .ok_or_else(|| format!("frame {n}: hidden point index {i} out of range"))?
                 .visible = false;
         }
         if let Some(conf) = c.point_confidence {
@@ -407,7 +407,7 @@ pub(crate) mod compact_track {
         for (i, s) in c.sources {
             points
                 .get_mut(i)
-                .ok_or_else(|| format!("frame {n}: source of point {i} out of range"))?
+                .ok_or_else(|| format!("frame {n}: source of point index {i} out of range"))?
                 .source = s;
         }
         Ok(FrameLandmarks {

@@ -38,7 +38,12 @@ pub enum TransferError {
     #[error(
         "the {side} landmark map puts iBUG point {landmark} on vertex {vertex}, but the {side} has {vertices} vertices (a map for another mesh?)"
     )]
-    LandmarkOutOfRange { side: &'static str, landmark: usize, vertex: usize, vertices: usize },
+    LandmarkOutOfRange {
+        side: &'static str,
+        landmark: crate::landmarks::PointNo,
+        vertex: usize,
+        vertices: usize,
+    },
     #[error("face {face} uses vertex {vertex}, but the head has {vertices} vertices")]
     FaceOutOfRange { face: usize, vertex: usize, vertices: usize },
     #[error("the skin mask has {len} entries for {vertices} vertices")]

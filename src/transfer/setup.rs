@@ -320,12 +320,15 @@ impl Transfer {
     }
 }
 
-/// Every mapped vertex must exist; the error names the 1-based iBUG id, as map files do.
+/// Every mapped vertex must exist; the error names the iBUG point as people number it.
 fn check_map(map: &LandmarkMap, vertices: usize, side: &'static str) -> Result<(), TransferError> {
     match map.pairs().find(|&(_, v)| v >= vertices) {
-        Some((l, vertex)) => {
-            Err(TransferError::LandmarkOutOfRange { side, landmark: l + 1, vertex, vertices })
-        }
+        Some((l, vertex)) => Err(TransferError::LandmarkOutOfRange {
+            side,
+            landmark: crate::landmarks::PointNo(l),
+            vertex,
+            vertices,
+        }),
         None => Ok(()),
     }
 }
@@ -457,7 +460,12 @@ mod tests {
         let err = build(&mesh, &map, &other, Interpolation::Biharmonic).unwrap_err();
         assert!(matches!(
             err,
-            TransferError::LandmarkOutOfRange { side: "target", landmark: 31, vertex: 10_000, .. }
+            TransferError::LandmarkOutOfRange {
+                side: "target",
+                landmark: crate::landmarks::PointNo(30),
+                vertex: 10_000,
+                ..
+            }
         ));
         assert!(err.to_string().contains("another mesh"));
         let mut flat = mesh.clone();

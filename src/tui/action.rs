@@ -156,23 +156,25 @@ actions! {
         CenterOnPoint => frames::center_on_point, "centre the view on the selected point";
         /// Close the top overlay or cancel the pending prompt.
         Cancel => overlays::cancel, "cancel / close overlay";
+        /// Hide the views' side panel for a wider image or head, or show it again.
+        ToggleSidePanel => global::toggle_side_panel, "hide or show the side panel";
 
         // ---- frames and fit views: correcting landmarks ----
         /// Move the selected point (or the selected scope) by `dx, dy` steps; a step is one
-        /// image pixel at zoom 1 and shrinks with zoom (sub-pixel moves when zoomed).
+        /// image pixel, or one display pixel where that is finer (sub-pixel when zoomed in).
         Nudge { dx: i32, dy: i32 } => frames::nudge, with_arrow(
             if is_big_step(*dx, *dy) {
-                "move point 10 screen pixels"
+                "move point 10 image pixels (finer zoomed in)"
             } else {
-                "move point 1 screen pixel (sub-pixel when zoomed)"
+                "move point 1 image pixel (finer zoomed in)"
             },
             *dx,
             *dy,
         );
         NextPoint => frames::next_point, "select next point";
         PrevPoint => frames::prev_point, "select previous point";
-        /// Ask for a point number (0-based iBUG) and select it.
-        GotoPointPrompt => overlays::goto_point_prompt, "select point by number (0-67)…";
+        /// Ask for a point number (1–68, as people number them) and select it.
+        GotoPointPrompt => overlays::goto_point_prompt, "select point by number (1–68)…";
         /// Cycle what moves together: point → its group → mouth → all points.
         CycleScope => frames::cycle_scope, "what moves: point / group / mouth / all";
         ToggleVisible => frames::toggle_visible, "toggle visible / occluded";
@@ -199,7 +201,7 @@ actions! {
         NextLabel => head::next_label, "label the next landmark";
         PrevLabel => head::prev_label, "label the previous landmark";
         /// Ask for the landmark number to label.
-        GotoLabelPrompt => overlays::goto_label_prompt, "label landmark number…";
+        GotoLabelPrompt => overlays::goto_label_prompt, "label landmark number (1–68)…";
         /// Assign the vertex under the 3D cursor to the landmark being labelled.
         ConfirmLabel => head::confirm_label, "assign the vertex under the cursor";
         /// Remove the landmark's vertex from the map.
@@ -219,12 +221,13 @@ actions! {
         CycleHead => heads::cycle_head, "show the model / each transferred head";
 
         // ---- side view: the upper lip's foremost point ----
-        /// Move the side frame's upper-lip point by `dx, dy` display pixels (a correction).
+        /// Move the side frame's upper-lip point by `dx, dy` steps as `Nudge` does (a
+        /// correction).
         NudgeLipPoint { dx: i32, dy: i32 } => side::nudge_lip_point, with_arrow(
             if is_big_step(*dx, *dy) {
-                "move the lip point 10 screen pixels"
+                "move the lip point 10 image pixels (finer zoomed in)"
             } else {
-                "move the lip point 1 screen pixel"
+                "move the lip point 1 image pixel (finer zoomed in)"
             },
             *dx,
             *dy,
@@ -359,6 +362,6 @@ mod tests {
             .try_into()
             .unwrap();
         assert_eq!(nudge, Action::Nudge { dx: 0, dy: 10 });
-        assert_eq!(nudge.describe(), "move point 10 screen pixels ↓");
+        assert_eq!(nudge.describe(), "move point 10 image pixels (finer zoomed in) ↓");
     }
 }

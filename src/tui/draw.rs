@@ -4,19 +4,26 @@
 //! only reads the `App`.
 //!
 //! The layout is shared with `update` so mouse hit-testing matches what is drawn; hints are
-//! looked up in the keymap so they always name the keys actually bound.
+//! looked up in the keymap so they always name the keys actually bound. A long status
+//! message wraps onto up to [`MAX_STATUS_ROWS`] rows, taken from the view, so it is read
+//! whole at any width.
 
 use super::action::Action;
 use super::input::mode_chain;
 use super::keymap::Keymap;
 use super::overlays::{self, Overlay};
 use super::screens::{self, View};
+use super::widgets::wrap::wrap_words;
 use crate::tui::app::App;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style, Stylize};
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
+
+/// The most rows a status message takes (the rest of a longer one is cut, its last row
+/// ending in `…`). Four rows at 80 columns hold the longest warnings lipmap gives.
+pub const MAX_STATUS_ROWS: u16 = 4;
 
 /// The fixed parts of the screen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,8 +34,9 @@ pub struct ScreenLayout {
     pub status: Rect,
 }
 
-/// Title on top, flag strip and status line at the bottom, the view in between.
-pub fn screen_layout(area: Rect) -> ScreenLayout {
+/// Title on top, flag strip and status line at the bottom (as many rows as the app's status
+/// message needs, [`status_rows`]), the view in between.
+pub fn screen_layout(app: &App, area: Rect) -> ScreenLayout {
     let h = area.height;
     let row = |y: u16, height: u16| Rect::new(area.x, area.y + y, area.width, height);
     if h < 4 {
@@ -39,18 +47,48 @@ pub fn screen_layout(area: Rect) -> ScreenLayout {
             status: row(h, 0),
         };
     }
+    // The view keeps at least half the screen.
+    let s = status_rows(app, area.width).min((h / 2).saturating_sub(2)).max(1);
     ScreenLayout {
         title: row(0, 1),
-        body: row(1, h - 3),
-        strip: row(h - 2, 1),
-        status: row(h - 1, 1),
+        body: row(1, h - 2 - s),
+        strip: row(h - 1 - s, 1),
+        status: row(h - s, s),
     }
+}
+
+/// The status line's right end: the fit's progress and the save state.
+fn status_right(app: &App) -> Vec<Span<'static>> {
+    let save = if !app.save.is_clean() {
+        Span::from(" ● unsaved ").fg(Color::Yellow)
+    } else {
+        Span::from(" saved ").fg(Color::DarkGray)
+    };
+    let fit = if app.fit.running {
+        let (d, t) = app.fit.progress;
+        Span::from(format!(" fitting {d}/{t} ")).fg(Color::LightCyan)
+    } else {
+        Span::from("")
+    };
+    vec![fit, save]
+}
+
+/// Columns of the status message: the width less the right end.
+fn message_width(app: &App, width: u16) -> u16 {
+    let right: usize = status_right(app).iter().map(Span::width).sum();
+    width.saturating_sub(right as u16)
+}
+
+/// Rows the status message takes at `width` columns (1 to [`MAX_STATUS_ROWS`]).
+pub fn status_rows(app: &App, width: u16) -> u16 {
+    let rows = wrap_words(&app.status, usize::from(message_width(app, width))).len();
+    (rows as u16).clamp(1, MAX_STATUS_ROWS)
 }
 
 /// Draws the whole screen.
 pub fn draw(app: &App, keymap: &Keymap, frame: &mut Frame) {
     let area = frame.area();
-    let layout = screen_layout(area);
+    let layout = screen_layout(app, area);
     draw_title(app, frame, layout.title);
     screens::draw_shown(app, frame, layout.body);
     draw_strip(app, frame, layout.strip);
@@ -141,17 +179,6 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     }
     let chain = mode_chain(app);
     let key = |a: Action| keymap.key_for(&chain, &a).map_or(String::new(), |k| k.to_string());
-    let save = if !app.save.is_clean() {
-        Span::from(" ● unsaved ").fg(Color::Yellow)
-    } else {
-        Span::from(" saved ").fg(Color::DarkGray)
-    };
-    let fit = if app.fit.running {
-        let (d, t) = app.fit.progress;
-        Span::from(format!(" fitting {d}/{t} ")).fg(Color::LightCyan)
-    } else {
-        Span::from("")
-    };
     let msg = if app.status.is_empty() {
         format!(
             "{} help  {} quit  {} undo",
@@ -162,9 +189,18 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     } else {
         app.status.clone()
     };
-    let right_len = (save.width() + fit.width()) as u16;
-    let left = Rect::new(area.x, area.y, area.width.saturating_sub(right_len), 1);
+    let left = Rect::new(area.x, area.y, message_width(app, area.width), area.height);
     let right = Rect::new(area.x + left.width, area.y, area.width - left.width, 1);
-    frame.render_widget(Paragraph::new(msg), left);
-    frame.render_widget(Paragraph::new(Line::from(vec![fit, save])), right);
+    let mut rows = wrap_words(&msg, usize::from(left.width));
+    if rows.len() > usize::from(area.height) {
+        // The message goes on past the rows there are: say so on the last one.
+        rows.truncate(usize::from(area.height));
+        if let Some(last) = rows.last_mut() {
+            let keep = usize::from(left.width).saturating_sub(1);
+            *last = last.chars().take(keep).collect::<String>() + "…";
+        }
+    }
+    let rows: Vec<Line> = rows.into_iter().map(Line::from).collect();
+    frame.render_widget(Paragraph::new(rows), left);
+    frame.render_widget(Paragraph::new(Line::from(status_right(app))), right);
 }

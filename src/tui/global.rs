@@ -182,6 +182,12 @@ pub fn next_unreviewed(app: &mut App) {
     }
 }
 
+/// Hides the views' side panel (the image or head takes its room), or shows it again.
+pub fn toggle_side_panel(app: &mut App) {
+    app.side_panel = !app.side_panel;
+    app.status = if app.side_panel { "side panel shown" } else { "side panel hidden" }.into();
+}
+
 pub fn toggle_play(app: &mut App) {
     app.playing = !app.playing && app.n_frames() > 1;
     if app.playing {

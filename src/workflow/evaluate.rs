@@ -84,6 +84,8 @@ pub struct ClipInput<'a> {
     pub side_p: Option<&'a [Option<f64>]>,
     /// How W and H are compared under head pose.
     pub pose: PoseComparison,
+    /// The landmark set the fits used, named in the tables (when the caller knows it).
+    pub set: Option<crate::landmarks::LandmarkSet>,
 }
 
 /// The utterance of one clip: the video's and the fitted head's W/H/P
@@ -233,6 +235,7 @@ pub fn utterance_of_clip(
         side_view: c.side.is_some(),
         side_p: side_p.as_deref(),
         pose,
+        set: None,
     };
     let (u, more) = utterance_of(&res.model, &res.map, &input, options);
     warnings.splice(0..0, more);
@@ -324,6 +327,14 @@ pub enum Normalisation {
 }
 
 impl Normalisation {
+    /// How tables name the scale: `min–max scaled per sentence` or `ratios unscaled`.
+    pub fn label(self) -> String {
+        match self {
+            Normalisation::MinMax => format!("{} per sentence", crate::glossary::names::MIN_MAX),
+            Normalisation::None => "ratios unscaled".to_string(),
+        }
+    }
+
     /// `utterances` on the scale they are compared on.
     pub fn apply(self, utterances: &[Utterance]) -> Vec<Utterance> {
         match self {
@@ -348,15 +359,43 @@ impl EvalReport {
         [&self.sentences, &self.phonemes, &self.visemes, &self.worst_frames, &self.worst_fits]
     }
 
-    /// Names the pose comparison in the tables whose W and H it shaped (all but the fit
-    /// residuals).
-    pub fn name_pose_comparison(&mut self, pose: PoseComparison) {
+    /// Names what was compared in every table's title: the W/H/P tables get the whole of
+    /// `conditions` (and the pose comparison in their W and H columns), the reprojection
+    /// table the landmark set alone.
+    pub fn name_conditions(&mut self, conditions: &EvalConditions) {
+        let label = conditions.label();
         for t in
             [&mut self.sentences, &mut self.phonemes, &mut self.visemes, &mut self.worst_frames]
         {
-            t.name_pose_comparison(pose);
+            t.name_conditions(&label, Some(conditions.pose));
         }
+        let set = conditions.set.map_or(String::new(), set_label);
+        self.worst_fits.name_conditions(&set, None);
     }
+}
+
+/// What an evaluation compared, as every table's header says it: the landmark set the fits
+/// used (when known), how trajectories were scaled, and how W and H met head pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvalConditions {
+    pub set: Option<crate::landmarks::LandmarkSet>,
+    pub normalisation: Normalisation,
+    pub pose: PoseComparison,
+}
+
+impl EvalConditions {
+    /// `fit on F4 (51 points) · min–max scaled per sentence · W/H frontal ≤15°`.
+    pub fn label(&self) -> String {
+        let mut parts: Vec<String> = self.set.map(set_label).into_iter().collect();
+        parts.push(self.normalisation.label());
+        parts.push(format!("W/H {}", self.pose.short_label()));
+        parts.join(" · ")
+    }
+}
+
+/// `fit on F4 (51 points)`: a landmark set as table headers name it.
+fn set_label(set: crate::landmarks::LandmarkSet) -> String {
+    format!("fit on {set} ({} points)", set.indices().len())
 }
 
 /// Per-sentence, per-phoneme and per-viseme RMSE tables, and the worst frames by measure
@@ -417,7 +456,7 @@ pub fn evaluate_clip(
         normalisation,
         n_worst,
     );
-    report.name_pose_comparison(input.pose);
+    report.name_conditions(&EvalConditions { set: input.set, normalisation, pose: input.pose });
     ClipEvaluation { utterance, report, warnings }
 }
 
@@ -518,9 +557,14 @@ pub fn evaluate_session(
         .map(|(&c, (_, fits))| clip_flag_lines(&opened.session, c, fits))
         .collect::<std::result::Result<_, _>>()?;
     let mut report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
-    report.name_pose_comparison(req.pose);
+    let conditions = EvalConditions {
+        set: Some(settings.set),
+        normalisation: req.normalisation,
+        pose: req.pose,
+    };
+    report.name_conditions(&conditions);
     let (transferred, more) =
-        transferred_head_tables(&opened.session, &res, &done, req.normalisation, req.worst);
+        transferred_head_tables(&opened.session, &res, &done, &conditions, req.worst);
     warnings.extend(more);
     Ok(SessionEvaluation { report, transferred, clips: done, flag_lines, warnings })
 }

@@ -160,6 +160,7 @@ pub fn landmarks_path(out: &Path, file: &str, format: LandmarkFormat) -> PathBuf
         LandmarkFormat::OpenFace => dir.join(format!("{file}.openface.csv")),
         LandmarkFormat::DlibXml => dir.join(format!("{file}.xml")),
         LandmarkFormat::LipmapCsv => dir.join(format!("{file}.csv")),
+        LandmarkFormat::EosCsv => dir.join(format!("{file}.eos.csv")),
     }
 }
 
@@ -285,7 +286,11 @@ pub fn export(
     }
     if req.plan.tables {
         let mut eval = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
-        eval.name_pose_comparison(req.pose);
+        eval.name_conditions(&super::EvalConditions {
+            set: Some(settings.set),
+            normalisation: req.normalisation,
+            pose: req.pose,
+        });
         let dir = req.out.join("tables");
         ensure_real_dir(&dir)?;
         for (table, file) in eval.tables().iter().zip(TABLE_FILES) {

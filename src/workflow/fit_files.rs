@@ -6,8 +6,7 @@
 
 use super::error::{Error, Progress, ProgressFn, Result};
 use crate::fit::{FitSettings, Fitter, FrameFit, for_each_fitted_shape};
-use crate::io::{FormatError, atomic, landmark_map_toml, model_source, npy_model, track_csv};
-use crate::model::LandmarkMap;
+use crate::io::{FormatError, atomic, landmark_map_toml, model_source, npy_model};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -47,18 +46,6 @@ impl FitFilesReport {
     }
 }
 
-/// Reads a landmark map in eos's TOML, or its `landmarks_and_contours.json` by extension.
-///
-/// # Errors
-/// The file unreadable or invalid, naming it.
-pub fn read_mapping(path: &Path) -> Result<LandmarkMap, FormatError> {
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
-        landmark_map_toml::read_landmark_map_json(path)
-    } else {
-        landmark_map_toml::read_landmark_map(path)
-    }
-}
-
 /// Fits every frame of `input.landmarks` and writes `fit.csv` and `shapes.npy` into
 /// `input.out`. `progress` gets one stage ("fitting clip" or "fitting frames") and its steps.
 ///
@@ -68,9 +55,9 @@ pub fn read_mapping(path: &Path) -> Result<LandmarkMap, FormatError> {
 pub fn fit_files(input: &FitFilesInput, progress: ProgressFn<'_>) -> Result<FitFilesReport> {
     let settings = &input.settings;
     let model = model_source::load_model(&input.model, input.blendshapes.as_deref())?;
-    let map = read_mapping(&input.mapping)?;
+    let map = landmark_map_toml::read_landmark_map(&input.mapping)?;
     super::check_map_vertices(&map, model.num_vertices(), Some(&input.mapping))?;
-    let track = track_csv::read_track_csv(&input.landmarks)?;
+    let track = crate::io::landmark_format::read_track(&input.landmarks)?;
     if track.is_empty() {
         return Err(FormatError::whole(&input.landmarks, "no frames").into());
     }

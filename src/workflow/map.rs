@@ -139,8 +139,17 @@ pub fn suggest_session_map(
     };
     let head = label_mesh(session, role)?;
     let h = image_height(session, c)?;
-    let proposal = suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None)
-        .map_err(|e| Error::Invalid(format!("frame {}: {e}", landmarks.frame)))?;
+    let proposal =
+        suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None).map_err(|e| {
+            // Name where labels are made: the command line has no way to.
+            let r#where = match e {
+                crate::fit::suggest::SuggestError::TooFewLabels(_) => {
+                    " (in the terminal UI: `lipmap tui SESSION`, key 2 for the head view)"
+                }
+                _ => "",
+            };
+            Error::Invalid(format!("frame {}: {e}{where}", landmarks.frame))
+        })?;
     let map = proposal.applied_to(&labels);
     let check = check_map(&map, &head.vertices);
     Ok(SuggestedMap { frame: landmarks.frame, labels, proposal, map, check })

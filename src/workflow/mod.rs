@@ -38,7 +38,8 @@ pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
 };
 pub use evaluate::{
-    ClipEvaluation, ClipInput, ClipsEvaluated, ClipsToMeasure, DEFAULT_WORST_ROWS, EvalReport,
+    ClipEvaluation, ClipInput, ClipsEvaluated, ClipsToMeasure, DEFAULT_WORST_ROWS, EvalConditions,
+    EvalReport,
     EvalRequest, NamedFits, Normalisation, SessionEvaluation, evaluate, evaluate_clip,
     evaluate_session, utterance_from_parts, utterance_of, utterance_of_clip, utterances_with,
 };

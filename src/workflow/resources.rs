@@ -84,7 +84,7 @@ pub fn load_resources(session: &Session, path: &Path) -> Result<(Resources, Vec<
 #[error(
     "{}: landmark {} maps to vertex {vertex} but the model has {n_vertices} vertices",
     map.as_ref().map_or_else(|| "landmark map".to_string(), |p| p.display().to_string()),
-    landmark + 1
+    crate::landmarks::PointNo(*.landmark)
 )]
 pub struct MapRangeError {
     /// The map file, when the map came from one.

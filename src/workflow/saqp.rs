@@ -22,6 +22,7 @@ use super::{Progress, ProgressFn};
 use crate::alignment::Phone;
 use crate::eval::{Cell, Table};
 use crate::fit::{FrameFit, GapError, fill_gaps};
+use crate::glossary::names::{LARGEST_TRAINING_ERROR, MOUTH_WEIGHT, SATF_ERROR, SMOOTHING_WEIGHT};
 use crate::io::alignment_format::read_alignment;
 use crate::io::motion_csv::read_motion_csv;
 use crate::io::obj::read_obj;
@@ -36,6 +37,10 @@ use crate::session::Session;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+
+/// The machine keys (CSV and JSON columns) of ω_m and ξ, as the model files name them.
+const OMEGA_M: &str = "omega_m";
+const XI: &str = "xi";
 
 /// What a quality-model file says it is (`io::json_model`).
 pub const SAQP_MODEL_FORMAT: &str = crate::io::json_model::QUALITY_MODEL.format;
@@ -671,7 +676,7 @@ pub fn synths_table(report: &CvReport) -> Table {
     }
     t.notes.extend(skill_lines(report));
     t.notes.push(format!(
-        "SATF: lambda {} order {} (chosen by cross-validation); {} training (E, Q) pairs, {} dropped as all phones unseen",
+        "{SATF_ERROR}: {SMOOTHING_WEIGHT} {}, order {} (chosen by cross-validation); {} training (E, Q) pairs, {} dropped as all phones unseen",
         report.satf.lambda, report.satf.order, report.pairs, report.unseen
     ));
     if report.synths.iter().any(|s| s.synth == SynthKind::Concatenative) {
@@ -685,22 +690,31 @@ pub fn synths_table(report: &CvReport) -> Table {
             .into(),
     );
     t.notes.push(
-        "RMSE constant: predicting the training mean; skill: the ratio's 95 % bootstrap interval over the held-out sentences lies below 1"
+        "RMSE in Likert points; RMSE constant: predicting the training mean; skill: the ratio's 95 % bootstrap interval over the held-out sentences lies below 1"
             .into(),
     );
+    t.notes.push(TERMS_HINT.into());
     t
 }
+
+/// Where the saqp tables' terms are explained.
+pub const TERMS_HINT: &str = "terms: `lipmap help TERM` (E, coverage, omega_m, xi, RMSE ratio, bridged; `lipmap help terms` lists them)";
 
 /// Per synthesizer: ω_m and ξ, the GP's hyperparameters, the line's coefficients, and both
 /// calibrations' leave-one-sentence-out RMSE on the training pairs.
 pub fn models_table(report: &CvReport) -> Table {
-    let mut headers: Vec<String> = ["synthesizer", "omega_m", "xi"].map(String::from).to_vec();
+    let mut headers: Vec<String> = ["synthesizer", OMEGA_M, XI].map(String::from).to_vec();
     headers.extend(INPUT_NAMES.iter().map(|n| format!("GP length scale {n}")));
     headers.extend(["GP signal var", "GP noise var", "line intercept"].map(String::from));
     headers.extend(INPUT_NAMES.iter().map(|n| format!("line slope {n}")));
     headers.extend(["training RMSE GP", "training RMSE linear", "kept"].map(String::from));
-    let mut t = Table::new("Models: omega_m, GP hyperparameters and the line beside it", headers)
-        .keyed("models");
+    let mut t = Table::new(
+        format!("Models: {MOUTH_WEIGHT}, {LARGEST_TRAINING_ERROR}, the GP's hyperparameters and the line beside it"),
+        headers,
+    )
+    .keyed("models")
+    .labelled(OMEGA_M, MOUTH_WEIGHT)
+    .labelled(XI, LARGEST_TRAINING_ERROR);
     for s in &report.synths {
         let h = &s.gp.hyper;
         let mut row =
@@ -722,12 +736,15 @@ pub fn models_table(report: &CvReport) -> Table {
 /// leave-one-sentence-out RMSE of the GP's training predictions, which picks ω_m, beside the
 /// scores' spread (what the training mean would err by) and their ratio.
 pub fn omega_table(report: &CvReport) -> Table {
-    let headers = ["synthesizer", "omega_m", "CV RMSE", "standard error", "spread", "chosen"]
+    let headers = ["synthesizer", OMEGA_M, "CV RMSE", "standard error", "spread", "chosen"]
         .map(String::from)
         .to_vec();
-    let mut t =
-        Table::new("Choosing omega_m: cross-validated RMSE of the training scores", headers)
-            .keyed("omega");
+    let mut t = Table::new(
+        format!("Choosing the {MOUTH_WEIGHT}: cross-validated RMSE of the training scores (Likert points)"),
+        headers,
+    )
+    .keyed("omega")
+    .labelled(OMEGA_M, MOUTH_WEIGHT);
     for s in &report.synths {
         let lowest = s.omega_scores.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse));
         for o in &s.omega_scores {
@@ -748,7 +765,7 @@ pub fn omega_table(report: &CvReport) -> Table {
         }
     }
     t.notes.push(
-        "omega_m weighs the mouth markers in Q (eq. 8); as the paper, the candidate with the lowest cross-validated RMSE (one training sentence left out at a time), but the smallest within one standard error of it, as the RMSEs differ by less than their noise; spread: what predicting the training mean would err by"
+        "the mouth weight ω_m weighs the mouth markers in the quality error Q (eq. 8); as the paper, the candidate with the lowest cross-validated RMSE (one training sentence left out at a time), but the smallest within one standard error of it, as the RMSEs differ by less than their noise; spread: what predicting the training mean would err by"
             .into(),
     );
     t

@@ -28,6 +28,7 @@ use crate::fit::{FrameFit, GapError, fill_gaps};
 use crate::io::npy_model;
 use crate::io::wav::WavStream;
 use crate::landmarks::flags::FlagThresholds;
+use crate::landmarks::ibug::{self, PointNo, point_range};
 use crate::math::{DMatrix, DVector, Point3, Vector3};
 use crate::measure::MeshMeasureOptions;
 use crate::model::{LandmarkMap, MorphableModel};
@@ -68,8 +69,11 @@ const MIN_CLIPS_FOR_HELD_OUT: usize = 10;
 /// The iBUG landmarks whose vertices make the mouth: outer and inner lips and the chin,
 /// which carries the jaw.
 pub fn mouth_landmarks() -> impl Iterator<Item = usize> {
-    (48..68).chain(7..10)
+    (ibug::OUTER_LIP.start..ibug::INNER_LIP.end).chain(MOUTH_CHIN)
 }
+
+/// The chin points of [`mouth_landmarks`] (0-based): the gnathion and its neighbours.
+const MOUTH_CHIN: std::ops::Range<usize> = 7..10;
 
 /// Positions in the mouth list of the mouth corners (iBUG 48 and 54), whose distance is the
 /// mouth's width.
@@ -178,7 +182,7 @@ impl HeadBinding {
             return Err(field("mouth_vertices", past(v)));
         }
         if let Some((&l, &v)) = self.landmarks.iter().find(|&(&l, &v)| v >= n || l >= 68) {
-            return Err(field("landmarks", format!("landmark {l} → {}", past(v))));
+            return Err(field("landmarks", format!("landmark {} → {}", PointNo(l), past(v))));
         }
         if let Some(&v) = self.region.vertices.iter().find(|&&v| v >= n) {
             return Err(field("region.vertices", past(v)));
@@ -459,7 +463,10 @@ fn mouth_vertices(map: &LandmarkMap) -> Result<Vec<usize>> {
         .map(|l| {
             map.vertex(l).ok_or_else(|| {
                 Error::Invalid(format!(
-                    "the landmark map has no vertex for iBUG point {l}; the speech model needs the lips (48–67) and chin (7–9)"
+                    "the landmark map has no vertex for iBUG point {}; the speech model needs the lips ({}) and chin ({})",
+                    PointNo(l),
+                    point_range(&(ibug::OUTER_LIP.start..ibug::INNER_LIP.end)),
+                    point_range(&MOUTH_CHIN)
                 ))
             })
         })
@@ -981,7 +988,11 @@ pub fn evaluate_speech(
     let linear = scores(&truth, &stack(|d| &d.linear))?;
     let report = |f: fn(&DrivenClip) -> &Utterance| {
         let utterances: Vec<Utterance> = driven.iter().map(|d| f(d).clone()).collect();
-        evaluate(&utterances, &[], normalisation, 10)
+        let mut r = evaluate(&utterances, &[], normalisation, 10);
+        for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes, &mut r.worst_frames] {
+            t.name_conditions(&normalisation.label(), None);
+        }
+        r
     };
     Ok(SpeechEvaluation {
         clips: driven.len(),

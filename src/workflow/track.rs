@@ -223,7 +223,10 @@ pub fn realign_frame(
 ) -> Result<FrameLandmarks> {
     let n = tracker.predictor.num_parts();
     if let Some(bad) = held.iter().find(|&&i| i >= n) {
-        return Err(Error::Invalid(format!("point {bad} does not exist (points are 0–{})", n - 1)));
+        return Err(Error::Invalid(format!(
+            "point {} does not exist (points are 1–{n})",
+            crate::landmarks::PointNo(*bad)
+        )));
     }
     let current = points_of(frame);
     let held_pts: Vec<(usize, Vector2<f64>)> = held.iter().map(|&i| (i, current[i])).collect();

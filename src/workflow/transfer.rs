@@ -197,6 +197,9 @@ pub struct TransferReport {
     pub residual: f64,
     pub controls: usize,
     pub triangles_dropped: usize,
+    /// The head's outer-eye-corner distance in its own units (both corners labelled): the
+    /// yardstick the residuals are read against.
+    pub eye_distance: Option<f64>,
     /// (clip name, frames written, folder).
     pub clips: Vec<(String, usize, PathBuf)>,
 }
@@ -254,8 +257,17 @@ pub fn transfer_session(
         residual: transfer.placement.residual,
         controls: transfer.target_controls.len(),
         triangles_dropped: transfer.triangles_dropped,
+        eye_distance: eye_distance(&target.mesh, &target.map),
         clips,
     })
+}
+
+/// The distance between a head's labelled outer eye corners, in its own units.
+fn eye_distance(mesh: &Mesh, map: &crate::model::LandmarkMap) -> Option<f64> {
+    use crate::landmarks::ibug::point::{LEFT_EXOCANTHION, RIGHT_EXOCANTHION};
+    let at = |l: usize| map.vertex(l).and_then(|v| mesh.vertices.get(v));
+    let d = (at(RIGHT_EXOCANTHION)? - at(LEFT_EXOCANTHION)?).norm();
+    (d > 0.0).then_some(d)
 }
 
 fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) -> Result<()> {
@@ -279,18 +291,30 @@ fn write_clip(dir: &Path, mesh: &Mesh, shapes: &[(usize, DVector)], objs: bool) 
     Ok(())
 }
 
+/// A path as recorded for a transferred head: the file's canonical path when it exists (so
+/// `../data/base.obj` and `/abs/data/base.obj` are one head), else made absolute.
+fn recorded_path(p: &Path) -> PathBuf {
+    std::fs::canonicalize(p).or_else(|_| std::path::absolute(p)).unwrap_or_else(|_| p.to_path_buf())
+}
+
 /// Records (or updates) the head in the session's transferred heads; returns its name.
+/// Transferring onto a head again replaces its entry (one head, one set of tables), whatever
+/// path named the file; entries an older lipmap recorded twice for one file become one.
 pub fn record_head(
     session: &mut Session,
     head: &Path,
     mapping: &Path,
     mode: Interpolation,
 ) -> String {
-    let mesh = std::path::absolute(head).unwrap_or_else(|_| head.to_path_buf());
-    let mapping = std::path::absolute(mapping).unwrap_or_else(|_| mapping.to_path_buf());
+    let mesh = recorded_path(head);
+    let mapping = recorded_path(mapping);
     let mode = mode_name(mode).to_string();
     let heads = &mut session.transferred_heads;
-    if let Some(h) = heads.iter_mut().find(|h| h.mesh == mesh) {
+    if let Some(first) = heads.iter().position(|h| recorded_path(&h.mesh) == mesh) {
+        let name = heads[first].name.clone();
+        heads.retain(|h| h.name == name || recorded_path(&h.mesh) != mesh);
+        let h = &mut heads[first];
+        h.mesh = mesh;
         h.mapping = mapping;
         h.mode = mode;
         return h.name.clone();
@@ -357,7 +381,7 @@ pub fn transferred_head_tables(
     session: &Session,
     res: &Resources,
     done: &ClipsEvaluated,
-    normalisation: super::Normalisation,
+    conditions: &super::EvalConditions,
     n_worst: usize,
 ) -> (Vec<crate::eval::Table>, Vec<super::Warning>) {
     let mut tables = Vec::new();
@@ -365,10 +389,18 @@ pub fn transferred_head_tables(
     for entry in &session.transferred_heads {
         match transferred_utterances(res, entry, done) {
             Ok(utterances) => {
-                let r = super::evaluate(&utterances, &done.fit_refs(), normalisation, n_worst);
-                for mut t in [r.sentences, r.phonemes, r.visemes] {
+                let mut r = super::evaluate(
+                    &utterances,
+                    &done.fit_refs(),
+                    conditions.normalisation,
+                    n_worst,
+                );
+                for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes] {
                     t.title =
                         format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
+                }
+                r.name_conditions(conditions);
+                for mut t in [r.sentences, r.phonemes, r.visemes] {
                     t.key = format!("transferred_{}", t.key);
                     tables.push(t.for_item(&entry.name));
                 }

@@ -9,6 +9,7 @@ use super::error::{Error, Result, Warning};
 use super::session::read_session;
 use crate::io::file_kind::{FileKind, detect_kind};
 use crate::io::frames::{FrameOptions, FrameSource};
+use crate::io::track_csv::read_csv_table;
 use crate::io::{alignment_format, landmark_format, landmark_map_toml, makehuman_target};
 use crate::io::{model_source, obj};
 use std::path::{Path, PathBuf};
@@ -70,6 +71,29 @@ pub enum FileSummary {
     Motion {
         frames: usize,
         vertices: usize,
+    },
+    /// `fit.csv`: frames fitted, and how many of them failed.
+    FitResults {
+        frames: usize,
+        failed: usize,
+    },
+    /// `frames.csv`: the frame numbers of a `shapes.npy`.
+    FrameList {
+        frames: usize,
+    },
+    /// A CSV table: its rows and column names.
+    Table {
+        rows: usize,
+        columns: Vec<String>,
+    },
+    /// One `.npy` array of `rows` × `columns`.
+    Array {
+        rows: usize,
+        columns: usize,
+    },
+    /// One image.
+    Image {
+        size: [u32; 2],
     },
     /// A video (`folder` false) or a folder of images, whose rate is then assumed.
     Frames {
@@ -143,12 +167,66 @@ pub fn validate_file(path: &Path) -> Result<FileSummary> {
             let m = crate::io::motion_csv::read_motion_csv(path)?;
             FileSummary::Motion { frames: m.frames.len(), vertices: m.vertices.len() }
         }
+        FileKind::FitResults => fit_results(path)?,
+        FileKind::FrameList => {
+            let t = read_csv_table(&crate::io::input::read_input_string(path)?, path)?;
+            for (line, rec) in &t.rows {
+                crate::io::track_csv::parse_usize_field(rec, 0, "frame", path, *line)?;
+            }
+            FileSummary::FrameList { frames: t.rows.len() }
+        }
+        FileKind::Table => {
+            let t = read_csv_table(&crate::io::input::read_input_string(path)?, path)?;
+            FileSummary::Table { rows: t.rows.len(), columns: t.header }
+        }
+        FileKind::Array => {
+            let a = crate::io::npy_model::read_npy(path)?;
+            match a.shape.as_slice() {
+                [rows, columns] => FileSummary::Array { rows: *rows, columns: *columns },
+                [n] => FileSummary::Array { rows: 1, columns: *n },
+                dims => {
+                    return Err(Error::Invalid(format!(
+                        "{}: an array of {} dimensions; lipmap's arrays have 1 or 2",
+                        path.display(),
+                        dims.len()
+                    )));
+                }
+            }
+        }
+        FileKind::Image => {
+            let size = image::image_dimensions(path)
+                .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
+            FileSummary::Image { size: [size.0, size.1] }
+        }
         FileKind::Video | FileKind::Frames => {
             let f = FrameSource::open(path, &FrameOptions::default())?;
             let folder = f.path().is_dir();
             FileSummary::Frames { folder, frames: f.len(), fps: f.fps(), size: f.size() }
         }
     })
+}
+
+/// `fit.csv` as `fit` writes it: every row a whole frame number and either the fitted
+/// numbers or the reason the frame failed.
+fn fit_results(path: &Path) -> Result<FileSummary> {
+    use crate::io::track_csv::{parse_f64_field, parse_usize_field};
+    let t = read_csv_table(&crate::io::input::read_input_string(path)?, path)?;
+    let (Some(rms), Some(failed)) = (t.column("reproj_rms_px"), t.column("failed")) else {
+        return Err(Error::Invalid(format!(
+            "{}: fit results need the columns `reproj_rms_px` and `failed`",
+            path.display()
+        )));
+    };
+    let mut n_failed = 0;
+    for (line, rec) in &t.rows {
+        parse_usize_field(rec, 0, "frame", path, *line)?;
+        if rec.get(failed).is_some_and(|f| !f.is_empty()) {
+            n_failed += 1;
+        } else {
+            parse_f64_field(rec, rms, "reproj_rms_px", path, *line)?;
+        }
+    }
+    Ok(FileSummary::FitResults { frames: t.rows.len(), failed: n_failed })
 }
 
 /// `path` read as expression blendshapes (an eos `.bin`, or a folder of MakeHuman targets);

@@ -119,7 +119,9 @@ fn describe_edit(e: &Edit) -> String {
         }
         Edit::Reviewed { frame, .. } => format!("reviewed mark of frame {frame}"),
         Edit::Profile { side_frame, .. } => format!("lip point of side frame {side_frame}"),
-        Edit::Labels(c) if c.len() == 1 => format!("label of landmark {}", c[0].landmark),
+        Edit::Labels(c) if c.len() == 1 => {
+            format!("label of landmark {}", crate::landmarks::PointNo(c[0].landmark))
+        }
         Edit::Labels(c) => format!("{} labels", c.len()),
     }
 }

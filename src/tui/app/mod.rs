@@ -157,6 +157,8 @@ pub struct App {
     pub side: SideState,
 
     pub term_size: (u16, u16),
+    /// Whether the views show their side panel (the user hides it for room).
+    pub side_panel: bool,
     /// Work `update` queued for the run loop.
     pub effects: Vec<Effect>,
 }
@@ -198,6 +200,7 @@ impl App {
             analysis: AnalysisScreen::default(),
             side: SideState::None,
             term_size: (80, 24),
+            side_panel: true,
             effects: Vec::new(),
         };
         app.recompute_flags();

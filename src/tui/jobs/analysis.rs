@@ -24,6 +24,8 @@ pub struct AnalysisJob {
     pub head: Option<Arc<crate::model::Mesh>>,
     /// The side view's P per front frame (corrections applied), when the clip has one.
     pub side_p: Option<Vec<Option<f64>>>,
+    /// The landmark set the fits used, named in the tables.
+    pub set: crate::landmarks::LandmarkSet,
 }
 
 impl AnalysisJob {
@@ -41,6 +43,7 @@ impl AnalysisJob {
             fits: app.fits.by_frame.values().cloned().collect(),
             head: app.mesh.clone(),
             side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
+            set: app.fit_settings.set,
         })
     }
 }
@@ -60,6 +63,7 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
         side_view: job.side_p.is_some(),
         side_p: job.side_p.as_deref(),
         pose: crate::measure::PoseComparison::default(),
+        set: Some(job.set),
     };
     let evaluated =
         evaluate_clip(&job.model, &job.map, &input, Normalisation::MinMax, DEFAULT_WORST_ROWS);
@@ -150,5 +154,5 @@ pub(super) fn table_for_tui(
             AnalysisRow { cells, keys, frame, clip: None }
         })
         .collect();
-    AnalysisTable { title: t.title.clone(), columns: t.headers.clone(), rows }
+    AnalysisTable { title: t.title.clone(), columns: t.headings(), rows }
 }

@@ -17,10 +17,10 @@ pub enum PromptKind {
 impl PromptKind {
     pub fn question(self) -> &'static str {
         match self {
-            Self::GotoPoint => "point number (0-67)",
+            Self::GotoPoint => "point number (1–68)",
             Self::GotoFrame => "frame number",
             Self::Propagate => "propagate to how many next frames (Enter = 10)",
-            Self::GotoLabel => "landmark to label (0-67)",
+            Self::GotoLabel => "landmark to label (1–68)",
         }
     }
 }

@@ -3,7 +3,7 @@
 //! action for the view that asked (go to a frame, select a point, propagate, label).
 
 use super::{Overlay, PromptKind};
-use crate::landmarks::N_LANDMARKS;
+use crate::landmarks::ibug::parse_point_no;
 use crate::tui::action::Action;
 use crate::tui::app::App;
 
@@ -77,10 +77,11 @@ pub fn prompt_submit(app: &mut App) -> Option<Action> {
     let Some(Overlay::Prompt { kind, input }) = app.overlays.pop() else { return None };
     let n: Option<usize> = input.parse().ok();
     let answer = match kind {
-        PromptKind::GotoPoint | PromptKind::GotoLabel => match n.filter(|&n| n < N_LANDMARKS) {
-            Some(index) if kind == PromptKind::GotoPoint => Ok(Action::SelectPoint { index }),
-            Some(landmark) => Ok(Action::LabelLandmark { landmark }),
-            None => Err(format!("no landmark `{input}` (0-67)")),
+        // People type points as they read them, 1–68.
+        PromptKind::GotoPoint | PromptKind::GotoLabel => match parse_point_no(&input) {
+            Ok(index) if kind == PromptKind::GotoPoint => Ok(Action::SelectPoint { index }),
+            Ok(landmark) => Ok(Action::LabelLandmark { landmark }),
+            Err(why) => Err(why),
         },
         PromptKind::GotoFrame => match n {
             Some(frame) => Ok(Action::GoToFrame { frame }),

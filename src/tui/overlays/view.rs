@@ -77,7 +77,8 @@ pub fn draw_help(app: &App, keymap: &Keymap, scroll: u16, frame: &mut Frame, are
         return;
     }
     let r = Rect::new(area.x + (area.width - w) / 2, area.y + (area.height - h) / 2, w, h);
-    let lines = help_lines(app, keymap);
+    // Long key lists wrap rather than run off a narrow screen.
+    let lines = crate::tui::widgets::wrap::wrap_lines(help_lines(app, keymap), usize::from(w - 2));
     let max_scroll = (lines.len() as u16).saturating_sub(h.saturating_sub(2));
     let chain = [KeyMode::Help];
     let key = |a: Action| keymap.key_for(&chain, &a).map_or("?".to_string(), |k| k.to_string());

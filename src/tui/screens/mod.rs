@@ -41,10 +41,12 @@ pub fn draw_shown(app: &App, frame: &mut Frame, area: Rect) {
     }
 }
 
-/// The frames and fit views: image on the left, a side panel on the right (narrower on small
-/// terminals, absent below 50 columns).
-pub fn image_and_side(body: Rect) -> (Rect, Rect) {
-    let side_w = if body.width >= 120 {
+/// The frames, fit and side views: image on the left, a side panel on the right (narrower on
+/// small terminals, absent below 50 columns or when the user hid it).
+pub fn image_and_side(app: &App, body: Rect) -> (Rect, Rect) {
+    let side_w = if !app.side_panel {
+        0
+    } else if body.width >= 120 {
         36
     } else if body.width >= 50 {
         26
@@ -62,8 +64,8 @@ pub fn image_mapping(app: &App, size: (u16, u16)) -> Option<Mapping> {
     if !matches!(app.view, View::Frames | View::Fit) {
         return None;
     }
-    let layout = screen_layout(Rect::new(0, 0, size.0, size.1));
-    let (image, _) = image_and_side(layout.body);
+    let layout = screen_layout(app, Rect::new(0, 0, size.0, size.1));
+    let (image, _) = image_and_side(app, layout.body);
     let (w, h) = app.frame_dims();
     Mapping::new(image, w, h, &app.frames.image_view)
 }

@@ -78,9 +78,16 @@ impl Mapping {
         })
     }
 
-    /// Image pixels per display pixel: one keyboard step moves a point by this much.
+    /// Image pixels per display pixel.
     pub fn step_px(&self) -> f64 {
         1.0 / self.scale
+    }
+
+    /// Image pixels one keyboard step moves a point: one image pixel, or one display pixel
+    /// where that is finer (zoomed in, for sub-pixel work). Never more than an image pixel,
+    /// so a step means the same on an 80-column terminal as on a large one.
+    pub fn nudge_px(&self) -> f64 {
+        self.step_px().min(1.0)
     }
 }
 

@@ -4,3 +4,4 @@
 pub mod graphics;
 pub mod halfblock;
 pub mod terminal;
+pub mod wrap;

@@ -110,7 +110,8 @@ fn draw_table(app: &App, table: &AnalysisTable, frame: &mut Frame, area: Rect) {
         })
         .collect();
     let n_tables = app.analysis.data.tables.len();
-    let title = format!(" {} ({}/{n_tables}) ", table.title, view.table + 1);
+    // The table's place first: a long title (it names what was compared) is cut at the end.
+    let title = format!(" {}/{n_tables} {} ", view.table + 1, table.title);
     // Columns packed to the left: numbers next to their labels, the spare width at the end.
     let t = Table::new(rows, widths)
         .flex(ratatui::layout::Flex::Start)
@@ -165,6 +166,7 @@ fn draw_trajectory(
         })
         .unwrap_or_default();
     let cur = app.frame() as f64;
+    let labels = fitting_phone_labels(&phones, (x0, x1), area.width.saturating_sub(2));
     let mut legend = vec![
         format!(" {} ", t.name).bold(),
         "video".fg(Color::LightCyan),
@@ -181,11 +183,13 @@ fn draw_trajectory(
         .x_bounds([x0, x1])
         .y_bounds([y0, y1])
         .paint(|ctx| {
-            for (s, _, label) in &phones {
+            for (s, _, _) in &phones {
                 if *s >= x0 && *s <= x1 {
                     ctx.draw(&CLine { x1: *s, y1: y0, x2: *s, y2: y1, color: Color::DarkGray });
-                    ctx.print(*s, y1, Line::from(label.clone()).fg(Color::Gray));
                 }
+            }
+            for (s, label) in &labels {
+                ctx.print(*s, y1, Line::from(label.clone()).fg(Color::Gray));
             }
             for w in t.video.windows(2) {
                 ctx.draw(&CLine {
@@ -204,4 +208,64 @@ fn draw_trajectory(
             ctx.draw(&CLine { x1: cur, y1: y0, x2: cur, y2: y1, color: Color::Yellow });
         });
     frame.render_widget(canvas, area);
+}
+
+/// The phone labels a chart `cols` columns wide over frames `x0..x1` can show without one
+/// running into the next: each at its phone's start, whole if it fits before the next
+/// phone's start (with a column between), else without its stress digit, else left out
+/// (the boundary line still marks the phone).
+fn fitting_phone_labels(
+    phones: &[(f64, f64, String)],
+    (x0, x1): (f64, f64),
+    cols: u16,
+) -> Vec<(f64, String)> {
+    let span = (x1 - x0).max(f64::EPSILON);
+    let col = |x: f64| ((x - x0) / span * f64::from(cols.saturating_sub(1))).round() as i64;
+    let shown: Vec<&(f64, f64, String)> =
+        phones.iter().filter(|(s, _, _)| *s >= x0 && *s <= x1).collect();
+    let mut out = Vec::new();
+    for (k, (s, _, label)) in shown.iter().enumerate() {
+        let next = shown.get(k + 1).map_or(i64::from(cols) + 1, |n| col(n.0));
+        let room = usize::try_from(next - col(*s) - 1).unwrap_or(0);
+        let bare = label.trim_end_matches(|c: char| c.is_ascii_digit());
+        let fits = [label.as_str(), bare]
+            .into_iter()
+            .find(|l| !l.is_empty() && ratatui::text::Span::raw(*l).width() <= room);
+        if let Some(l) = fits {
+            out.push((*s, l.to_string()));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn phones(labels: &[&str], each: f64) -> Vec<(f64, f64, String)> {
+        labels
+            .iter()
+            .enumerate()
+            .map(|(k, l)| (k as f64 * each, (k + 1) as f64 * each, l.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn phone_labels_never_run_together() {
+        let p = phones(&["sil", "P", "L", "EY1", "S", "R", "EH1", "D", "AE1", "T", "sil"], 6.0);
+        for cols in [10u16, 24, 38, 78, 158] {
+            let shown = fitting_phone_labels(&p, (0.0, 66.0), cols);
+            let col = |x: f64| (x / 66.0 * f64::from(cols - 1)).round() as usize;
+            for w in shown.windows(2) {
+                let end = col(w[0].0) + w[0].1.chars().count();
+                assert!(end < col(w[1].0), "{cols}: {shown:?}");
+            }
+            assert!(shown.iter().all(|(_, l)| p.iter().any(|q| q.2.starts_with(l.as_str()))));
+        }
+        let wide = fitting_phone_labels(&p, (0.0, 66.0), 158);
+        assert_eq!(wide.len(), p.len(), "every label whole at 160 columns");
+        assert!(wide.iter().any(|(_, l)| l == "EY1"));
+        let narrow = fitting_phone_labels(&p, (0.0, 66.0), 24);
+        assert!(narrow.iter().any(|(_, l)| l == "P") && narrow.len() < p.len());
+    }
 }

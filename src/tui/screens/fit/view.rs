@@ -4,6 +4,8 @@
 //!
 //! Editing keys work here as in the frames view (mode chain fit → frames → global).
 
+use crate::glossary::names::{REPROJECTION_ERROR, REPROJECTION_RMS};
+use crate::landmarks::PointNo;
 use crate::math::Matrix3;
 use crate::model::Mesh;
 use crate::render::HeadViewport;
@@ -13,6 +15,7 @@ use crate::tui::screens::head::HeadFraming;
 use crate::tui::screens::head::view::{Overlay, draw_shaded_mesh, label_triangles, rotation};
 use crate::tui::screens::image_and_side;
 use crate::tui::widgets::halfblock::Marker;
+use crate::tui::widgets::wrap::NBSP;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Style, Stylize};
@@ -58,7 +61,7 @@ pub fn fit_markers(app: &App) -> Vec<Marker> {
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image, side) = image_and_side(area);
+    let (image, side) = image_and_side(app, area);
     let f = app.frame();
     let fit = app.fits.by_frame.get(&f);
     draw_image(app, frame, image, &fit_markers(app));
@@ -85,12 +88,13 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let mut lines: Vec<Line> = Vec::new();
     match fit {
         Some(fit) => {
-            lines.push(Line::from(format!("frame {f}  rms {:.2} px", fit.reproj_rms_px)).bold());
+            lines.push(Line::from(format!("frame {f}")).bold());
+            lines.push(Line::from(format!("{REPROJECTION_RMS} {:.2}{NBSP}px", fit.reproj_rms_px)));
             if let Some(why) = &fit.failed {
                 lines.push(Line::from(format!("failed: {why}")).fg(Color::LightRed));
             }
             lines.push(Line::from(format!(
-                "yaw {:.0}° pitch {:.0}° roll {:.0}°",
+                "yaw{NBSP}{:.0}° pitch{NBSP}{:.0}° roll{NBSP}{:.0}°",
                 fit.yaw, fit.pitch, fit.roll
             )));
             let mut worst: Vec<(usize, f64)> = fit
@@ -100,10 +104,10 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 .filter_map(|(i, r)| r.map(|r| (i, r[0].hypot(r[1]))))
                 .collect();
             worst.sort_by(|a, b| b.1.total_cmp(&a.1));
-            lines.push(Line::from("worst points (px)").fg(Color::Gray));
+            lines.push(Line::from(format!("worst points, {REPROJECTION_ERROR}")).fg(Color::Gray));
             for (i, r) in worst.iter().take(6) {
                 let mark = if *i == app.frames.selected { "▸" } else { " " };
-                lines.push(Line::from(format!("{mark}{i:>2} {r:6.2}")));
+                lines.push(Line::from(format!("{mark}{:>2} {r:6.2} px", PointNo(*i))));
             }
         }
         None => {
@@ -127,6 +131,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     if app.fits.stale.contains(&f) {
         lines.push(Line::from("edited since fit").fg(Color::Yellow));
     }
+    let lines = crate::tui::widgets::wrap::wrap_lines(lines, usize::from(content.width));
     let text_h = (lines.len() as u16).min(bottom.saturating_sub(y));
     frame.render_widget(Paragraph::new(lines), Rect::new(content.x, y, content.width, text_h));
     y += text_h;

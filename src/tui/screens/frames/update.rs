@@ -151,10 +151,12 @@ fn current_point(app: &App) -> Option<LandmarkPoint> {
     app.track.frames.get(app.frame_pos).and_then(|f| f.points.get(app.frames.selected)).copied()
 }
 
-/// Image pixels one keyboard step moves: one display pixel (so a step is always visible,
-/// and sub-pixel when zoomed in), or 1 px when nothing is on screen.
+/// Image pixels one keyboard step moves ([`Mapping::nudge_px`]: one, or finer when zoomed
+/// in), or 1 px when nothing is on screen.
+///
+/// [`Mapping::nudge_px`]: crate::tui::widgets::halfblock::Mapping::nudge_px
 fn step_px(app: &App) -> f64 {
-    screens::image_mapping(app, app.term_size).map_or(1.0, |m| m.step_px())
+    screens::image_mapping(app, app.term_size).map_or(1.0, |m| m.nudge_px())
 }
 
 /// Zooms the image by `factor` (within 1..`MAX_ZOOM`).

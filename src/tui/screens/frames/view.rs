@@ -4,6 +4,7 @@
 //! `landmark_markers` is shared with the fit view; `draw_graphics` puts a terminal graphics
 //! protocol image over the half-blocks of either view when one is in use.
 
+use crate::glossary::names::{REPROJECTION_ERROR, REPROJECTION_RMS};
 use crate::landmarks::{LandmarkPoint, PointSource};
 use crate::tui::app::App;
 use crate::tui::overlays::Overlay;
@@ -11,6 +12,7 @@ use crate::tui::screens::View;
 use crate::tui::screens::image_and_side;
 use crate::tui::widgets::graphics::GraphicsState;
 use crate::tui::widgets::halfblock::{HalfBlockImage, Mapping, Marker};
+use crate::tui::widgets::wrap::NBSP;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::style::{Color, Modifier, Style, Stylize};
@@ -116,7 +118,7 @@ pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> b
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image, side) = image_and_side(area);
+    let (image, side) = image_and_side(app, area);
     let markers = landmark_markers(app);
     draw_image(app, frame, image, &markers);
     if side.width > 0 {
@@ -148,9 +150,7 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
     lines.push(Line::from(""));
     let sel = app.frames.selected;
     lines.push(
-        Line::from(format!("{sel} {}", crate::reference::current().names.name(sel)))
-            .bold()
-            .fg(Color::LightMagenta),
+        Line::from(crate::reference::current().names.label(sel)).bold().fg(Color::LightMagenta),
     );
     if let Some(p) = app.track.frames.get(app.frame_pos).and_then(|fr| fr.points.get(sel)) {
         lines.push(Line::from(vec![
@@ -167,10 +167,13 @@ fn side_lines(app: &App) -> Vec<Line<'static>> {
             lines.push(Line::from(format!("confidence {c:.2}")));
         }
     }
-    if let Some(r) =
-        app.fits.by_frame.get(&f).and_then(|fit| fit.residuals.get(sel).copied().flatten())
-    {
-        lines.push(Line::from(format!("fit residual {:.2} px", r[0].hypot(r[1]))));
+    // The point's own error and the frame's RMS, named as the fit view and `eval` name them.
+    if let Some(fit) = app.fits.by_frame.get(&f).filter(|fit| fit.is_usable()) {
+        if let Some(r) = fit.residuals.get(sel).copied().flatten() {
+            lines.push(Line::from(format!("{REPROJECTION_ERROR} {:.2}{NBSP}px", r[0].hypot(r[1]))));
+        }
+        lines
+            .push(Line::from(format!("frame {REPROJECTION_RMS} {:.2}{NBSP}px", fit.reproj_rms_px)));
     }
     lines.push(Line::from(format!(
         "moves: {}   zoom {}×",

@@ -4,7 +4,7 @@
 use crate::fit::OrthoPose;
 use crate::fit::map_suggest::LeftOut;
 use crate::fit::suggest::SuggestHead;
-use crate::landmarks::N_LANDMARKS;
+use crate::landmarks::{N_LANDMARKS, PointNo};
 use crate::model::LandmarkMap;
 use crate::tui::action::Action;
 use crate::tui::app::history::relabel;
@@ -127,7 +127,7 @@ pub fn confirm_label(app: &mut App) {
     match picked {
         Some(v) => {
             relabel(app, vec![(l, Some(v))]);
-            app.status = format!("landmark {l} → vertex {v}");
+            app.status = format!("landmark {} → vertex {v}", PointNo(l));
             set_label_target(app, (l + 1) % N_LANDMARKS);
         }
         None => app.status = "no visible vertex under the cursor".into(),
@@ -221,9 +221,11 @@ pub fn suggest_label(app: &mut App) {
             }
             app.head.view.suggested = Some((l, s.vertex));
             app.status = format!(
-                "suggested vertex {} for {l} ({:.1} px off the tracked point, {how}): \
+                "suggested vertex {} for {} ({:.1} px off the tracked point, {how}): \
                  Enter assigns",
-                s.vertex, s.distance_px
+                s.vertex,
+                PointNo(l),
+                s.distance_px
             );
         }
         Err(e) => app.status = format!("no suggestion: {e}"),
@@ -247,7 +249,7 @@ pub fn suggest_all_labels(app: &mut App) {
                 .left
                 .iter()
                 .find(|(_, why)| !matches!(why, LeftOut::NotVisible))
-                .map_or(String::new(), |(l, why)| format!("; e.g. {} {why}", l + 1));
+                .map_or(String::new(), |(l, why)| format!("; e.g. {} {why}", PointNo(*l)));
             app.status = format!("{}{first_left}; u undoes", proposal.summary());
         }
         Err(e) => app.status = format!("no suggestions: {e}"),

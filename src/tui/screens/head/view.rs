@@ -307,9 +307,9 @@ pub fn draw_shaded_mesh(
     }
 }
 
-/// The wireframe's area and the side panel's (absent below 50 columns).
-fn split(area: Rect) -> (Rect, Rect) {
-    let side_w = if area.width >= 50 { 26.min(area.width / 3) } else { 0 };
+/// The wireframe's area and the side panel's (absent below 50 columns or when hidden).
+fn split(app: &App, area: Rect) -> (Rect, Rect) {
+    let side_w = if area.width >= 50 && app.side_panel { 26.min(area.width / 3) } else { 0 };
     let canvas_area = Rect::new(area.x, area.y, area.width - side_w, area.height);
     let side = Rect::new(area.x + canvas_area.width, area.y, side_w, area.height);
     (canvas_area, side)
@@ -320,7 +320,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         draw_transferred(app, index, frame, area);
         return;
     }
-    let (canvas_area, side) = split(area);
+    let (canvas_area, side) = split(app, area);
     let h = &app.head.view;
     let picked = match h.suggested {
         Some((l, v)) if l == h.label => Some(v),
@@ -401,8 +401,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             (true, crate::session::MapRole::Head) => "(for transfer, indices)",
         })
         .fg(Color::DarkGray),
-        Line::from(format!("{} {}", h.label, crate::reference::current().names.name(h.label)))
-            .fg(Color::Yellow),
+        Line::from(crate::reference::current().names.label(h.label)).fg(Color::Yellow),
         Line::from(match current {
             Some(v) => format!("now vertex {v}"),
             None => "not mapped".into(),
@@ -432,7 +431,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
 /// the front): the frame's shape when its job has it, the last frame's meanwhile, the
 /// head at rest where the frame has no fit.
 fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
-    let (canvas_area, side) = split(area);
+    let (canvas_area, side) = split(app, area);
     let h = &app.head.view;
     let f = app.frame();
     let name = app.head.heads.names.get(index).cloned().unwrap_or_default();

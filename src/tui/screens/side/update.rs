@@ -69,7 +69,7 @@ fn set_profile_point(app: &mut App, k: usize, before: Option<Point2>, after: Opt
 }
 
 /// Moves the side frame's upper-lip point (starting from the automatic one, or the crop's
-/// centre where extraction failed) by keyboard steps of one display pixel.
+/// centre where extraction failed) by keyboard steps of an image pixel (finer when zoomed).
 pub fn nudge_lip_point(app: &mut App, dx: i32, dy: i32) {
     let Some((k, before)) = side_point(app) else {
         app.status = "no side frame here".into();
@@ -84,7 +84,7 @@ pub fn nudge_lip_point(app: &mut App, dx: i32, dy: i32) {
                 f64::from(c.y) + f64::from(c.height) / 2.0,
             )
         });
-    let step = super::view::side_mapping(app, app.term_size).map_or(1.0, |m| m.step_px());
+    let step = super::view::side_mapping(app, app.term_size).map_or(1.0, |m| m.nudge_px());
     let after = start + Vector2::new(f64::from(dx) * step, f64::from(dy) * step);
     set_profile_point(app, k, before, Some(after));
 }

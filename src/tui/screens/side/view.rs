@@ -38,8 +38,8 @@ pub fn side_mapping(app: &App, size: (u16, u16)) -> Option<Mapping> {
         return None;
     }
     let side = app.side.view()?;
-    let layout = screen_layout(Rect::new(0, 0, size.0, size.1));
-    let (area, _) = image_and_side(layout.body);
+    let layout = screen_layout(app, Rect::new(0, 0, size.0, size.1));
+    let (area, _) = image_and_side(app, layout.body);
     let (w, h) = side_dims(side);
     let c = side.setup.crop;
     let (aw, ah) = (f64::from(area.width), 2.0 * f64::from(area.height));
@@ -96,7 +96,7 @@ fn side_markers(side: &SideView, point: Option<&ProfilePoint>, step_px: f64) -> 
 }
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
-    let (image_area, panel) = image_and_side(area);
+    let (image_area, panel) = image_and_side(app, area);
     let side = match &app.side {
         SideState::Ready(s) => s,
         other => {

@@ -434,14 +434,19 @@ fn a_drawn_face_box_tracks_the_lost_frames_and_stops_where_the_track_resumes() {
         assert!(fl.points[0].confidence.is_some());
         let reference: Vec<Vector2<f64>> =
             points(&dlib, fl.frame).iter().map(|p| p + shift).collect();
-        d.extend(fl.points.iter().zip(&reference).map(|(p, r)| (Vector2::new(p.x, p.y) - r).norm()));
+        d.extend(
+            fl.points.iter().zip(&reference).map(|(p, r)| (Vector2::new(p.x, p.y) - r).norm()),
+        );
     }
     let m = median(d);
     println!("their points against dlib's tracks: median {m:.3} px");
     assert!(m <= 1.0, "median {m:.3} px from dlib's");
     // Not a box.
     let none = FaceBox { width: 0.0, ..face };
-    assert!(track_from_box(t, none, &existing, 0, |f| gray_of(&frames, f), &Default::default()).is_err());
+    assert!(
+        track_from_box(t, none, &existing, 0, |f| gray_of(&frames, f), &Default::default())
+            .is_err()
+    );
 }
 
 /// The TUI's tracker job on the same clip: a re-alignment of a frame whose lower lip the
@@ -488,11 +493,9 @@ fn the_tuis_tracker_job_realigns_and_names_a_missing_predictor() {
     let moved = after.points.iter().filter(|p| p.source == PointSource::Interpolated).count();
     assert_eq!(moved, 66);
     // The lower lip's other points followed the two moved down.
-    let dy: f64 = [56, 58, 65, 67]
-        .iter()
-        .map(|&i| after.points[i].y - landmarks.points[i].y)
-        .sum::<f64>()
-        / 4.0;
+    let dy: f64 =
+        [56, 58, 65, 67].iter().map(|&i| after.points[i].y - landmarks.points[i].y).sum::<f64>()
+            / 4.0;
     println!("frame {f}: lower midline moved 2 px down, its neighbours followed by {dy:.2} px");
     assert!(dy > 0.5, "neighbours moved {dy:.2} px");
     assert!(said.borrow().iter().any(|s| s.contains("reading the shape predictor")));

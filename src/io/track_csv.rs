@@ -390,7 +390,10 @@ pub fn read_track_csv(path: &Path) -> Result<Track> {
 pub fn format_track_csv(track: &Track) -> String {
     let rerun_col = track.frames.iter().any(|f| f.rerun_disagreement.is_some());
     let frame_cols = rerun_col
-        || track.frames.iter().any(|f| f.timestamp.is_some() || f.confidence.is_some() || !f.success);
+        || track
+            .frames
+            .iter()
+            .any(|f| f.timestamp.is_some() || f.confidence.is_some() || !f.success);
     let mut s = String::with_capacity(64 + track.frames.len() * N_LANDMARKS * 32);
     s.push_str(TRACK_CSV_HEADER);
     if frame_cols {

@@ -433,13 +433,14 @@ mod tests {
             ..LandmarkPoint::tracked(99.0, 98.0)
         };
         // A corrected point in the result is the user's: not the derivation's to set.
-        derived.points[11] = LandmarkPoint {
-            source: PointSource::Corrected,
-            ..LandmarkPoint::tracked(-5.0, -5.0)
-        };
+        derived.points[11] =
+            LandmarkPoint { source: PointSource::Corrected, ..LandmarkPoint::tracked(-5.0, -5.0) };
         let ch = set_derived_points(&mut t, &derived).unwrap();
         assert_eq!(ch.len(), 1);
-        assert_eq!((t.get(1).unwrap().points[10].x, t.get(1).unwrap().points[11]), (99.0, orig.get(1).unwrap().points[11]));
+        assert_eq!(
+            (t.get(1).unwrap().points[10].x, t.get(1).unwrap().points[11]),
+            (99.0, orig.get(1).unwrap().points[11])
+        );
         apply_changes(&mut t, &ch, false);
         assert_eq!(t, orig);
         derived.frame = 7;

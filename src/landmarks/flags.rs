@@ -231,7 +231,6 @@ pub(super) fn face_sizes(track: &Track) -> Vec<Option<f64>> {
     own.into_iter().map(|s| s.or(fallback)).collect()
 }
 
-
 /// Failed fits and reprojection RMS far above the clip's median.
 pub fn fit_flags<F: FitResidual>(fits: &[F], th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
     let ok: Vec<f64> =

@@ -86,7 +86,10 @@ mod tests {
         );
         // Every point placed again (a face box tracked from): the tracker's word is gone.
         for p in &mut lost.points {
-            *p = LandmarkPoint { source: PointSource::Interpolated, ..LandmarkPoint::tracked(3.0, 4.0) };
+            *p = LandmarkPoint {
+                source: PointSource::Interpolated,
+                ..LandmarkPoint::tracked(3.0, 4.0)
+            };
         }
         assert!(tracker_flags(&Track::new(vec![lost]), &th).is_empty());
     }

@@ -254,7 +254,11 @@ mod tests {
         let trees: Vec<Tree> = (0..n_trees)
             .map(|t| Tree {
                 splits: (0..3)
-                    .map(|k| Split { a: (t + k) as u32 % 4, b: (t * 3 + k) as u32 % 4, threshold: next() })
+                    .map(|k| Split {
+                        a: (t + k) as u32 % 4,
+                        b: (t * 3 + k) as u32 % 4,
+                        threshold: next(),
+                    })
                     .collect(),
                 leaves: (0..4 * len).map(|i| next() * 10f32.powi(i as i32 % 5 - 2)).collect(),
             })

@@ -113,9 +113,7 @@ impl Forest {
 
     /// Owned copies of the trees (to edit, then collect back).
     pub fn to_trees(&self) -> Vec<Tree> {
-        self.iter()
-            .map(|t| Tree { splits: t.splits.to_vec(), leaves: t.leaves.to_vec() })
-            .collect()
+        self.iter().map(|t| Tree { splits: t.splits.to_vec(), leaves: t.leaves.to_vec() }).collect()
     }
 }
 

@@ -328,13 +328,15 @@ impl FaceTracker<'_> {
                     width: 3.0 * t.face.width,
                     height: 3.0 * t.face.height,
                 };
-                let again = self.detect_and_fit(image, Some(near)).filter(|d| d.disagreement < t.disagreement);
+                let again = self
+                    .detect_and_fit(image, Some(near))
+                    .filter(|d| d.disagreement < t.disagreement);
                 // Nothing better near the last face and the run from it is no face at all
                 // (a cut, the next of unrelated photos): look over the whole image.
                 let again = match again {
-                    None if t.disagreement > self.options.zero_confidence_disagreement => self
-                        .detect_and_fit(image, None)
-                        .filter(|d| d.disagreement < t.disagreement),
+                    None if t.disagreement > self.options.zero_confidence_disagreement => {
+                        self.detect_and_fit(image, None).filter(|d| d.disagreement < t.disagreement)
+                    }
                     found => found,
                 };
                 Some(again.unwrap_or(t))

@@ -298,13 +298,16 @@ pub fn track_from_box(
     let gray = image(first)?;
     let mut previous = ft.fit_in_box(gray.view(), face, StartKind::Given);
     let own = &existing.frames[start];
-    let mut out =
-        vec![with_tracked_points(own, &previous.points, &corrected_points(own), Some(previous.confidence))];
+    let mut out = vec![with_tracked_points(
+        own,
+        &previous.points,
+        &corrected_points(own),
+        Some(previous.confidence),
+    )];
     for own in existing.frames[start + 1..].iter().take(opts.max_frames) {
         let gray = image(own.frame)?;
         let Some(t) = ft.track_frame(gray.view(), Some(&previous)) else { break };
-        if own.success
-            && shape_disagreement(&points_of(own), &t.points) <= opts.agree_disagreement
+        if own.success && shape_disagreement(&points_of(own), &t.points) <= opts.agree_disagreement
         {
             break;
         }

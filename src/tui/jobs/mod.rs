@@ -185,8 +185,9 @@ impl Jobs {
                 let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                     track_for_tui(&source, provider.as_ref(), job, &say)
                 }));
-                let reply = result
-                    .unwrap_or_else(|_| Action::TrackerFailed { error: "the tracker panicked".into() });
+                let reply = result.unwrap_or_else(|_| Action::TrackerFailed {
+                    error: "the tracker panicked".into(),
+                });
                 if tx.send(reply).is_err() {
                     return;
                 }

@@ -4,10 +4,10 @@
 //! included ([`TrackerSource`]).
 
 use crate::landmarks::{FrameLandmarks, Track};
+use crate::track::realign::PropagateOptions;
 use crate::track::{FaceBox, GrayImage};
 use crate::tui::action::Action;
 use crate::tui::app::{App, FrameImage, FrameProvider};
-use crate::track::realign::PropagateOptions;
 use crate::workflow::track::{
     Tracker, TrackerFiles, corrected_points, load_tracker, realign_frame, track_from_box,
 };

@@ -29,8 +29,13 @@ impl PromptKind {
 /// Overlays stack over the view; the top one sees keys first.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Overlay {
-    Help { scroll: u16 },
-    Prompt { kind: PromptKind, input: String },
+    Help {
+        scroll: u16,
+    },
+    Prompt {
+        kind: PromptKind,
+        input: String,
+    },
     /// A face box for the tracker, drawn over the frames view.
     FaceBox(crate::tui::screens::frames::FaceBoxDraft),
 }

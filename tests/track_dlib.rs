@@ -8,17 +8,20 @@ use lipmap::demo::{DemoOptions, generate};
 use lipmap::io::frames::{FrameOptions, FrameSource};
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::Track;
+use lipmap::landmarks::flags::{FlagReason, FlagThresholds};
 use lipmap::track::realign::realign_shape;
 use lipmap::track::tracker::FaceTracker;
 use lipmap::track::{
     CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, FaceBox, GrayImage, box_from_shape,
     run_cascade,
 };
+use lipmap::workflow::flags::{clip_flags, flag_lines};
 use lipmap::workflow::no_progress;
 use lipmap::workflow::track::{
     Tracked, Tracker, TrackerFiles, gray_of, load_tracker, track_frames,
 };
 use nalgebra::Vector2;
+use std::collections::BTreeSet;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -509,4 +512,39 @@ fn the_tuis_tracker_job_realigns_and_names_a_missing_predictor() {
         panic!("a missing file is an error");
     };
     assert!(!error.contains('\n') && error.contains("/nonexistent/cascade.xml"), "{error}");
+}
+
+/// lipmap's tracker's self-check on carphone, through the flags: the frames where its
+/// cascade parts from its own re-run are the frames where dlib's model (the same model) is
+/// wrong. Frames 115 and 116 were labelled by eye on dlib's tracks (lower inner lip on the
+/// tongue; `tests/flags_real_tracker.rs`), and lipmap's points there are dlib's.
+#[test]
+fn carphone_self_check_flags_the_frames_dlib_gets_wrong() {
+    let Some(Carphone { ours, .. }) = carphone() else { return };
+    let flags = clip_flags(&ours.track, &[], &[], &FlagThresholds::default());
+    for l in flag_lines("carphone (lipmap's tracker)", &flags, ours.track.len()) {
+        println!("{l}");
+    }
+    let rerun: BTreeSet<usize> = flags
+        .iter()
+        .filter(|f| f.reasons.iter().any(|r| matches!(r, FlagReason::TrackerRerun { .. })))
+        .map(|f| f.frame)
+        .collect();
+    let flagged: BTreeSet<usize> = flags.iter().map(|f| f.frame).collect();
+    println!(
+        "carphone: {} of {} frames flagged, {} by the self-check: {rerun:?}",
+        flagged.len(),
+        ours.track.len(),
+        rerun.len()
+    );
+    for frame in [115, 116] {
+        assert!(rerun.contains(&frame), "labelled tracker error at frame {frame} not flagged");
+    }
+    // A real, correctly tracked fast opening, and most of the clip, pass.
+    assert!(!rerun.contains(&76), "frame 76 flagged by the self-check");
+    assert!(
+        rerun.len() * 10 < ours.track.len(),
+        "{} frames flagged by the self-check",
+        rerun.len()
+    );
 }

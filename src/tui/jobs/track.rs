@@ -132,7 +132,7 @@ pub fn track_for_tui(
             let mut done = 0usize;
             let image = |f: usize| {
                 done += 1;
-                if done % 50 == 0 {
+                if done.is_multiple_of(50) {
                     say(format!("tracking from the face box: frame {f}…"));
                 }
                 decode(f)

@@ -36,6 +36,7 @@ pub fn realign_frame(app: &mut App) {
 
 /// The tracker's re-alignment of a frame: its moved points become one edit, unless the frame
 /// changed while the tracker worked (then its result is for points no longer there).
+#[expect(clippy::boxed_local, reason = "the action carries them boxed to keep `Action` small")]
 pub fn realigned(app: &mut App, before: Box<FrameLandmarks>, after: Box<FrameLandmarks>) {
     let frame = before.frame;
     if app.track.get(frame) != Some(&*before) {

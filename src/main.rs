@@ -32,6 +32,7 @@ fn open_tui(open: &OpenTui) -> anyhow::Result<()> {
         keymap: open.keymap.clone(),
         graphics,
         clip: open.clip.clone(),
+        tracker: open.tracker.clone(),
     };
     lipmap::tui::run::run_with(&open.session, &options)
 }

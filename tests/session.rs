@@ -79,13 +79,10 @@ fn arb_frame(f: usize) -> impl Strategy<Value = FrameLandmarks> {
         prop::option::of(0.0..100.0f64),
         prop::option::of(0.0f32..1.0),
         any::<bool>(),
+        prop::option::of(0.0f32..0.5),
     )
-        .prop_map(move |(points, timestamp, confidence, success)| FrameLandmarks {
-            frame: f,
-            timestamp,
-            confidence,
-            success,
-            points,
+        .prop_map(move |(points, timestamp, confidence, success, rerun_disagreement)| {
+            FrameLandmarks { frame: f, timestamp, confidence, success, rerun_disagreement, points }
         })
 }
 

@@ -107,6 +107,7 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
                 keymap: None,
                 graphics: None,
                 clip: None,
+                tracker: Default::default(),
             };
             return Ok(crate::cli::Next::OpenTui(open, outcome));
         }

@@ -19,6 +19,9 @@ pub struct TuiArgs {
     /// The clip to open (by name; default the first). `<` and `>` switch clips in the TUI.
     #[arg(long)]
     pub clip: Option<String>,
+    /// The tracker's files for re-aligning a frame (`a`) and drawing a face box (`b`).
+    #[command(flatten)]
+    pub tracker: crate::cli::track_cmd::TrackerArgs,
 }
 
 /// `--graphics`: the names the TUI's graphics choice parses.
@@ -52,6 +55,7 @@ pub struct OpenTui {
     pub keymap: Option<PathBuf>,
     pub graphics: Option<GraphicsArg>,
     pub clip: Option<String>,
+    pub tracker: crate::workflow::track::TrackerFiles,
 }
 
 impl OpenTui {
@@ -62,6 +66,7 @@ impl OpenTui {
             keymap: a.keymap.clone(),
             graphics: a.graphics,
             clip: a.clip.clone(),
+            tracker: a.tracker.files(),
         }
     }
 }

@@ -7,7 +7,8 @@
 //! no confidence, tracked); points a frame does not list are read as not visible.
 //! Three optional frame-level columns follow when a track has such values (an OpenFace
 //! import): `timestamp` (s), `frame_confidence` and `success` (0/1), repeated on every row
-//! of the frame and required to agree.
+//! of the frame and required to agree; then `rerun_disagreement` on a track made by
+//! lipmap's tracker (its self-check, `FrameLandmarks::rerun_disagreement`).
 
 use super::error::{FormatError, Result};
 use super::pts::shorten;
@@ -23,7 +24,10 @@ pub const TRACK_CSV_HEADER: &str = "frame,point,x,y,visible,confidence,source";
 /// The optional frame-level columns, written after the header above when needed.
 pub const TRACK_CSV_FRAME_COLUMNS: &str = "timestamp,frame_confidence,success";
 
-const KNOWN_COLUMNS: [&str; 10] = [
+/// The column of lipmap's tracker's self-check, written last when a frame has one.
+pub const TRACK_CSV_RERUN_COLUMN: &str = "rerun_disagreement";
+
+const KNOWN_COLUMNS: [&str; 11] = [
     "frame",
     "point",
     "x",
@@ -34,6 +38,7 @@ const KNOWN_COLUMNS: [&str; 10] = [
     "timestamp",
     "frame_confidence",
     "success",
+    TRACK_CSV_RERUN_COLUMN,
 ];
 
 /// Frame-level values read from one row.
@@ -42,6 +47,7 @@ struct FrameFields {
     timestamp: Option<f64>,
     confidence: Option<f32>,
     success: bool,
+    rerun_disagreement: Option<f32>,
 }
 
 /// A parsed CSV: header names and the data rows with their 1-based line numbers.
@@ -256,6 +262,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
         (table.column("visible"), table.column("confidence"), table.column("source"));
     let (c_time, c_fconf, c_success) =
         (table.column("timestamp"), table.column("frame_confidence"), table.column("success"));
+    let c_rerun = table.column(TRACK_CSV_RERUN_COLUMN);
 
     let mut frames: BTreeMap<usize, (FrameFields, Vec<Option<LandmarkPoint>>)> = BTreeMap::new();
     let mut record = csv::StringRecord::new();
@@ -324,6 +331,12 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
                     ));
                 }
             },
+            rerun_disagreement: match c_rerun {
+                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                    Some(parse_f32_field(rec, c, TRACK_CSV_RERUN_COLUMN, path, line)?)
+                }
+                _ => None,
+            },
         };
         let entry = frames.entry(frame).or_insert_with(|| (fields, vec![None; N_LANDMARKS]));
         if entry.0 != fields {
@@ -331,7 +344,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
                 path,
                 line,
                 format!(
-                    "frame {frame}: timestamp, frame_confidence or success differ from its earlier rows"
+                    "frame {frame}: timestamp, frame_confidence, success or rerun_disagreement differ from its earlier rows"
                 ),
             ));
         }
@@ -355,6 +368,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
             fl.timestamp = fields.timestamp;
             fl.confidence = fields.confidence;
             fl.success = fields.success;
+            fl.rerun_disagreement = fields.rerun_disagreement;
             fl
         })
         .collect();
@@ -374,13 +388,21 @@ pub fn read_track_csv(path: &Path) -> Result<Track> {
 /// frame-level columns are added only when some frame has a timestamp, a confidence or
 /// `success = false`.
 pub fn format_track_csv(track: &Track) -> String {
-    let frame_cols =
-        track.frames.iter().any(|f| f.timestamp.is_some() || f.confidence.is_some() || !f.success);
+    let rerun_col = track.frames.iter().any(|f| f.rerun_disagreement.is_some());
+    let frame_cols = rerun_col
+        || track
+            .frames
+            .iter()
+            .any(|f| f.timestamp.is_some() || f.confidence.is_some() || !f.success);
     let mut s = String::with_capacity(64 + track.frames.len() * N_LANDMARKS * 32);
     s.push_str(TRACK_CSV_HEADER);
     if frame_cols {
         s.push(',');
         s.push_str(TRACK_CSV_FRAME_COLUMNS);
+    }
+    if rerun_col {
+        s.push(',');
+        s.push_str(TRACK_CSV_RERUN_COLUMN);
     }
     s.push('\n');
     for f in &track.frames {
@@ -400,6 +422,12 @@ pub fn format_track_csv(track: &Track) -> String {
                     let _ = write!(s, "{c}");
                 }
                 let _ = write!(s, ",{}", u8::from(f.success));
+            }
+            if rerun_col {
+                s.push(',');
+                if let Some(d) = f.rerun_disagreement {
+                    let _ = write!(s, "{d}");
+                }
             }
             s.push('\n');
         }
@@ -438,9 +466,14 @@ mod tests {
         f.timestamp = Some(0.2);
         f.confidence = Some(0.5);
         f.success = false;
-        let track = Track::new(vec![f]);
+        let track = Track::new(vec![f.clone()]);
         let back = parse_track_csv(&format_track_csv(&track), Path::new("t.csv")).unwrap();
         assert_eq!(back, track);
+        f.rerun_disagreement = Some(0.031_25);
+        let track = Track::new(vec![f]);
+        let text = format_track_csv(&track);
+        assert!(text.lines().next().unwrap().ends_with(",success,rerun_disagreement"));
+        assert_eq!(parse_track_csv(&text, Path::new("t.csv")).unwrap(), track);
     }
 
     #[test]

@@ -280,6 +280,25 @@ pub fn revert_points(
     Ok(changes)
 }
 
+/// Sets the points of `derived` marked `Interpolated` (placed by lipmap from the user's
+/// input: a re-alignment to corrected points, a track from a drawn face box) into its frame
+/// of `track`; the others are left as they are.
+///
+/// # Errors
+/// `NoSuchFrame`/`NoSuchPoint`, `NonFinite` (nothing of that point on is changed).
+pub fn set_derived_points(
+    track: &mut Track,
+    derived: &super::track::FrameLandmarks,
+) -> Result<Vec<PointChange>, EditError> {
+    let mut changes = Vec::new();
+    for (i, p) in derived.points.iter().enumerate() {
+        if p.source == PointSource::Interpolated {
+            set_point(track, derived.frame, i, *p, &mut changes)?;
+        }
+    }
+    Ok(changes)
+}
+
 /// Applies recorded changes forward (`after`) or backward (`before`, in reverse order), for
 /// redo and undo. Changes naming frames or points the track lacks are skipped.
 pub fn apply_changes(track: &mut Track, changes: &[PointChange], forward: bool) {
@@ -402,5 +421,29 @@ mod tests {
         assert_eq!((c[0].0, c[0].1, c[0].2.visible), (1, 3, false));
         revert_points(&mut t, &orig, 1, &[3]).unwrap();
         assert!(corrections(&orig, &t).is_empty());
+    }
+
+    #[test]
+    fn derived_points_set_only_the_interpolated_ones_and_undo() {
+        let orig = track(2);
+        let mut t = orig.clone();
+        let mut derived = t.get(1).unwrap().clone();
+        derived.points[10] = LandmarkPoint {
+            source: PointSource::Interpolated,
+            ..LandmarkPoint::tracked(99.0, 98.0)
+        };
+        // A corrected point in the result is the user's: not the derivation's to set.
+        derived.points[11] =
+            LandmarkPoint { source: PointSource::Corrected, ..LandmarkPoint::tracked(-5.0, -5.0) };
+        let ch = set_derived_points(&mut t, &derived).unwrap();
+        assert_eq!(ch.len(), 1);
+        assert_eq!(
+            (t.get(1).unwrap().points[10].x, t.get(1).unwrap().points[11]),
+            (99.0, orig.get(1).unwrap().points[11])
+        );
+        apply_changes(&mut t, &ch, false);
+        assert_eq!(t, orig);
+        derived.frame = 7;
+        assert_eq!(set_derived_points(&mut t, &derived), Err(EditError::NoSuchFrame(7)));
     }
 }

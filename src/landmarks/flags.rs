@@ -1,7 +1,8 @@
 //! Per-frame failure flags for a clip, each with its reason and the number that triggered
 //! it: a point jumping relative to the head (`flags_motion`), lip contours out of anatomical
 //! order (`flags_lips`), a lip shape that breaks from its neighbours once head motion is
-//! removed (`flags_procrustes`), low tracker confidence, a high fit residual or failed fit,
+//! removed (`flags_procrustes`), the tracker's own doubt (`flags_tracker`: its failure, a
+//! low confidence, lipmap's tracker parting from its re-run), a high fit residual or failed fit,
 //! and a measure that breaks from its neighbours by much of the speaker's own range.
 //!
 //! Distances are in face sizes (the outer eye-corner distance) and limits are robust (median
@@ -13,6 +14,7 @@ use super::PointNo;
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
+pub use super::flags_tracker::tracker_flags;
 use super::track::Track;
 use std::fmt;
 
@@ -42,6 +44,9 @@ pub enum FlagReason {
     TrackerFailed,
     /// The frame's (or its worst point's) tracker confidence is below the threshold.
     LowConfidence { value: f32 },
+    /// lipmap's tracker: the cascade re-run from the box of its result parts from it by
+    /// `disagreement` eye-corner distances (`flags_tracker`).
+    TrackerRerun { disagreement: f64 },
     /// The fit failed for this frame.
     FitFailed { reason: String },
     /// The fit's reprojection RMS is far above the clip's typical value.
@@ -70,6 +75,10 @@ impl fmt::Display for FlagReason {
             }
             Self::TrackerFailed => write!(f, "tracker failed"),
             Self::LowConfidence { value } => write!(f, "low confidence {value:.2}"),
+            Self::TrackerRerun { disagreement } => write!(
+                f,
+                "tracker's re-run parts from its result by {disagreement:.3} of eye distance"
+            ),
             Self::FitFailed { reason } => write!(f, "fit failed: {reason}"),
             Self::HighResidual { rms_px } => write!(f, "reprojection RMS {rms_px:.1} px"),
             Self::MeasureOutlier { measure, z, range_fraction } => {
@@ -131,6 +140,9 @@ pub struct FlagThresholds {
     pub shape_min_face_fraction: f64,
     /// Frame or point confidence below this is flagged (OpenFace suggests ~0.8 for frames).
     pub min_confidence: f32,
+    /// lipmap's tracker's result and its re-run parting by more than this many eye-corner
+    /// distances is flagged (the confidence 0.8 it writes for other programs).
+    pub max_rerun_disagreement: f64,
     /// A fit residual is high when above the clip's median by this many robust sigmas...
     pub residual_sigmas: f64,
     /// ...and above this multiple of the median (a tight clip's small spread must not flag
@@ -157,6 +169,7 @@ impl Default for FlagThresholds {
             shape_sigmas: 6.0,
             shape_min_face_fraction: 0.03,
             min_confidence: 0.8,
+            max_rerun_disagreement: 0.02,
             residual_sigmas: 4.0,
             residual_ratio: 2.0,
             residual_min_px: 1.0,
@@ -196,7 +209,7 @@ pub fn flag_frames<F: FitResidual>(
         .into_iter()
         .chain(lip_order_flags(track, th))
         .chain(shape_flags(track, th))
-        .chain(confidence_flags(track, th))
+        .chain(tracker_flags(track, th))
         .chain(fits.map(|f| fit_flags(f, th)).unwrap_or_default())
         .chain(measures.iter().flat_map(|m| measure_flags(m, th)))
     {
@@ -220,26 +233,6 @@ pub(super) fn face_sizes(track: &Track) -> Vec<Option<f64>> {
     let known: Vec<f64> = own.iter().flatten().copied().collect();
     let fallback = median_sigma(&known).map(|(m, _)| m);
     own.into_iter().map(|s| s.or(fallback)).collect()
-}
-
-/// Tracker failure and low frame or point confidence.
-pub fn confidence_flags(track: &Track, th: &FlagThresholds) -> Vec<(usize, FlagReason)> {
-    let mut out = Vec::new();
-    for f in &track.frames {
-        if !f.success {
-            out.push((f.frame, FlagReason::TrackerFailed));
-        }
-        let point_min =
-            f.points.iter().filter(|p| p.visible).filter_map(|p| p.confidence).reduce(f32::min);
-        let lowest = match (f.confidence, point_min) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        };
-        if let Some(value) = lowest.filter(|v| *v < th.min_confidence) {
-            out.push((f.frame, FlagReason::LowConfidence { value }));
-        }
-    }
-    out
 }
 
 /// Failed fits and reprojection RMS far above the clip's median.

@@ -7,6 +7,7 @@ pub mod flags;
 mod flags_lips;
 mod flags_motion;
 mod flags_procrustes;
+mod flags_tracker;
 pub mod ibug;
 pub mod track;
 

@@ -75,6 +75,11 @@ pub struct FrameLandmarks {
     /// Tracker's success flag (OpenFace `success`); `true` when the source has none.
     #[serde(default = "default_true")]
     pub success: bool,
+    /// lipmap's own tracker only: the mean distance between its result on this frame and
+    /// the cascade re-run from that result's box, in outer eye-corner distances (its
+    /// self-check, `docs/tracking.md`); `None` for other trackers' landmarks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rerun_disagreement: Option<f32>,
     /// Exactly `N_LANDMARKS` points, index = 0-based iBUG id.
     pub points: Vec<LandmarkPoint>,
 }
@@ -86,7 +91,14 @@ fn default_true() -> bool {
 impl FrameLandmarks {
     pub fn new(frame: usize, points: Vec<LandmarkPoint>) -> Self {
         debug_assert_eq!(points.len(), N_LANDMARKS);
-        Self { frame, timestamp: None, confidence: None, success: true, points }
+        Self {
+            frame,
+            timestamp: None,
+            confidence: None,
+            success: true,
+            rerun_disagreement: None,
+            points,
+        }
     }
 
     /// Visible points as (index, position) pairs.

@@ -1,7 +1,8 @@
 //! What maps a sentence's inputs (E and its context coverage) to a predicted Likert score:
 //! the paper's GP, or the straight line it must beat — ordinary least squares on the same
 //! inputs, with the usual predictive variance. The cross-validation fits both and keeps the
-//! one with the lower leave-one-sentence-out error on the training pairs.
+//! GP only when its leave-one-sentence-out error on the training pairs is lower than the
+//! line's by more than one standard error.
 
 use super::SaqpError;
 use super::gp::{GaussianProcess, GpPrediction};

@@ -14,7 +14,8 @@
 //! per candidate per synthesizer costs far more than the cross-validation it serves.
 //!
 //! Beside the GP, a straight line on the same inputs is fitted to the same pairs; a trained
-//! predictor keeps whichever has the lower leave-one-sentence-out RMSE, and both are scored
+//! predictor keeps the GP only when its leave-one-sentence-out RMSE is lower than the
+//! line's by more than one standard error (the line otherwise), and both are scored
 //! on M_v beside a constant predictor, with the verdict of [`super::skill`]. Every random
 //! choice comes from one seed.
 
@@ -615,6 +616,19 @@ pub fn choose_omega(scores: &[OmegaScore]) -> Option<usize> {
         .min_by(|&a, &b| scores[a].omega_m.total_cmp(&scores[b].omega_m))
 }
 
+/// Which calibration a predictor keeps: the GP only when its leave-one-sentence-out RMSE
+/// (`gp`) is below the line's by more than its standard error, the rule ω_m is chosen by.
+/// The GP's residuals are taken at hyperparameters fitted with the left-out sentence still
+/// in, which flatters it against the line (refitted without that sentence); within that
+/// noise the simpler line is kept.
+pub fn keep_calibration(gp: &OmegaScore, linear_rmse: f64) -> CalibrationKind {
+    if gp.rmse + gp.rmse_error < linear_rmse {
+        CalibrationKind::Gp
+    } else {
+        CalibrationKind::Linear
+    }
+}
+
 fn fit_synth(
     si: usize,
     kind: SynthKind,
@@ -650,12 +664,7 @@ fn fit_synth(
         &scored.groups,
     )?);
     let gp_training_rmse = chosen.rmse;
-    // The GP must earn its place: on a tie the line, the simpler model, is kept.
-    let kept = if gp_training_rmse < linear_training_rmse {
-        CalibrationKind::Gp
-    } else {
-        CalibrationKind::Linear
-    };
+    let kept = keep_calibration(&chosen, linear_training_rmse);
     let (omega_m, xi) = (chosen.omega_m, scored.xi);
     let held: Vec<(usize, Vec<f64>, f64)> = held
         .iter()
@@ -717,6 +726,14 @@ mod tests {
         let clear = [score(1.0, 0.40, 0.01), score(3.0, 0.30, 0.01), score(4.0, 0.305, 0.01)];
         assert_eq!(choose_omega(&clear), Some(1));
         assert_eq!(choose_omega(&[]), None);
+    }
+
+    #[test]
+    fn the_gp_is_kept_only_when_it_beats_the_line_by_more_than_its_error() {
+        // Seed 3004's concatenative fit: lower than the line, but within its error.
+        assert_eq!(keep_calibration(&score(1.0, 0.3526, 0.0295), 0.3540), CalibrationKind::Linear);
+        assert_eq!(keep_calibration(&score(1.0, 0.30, 0.01), 0.30), CalibrationKind::Linear);
+        assert_eq!(keep_calibration(&score(1.0, 0.25, 0.02), 0.30), CalibrationKind::Gp);
     }
 
     #[test]

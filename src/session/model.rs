@@ -318,6 +318,9 @@ pub(crate) mod compact_track {
         confidence: Option<f32>,
         #[serde(default = "yes", skip_serializing_if = "is_true")]
         success: bool,
+        /// lipmap's tracker's self-check (`FrameLandmarks::rerun_disagreement`).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        rerun_disagreement: Option<f32>,
         xy: Vec<f64>,
         /// Indices of points marked not visible.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -357,6 +360,7 @@ pub(crate) mod compact_track {
             timestamp: f.timestamp,
             confidence: f.confidence,
             success: f.success,
+            rerun_disagreement: f.rerun_disagreement,
             xy: f.points.iter().flat_map(|p| [p.x, p.y]).collect(),
             hidden: f
                 .points
@@ -415,6 +419,7 @@ pub(crate) mod compact_track {
             timestamp: c.timestamp,
             confidence: c.confidence,
             success: c.success,
+            rerun_disagreement: c.rerun_disagreement,
             points,
         })
     }

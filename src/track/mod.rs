@@ -22,7 +22,7 @@ pub mod viola_jones;
 pub use cascade::{CascadeStart, GrayImage, GrayView, gray_from_rgb, run_cascade};
 pub use haar_file::{DEBIAN_CASCADE_PATH, HaarCascade, parse_haar_cascade, read_haar_cascade};
 pub use predictor_file::{
-    DEBIAN_PREDICTOR_PATH, ShapePredictor, parse_shape_predictor, read_shape_predictor,
+    DEBIAN_PREDICTOR_PATH, Forest, ShapePredictor, parse_shape_predictor, read_shape_predictor,
 };
 pub use similarity::{FaceBox, box_from_shape, similarity_scaled_rotation};
 pub use viola_jones::{DetectOptions, Detection, detect_faces};

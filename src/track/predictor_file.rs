@@ -59,13 +59,81 @@ pub struct Tree {
     pub leaves: Vec<f32>,
 }
 
+/// One tree of a [`Forest`], borrowed: its splits and its leaves, as in [`Tree`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TreeRef<'a> {
+    pub splits: &'a [Split],
+    pub leaves: &'a [f32],
+}
+
+/// The regression trees of one stage stored one after another: all their splits in one
+/// buffer, all their leaves in another. Every run of the cascade walks a stage's trees in
+/// order, so this reads each buffer front to back; one allocation per tree scattered the
+/// trees over the predictor's 100 MB, and every tree then cost a cache and TLB miss before
+/// its first split could be compared (the cascade's time was mostly those misses).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Forest {
+    splits: Vec<Split>,
+    leaves: Vec<f32>,
+    /// Per tree, where its splits and its leaves end (each starts where the previous ends).
+    ends: Vec<(usize, usize)>,
+}
+
+impl Forest {
+    /// Appends a tree.
+    pub fn push(&mut self, tree: &Tree) {
+        self.splits.extend_from_slice(&tree.splits);
+        self.leaves.extend_from_slice(&tree.leaves);
+        self.ends.push((self.splits.len(), self.leaves.len()));
+    }
+
+    /// Number of trees.
+    pub fn len(&self) -> usize {
+        self.ends.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.ends.is_empty()
+    }
+
+    /// The trees in order.
+    pub fn iter(&self) -> impl Iterator<Item = TreeRef<'_>> {
+        let starts = std::iter::once((0, 0)).chain(self.ends.iter().copied());
+        starts.zip(&self.ends).map(|((s0, l0), &(s1, l1))| TreeRef {
+            splits: &self.splits[s0..s1],
+            leaves: &self.leaves[l0..l1],
+        })
+    }
+
+    /// Every leaf of every tree, one after another (a [`TreeRef`]'s `leaves` is a slice of
+    /// it), for callers that index leaves by their offset in the stage.
+    pub fn all_leaves(&self) -> &[f32] {
+        &self.leaves
+    }
+
+    /// Owned copies of the trees (to edit, then collect back).
+    pub fn to_trees(&self) -> Vec<Tree> {
+        self.iter().map(|t| Tree { splits: t.splits.to_vec(), leaves: t.leaves.to_vec() }).collect()
+    }
+}
+
+impl FromIterator<Tree> for Forest {
+    fn from_iter<I: IntoIterator<Item = Tree>>(iter: I) -> Self {
+        let mut f = Forest::default();
+        for t in iter {
+            f.push(&t);
+        }
+        f
+    }
+}
+
 /// One stage of the cascade: the feature pixels (each an anchor point of the mean shape and
 /// an offset from it, in the box-normalised frame) and the forest evaluated on them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stage {
     pub anchors: Vec<u32>,
     pub offsets: Vec<Vector2<f32>>,
-    pub trees: Vec<Tree>,
+    pub trees: Forest,
 }
 
 /// dlib's ensemble-of-regression-trees shape predictor (Kazemi & Sullivan 2014), as read.
@@ -128,9 +196,9 @@ pub fn parse_shape_predictor(bytes: &[u8], path: &Path) -> Result<ShapePredictor
         // A tree is at least an empty split list and one leaf of `n_values` floats (≥ 2 bytes
         // each).
         let n_trees = r.count(&field, usize::MAX, 2 + 2 * n_values)?;
-        let mut trees = Vec::with_capacity(n_trees);
+        let mut trees = Forest::default();
         for t in 0..n_trees {
-            trees.push(r.tree(&format!("{field}[{t}]"), n_values)?);
+            trees.push(&r.tree(&format!("{field}[{t}]"), n_values)?);
         }
         forests.push(trees);
     }
@@ -459,9 +527,9 @@ pub mod encode {
         unsigned(&mut out, p.stages.len() as u64);
         for s in &p.stages {
             unsigned(&mut out, s.trees.len() as u64);
-            for t in &s.trees {
+            for t in s.trees.iter() {
                 unsigned(&mut out, t.splits.len() as u64);
-                for sp in &t.splits {
+                for sp in t.splits {
                     unsigned(&mut out, u64::from(sp.a));
                     unsigned(&mut out, u64::from(sp.b));
                     float(&mut out, sp.threshold);
@@ -503,10 +571,12 @@ mod tests {
             stages: vec![Stage {
                 anchors: vec![0, 1],
                 offsets: vec![Vector2::new(-0.125, 0.0), Vector2::new(0.1, -3.5e-7)],
-                trees: vec![Tree {
+                trees: [Tree {
                     splits: vec![Split { a: 0, b: 1, threshold: 12.5 }],
                     leaves: vec![0.01, 0.0, -0.01, 0.0, -0.02, 0.5, 0.02, -1e-3],
-                }],
+                }]
+                .into_iter()
+                .collect(),
             }],
         }
     }
@@ -564,16 +634,21 @@ mod tests {
 
     #[test]
     fn inconsistent_trees_and_indices_are_refused_naming_the_field() {
-        let mut p = tiny();
-        p.stages[0].trees[0].splits[0].b = 7;
+        let with_tree = |edit: &dyn Fn(&mut Tree)| {
+            let mut p = tiny();
+            let mut trees = p.stages[0].trees.to_trees();
+            edit(&mut trees[0]);
+            p.stages[0].trees = trees.into_iter().collect();
+            p
+        };
+        let p = with_tree(&|t| t.splits[0].b = 7);
         let e = parse_shape_predictor(&encode::predictor(&p), Path::new("sp.dat")).unwrap_err();
         assert!(e.to_string().contains("forests[0][0]"), "{e}");
         let mut p = tiny();
         p.stages[0].anchors[1] = 2;
         let e = parse_shape_predictor(&encode::predictor(&p), Path::new("sp.dat")).unwrap_err();
         assert!(e.to_string().contains("anchor_idx[0]"), "{e}");
-        let mut p = tiny();
-        p.stages[0].trees[0].leaves.truncate(6);
+        let p = with_tree(&|t| t.leaves.truncate(6));
         let e = parse_shape_predictor(&encode::predictor(&p), Path::new("sp.dat")).unwrap_err();
         assert!(e.to_string().contains("leaf_values"), "{e}");
         let mut bytes = encode::predictor(&tiny());

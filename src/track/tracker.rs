@@ -8,7 +8,9 @@
 //! ([`box_from_shape`]). The self-check re-runs the cascade from the box of its own result:
 //! on a face it has locked onto, that run lands where the first did; when the start was off
 //! (fast motion, a cut, an occlusion) the two disagree, the frame's confidence drops, and
-//! above [`TrackOptions::redetect_disagreement`] the detector is run again near the face.
+//! above [`TrackOptions::redetect_disagreement`] the detector is run again near the face
+//! (over the whole image when nothing is found there and the run agrees with itself no
+//! better than a shape fitted into texture: after a cut).
 //!
 //! Start at [`FaceTracker::track_frame`]; [`agreement_confidence`] maps the disagreement to
 //! the frame's confidence that the flags read.
@@ -56,6 +58,12 @@ pub struct TrackOptions {
     pub zero_confidence_disagreement: f64,
     /// Roll angles (degrees) the image is also scanned at when looking for a face.
     pub roll_degrees: Vec<f64>,
+    /// Smallest face looked for, as a fraction of the image's shorter side (never below the
+    /// detector's window). A face smaller than 1/12 of the frame's height has a mouth of a
+    /// few pixels, too small to measure lips on; the finest scales it leaves out hold most
+    /// of the windows a scan evaluates (the scan's cost falls with the square of the
+    /// smallest size).
+    pub min_face_fraction: f64,
 }
 
 impl Default for TrackOptions {
@@ -66,6 +74,7 @@ impl Default for TrackOptions {
             redetect_disagreement: 0.05,
             zero_confidence_disagreement: 0.1,
             roll_degrees: vec![-15.0, 15.0],
+            min_face_fraction: 1.0 / 12.0,
         }
     }
 }
@@ -216,7 +225,13 @@ impl FaceTracker<'_> {
                 turned = rotate_about_centre(image, deg.to_radians());
                 (turned.view(), deg.to_radians())
             };
-            let opts = DetectOptions { region: None, ..self.options.detect.clone() };
+            let smallest = self.options.min_face_fraction * image.width.min(image.height) as f64;
+            let min_size = self.options.detect.min_size.unwrap_or(0.0).max(smallest);
+            let opts = DetectOptions {
+                region: None,
+                min_size: Some(min_size),
+                ..self.options.detect.clone()
+            };
             for d in detect_faces(cascade, view, &opts) {
                 let b = self.options.mapping.apply(&d.face);
                 let c = turn_back(
@@ -291,9 +306,10 @@ impl FaceTracker<'_> {
     }
 
     /// The landmarks of `image`, from the previous frame's when given, else from a
-    /// detection; looks for the face again (near the previous one) when the run from the
-    /// previous frame disagrees with its re-run. `None` when there is no previous frame and
-    /// no face is found.
+    /// detection; looks for the face again when the run from the previous frame disagrees
+    /// with its re-run: near the previous face, then, when nothing better is there and the
+    /// run's confidence is 0, over the whole image. `None` when there is no previous frame
+    /// and no face is found.
     pub fn track_frame(
         &self,
         image: GrayView<'_>,
@@ -312,11 +328,18 @@ impl FaceTracker<'_> {
                     width: 3.0 * t.face.width,
                     height: 3.0 * t.face.height,
                 };
-                let again = self.detect_and_fit(image, Some(near));
-                match again {
-                    Some(d) if d.disagreement < t.disagreement => Some(d),
-                    _ => Some(t),
-                }
+                let again = self
+                    .detect_and_fit(image, Some(near))
+                    .filter(|d| d.disagreement < t.disagreement);
+                // Nothing better near the last face and the run from it is no face at all
+                // (a cut, the next of unrelated photos): look over the whole image.
+                let again = match again {
+                    None if t.disagreement > self.options.zero_confidence_disagreement => {
+                        self.detect_and_fit(image, None).filter(|d| d.disagreement < t.disagreement)
+                    }
+                    found => found,
+                };
+                Some(again.unwrap_or(t))
             }
             None => self.detect_and_fit(image, None),
         }

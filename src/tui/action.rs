@@ -15,6 +15,7 @@ use super::screens::analysis::{AnalysisData, AnalysisTable};
 use super::screens::head::{HeadFrame, PreparedHead};
 use super::screens::side::SideView;
 use crate::fit::FrameFit;
+use crate::landmarks::FrameLandmarks;
 use crate::tui::app::{App, FrameImage};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -28,6 +29,7 @@ mod routes {
     pub(super) use crate::tui::screens as shown;
     pub(super) use crate::tui::screens::analysis::update as analysis;
     pub(super) use crate::tui::screens::fit::update as fit;
+    pub(super) use crate::tui::screens::frames::tracking;
     pub(super) use crate::tui::screens::frames::update as frames;
     pub(super) use crate::tui::screens::head::transferred as heads;
     pub(super) use crate::tui::screens::head::update as head;
@@ -190,6 +192,22 @@ actions! {
         RevertPoint => frames::revert_point, "revert selected points to tracker values";
         ToggleReviewed => frames::toggle_reviewed, "mark frame reviewed / not reviewed";
 
+        // ---- frames view: lipmap's tracker ----
+        /// Re-run the tracker's cascade on the frame from its current points with the
+        /// corrected ones held, so the others follow them (one undo step).
+        RealignFrame => tracking::realign_frame, "re-align the other points to the corrected ones";
+        /// Draw a face box for the tracker on this frame (where it found no face, or the wrong
+        /// one); confirming tracks this frame from it and the following frames from this one.
+        DrawFaceBox => tracking::draw_face_box, "draw a face box to track from…";
+        /// Move the face box being drawn by `dx, dy` twentieths of its side.
+        MoveFaceBox { dx: i32, dy: i32 } => tracking::move_face_box,
+            with_arrow("move the face box", *dx, *dy);
+        /// Grow the face box by `percent` of its side (shrink when negative).
+        ResizeFaceBox { percent: i32 } => tracking::resize_face_box,
+            if *percent >= 0 { "grow the face box" } else { "shrink the face box" };
+        /// Track from the face box: this frame, then the following ones.
+        ConfirmFaceBox => tracking::confirm_face_box, "track from the face box";
+
         // ---- head view: mesh and labelling ----
         /// Rotate the head by `yaw, pitch` degrees.
         Rotate { yaw: i32, pitch: i32 } => head::rotate,
@@ -319,6 +337,13 @@ actions! {
         HeadFrameReady(frame: HeadFrame) => heads::head_frame_ready;
         Saved { generation: u64 } => global::saved;
         SaveFailed { error: String } => global::save_failed;
+        /// A frame re-aligned by the tracker's job: its landmarks when asked, and after.
+        Realigned { before: Box<FrameLandmarks>, after: Box<FrameLandmarks> }
+            => tracking::realigned;
+        /// Frames tracked from a face box by the tracker's job, the box's frame first.
+        TrackedFromBox { frames: Vec<FrameLandmarks> } => tracking::tracked_from_box;
+        /// Why the tracker's job could not answer (its files, the frame).
+        TrackerFailed { error: String } => tracking::tracker_failed;
     }
 }
 

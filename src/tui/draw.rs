@@ -101,6 +101,9 @@ pub fn draw(app: &App, keymap: &Keymap, frame: &mut Frame) {
             Overlay::Prompt { kind, input } => {
                 overlays::view::draw_prompt(*kind, input, frame, layout.status)
             }
+            Overlay::FaceBox(_) => {
+                overlays::view::draw_face_box_hint(app, keymap, frame, layout.status)
+            }
         }
     }
 }

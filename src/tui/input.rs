@@ -13,8 +13,10 @@ use ratatui::crossterm::event::{
 /// The keymap tables consulted for the app's current overlay and view, in order.
 pub fn mode_chain(app: &App) -> Vec<KeyMode> {
     let mut chain = Vec::with_capacity(4);
-    if matches!(app.top_overlay(), Some(Overlay::Help { .. })) {
-        chain.push(KeyMode::Help);
+    match app.top_overlay() {
+        Some(Overlay::Help { .. }) => chain.push(KeyMode::Help),
+        Some(Overlay::FaceBox(_)) => chain.push(KeyMode::FaceBox),
+        _ => {}
     }
     match app.view {
         View::Frames => chain.push(KeyMode::Frames),

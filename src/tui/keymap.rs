@@ -30,11 +30,21 @@ pub enum KeyMode {
     Analysis,
     Side,
     Help,
+    /// While a face box is being drawn on the frames view.
+    FaceBox,
 }
 
 impl KeyMode {
-    pub const ALL: [KeyMode; 7] =
-        [Self::Global, Self::Frames, Self::Head, Self::Fit, Self::Analysis, Self::Side, Self::Help];
+    pub const ALL: [KeyMode; 8] = [
+        Self::Global,
+        Self::Frames,
+        Self::Head,
+        Self::Fit,
+        Self::Analysis,
+        Self::Side,
+        Self::Help,
+        Self::FaceBox,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -45,6 +55,7 @@ impl KeyMode {
             Self::Analysis => "analysis",
             Self::Side => "side",
             Self::Help => "help",
+            Self::FaceBox => "facebox",
         }
     }
 
@@ -184,7 +195,7 @@ pub enum KeymapError {
     #[error("{path}: {source}")]
     Toml { path: String, source: toml::de::Error },
     #[error(
-        "{path}: [{table}] is not a mode (expected global, frames, head, fit, analysis, side, help)"
+        "{path}: [{table}] is not a mode (expected global, frames, head, fit, analysis, side, help, facebox)"
     )]
     Mode { path: String, table: String },
     #[error("{path}: [{table}] `{key}`: unknown key name")]

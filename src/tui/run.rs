@@ -17,7 +17,7 @@ use super::action::Action;
 use super::draw::draw;
 use super::global::Carried;
 use super::input::{key_to_action, mouse_to_action};
-use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs};
+use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs, TrackJob, TrackerSource};
 use super::keymap::Keymap;
 use super::screens::frames::view::draw_graphics;
 use super::session_bridge::SessionBridge;
@@ -49,7 +49,12 @@ const POLL: Duration = Duration::from_millis(30);
 /// the terminal fails. The terminal is restored before the error is returned.
 pub fn run(session_path: &Path, keymap_path: Option<&Path>) -> anyhow::Result<()> {
     let graphics = GraphicsChoice::from_flag_or_env(None).map_err(anyhow::Error::msg)?;
-    let options = RunOptions { keymap: keymap_path.map(Path::to_path_buf), graphics, clip: None };
+    let options = RunOptions {
+        keymap: keymap_path.map(Path::to_path_buf),
+        graphics,
+        clip: None,
+        tracker: Default::default(),
+    };
     run_with(session_path, &options)
 }
 
@@ -63,6 +68,8 @@ pub struct RunOptions {
     pub graphics: GraphicsChoice,
     /// The clip to open first, by name (default: the first).
     pub clip: Option<String>,
+    /// The tracker's files for re-aligning and face boxes (`None`s: Debian's paths).
+    pub tracker: crate::workflow::track::TrackerFiles,
 }
 
 /// `run` with explicit options. Switching clips (`<`/`>`) saves, then reopens the session on
@@ -91,6 +98,8 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     if app.status.is_empty() && !gfx.note.is_empty() {
         apply(&mut app, Action::Status(gfx.note.clone()));
     }
+    // Read on the first re-alignment or face box, then kept for every clip.
+    let tracker = Arc::new(TrackerSource::new(options.tracker.clone()));
     loop {
         // A channel and jobs per clip: replies of the previous clip's jobs go nowhere.
         let (tx, rx) = channel();
@@ -99,7 +108,8 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             std::thread::spawn(move || tx.send(job()));
         }
         bridge.start_saver(tx.clone());
-        let jobs = Jobs::start(provider, tx.clone());
+        let jobs = Jobs::start(provider.clone(), tx.clone());
+        jobs.start_tracker(provider, tracker.clone());
         jobs.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
             jobs.start_side_frames(side, tx);
@@ -433,6 +443,16 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
             Effect::TransferFrame { head, frame } => {
                 if let Some(job) = HeadFrameJob::of(app, head, frame) {
                     jobs.request_head_frame(job);
+                }
+            }
+            Effect::Realign { frame } => {
+                if let Some(job) = TrackJob::realign(app, frame) {
+                    jobs.request_track(job);
+                }
+            }
+            Effect::TrackFromBox { frame, face } => {
+                if let Some(job) = TrackJob::from_box(app, frame, face) {
+                    jobs.request_track(job);
                 }
             }
             Effect::Quit => {}

@@ -413,7 +413,7 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
             let tracked = track_frames(&load_tracker(files)?, &frames, &super::no_progress)?;
             if let Some(first) = tracked.lost.first() {
                 warnings.push(Warning(format!(
-                    "lipmap: warning: no face found on {} of {} (first: frame {first}); they have no landmarks",
+                    "lipmap: warning: no face found on {} of {} (first: frame {first}); they have no landmarks: draw a face box there in `lipmap tui` (key b) to track from",
                     tracked.lost.len(),
                     frames_path.display()
                 )));

@@ -50,6 +50,21 @@ pub enum Error {
     /// Configurations that cannot be compared.
     #[error(transparent)]
     Compare(#[from] crate::eval::compare::CompareError),
+    /// A file lipmap's tracker reads that is not given and not where Debian installs it.
+    #[error(
+        "no {what} at {}: install it (Debian/Ubuntu `apt-get install {package}`) or name one with {flag} FILE",
+        path.display()
+    )]
+    NoTrackerFile {
+        /// What the file holds ("shape predictor", "face detector cascade").
+        what: &'static str,
+        /// Where it was looked for.
+        path: PathBuf,
+        /// The Debian package that installs it.
+        package: &'static str,
+        /// The flag that names it (`--predictor`, `--detector`).
+        flag: &'static str,
+    },
     /// Input that breaks a rule of the use case (the message says which).
     #[error("{0}")]
     Invalid(String),

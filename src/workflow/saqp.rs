@@ -686,7 +686,7 @@ pub fn synths_table(report: &CvReport) -> Table {
         ));
     }
     t.notes.push(
-        "inputs: E and the coverage (how well recorded occurrences match each speech phone's context, two phones either way, 0–1); linear: least squares on them; kept: the lower leave-one-sentence-out RMSE on the training pairs"
+        "inputs: E and the coverage (how well recorded occurrences match each speech phone's context, two phones either way, 0–1); linear: least squares on them; kept: the GP only when its leave-one-sentence-out RMSE on the training pairs is lower than the line's by more than one standard error, else the line"
             .into(),
     );
     t.notes.push(

@@ -13,10 +13,12 @@ use crate::io::frames::{FrameOptions, FrameSource};
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, PointSource, Track};
 use crate::session::Session;
 use crate::track::realign::{PropagateOptions, propagate_realignment, realign_shape};
-use crate::track::tracker::{FaceTracker, StartKind, TrackOptions, TrackedFrame};
+use crate::track::tracker::{
+    FaceTracker, StartKind, TrackOptions, TrackedFrame, shape_disagreement,
+};
 use crate::track::{
-    DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, GrayView, HaarCascade, ShapePredictor,
-    read_haar_cascade, read_shape_predictor,
+    DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, FaceBox, GrayImage, GrayView, HaarCascade,
+    ShapePredictor, read_haar_cascade, read_shape_predictor,
 };
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
@@ -48,16 +50,14 @@ impl std::fmt::Debug for Tracker {
 fn resolve(
     given: Option<&Path>,
     debian: &str,
-    what: &str,
-    flag: &str,
-    package: &str,
+    what: &'static str,
+    flag: &'static str,
+    package: &'static str,
 ) -> Result<PathBuf> {
     match given {
         Some(p) => Ok(p.to_path_buf()),
         None if Path::new(debian).is_file() => Ok(PathBuf::from(debian)),
-        None => Err(Error::Invalid(format!(
-            "no {what} at {debian}: install it (Debian/Ubuntu `apt-get install {package}`) or name one with {flag} FILE"
-        ))),
+        None => Err(Error::NoTrackerFile { what, path: PathBuf::from(debian), package, flag }),
     }
 }
 
@@ -110,7 +110,7 @@ pub fn gray_of(frames: &FrameSource, i: usize) -> Result<GrayImage> {
 
 /// A tracked frame as landmarks: every point `Tracked`, visible, with the frame's
 /// confidence on the frame and on each point (so formats with only point confidences keep
-/// it).
+/// it), and the self-check's disagreement that confidence comes from (the flags read it).
 pub fn frame_landmarks(frame: usize, t: &TrackedFrame) -> FrameLandmarks {
     let points = t
         .points
@@ -120,13 +120,19 @@ pub fn frame_landmarks(frame: usize, t: &TrackedFrame) -> FrameLandmarks {
             ..LandmarkPoint::tracked(p.x, p.y)
         })
         .collect();
-    FrameLandmarks { confidence: Some(t.confidence), ..FrameLandmarks::new(frame, points) }
+    FrameLandmarks {
+        confidence: Some(t.confidence),
+        rerun_disagreement: Some(t.disagreement as f32),
+        ..FrameLandmarks::new(frame, points)
+    }
 }
 
-/// Tracks every frame of `frames`.
+/// Tracks every frame of `frames`. Frames where no face was found (and none was followed
+/// from the frame before) are in [`Tracked::lost`], with points not visible; a front lets
+/// the user draw a face box there ([`track_from_box`]).
 ///
 /// # Errors
-/// A frame that cannot be decoded; no face found in any frame.
+/// A frame that cannot be decoded.
 pub fn track_frames(
     tracker: &Tracker,
     frames: &FrameSource,
@@ -138,15 +144,7 @@ pub fn track_frames(
     });
     let tracked = track_images(tracker, frames.len(), |i| gray_of(frames, i), progress);
     progress(Progress::Finished);
-    match tracked {
-        Ok(t) if t.lost.len() == frames.len() => Err(Error::Invalid(format!(
-            "{}: no face found in any of its {} frames (the detector looks for frontal faces of at least {} px)",
-            frames.path().display(),
-            frames.len(),
-            tracker.detector.window[0]
-        ))),
-        other => other,
-    }
+    tracked
 }
 
 /// Tracks `n` frames, frame `i` given by `frame(i)` in order: the loop of [`track_frames`]
@@ -242,16 +240,84 @@ fn with_derived_points(
     shape: &[Vector2<f64>],
     keep: &[usize],
 ) -> FrameLandmarks {
+    with_tracked_points(frame, shape, keep, None)
+}
+
+/// `frame` with every point not in `keep` moved to `shape`, visible, marked `Interpolated`
+/// and given `confidence` (the tracker's for the frame, when it ran).
+fn with_tracked_points(
+    frame: &FrameLandmarks,
+    shape: &[Vector2<f64>],
+    keep: &[usize],
+    confidence: Option<f32>,
+) -> FrameLandmarks {
     let mut out = frame.clone();
     for (i, (p, s)) in out.points.iter_mut().zip(shape).enumerate() {
         if !keep.contains(&i) {
             *p = LandmarkPoint {
                 source: PointSource::Interpolated,
+                confidence,
                 ..LandmarkPoint::tracked(s.x, s.y)
             };
         }
     }
     out
+}
+
+/// Tracks a clip from a face box a person drew on frame `first` (where the detector found
+/// no face, or the wrong one): the cascade runs in the box as in a detection's box
+/// ([`FaceTracker::fit_in_box`]), then each following frame of `existing` is tracked from
+/// the one before ([`FaceTracker::track_frame`]) until the result agrees with the landmarks
+/// `existing` has there (within `opts.agree_disagreement` eye distances; a frame the tracker
+/// lost never agrees; that frame is left as it was) or `opts.max_frames` frames are done.
+/// `image(f)` gives frame `f`'s grey levels, called in order and only for the frames walked.
+///
+/// Returns the changed frames, `first` first: every point moved to the new track, visible,
+/// marked `Interpolated` (derived from the user's box) and given the frame's confidence;
+/// points a person `Corrected` are kept.
+///
+/// # Errors
+/// `first` has no landmarks in `existing` (lost frames have placeholders); the box is not a
+/// positive finite rectangle; the first error `image` returns.
+pub fn track_from_box(
+    tracker: &Tracker,
+    face: FaceBox,
+    existing: &Track,
+    first: usize,
+    mut image: impl FnMut(usize) -> Result<GrayImage>,
+    opts: &PropagateOptions,
+) -> Result<Vec<FrameLandmarks>> {
+    if !face.is_valid() {
+        return Err(Error::Invalid(format!("frame {first}: the face box has no area")));
+    }
+    let Some(start) = existing.frames.iter().position(|f| f.frame == first) else {
+        return Err(Error::Invalid(format!("frame {first} has no landmarks in the clip")));
+    };
+    let ft = FaceTracker {
+        predictor: &tracker.predictor,
+        detector: Some(&tracker.detector),
+        options: tracker.options.clone(),
+    };
+    let gray = image(first)?;
+    let mut previous = ft.fit_in_box(gray.view(), face, StartKind::Given);
+    let own = &existing.frames[start];
+    let mut out = vec![with_tracked_points(
+        own,
+        &previous.points,
+        &corrected_points(own),
+        Some(previous.confidence),
+    )];
+    for own in existing.frames[start + 1..].iter().take(opts.max_frames) {
+        let gray = image(own.frame)?;
+        let Some(t) = ft.track_frame(gray.view(), Some(&previous)) else { break };
+        if own.success && shape_disagreement(&points_of(own), &t.points) <= opts.agree_disagreement
+        {
+            break;
+        }
+        out.push(with_tracked_points(own, &t.points, &corrected_points(own), Some(t.confidence)));
+        previous = t;
+    }
+    Ok(out)
 }
 
 /// The points of a frame a person placed (`Corrected`), which re-alignment holds.

@@ -94,6 +94,16 @@ pub enum Effect {
         head: usize,
         frame: usize,
     },
+    /// Re-align frame `frame` to its corrected points with lipmap's tracker.
+    Realign {
+        frame: usize,
+    },
+    /// Track frame `frame` from the face box `[left, top, side]` (image pixels), then the
+    /// following frames from it.
+    TrackFromBox {
+        frame: usize,
+        face: [f64; 3],
+    },
     Quit,
 }
 

@@ -1,5 +1,5 @@
 //! Jobs: the slow work (frame decoding, fitting, the analysis, the speech-driven head, the
-//! quality cross-validation, transferred heads) on threads of their own, replying with
+//! quality cross-validation, transferred heads, the tracker) on threads of their own, replying with
 //! `Action`s over a channel so the UI thread never blocks.
 //!
 //! Each long-lived job has a one-request `Slot`: a new request replaces the pending one.
@@ -12,11 +12,13 @@ mod fit;
 mod heads;
 mod session;
 mod slot;
+mod track;
 
 pub use analysis::{AnalysisJob, analyse_for_tui};
 pub use fit::{FitJob, fit_for_tui};
 pub use heads::{HeadFrameJob, prepare_head_for_tui, transfer_frame_for_tui};
 pub use session::{quality_for_tui, speech_for_tui};
+pub use track::{MAX_BOX_FRAMES, TrackJob, TrackerSource, track_for_tui};
 
 use crate::tui::action::Action;
 use crate::tui::app::FrameProvider;
@@ -31,6 +33,7 @@ pub struct Jobs {
     analyses: Arc<Slot<AnalysisJob>>,
     side_frames: Arc<Slot<usize>>,
     head_frames: Arc<Slot<HeadFrameJob>>,
+    tracks: Arc<Slot<TrackJob>>,
     tx: Sender<Action>,
 }
 
@@ -127,7 +130,15 @@ impl Jobs {
                 }
             });
         }
-        Self { frames, fits, analyses, side_frames: Arc::new(Slot::new()), head_frames, tx: own_tx }
+        Self {
+            frames,
+            fits,
+            analyses,
+            side_frames: Arc::new(Slot::new()),
+            head_frames,
+            tracks: Arc::new(Slot::new()),
+            tx: own_tx,
+        }
     }
 
     /// Runs a one-off job (a transferred head's set-up, the speech-driven head) on a thread
@@ -162,6 +173,34 @@ impl Jobs {
         });
     }
 
+    /// Starts the tracker's thread: frames decoded by `provider`, the tracker read once from
+    /// `source` (shared across clips).
+    pub fn start_tracker(&self, provider: Arc<dyn FrameProvider>, source: Arc<TrackerSource>) {
+        let (slot, tx) = (self.tracks.clone(), self.tx.clone());
+        std::thread::spawn(move || {
+            while let Some(job) = slot.take() {
+                let say = |text: String| {
+                    let _ = tx.send(Action::Status(text));
+                };
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    track_for_tui(&source, provider.as_ref(), job, &say)
+                }));
+                let reply = result.unwrap_or_else(|_| Action::TrackerFailed {
+                    error: "the tracker panicked".into(),
+                });
+                if tx.send(reply).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+
+    /// Asks the tracker for a re-alignment or a track from a face box, replacing any
+    /// pending request.
+    pub fn request_track(&self, job: TrackJob) {
+        self.tracks.put(job);
+    }
+
     /// Asks for a side-view frame, replacing any pending request.
     pub fn request_side_frame(&self, frame: usize) {
         self.side_frames.put(frame);
@@ -191,6 +230,7 @@ impl Drop for Jobs {
         self.analyses.close();
         self.side_frames.close();
         self.head_frames.close();
+        self.tracks.close();
     }
 }
 

@@ -1,6 +1,7 @@
 //! The overlays over the screen, a stack whose top one sees a key first: the help (from the
-//! keymap and the actions' help text) and the prompts (a number the user types). `update` has
-//! their handlers, `view` their drawing.
+//! keymap and the actions' help text), the prompts (a number the user types) and the face
+//! box being drawn on the frames view (its handlers are the frames screen's). `update` has
+//! the help's and prompts' handlers, `view` their drawing.
 
 pub mod update;
 pub mod view;
@@ -28,6 +29,13 @@ impl PromptKind {
 /// Overlays stack over the view; the top one sees keys first.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Overlay {
-    Help { scroll: u16 },
-    Prompt { kind: PromptKind, input: String },
+    Help {
+        scroll: u16,
+    },
+    Prompt {
+        kind: PromptKind,
+        input: String,
+    },
+    /// A face box for the tracker, drawn over the frames view.
+    FaceBox(crate::tui::screens::frames::FaceBoxDraft),
 }

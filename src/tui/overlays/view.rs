@@ -111,3 +111,37 @@ pub fn draw_prompt(kind: PromptKind, input: &str, frame: &mut Frame, area: Rect)
     frame.render_widget(ratatui::widgets::Clear, area);
     frame.render_widget(Paragraph::new(line), area);
 }
+
+/// What drawing a face box takes, over the status line: the keys bound to move, size,
+/// confirm and cancel it (from the keymap, so they cannot drift), and the mouse.
+pub fn draw_face_box_hint(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
+    if area.height == 0 {
+        return;
+    }
+    let chain = mode_chain(app);
+    let keys = |actions: &[Action]| {
+        actions
+            .iter()
+            .filter_map(|a| keymap.key_for(&chain, a).map(|k| k.to_string()))
+            .collect::<Vec<_>>()
+            .join("/")
+    };
+    let moves = keys(&[
+        Action::MoveFaceBox { dx: -1, dy: 0 },
+        Action::MoveFaceBox { dx: 1, dy: 0 },
+        Action::MoveFaceBox { dx: 0, dy: -1 },
+        Action::MoveFaceBox { dx: 0, dy: 1 },
+    ]);
+    let sizes =
+        keys(&[Action::ResizeFaceBox { percent: 10 }, Action::ResizeFaceBox { percent: -10 }]);
+    let line = Line::from(vec![
+        Span::from(format!("face box on frame {}: ", app.frame())).fg(Color::LightCyan),
+        Span::from(format!(
+            "brows to chin, ear to ear · drag with the mouse or {moves} move, {sizes} size · {} track from it · {} cancel",
+            keys(&[Action::ConfirmFaceBox]),
+            keys(&[Action::Cancel]),
+        )),
+    ]);
+    frame.render_widget(Clear, area);
+    frame.render_widget(Paragraph::new(line), area);
+}

@@ -1,5 +1,6 @@
 //! The frames screen's state: the selected point and what moves with it, the image's zoom
-//! and pan, a mouse drag under way, and the decoded frames (the fit screen shows them too).
+//! and pan, a mouse drag under way, the decoded frames (the fit screen shows them too), and
+//! the face box a user draws for the tracker (held by its overlay, `Overlay::FaceBox`).
 
 use crate::tui::app::FrameImage;
 use std::collections::{BTreeMap, VecDeque};
@@ -128,5 +129,40 @@ pub struct ImageView {
 impl Default for ImageView {
     fn default() -> Self {
         Self { zoom: 1.0, center: None }
+    }
+}
+
+/// A face box being drawn for the tracker, in image pixels: a square (the shape of the boxes
+/// the predictor was trained from), its centre and side, and the corner a mouse drag started
+/// from while one is under way.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FaceBoxDraft {
+    pub cx: f64,
+    pub cy: f64,
+    pub side: f64,
+    pub anchor: Option<(f64, f64)>,
+}
+
+impl FaceBoxDraft {
+    /// Smallest side a box may be given, in image pixels.
+    pub const MIN_SIDE: f64 = 8.0;
+
+    /// The square with one corner at `anchor` reaching toward `(x, y)` (its side the larger
+    /// of the two extents), as a mouse drag draws it.
+    pub fn dragged(anchor: (f64, f64), x: f64, y: f64) -> Self {
+        let side = (x - anchor.0).abs().max((y - anchor.1).abs()).max(Self::MIN_SIDE);
+        let sx = if x >= anchor.0 { 1.0 } else { -1.0 };
+        let sy = if y >= anchor.1 { 1.0 } else { -1.0 };
+        Self {
+            cx: anchor.0 + sx * side / 2.0,
+            cy: anchor.1 + sy * side / 2.0,
+            side,
+            anchor: Some(anchor),
+        }
+    }
+
+    /// Left, top and side.
+    pub fn rect(&self) -> [f64; 3] {
+        [self.cx - self.side / 2.0, self.cy - self.side / 2.0, self.side]
     }
 }

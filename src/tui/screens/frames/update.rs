@@ -7,7 +7,7 @@ use crate::landmarks::{LandmarkPoint, N_LANDMARKS};
 use crate::tui::app::history::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::tui::app::{App, Edit, FrameImage};
 use crate::tui::screens;
-use crate::tui::screens::frames::Scope;
+use crate::tui::screens::frames::{Scope, tracking};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -109,6 +109,7 @@ pub fn toggle_reviewed(app: &mut App) {
 
 pub fn mouse_up(app: &mut App) {
     app.frames.dragging = false;
+    tracking::face_box_mouse_up(app);
 }
 
 /// A decoded frame for the cache (its size is the clip's).
@@ -189,6 +190,9 @@ pub fn pan(app: &mut App, dx: i32, dy: i32) {
 pub fn mouse_down(app: &mut App, col: u16, row: u16) {
     let Some(m) = screens::image_mapping(app, app.term_size) else { return };
     let Some((x, y)) = m.cell_to_image(col, row) else { return };
+    if tracking::face_box_mouse_down(app, x, y) {
+        return;
+    }
     let Some(f) = app.track.frames.get(app.frame_pos) else { return };
     let (cx, cy) = m.image_to_display(x, y);
     let nearest = f
@@ -207,13 +211,14 @@ pub fn mouse_down(app: &mut App, col: u16, row: u16) {
     }
 }
 
-/// Moves the dragged point under the mouse; one drag is one undo step.
+/// Moves the dragged point under the mouse (or the face box being drawn); one drag is one
+/// undo step.
 pub fn mouse_drag(app: &mut App, col: u16, row: u16) {
-    if !app.frames.dragging {
-        return;
-    }
     let Some(m) = screens::image_mapping(app, app.term_size) else { return };
     let Some((x, y)) = m.cell_to_image(col, row) else { return };
+    if tracking::face_box_mouse_drag(app, x, y) || !app.frames.dragging {
+        return;
+    }
     let f = app.frame();
     match edit::place_point(&mut app.track, f, app.frames.selected, x, y) {
         Ok(changes) if !changes.is_empty() => {

@@ -72,6 +72,35 @@ pub fn landmark_markers(app: &App) -> Vec<Marker> {
     out
 }
 
+/// The outline of the face box being drawn (when one is), as markers one cell apart at
+/// `scale` display pixels per image pixel (a cell is one display pixel wide, two high).
+pub fn face_box_markers(app: &App, scale: f64) -> Vec<Marker> {
+    let Some(Overlay::FaceBox(b)) = app.top_overlay() else { return Vec::new() };
+    let [left, top, side] = b.rect();
+    let (right, bottom) = (left + side, top + side);
+    let style = Style::new().fg(Color::LightYellow).add_modifier(Modifier::BOLD);
+    let mark = |x: f64, y: f64, symbol: &'static str| Marker { x, y, symbol, style };
+    // At most a few hundred cells a side, whatever the zoom.
+    let (sx, sy) = ((1.0 / scale).max(side / 400.0), (2.0 / scale).max(side / 400.0));
+    let mut out = Vec::new();
+    let (nx, ny) = ((side / sx).floor() as usize, (side / sy).floor() as usize);
+    for i in 1..nx {
+        let x = left + i as f64 * sx;
+        out.extend([mark(x, top, "─"), mark(x, bottom, "─")]);
+    }
+    for i in 1..ny {
+        let y = top + i as f64 * sy;
+        out.extend([mark(left, y, "│"), mark(right, y, "│")]);
+    }
+    out.extend([
+        mark(left, top, "┌"),
+        mark(right, top, "┐"),
+        mark(left, bottom, "└"),
+        mark(right, bottom, "┘"),
+    ]);
+    out
+}
+
 /// Draws the frame image with markers into `area`, with a loading/error note when needed.
 pub fn draw_image(app: &App, frame: &mut Frame, area: Rect, markers: &[Marker]) {
     let (w, h) = app.frame_dims();
@@ -104,14 +133,18 @@ pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> b
     if gfx.protocol().is_none() || app.overlays.iter().any(|o| matches!(o, Overlay::Help { .. })) {
         return false;
     }
-    let markers = match app.view {
-        View::Frames => landmark_markers(app),
-        View::Fit => crate::tui::screens::fit::view::fit_markers(app),
-        View::Head | View::Analysis | View::Side => return false,
-    };
     let size = frame.area();
     let Some(mapping) = crate::tui::screens::image_mapping(app, (size.width, size.height)) else {
         return false;
+    };
+    let markers = match app.view {
+        View::Frames => {
+            let mut m = landmark_markers(app);
+            m.extend(face_box_markers(app, mapping.scale));
+            m
+        }
+        View::Fit => crate::tui::screens::fit::view::fit_markers(app),
+        View::Head | View::Analysis | View::Side => return false,
     };
     let Some(image) = app.current_image() else { return false };
     gfx.render(image, app.frame(), mapping, &markers, frame.buffer_mut())
@@ -119,7 +152,11 @@ pub fn draw_graphics(app: &App, gfx: &mut GraphicsState, frame: &mut Frame) -> b
 
 pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     let (image, side) = image_and_side(app, area);
-    let markers = landmark_markers(app);
+    let mut markers = landmark_markers(app);
+    let (w, h) = app.frame_dims();
+    if let Some(m) = Mapping::new(image, w, h, &app.frames.image_view) {
+        markers.extend(face_box_markers(app, m.scale));
+    }
     draw_image(app, frame, image, &markers);
     if side.width > 0 {
         frame.render_widget(

@@ -65,8 +65,9 @@ pub struct RunOptions {
     pub clip: Option<String>,
 }
 
-/// `run` with explicit options. Switching clips (`<`/`>`) saves, then reopens the session on
-/// the other clip inside the same terminal session.
+/// `run` with explicit options. Switching clips (`<`/`>`) or the map labelled (`m` in the
+/// head view) saves, then reopens the session on the other clip or map inside the same
+/// terminal session.
 ///
 /// # Errors
 /// As `run`; an unknown clip name.
@@ -126,8 +127,15 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             // Everything is in the session file: the journal has nothing more to give.
             let _ = bridge.clear_journal();
         }
-        let next = app.switch_clip.filter(|_| result.is_ok() && signals.caught().is_none());
-        let Some(next) = next else {
+        // Reopened on another clip, or labelling another map; the map labelled stays unless
+        // another was asked for.
+        let reopen = (app.switch_clip.is_some() || app.switch_map.is_some())
+            && result.is_ok()
+            && signals.caught().is_none();
+        let next = reopen.then(|| {
+            (app.switch_clip.unwrap_or(app.clip), app.switch_map.unwrap_or(app.head.label_role))
+        });
+        let Some((next, role)) = next else {
             drop(guard);
             drop(bridge);
             if let Some(name) = signals.caught() {
@@ -138,7 +146,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         };
         drop(bridge);
         let previous = app;
-        (app, bridge, provider) = match SessionBridge::open(session_path, next) {
+        (app, bridge, provider) = match SessionBridge::open_labelling(session_path, next, Some(role)) {
             Ok(o) => o,
             Err(e) => {
                 drop(guard);

@@ -535,8 +535,9 @@ mod tests {
             let p = pose.project(&v[t], 480.0);
             frame.points[l] = LandmarkPoint::tracked(p.x, p.y);
         }
-        // The tracker put jaw point 6 (1-based) half a face-width off, towards the chin.
-        frame.points[5].x += 0.5 * 150.0;
+        // The tracker put jaw point 6 (1-based) on the cheek, 0.6 units up (image y is
+        // down): over three jaw spacings from both its neighbours.
+        frame.points[5].y -= 0.6 * 150.0;
         let mut map = LandmarkMap::default();
         for l in [8, 30, 36, 45, 48, 54] {
             map.to_vertex.insert(l, truth[l]);

@@ -115,10 +115,10 @@ impl HeadFraming {
     }
 
     /// The face of `mesh`: once [`FRAMING_LABELS`] landmarks are mapped, their box enlarged
-    /// by half, turned by the axes they give (else the geometry's); else the face found on
-    /// the geometry (`face`, see [`locate_face`]); else the vertices the model's expressions
-    /// move, when they are a part of the mesh (the head of a full figure with facial
-    /// blendshapes); else the whole mesh.
+    /// by half, turned as the geometry's face (else by the axes the labels give); else the
+    /// face found on the geometry (`face`, see [`locate_face`]); else the vertices the
+    /// model's expressions move, when they are a part of the mesh (the head of a full
+    /// figure with facial blendshapes); else the whole mesh.
     pub fn of_face(
         mesh: &Mesh,
         model: Option<&MorphableModel>,
@@ -138,8 +138,12 @@ impl HeadFraming {
         if labelled.len() >= FRAMING_LABELS
             && let Some(f) = pick(&mapped)
         {
-            let rotation = face_axes(&labelled)
-                .or(geometric.map(|g| g.rotation))
+            // The geometry's turn when it found the face: the axes of a few labels lean
+            // with whichever side was labelled first (one eye corner and both mouth
+            // corners tilt "up" towards that eye).
+            let rotation = geometric
+                .map(|g| g.rotation)
+                .or_else(|| face_axes(&labelled))
                 .unwrap_or_else(Matrix3::identity);
             return Self { radius: (f.radius * 1.5).min(whole.radius), rotation, ..f };
         }
@@ -332,6 +336,8 @@ mod tests {
         }
         let mapped = HeadFraming::of_face(&mesh, None, Some(&map), Some(&found));
         assert!((mapped.centre.y - 10.0).abs() < 1e-9 && mapped.radius < 1.0, "{mapped:?}");
+        // ... still turned as the face found on the geometry, not by a few labels' lean.
+        assert_eq!(mapped.rotation, turned);
         // Without a face anywhere: the whole mesh.
         let whole = HeadFraming::of_face(&mesh, None, None, None);
         assert!(whole.radius > 50.0, "{whole:?}");

@@ -49,8 +49,11 @@ fn turned(mesh: &Mesh, r: &Matrix3, t: Vector3) -> Mesh {
 
 fn placements() -> Vec<(&'static str, Matrix3, Vector3)> {
     let rot = |axis: Vector3, deg: f64| {
-        *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-            .matrix()
+        *nalgebra::Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(axis),
+            deg.to_radians(),
+        )
+        .matrix()
     };
     vec![
         ("y-up", Matrix3::identity(), Vector3::zeros()),
@@ -154,14 +157,9 @@ fn picking_an_eye_corner_lands_on_the_eyelid_not_in_the_socket() {
         let rot = view_rotation(&app.head.view, &app.head.framing);
         let p = project(&mesh, &rot, &app.head.framing)[want];
         app.head.view.cursor = (p.0, -p.1);
-        let picked = pick_vertex(
-            &mesh,
-            &app.head.triangles,
-            &app.head.framing,
-            &app.head.view,
-            Some(&skin),
-        )
-        .unwrap();
+        let picked =
+            pick_vertex(&mesh, &app.head.triangles, &app.head.framing, &app.head.view, Some(&skin))
+                .unwrap();
         // Decimetres: within 3 mm of the hand map's corner, and not behind the eyeball.
         let off = (mesh.vertices[picked] - mesh.vertices[want]).norm();
         assert!(off < 0.03, "landmark {l}: picked {picked}, {:.1} mm from {want}", off * 100.0);

@@ -87,12 +87,19 @@ fn to_polyline(p: &Point3, points: &[Point3]) -> f64 {
 /// The rigid placements every face is tried in: rotation and translation (in face sizes).
 fn placements() -> Vec<(&'static str, Matrix3, Vector3)> {
     let rot = |axis: Vector3, deg: f64| {
-        *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
-            .matrix()
+        *nalgebra::Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(axis),
+            deg.to_radians(),
+        )
+        .matrix()
     };
     vec![
         ("as given", Matrix3::identity(), Vector3::zeros()),
-        ("yaw 30°, moved", rot(Vector3::y(), 30.0) * rot(Vector3::x(), -10.0), Vector3::new(3.0, -1.0, 2.0)),
+        (
+            "yaw 30°, moved",
+            rot(Vector3::y(), 30.0) * rot(Vector3::x(), -10.0),
+            Vector3::new(3.0, -1.0, 2.0),
+        ),
         ("z-up", rot(Vector3::x(), 90.0), Vector3::zeros()),
         ("facing -z, moved", rot(Vector3::y(), 180.0), Vector3::new(-2.0, 5.0, 1.0)),
     ]
@@ -102,7 +109,8 @@ fn evaluate(face: &Face, frame: &FrameLandmarks, r: &Matrix3, t: &Vector3) -> Fi
     let size = lipmap::transfer::surface::bounding_diagonal(&face.vertices);
     let place = |p: &Point3| Point3::from(r * p.coords + t * size);
     let vertices: Vec<Point3> = face.vertices.iter().map(place).collect();
-    let reference: Vec<Option<Point3>> = face.reference.iter().map(|p| p.map(|p| place(&p))).collect();
+    let reference: Vec<Option<Point3>> =
+        face.reference.iter().map(|p| p.map(|p| place(&p))).collect();
     let eligible = face.eligible.as_deref();
     let mut labels = LandmarkMap::default();
     for l in LABELS {
@@ -118,7 +126,12 @@ fn evaluate(face: &Face, frame: &FrameLandmarks, r: &Matrix3, t: &Vector3) -> Fi
     let off_mm = proposal
         .accepted
         .iter()
-        .filter_map(|s| Some((s.landmark, (vertices[s.vertex] - reference[s.landmark]?).norm() * face.mm_per_unit)))
+        .filter_map(|s| {
+            Some((
+                s.landmark,
+                (vertices[s.vertex] - reference[s.landmark]?).norm() * face.mm_per_unit,
+            ))
+        })
         .collect();
     let jaw_contour_mm = match &face.contour {
         Some((right, left)) => {
@@ -144,7 +157,10 @@ fn evaluate(face: &Face, frame: &FrameLandmarks, r: &Matrix3, t: &Vector3) -> Fi
         .accepted
         .iter()
         .filter_map(|s| {
-            Some((s.landmark, axes * (vertices[s.vertex] - reference[s.landmark]?) * face.mm_per_unit))
+            Some((
+                s.landmark,
+                axes * (vertices[s.vertex] - reference[s.landmark]?) * face.mm_per_unit,
+            ))
         })
         .collect();
     Figures {
@@ -190,7 +206,13 @@ fn report(face: &Face, frame: &FrameLandmarks) -> Vec<f64> {
         );
         if std::env::var_os("LIPMAP_HELDOUT_VERBOSE").is_some() && name == "as given" {
             for ((l, mm), (_, d)) in f.off_mm.iter().zip(&f.signed_mm) {
-                eprintln!("    {:>2} {mm:>5.1}  x {:>5.1} y {:>5.1} z {:>5.1}", l + 1, d.x, d.y, d.z);
+                eprintln!(
+                    "    {:>2} {mm:>5.1}  x {:>5.1} y {:>5.1} z {:>5.1}",
+                    l + 1,
+                    d.x,
+                    d.y,
+                    d.z
+                );
             }
             for why in &f.left {
                 eprintln!("    left {why}");
@@ -236,7 +258,8 @@ fn sfm_faces(seeds: std::ops::RangeInclusive<u64>) -> Vec<Face> {
             let shape = model.shape.shape_at(&alpha);
             let mesh = model.to_mesh(&shape);
             let reference = (0..68).map(|l| map.vertex(l).map(|v| mesh.vertices[v])).collect();
-            let contour = Some((side(&mesh.vertices, "right_contour"), side(&mesh.vertices, "left_contour")));
+            let contour =
+                Some((side(&mesh.vertices, "right_contour"), side(&mesh.vertices, "left_contour")));
             Face {
                 name: format!("SFM identity {seed}"),
                 vertices: mesh.vertices,

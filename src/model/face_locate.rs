@@ -135,10 +135,7 @@ pub fn locate_face(
     let as_head = body.up.is_some().then(|| Body::head(&points, &plane)).and_then(|head| {
         match_profile(&midline_cut(vertices, &tris, &points, &plane, head.bin), &plane, &head)
     });
-    [found, as_head]
-        .into_iter()
-        .flatten()
-        .min_by(|a, b| a.residual_mm.total_cmp(&b.residual_mm))
+    [found, as_head].into_iter().flatten().min_by(|a, b| a.residual_mm.total_cmp(&b.residual_mm))
 }
 
 /// A plane `n·x = d`, `n` unit length.
@@ -338,7 +335,8 @@ impl Body {
     /// The longer in-plane principal axis of the points seen along the plane's normal, the
     /// points' 1st and 99th percentiles along it, and their extent along the other.
     fn spans(points: &[Point3], plane: &Plane) -> (Vector3, Real, Real, Real) {
-        let in_plane: Vec<Point3> = points.iter().map(|p| p - plane.distance(p) * plane.n).collect();
+        let in_plane: Vec<Point3> =
+            points.iter().map(|p| p - plane.distance(p) * plane.n).collect();
         let axes = principal_axes(&in_plane);
         // The two principal axes in the plane (the third is along the normal).
         let inplane: Vec<Vector3> =
@@ -452,7 +450,8 @@ fn match_profile(cut: &[Point3], plane: &Plane, body: &Body) -> Option<FaceLocat
             residual_mm,
         })
     };
-    let better = |a: FaceLocation, b: FaceLocation| if b.residual_mm < a.residual_mm { b } else { a };
+    let better =
+        |a: FaceLocation, b: FaceLocation| if b.residual_mm < a.residual_mm { b } else { a };
     let coarse = (0..72)
         .flat_map(|k| [(5.0 * k as Real, false), (5.0 * k as Real, true)])
         .filter_map(|(a, flip)| seen_from(a, flip).map(|f| (a, flip, f)))

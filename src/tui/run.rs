@@ -146,13 +146,14 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         };
         drop(bridge);
         let previous = app;
-        (app, bridge, provider) = match SessionBridge::open_labelling(session_path, next, Some(role)) {
-            Ok(o) => o,
-            Err(e) => {
-                drop(guard);
-                return Err(e);
-            }
-        };
+        (app, bridge, provider) =
+            match SessionBridge::open_labelling(session_path, next, Some(role)) {
+                Ok(o) => o,
+                Err(e) => {
+                    drop(guard);
+                    return Err(e);
+                }
+            };
         let carried = Carried::of(&previous, &bridge.clip_name());
         apply(&mut app, Action::Carry { from: Box::new(carried) });
     }

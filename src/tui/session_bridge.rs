@@ -135,7 +135,8 @@ impl SessionBridge {
         let role = crate::workflow::map::label_role_or(session, role);
         let label_file = crate::workflow::map::mesh_file_of(session, role).map(Path::to_path_buf);
         let file_name = |p: Option<&Path>| {
-            p.and_then(Path::file_name).map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+            p.and_then(Path::file_name)
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
         };
         let other = match role {
             MapRole::Model => MapRole::Head,

@@ -128,7 +128,8 @@ impl HeadFraming {
         let n = mesh.vertices.len();
         let pick =
             |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
-        let geometric = face.map(|f| Self { centre: f.centre(), radius: f.radius(), rotation: f.axes });
+        let geometric =
+            face.map(|f| Self { centre: f.centre(), radius: f.radius(), rotation: f.axes });
         let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
         let labelled: std::collections::BTreeMap<usize, Point3> = map
             .map(|m| m.pairs().filter_map(|(l, v)| Some((l, *mesh.vertices.get(v)?))).collect())
@@ -318,8 +319,8 @@ mod tests {
         let face = HeadFraming::of_face(&mesh, Some(&model), None, None);
         assert!((face.centre.y - 10.0).abs() < 1e-9 && face.radius < 1.0, "{face:?}");
         // A face found on the geometry wins over the expressions, and turns the view.
-        let turned = *nalgebra::Rotation3::from_axis_angle(&crate::math::Vector3::x_axis(), 1.0)
-            .matrix();
+        let turned =
+            *nalgebra::Rotation3::from_axis_angle(&crate::math::Vector3::x_axis(), 1.0).matrix();
         let found = FaceLocation {
             axes: turned,
             nose_tip: Point3::new(4.5, 10.0, 1.0),

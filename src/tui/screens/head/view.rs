@@ -626,7 +626,11 @@ mod tests {
         let view = HeadView { cursor: (-8.0 / 30.0, 8.0 / 30.0), ..HeadView::default() };
         let with_eyes = label_triangles(&mesh, None);
         let picked = pick_vertex(&mesh, &with_eyes, &framing, &view, Some(&labelable)).unwrap();
-        assert!(mesh.vertices[picked].z > -2.0, "the rim, not the socket: {:?}", mesh.vertices[picked]);
+        assert!(
+            mesh.vertices[picked].z > -2.0,
+            "the rim, not the socket: {:?}",
+            mesh.vertices[picked]
+        );
         // Without the eyeball's surface the socket floor behind the hole is what is seen.
         let holes = label_triangles(&mesh, Some(&labelable));
         let behind = pick_vertex(&mesh, &holes, &framing, &view, Some(&labelable)).unwrap();

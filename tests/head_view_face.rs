@@ -4,8 +4,10 @@
 //! corner on the eyelid, not in the socket behind the eyeball), and the map selector.
 //! Skips when `../shared` is absent.
 
+mod common;
+
 use lipmap::io::landmark_map_toml::read_landmark_map;
-use lipmap::io::{model_source, obj};
+use lipmap::io::model_source;
 use lipmap::math::{Matrix3, Point3, Vector3};
 use lipmap::model::face_locate::locate_face;
 use lipmap::model::{LandmarkMap, Mesh};
@@ -15,7 +17,6 @@ use lipmap::tui::fixtures::synthetic_app;
 use lipmap::tui::screens::View;
 use lipmap::tui::screens::head::view::{pick_vertex, project, view_rotation};
 use lipmap::tui::{Action, update};
-use std::path::Path;
 use std::sync::Arc;
 
 fn run(app: &mut App, actions: impl IntoIterator<Item = Action>) {
@@ -28,16 +29,8 @@ fn run(app: &mut App, actions: impl IntoIterator<Item = Action>) {
 }
 
 fn makehuman() -> Option<(Mesh, Vec<bool>, Vec<bool>, LandmarkMap)> {
-    let dir = lipmap::testdata::shared("data/makehuman")?;
-    let path = dir.join("base.obj");
-    let mesh = obj::read_obj(&path).unwrap();
-    let skin = obj::labelable_vertices(&path).unwrap().unwrap();
-    let solid = obj::occluding_vertices(&path).unwrap().unwrap();
-    let fixture = read_landmark_map(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml"),
-    )
-    .unwrap();
-    Some((mesh, skin, solid, fixture))
+    let (dir, mesh, skin, map) = common::makehuman()?;
+    Some((mesh, skin, common::makehuman_occluders(&dir), map))
 }
 
 fn turned(mesh: &Mesh, r: &Matrix3, t: Vector3) -> Mesh {
@@ -48,13 +41,7 @@ fn turned(mesh: &Mesh, r: &Matrix3, t: Vector3) -> Mesh {
 }
 
 fn placements() -> Vec<(&'static str, Matrix3, Vector3)> {
-    let rot = |axis: Vector3, deg: f64| {
-        *nalgebra::Rotation3::from_axis_angle(
-            &nalgebra::Unit::new_normalize(axis),
-            deg.to_radians(),
-        )
-        .matrix()
-    };
+    let rot = common::rotation_deg;
     vec![
         ("y-up", Matrix3::identity(), Vector3::zeros()),
         ("z-up", rot(Vector3::x(), 90.0), Vector3::new(0.0, 0.0, 3.0)),

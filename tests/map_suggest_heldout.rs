@@ -18,6 +18,8 @@
 //! Run: `cargo test --release --test map_suggest_heldout -- --ignored --nocapture`.
 //! Skips what is absent; asserts only that no vertex is used twice.
 
+mod common;
+
 use lipmap::fit::map_suggest::suggest_map;
 use lipmap::fit::suggest::{SuggestHead, surface_triangles};
 use lipmap::io::landmark_format::read_track;

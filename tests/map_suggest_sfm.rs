@@ -6,6 +6,8 @@
 //! ones near eos's, and the jaw on the model's frontal contour, symmetric. Skips when the
 //! shared data is absent.
 
+mod common;
+
 use lipmap::fit::map_suggest::suggest_map;
 use lipmap::fit::suggest::SuggestHead;
 use lipmap::io::landmark_format::read_track;
@@ -15,18 +17,6 @@ use lipmap::model::LandmarkMap;
 
 /// Carphone's frames are 176 × 144.
 const IMAGE_HEIGHT: f64 = 144.0;
-
-/// Distance from `p` to the polyline through `points`.
-fn to_polyline(p: &Point3, points: &[Point3]) -> f64 {
-    points
-        .windows(2)
-        .map(|w| {
-            let d = w[1] - w[0];
-            let t = ((p - w[0]).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
-            (p - (w[0] + t * d)).norm()
-        })
-        .fold(f64::INFINITY, f64::min)
-}
 
 fn median(mut x: Vec<f64>) -> f64 {
     x.sort_by(f64::total_cmp);
@@ -101,7 +91,7 @@ fn six_labels_on_the_sfm_mean_put_the_jaw_on_its_frontal_contour() {
     let on_contour: Vec<f64> = jaw
         .iter()
         .filter(|(l, _)| *l != 8)
-        .map(|(l, p)| to_polyline(p, if *l < 8 { &right } else { &left }))
+        .map(|(l, p)| common::to_polyline(p, if *l < 8 { &right } else { &left }))
         .collect();
     let chin = mesh.vertices[labels.vertex(8).unwrap()];
     let asymmetry: Vec<f64> = jaw

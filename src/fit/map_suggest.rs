@@ -524,4 +524,33 @@ mod tests {
         // Points not tracked are reported as such.
         assert!(proposal.left.iter().any(|(l, w)| *l == 0 && *w == LeftOut::NotVisible));
     }
+
+    #[test]
+    fn a_jaw_suggestion_far_from_its_neighbours_is_left_out_and_listed() {
+        let (v, at) = grid();
+        let truth: Vec<usize> = (0..N_LANDMARKS).map(|l| at(layout(l).0, layout(l).1)).collect();
+        let pose = OrthoPose { r: nalgebra::Matrix3::identity(), s: 150.0, tx: 1.5, ty: 1.8 };
+        let mut frame = FrameLandmarks::new(0, vec![LandmarkPoint::missing(); N_LANDMARKS]);
+        for (l, &t) in truth.iter().enumerate() {
+            let p = pose.project(&v[t], 480.0);
+            frame.points[l] = LandmarkPoint::tracked(p.x, p.y);
+        }
+        // The tracker put jaw point 6 (1-based) on the cheek, 0.6 units up (image y is
+        // down): over three jaw spacings from both its neighbours.
+        frame.points[5].y -= 0.6 * 150.0;
+        let mut map = LandmarkMap::default();
+        for l in [8, 30, 36, 45, 48, 54] {
+            map.to_vertex.insert(l, truth[l]);
+        }
+        let proposal =
+            suggest_map(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose)).unwrap();
+        let why = proposal.left.iter().find(|(l, _)| *l == 5).map(|(_, w)| w.clone());
+        assert!(matches!(why, Some(LeftOut::FarFromNeighbours(..))), "{}", proposal.summary());
+        assert!(proposal.accepted.iter().all(|s| s.landmark != 5));
+        assert!(proposal.summary().contains("1 far from jaw neighbours"), "{}", proposal.summary());
+        assert!(why.unwrap().to_string().contains("from its nearest jaw neighbour"));
+        // Its neighbours, where the tracker was right, are kept.
+        assert!(proposal.accepted.iter().any(|s| s.landmark == 4));
+        assert!(proposal.accepted.iter().any(|s| s.landmark == 6));
+    }
 }

@@ -2,6 +2,7 @@
 //! blendshapes) and the landmark map from iBUG points to mesh vertices.
 
 pub mod blendshapes;
+pub mod face_locate;
 pub mod landmark_map;
 pub mod map_check;
 pub mod mesh;

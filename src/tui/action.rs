@@ -237,6 +237,10 @@ actions! {
         LoadMap => head::load_map, "load the session's map file over the labels";
         /// Show the next head: the model (labelling) → each transferred head → the model.
         CycleHead => heads::cycle_head, "show the model / each transferred head";
+        /// Save, then label the other mesh's map: the model's (what `fit` uses) or the
+        /// head's (what transfer and indices use), when the head is another mesh.
+        SwitchLabelledMesh => head::switch_labelled_mesh,
+            "label the other mesh: the model's map / the head's map";
 
         // ---- side view: the upper lip's foremost point ----
         /// Move the side frame's upper-lip point by `dx, dy` steps as `Nudge` does (a

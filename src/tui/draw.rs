@@ -183,12 +183,21 @@ pub fn draw_status(app: &App, keymap: &Keymap, frame: &mut Frame, area: Rect) {
     let chain = mode_chain(app);
     let key = |a: Action| keymap.key_for(&chain, &a).map_or(String::new(), |k| k.to_string());
     let msg = if app.status.is_empty() {
-        format!(
+        let mut hints = format!(
             "{} help  {} quit  {} undo",
             key(Action::ToggleHelp),
             key(Action::Quit),
             key(Action::Undo)
-        )
+        );
+        // Two maps to label: the key that switches between them.
+        if app.view == View::Head && app.head.head_has_own_map && app.head.heads.shown.is_none() {
+            let other = match app.head.label_role {
+                crate::session::MapRole::Model => "head",
+                crate::session::MapRole::Head => "model",
+            };
+            hints.push_str(&format!("  {} label the {other} map", key(Action::SwitchLabelledMesh)));
+        }
+        hints
     } else {
         app.status.clone()
     };

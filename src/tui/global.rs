@@ -15,6 +15,7 @@ use crate::tui::screens::side::SideState;
 
 pub fn quit(app: &mut App) -> Option<Action> {
     app.switch_clip = None;
+    app.switch_map = None;
     leave(app)
 }
 
@@ -92,6 +93,12 @@ pub fn switch_clip(app: &mut App, clip: usize) -> Option<Action> {
     leave(app)
 }
 
+/// Leaves for the run loop to reopen the session (another clip, or another map to label):
+/// saves first when there is anything unsaved.
+pub fn leave_to_reopen(app: &mut App) -> Option<Action> {
+    leave(app)
+}
+
 /// Leaves, or saves first and leaves on the save's reply.
 fn leave(app: &mut App) -> Option<Action> {
     match app.save.quit_requested() {
@@ -129,6 +136,7 @@ pub fn saved(app: &mut App, generation: u64) -> Option<Action> {
 pub fn save_failed(app: &mut App, error: String) {
     app.save.save_failed();
     app.switch_clip = None;
+    app.switch_map = None;
     app.status = if app.save.force_quit_armed() {
         format!(
             "save failed: {error} (q again quits without saving; the edits stay in the \
@@ -272,6 +280,8 @@ pub struct Carried {
     view: View,
     image_view: ImageView,
     head_view: HeadView,
+    /// The map labelled: the head's angle and cursor mean nothing on another mesh.
+    label_role: crate::session::MapRole,
     heads: TransferredHeads,
     show_speech: bool,
     quality: Vec<AnalysisTable>,
@@ -291,6 +301,7 @@ impl Carried {
             view: previous.view,
             image_view: previous.frames.image_view,
             head_view: HeadView { suggested: None, ..previous.head.view },
+            label_role: previous.head.label_role,
             heads: TransferredHeads { current: None, ..previous.head.heads.clone() },
             show_speech: a.show_speech,
             quality: a.quality.clone(),
@@ -306,7 +317,12 @@ pub fn carry(app: &mut App, from: Box<Carried>) {
     let c = *from;
     app.view = c.view;
     app.frames.image_view = c.image_view;
-    app.head.view = c.head_view;
+    if app.head.label_role == c.label_role {
+        app.head.view = c.head_view;
+    } else {
+        app.head.view.label = c.head_view.label;
+        app.head.view.wireframe = c.head_view.wireframe;
+    }
     if app.head.heads.names == c.heads.names {
         app.head.heads = c.heads;
     }
@@ -319,7 +335,16 @@ pub fn carry(app: &mut App, from: Box<Carried>) {
         a.cursor = AnalysisView { table: own_now + view.table, ..view };
         a.quality_cursor = Some(view);
     }
-    app.status = format!("clip {} of {}: {}", app.clip + 1, app.clip_names.len(), c.clip_name);
+    app.status = if app.head.label_role == c.label_role {
+        format!("clip {} of {}: {}", app.clip + 1, app.clip_names.len(), c.clip_name)
+    } else {
+        format!(
+            "labelling the {} map on {} (m: the {} map)",
+            app.head.label_role.name(),
+            app.head.label_mesh_name,
+            c.label_role.name()
+        )
+    };
 }
 
 pub fn resize(app: &mut App, width: u16, height: u16) {

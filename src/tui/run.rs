@@ -72,8 +72,9 @@ pub struct RunOptions {
     pub tracker: crate::workflow::track::TrackerFiles,
 }
 
-/// `run` with explicit options. Switching clips (`<`/`>`) saves, then reopens the session on
-/// the other clip inside the same terminal session.
+/// `run` with explicit options. Switching clips (`<`/`>`) or the map labelled (`m` in the
+/// head view) saves, then reopens the session on the other clip or map inside the same
+/// terminal session.
 ///
 /// # Errors
 /// As `run`; an unknown clip name.
@@ -136,8 +137,15 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
             // Everything is in the session file: the journal has nothing more to give.
             let _ = bridge.clear_journal();
         }
-        let next = app.switch_clip.filter(|_| result.is_ok() && signals.caught().is_none());
-        let Some(next) = next else {
+        // Reopened on another clip, or labelling another map; the map labelled stays unless
+        // another was asked for.
+        let reopen = (app.switch_clip.is_some() || app.switch_map.is_some())
+            && result.is_ok()
+            && signals.caught().is_none();
+        let next = reopen.then(|| {
+            (app.switch_clip.unwrap_or(app.clip), app.switch_map.unwrap_or(app.head.label_role))
+        });
+        let Some((next, role)) = next else {
             drop(guard);
             drop(bridge);
             if let Some(name) = signals.caught() {
@@ -148,13 +156,14 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         };
         drop(bridge);
         let previous = app;
-        (app, bridge, provider) = match SessionBridge::open(session_path, next) {
-            Ok(o) => o,
-            Err(e) => {
-                drop(guard);
-                return Err(e);
-            }
-        };
+        (app, bridge, provider) =
+            match SessionBridge::open_labelling(session_path, next, Some(role)) {
+                Ok(o) => o,
+                Err(e) => {
+                    drop(guard);
+                    return Err(e);
+                }
+            };
         let carried = Carried::of(&previous, &bridge.clip_name());
         apply(&mut app, Action::Carry { from: Box::new(carried) });
     }

@@ -77,12 +77,26 @@ pub struct SessionBridge {
 
 impl SessionBridge {
     /// Locks and loads the session at `path` and builds the App for clip `clip`, with the
-    /// frame provider for its images. Missing frames, mesh or model are reported in the
-    /// status line rather than refusing to open: landmarks can be corrected without them.
+    /// frame provider for its images, labelling the mesh that needs a map. Missing frames,
+    /// mesh or model are reported in the status line rather than refusing to open:
+    /// landmarks can be corrected without them.
     ///
     /// # Errors
     /// When the session cannot be locked or read, or has no clip `clip`.
     pub fn open(path: &Path, clip: usize) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
+        Self::open_labelling(path, clip, None)
+    }
+
+    /// As [`SessionBridge::open`], the head view labelling the map of `role` when the session
+    /// has it (see `workflow::map::label_role_or`).
+    ///
+    /// # Errors
+    /// As [`SessionBridge::open`].
+    pub fn open_labelling(
+        path: &Path,
+        clip: usize,
+        role: Option<MapRole>,
+    ) -> anyhow::Result<(App, Self, Arc<dyn FrameProvider>)> {
         // Locked, loaded, a crashed editor's journal replayed (or set aside when it cannot
         // be): the one way a session is opened for editing.
         let mut edit = crate::workflow::open_for_edit_at(path)?;
@@ -118,46 +132,47 @@ impl SessionBridge {
             }
         };
         // The head view labels the mesh that needs a map: the model's (its mean) or the head's.
-        let role = crate::workflow::map::label_role(session);
+        let role = crate::workflow::map::label_role_or(session, role);
         let label_file = crate::workflow::map::mesh_file_of(session, role).map(Path::to_path_buf);
+        let file_name = |p: Option<&Path>| {
+            p.and_then(Path::file_name)
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+        };
+        let other = match role {
+            MapRole::Model => MapRole::Head,
+            MapRole::Head => MapRole::Model,
+        };
+        app.head.other_mesh_name = if session.head_has_own_map() {
+            file_name(crate::workflow::map::mesh_file_of(session, other))
+        } else {
+            String::new()
+        };
         let labels_model_mean =
             session.model.as_ref().is_some_and(|m| Some(&m.path) == label_file.as_ref());
+        app.head.label_role = role;
+        app.head.label_mesh_name = file_name(label_file.as_deref());
+        app.head.head_has_own_map = session.head_has_own_map();
+        // A figure's helper and joint geometry is never offered for labelling, nor drawn but
+        // for the eyes, teeth and tongue.
+        let obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        let parts = |f: fn(&Path) -> crate::io::error::Result<Option<Vec<bool>>>| {
+            label_file.as_deref().filter(|p| obj(p)).and_then(|p| f(p).ok().flatten()).map(Arc::new)
+        };
+        let (candidates, occluders) =
+            (parts(crate::io::obj::labelable_vertices), parts(crate::io::obj::occluding_vertices));
         if let Some(mesh_path) = label_file.as_ref().filter(|_| !labels_model_mean) {
             match crate::io::obj::read_obj(mesh_path) {
-                Ok(mesh) => app.set_mesh(Arc::new(mesh)),
+                Ok(mesh) => {
+                    app.set_label_mesh(Arc::new(mesh), candidates.clone(), occluders.clone())
+                }
                 Err(e) => problems.push(format!("mesh: {e}")),
             }
-        }
-        app.head.label_role = role;
-        app.head.label_mesh_name = label_file
-            .as_deref()
-            .and_then(Path::file_name)
-            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-        app.head.head_has_own_map = session.head_has_own_map();
-        // A figure's helper and joint geometry is never offered for labelling.
-        let obj = |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("obj"));
-        if let Some(p) = label_file.clone().filter(|p| obj(p)) {
-            app.head.label_candidates =
-                crate::io::obj::labelable_vertices(&p).ok().flatten().map(Arc::new);
-            app.head.occluders =
-                crate::io::obj::occluding_vertices(&p).ok().flatten().map(Arc::new);
-        }
-        // Nor drawn: the proxy shells and joint markers would hide the face's own edges.
-        if let Some(keep) = app.head.label_candidates.clone() {
-            let edges: Vec<[u32; 2]> = app
-                .head
-                .edges
-                .iter()
-                .filter(|e| e.iter().all(|&v| keep.get(v as usize) == Some(&true)))
-                .copied()
-                .collect();
-            app.head.edges = Arc::new(edges);
         }
         if let Some(m) = &session.model {
             match crate::io::model_source::load_model(&m.path, m.blendshapes.as_deref()) {
                 Ok(model) => {
                     if labels_model_mean {
-                        app.set_mesh(Arc::new(model.mean_mesh()));
+                        app.set_label_mesh(Arc::new(model.mean_mesh()), candidates, occluders);
                     }
                     app.model = Some(Arc::new(model));
                 }

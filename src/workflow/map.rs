@@ -51,6 +51,17 @@ pub fn label_role(session: &Session) -> MapRole {
     }
 }
 
+/// The mesh to label when the user asked for `wanted`: that one when the session has its
+/// map (a head's own map needs a head that is another mesh than the model), else
+/// [`label_role`]'s choice.
+pub fn label_role_or(session: &Session, wanted: Option<MapRole>) -> MapRole {
+    match wanted {
+        Some(MapRole::Head) if session.head_has_own_map() => MapRole::Head,
+        Some(MapRole::Model) if session.model.is_some() => MapRole::Model,
+        _ => label_role(session),
+    }
+}
+
 /// The mesh file the map of `role` names vertices of: the head OBJ for a head with its own
 /// map; for the model, its head mesh when that is the model's own mesh, else the model file.
 pub fn mesh_file_of(session: &Session, role: MapRole) -> Option<&Path> {

@@ -56,6 +56,29 @@ pub fn makehuman() -> Option<(PathBuf, lipmap::model::Mesh, Vec<bool>, lipmap::m
     Some((dir, mesh, skin, map))
 }
 
+/// Distance from `p` to the polyline through `points`.
+pub fn to_polyline(p: &lipmap::math::Point3, points: &[lipmap::math::Point3]) -> f64 {
+    points
+        .windows(2)
+        .map(|w| {
+            let d = w[1] - w[0];
+            let t = ((p - w[0]).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
+            (p - (w[0] + t * d)).norm()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The rotation by `deg` degrees about `axis` (any length).
+pub fn rotation_deg(axis: lipmap::math::Vector3, deg: f64) -> lipmap::math::Matrix3 {
+    *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())
+        .matrix()
+}
+
+/// The vertices of MakeHuman's `base.obj` in `dir` whose triangles hide what is behind them.
+pub fn makehuman_occluders(dir: &Path) -> Vec<bool> {
+    lipmap::io::obj::occluding_vertices(&dir.join("base.obj")).unwrap().unwrap()
+}
+
 /// The rows of `lipmap saqp cv --json`'s summary, one per synthesizer: its kept calibration.
 pub fn synth_rows(json: &[u8]) -> Vec<serde_json::Value> {
     let tables: serde_json::Value = serde_json::from_slice(json).unwrap();

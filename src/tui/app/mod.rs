@@ -136,6 +136,9 @@ pub struct App {
     pub clip_names: Vec<String>,
     pub clip: usize,
     pub switch_clip: Option<usize>,
+    /// The map the user asked to label instead (the run loop saves, then reopens the
+    /// session labelling it).
+    pub switch_map: Option<crate::session::MapRole>,
 
     // ---- the session's resources and the fits made with them ----
     pub model: Option<Arc<MorphableModel>>,
@@ -191,6 +194,7 @@ impl App {
             clip_names: Vec::new(),
             clip: 0,
             switch_clip: None,
+            switch_map: None,
             model: None,
             map: None,
             model_map: None,
@@ -226,9 +230,30 @@ impl App {
         }
     }
 
-    /// Sets the head mesh and precomputes its unique edges for the wireframe.
+    /// Sets the head mesh, every vertex labelable and hiding what is behind it.
     pub fn set_mesh(&mut self, mesh: Arc<Mesh>) {
-        self.head.edges = Arc::new(super::screens::head::state::wire_edges(&mesh, None));
+        self.set_label_mesh(mesh, None, None);
+    }
+
+    /// Sets the mesh the head view labels: `candidates` (`None`: all) may carry a landmark,
+    /// `occluders` (`None`: all) are drawn and hide what is behind them. Precomputes its
+    /// wireframe edges (candidates only: a figure's proxy shells and joint markers would
+    /// hide the face's own), its triangles, where its face is, and frames the view on it.
+    pub fn set_label_mesh(
+        &mut self,
+        mesh: Arc<Mesh>,
+        candidates: Option<Arc<Vec<bool>>>,
+        occluders: Option<Arc<Vec<bool>>>,
+    ) {
+        let keep = candidates.as_deref().map(Vec::as_slice);
+        self.head.edges = Arc::new(super::screens::head::state::wire_edges(&mesh, keep));
+        self.head.triangles = Arc::new(crate::fit::suggest::surface_triangles(
+            &mesh.triangles(),
+            occluders.as_deref().map(Vec::as_slice),
+        ));
+        self.head.face = super::screens::head::state::face_of_mesh(&mesh, keep);
+        self.head.label_candidates = candidates;
+        self.head.occluders = occluders;
         self.mesh = Some(mesh);
         self.frame_head();
     }
@@ -240,7 +265,7 @@ impl App {
                 mesh,
                 self.model.as_deref(),
                 self.map.as_ref(),
-                self.head.label_candidates.as_deref().map(Vec::as_slice),
+                self.head.face.as_ref(),
             );
         }
     }

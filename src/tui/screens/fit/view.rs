@@ -146,13 +146,14 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         let side_r = rotation(90.0, 0.0) * r;
         let front_area = Rect::new(content.x, y, half, room);
         let side_area = Rect::new(content.x + half, y, content.width - half, room);
-        let eligible = app
+        // The skin with the eyes, teeth and tongue, without a figure's see-through shells.
+        let drawn = app
             .head
-            .label_candidates
+            .occluders
             .as_deref()
             .filter(|e| e.len() == shown.vertices.len())
             .map(Vec::as_slice);
-        let triangles = label_triangles(&shown, eligible);
+        let triangles = label_triangles(&shown, drawn);
         let vp = |rotation| HeadViewport {
             rotation,
             centre: framing.centre,

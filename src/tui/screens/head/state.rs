@@ -6,6 +6,9 @@
 //! A transferred head is set up once, on a job (`PreparedHead`); each frame's shape is
 //! computed on a job too and kept here for drawing.
 
+use crate::math::{Matrix3, Point3};
+use crate::model::face_locate::{FaceLocation, locate_face};
+use crate::model::map_check::face_axes;
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use std::collections::BTreeSet;
 use std::sync::Arc;
@@ -26,6 +29,12 @@ pub struct HeadScreen {
     /// Vertices whose triangles hide what is behind them from suggestions (`None`: all): the
     /// skin, eyeballs and teeth, not see-through shells (see `io::obj::occluding_vertices`).
     pub occluders: Option<Arc<Vec<bool>>>,
+    /// The triangles the mesh is drawn and picked with: those of the `occluders` (the skin
+    /// with the eyes, teeth and tongue as surfaces, not holes onto the socket behind them).
+    pub triangles: Arc<Vec<[u32; 3]>>,
+    /// The face found on the mesh's geometry ([`locate_face`]), once per mesh: what the view
+    /// is framed on before five landmarks are labelled.
+    pub face: Option<FaceLocation>,
     /// The session's transferred heads the screen can show.
     pub heads: TransferredHeads,
     /// Whose map the screen labels: the model's (what `fit` uses) or the head's own (what
@@ -35,6 +44,9 @@ pub struct HeadScreen {
     pub label_mesh_name: String,
     /// The session's head is another mesh than the model, so there are two maps.
     pub head_has_own_map: bool,
+    /// The file name of the other mesh with a map (empty when there is one map): what
+    /// `SwitchLabelledMesh` labels instead.
+    pub other_mesh_name: String,
 }
 
 /// Head view state: rotation in degrees, zoom, the 2D cursor (view units, −1..1 across the
@@ -67,56 +79,77 @@ impl Default for HeadView {
     }
 }
 
-/// The sphere the head views frame (model units): the face, not the whole body of a
-/// full-figure mesh, so labelling starts where the landmarks are.
+/// What the head views frame (model units): a sphere around the face, not the whole body of
+/// a full-figure mesh, and the turn that shows the face upright from the front, so
+/// labelling starts where the landmarks are on a head standing any way up.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HeadFraming {
-    pub centre: crate::math::Point3,
+    pub centre: Point3,
     pub radius: f64,
+    /// Model → view (x to the viewer's right, y up, z towards the viewer) before the user's
+    /// own turn.
+    pub rotation: Matrix3,
 }
 
 impl Default for HeadFraming {
     fn default() -> Self {
-        Self { centre: crate::math::Point3::origin(), radius: 1.0 }
+        Self { centre: Point3::origin(), radius: 1.0, rotation: Matrix3::identity() }
     }
 }
 
+/// Mapped landmarks that frame the view on their own (fewer frame it on the geometry).
+pub const FRAMING_LABELS: usize = 5;
+
 impl HeadFraming {
-    /// The bounding box's centre and half diagonal of `points`; `None` when empty.
-    pub fn around<'a>(points: impl IntoIterator<Item = &'a crate::math::Point3>) -> Option<Self> {
+    /// The bounding box's centre and half diagonal of `points`, unturned; `None` when empty.
+    pub fn around<'a>(points: impl IntoIterator<Item = &'a Point3>) -> Option<Self> {
         let mut it = points.into_iter();
         let first = it.next()?.coords;
         let (lo, hi) =
             it.fold((first, first), |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)));
         Some(Self {
-            centre: crate::math::Point3::from((lo + hi) / 2.0),
+            centre: Point3::from((lo + hi) / 2.0),
             radius: ((hi - lo).norm() / 2.0).max(1e-12),
+            rotation: Matrix3::identity(),
         })
     }
 
-    /// The face of `mesh`: the mapped landmarks' box enlarged by half, once five or more are
-    /// mapped (the face itself); else the vertices the model's expressions move, when they
-    /// are a part of the mesh (the head of a full figure with facial blendshapes); else the
-    /// front of the head found from the geometry ([`face_region`], the vertices `eligible`
-    /// excludes left out).
+    /// The face of `mesh`: once [`FRAMING_LABELS`] landmarks are mapped, their box enlarged
+    /// by half, turned as the geometry's face (else by the axes the labels give); else the
+    /// face found on the geometry (`face`, see [`locate_face`]); else the vertices the
+    /// model's expressions move, when they are a part of the mesh (the head of a full
+    /// figure with facial blendshapes); else the whole mesh.
     pub fn of_face(
         mesh: &Mesh,
         model: Option<&MorphableModel>,
         map: Option<&LandmarkMap>,
-        eligible: Option<&[bool]>,
+        face: Option<&FaceLocation>,
     ) -> Self {
         let n = mesh.vertices.len();
         let pick =
             |idx: &[usize]| HeadFraming::around(idx.iter().filter_map(|&v| mesh.vertices.get(v)));
-        let whole = pick(&face_region(&mesh.vertices, eligible))
-            .or_else(|| HeadFraming::around(&mesh.vertices))
+        let geometric =
+            face.map(|f| Self { centre: f.centre(), radius: f.radius(), rotation: f.axes });
+        let whole = HeadFraming::around(&mesh.vertices).unwrap_or_default();
+        let labelled: std::collections::BTreeMap<usize, Point3> = map
+            .map(|m| m.pairs().filter_map(|(l, v)| Some((l, *mesh.vertices.get(v)?))).collect())
             .unwrap_or_default();
         let mapped: Vec<usize> =
             map.map(|m| m.to_vertex.values().copied().collect()).unwrap_or_default();
-        if mapped.len() >= 5
+        if labelled.len() >= FRAMING_LABELS
             && let Some(f) = pick(&mapped)
         {
-            return Self { radius: (f.radius * 1.5).min(whole.radius), ..f };
+            // The geometry's turn when it found the face: the axes of a few labels lean
+            // with whichever side was labelled first (one eye corner and both mouth
+            // corners tilt "up" towards that eye).
+            let rotation = geometric
+                .map(|g| g.rotation)
+                .or_else(|| face_axes(&labelled))
+                .unwrap_or_else(Matrix3::identity);
+            return Self { radius: (f.radius * 1.5).min(whole.radius), rotation, ..f };
+        }
+        if let Some(g) = geometric {
+            return g;
         }
         let moved: Vec<usize> = model
             .and_then(|m| m.expressions.as_ref().filter(|_| m.num_vertices() == n))
@@ -131,47 +164,10 @@ impl HeadFraming {
     }
 }
 
-/// Figures are about this many heads tall (crown to soles).
-const HEADS_PER_FIGURE: f64 = 7.5;
-
-/// The front of the head of a mesh, as vertex indices (those `eligible` allows, all when
-/// `None`): for a full figure (its longest side over 2.5 times the others), the top
-/// 1/[`HEADS_PER_FIGURE`] along that side; then the front half of that along the shorter
-/// remaining axis (a figure's depth, not its arm span), taking +axis as the front as
-/// MakeHuman, eos and the demo head face. Empty when nothing is eligible.
-pub fn face_region(vertices: &[crate::math::Point3], eligible: Option<&[bool]>) -> Vec<usize> {
-    let ok = |v: usize| eligible.is_none_or(|e| e.get(v) == Some(&true));
-    let idx: Vec<usize> = (0..vertices.len()).filter(|&v| ok(v)).collect();
-    let Some(all) = HeadFraming::around(idx.iter().map(|&v| &vertices[v])) else {
-        return idx;
-    };
-    let (lo, hi) = idx.iter().fold((all.centre.coords, all.centre.coords), |(lo, hi), &v| {
-        (lo.inf(&vertices[v].coords), hi.sup(&vertices[v].coords))
-    });
-    let extent = hi - lo;
-    let up = extent.imax();
-    let others: Vec<usize> = (0..3).filter(|&a| a != up).collect();
-    let (a, b) = (others[0], others[1]);
-    if extent[up] < 2.5 * extent[a].max(extent[b]) {
-        // A head or a bust: the whole of it is the head; its front is still the face.
-        let depth = if extent[a] < extent[b] { a } else { b };
-        return front_half(vertices, idx, depth);
-    }
-    let top = hi[up] - extent[up] / HEADS_PER_FIGURE;
-    let head: Vec<usize> = idx.into_iter().filter(|&v| vertices[v][up] >= top).collect();
-    let depth = if extent[a] < extent[b] { a } else { b };
-    front_half(vertices, head, depth)
-}
-
-/// The vertices of `idx` in front of their middle along `axis`.
-fn front_half(vertices: &[crate::math::Point3], idx: Vec<usize>, axis: usize) -> Vec<usize> {
-    let (lo, hi) = idx
-        .iter()
-        .map(|&v| vertices[v][axis])
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| (l.min(x), h.max(x)));
-    let mid = (lo + hi) / 2.0;
-    let front: Vec<usize> = idx.iter().copied().filter(|&v| vertices[v][axis] >= mid).collect();
-    if front.is_empty() { idx } else { front }
+/// The face on `mesh` from its geometry, its `eligible` vertices only (`None`: all): see
+/// [`locate_face`].
+pub fn face_of_mesh(mesh: &Mesh, eligible: Option<&[bool]>) -> Option<FaceLocation> {
+    locate_face(&mesh.vertices, &mesh.triangles(), eligible)
 }
 
 /// The unique edges of `mesh`'s faces for a wireframe, leaving out the vertices `keep`
@@ -230,7 +226,7 @@ impl PreparedHead {
             mesh.faces.retain(|f| f.iter().all(|&v| k.get(v as usize) == Some(&true)));
         }
         let edges = Arc::new(wire_edges(&mesh, keep));
-        let framing = HeadFraming::of_face(&mesh, None, Some(map), keep);
+        let framing = HeadFraming::of_face(&mesh, None, Some(map), None);
         Self { name, mode, transfer, mesh: Arc::new(mesh), edges, framing }
     }
 }
@@ -317,26 +313,34 @@ mod tests {
     }
 
     #[test]
-    fn head_framing_finds_the_face_of_a_full_figure() {
+    fn head_framing_prefers_labels_then_geometry_then_expressions() {
         let (mesh, model) = figure();
-        // No model, no map: the front of the figure's top, from the geometry alone.
-        let geometric = HeadFraming::of_face(&mesh, None, None, None);
-        assert!((geometric.centre.y - 10.0).abs() < 1e-9, "{geometric:?}");
-        assert!(geometric.radius < 1.0, "{geometric:?}");
-        // Helper geometry is never framed: without the face vertices, the top of the column.
-        let mut eligible = vec![true; 110];
-        eligible[100..].iter_mut().for_each(|e| *e = false);
-        let helper_free = HeadFraming::of_face(&mesh, None, None, Some(&eligible));
-        assert!(helper_free.centre.y < 0.0 && helper_free.centre.y > -18.0, "{helper_free:?}");
-        assert!(helper_free.radius < 15.0, "{helper_free:?}");
+        // Only the expressions: the vertices they move.
         let face = HeadFraming::of_face(&mesh, Some(&model), None, None);
         assert!((face.centre.y - 10.0).abs() < 1e-9 && face.radius < 1.0, "{face:?}");
-        // Without expressions, five mapped vertices frame the view instead.
+        // A face found on the geometry wins over the expressions, and turns the view.
+        let turned =
+            *nalgebra::Rotation3::from_axis_angle(&crate::math::Vector3::x_axis(), 1.0).matrix();
+        let found = FaceLocation {
+            axes: turned,
+            nose_tip: Point3::new(4.5, 10.0, 1.0),
+            scale: 0.01,
+            residual_mm: 1.0,
+        };
+        let geometric = HeadFraming::of_face(&mesh, Some(&model), None, Some(&found));
+        assert_eq!(geometric.rotation, turned);
+        assert!((geometric.centre - found.centre()).norm() < 1e-12);
+        // Five mapped vertices frame the view instead.
         let mut map = LandmarkMap::default();
         for (l, v) in [(0, 100), (8, 103), (16, 109), (30, 105), (48, 107)] {
             map.to_vertex.insert(l, v);
         }
-        let mapped = HeadFraming::of_face(&mesh, None, Some(&map), None);
+        let mapped = HeadFraming::of_face(&mesh, None, Some(&map), Some(&found));
         assert!((mapped.centre.y - 10.0).abs() < 1e-9 && mapped.radius < 1.0, "{mapped:?}");
+        // ... still turned as the face found on the geometry, not by a few labels' lean.
+        assert_eq!(mapped.rotation, turned);
+        // Without a face anywhere: the whole mesh.
+        let whole = HeadFraming::of_face(&mesh, None, None, None);
+        assert!(whole.radius > 50.0, "{whole:?}");
     }
 }

@@ -22,6 +22,23 @@ fn labelling(app: &mut App) -> bool {
     true
 }
 
+/// Asks the run loop to save and reopen the session labelling the other mesh's map, when
+/// there are two (the head is another mesh than the model); says so when there is one.
+pub fn switch_labelled_mesh(app: &mut App) -> Option<Action> {
+    use crate::session::MapRole;
+    if !app.head.head_has_own_map {
+        app.status = "one map to label: the head is the model's own mesh".into();
+        return None;
+    }
+    let other = match app.head.label_role {
+        MapRole::Model => MapRole::Head,
+        MapRole::Head => MapRole::Model,
+    };
+    app.switch_map = Some(other);
+    app.status = format!("saving, then labelling the {} map…", other.name());
+    crate::tui::global::leave_to_reopen(app)
+}
+
 pub(crate) fn zoom_in(app: &mut App) {
     app.head.view.zoom = (app.head.view.zoom * 1.5).min(20.0);
 }
@@ -40,10 +57,13 @@ pub fn rotate(app: &mut App, yaw: i32, pitch: i32) {
     app.head.view.pitch = (app.head.view.pitch + f64::from(pitch)).clamp(-90.0, 90.0);
 }
 
-/// Back to facing the head unzoomed, keeping the landmark being labelled and the drawing.
+/// Back to the face, framed from the front unzoomed (on the labels made so far when there
+/// are enough, else on the face found on the mesh), keeping the landmark being labelled and
+/// the drawing.
 pub fn reset_view(app: &mut App) {
     let (label, wireframe) = (app.head.view.label, app.head.view.wireframe);
     app.head.view = HeadView { label, wireframe, ..Default::default() };
+    app.frame_head();
 }
 
 /// Moves the 2D cursor by `dx, dy` hundredths of the head's radius (finer when zoomed).
@@ -121,7 +141,7 @@ pub fn confirm_label(app: &mut App) {
         Some((sl, v)) if sl == l => Some(v),
         _ => app.mesh.as_ref().and_then(|m| {
             let eligible = app.head.label_candidates.as_deref().map(Vec::as_slice);
-            head::pick_vertex(m, &app.head.framing, &app.head.view, eligible)
+            head::pick_vertex(m, &app.head.triangles, &app.head.framing, &app.head.view, eligible)
         }),
     };
     match picked {
@@ -213,7 +233,7 @@ pub fn suggest_label(app: &mut App) {
     match crate::fit::suggest::suggest_label(&head, &s.map, &s.frame, s.image_height, s.pose, l) {
         Ok(s) => {
             if let Some(mesh) = &app.mesh {
-                let rot = head::rotation(app.head.view.yaw, app.head.view.pitch);
+                let rot = head::view_rotation(&app.head.view, &app.head.framing);
                 let pts = head::project(mesh, &rot, &app.head.framing);
                 if let Some(p) = pts.get(s.vertex) {
                     app.head.view.cursor = (p.0, -p.1);

@@ -36,6 +36,12 @@ pub fn rotation(yaw_deg: f64, pitch_deg: f64) -> Matrix3 {
     (ry * rx).into_inner()
 }
 
+/// The view's whole rotation: the framing's (the face turned upright towards the viewer,
+/// whichever way the mesh stands), then the user's yaw and pitch.
+pub fn view_rotation(view: &HeadView, framing: &HeadFraming) -> Matrix3 {
+    rotation(view.yaw, view.pitch) * framing.rotation
+}
+
 /// Projects every vertex to (x, y, depth) in head units (the framing sphere has radius 1);
 /// depth grows towards the viewer.
 pub fn project(mesh: &Mesh, rot: &Matrix3, framing: &HeadFraming) -> Vec<(f64, f64, f64)> {
@@ -108,7 +114,7 @@ pub fn viewport(
     look_at: (f64, f64),
 ) -> HeadViewport {
     HeadViewport {
-        rotation: rotation(view.yaw, view.pitch),
+        rotation: view_rotation(view, framing),
         centre: framing.centre,
         radius: framing.radius,
         half_height,
@@ -119,21 +125,23 @@ pub fn viewport(
 /// Side of the square image picking renders around the cursor, px.
 const PICK_PX: u32 = 400;
 
-/// The 3D cursor: the vertex of the surface under the 2D cursor (through a depth buffer
-/// rendered around the cursor, finer the more the view is zoomed), or off the surface the
-/// visible vertex nearest it within the pick radius. Only `eligible` vertices (when given)
-/// can be picked. `None` when no vertex is near.
+/// The 3D cursor: the vertex of the surface under the 2D cursor (through a depth buffer of
+/// `triangles`, the surface as drawn, rendered around the cursor, finer the more the view is
+/// zoomed), or off the surface the visible vertex nearest it within the pick radius. Only
+/// `eligible` vertices (when given) can be picked: under an eye's surface, the eyelid's
+/// vertex nearest the point the cursor is on, not the socket behind the eye. `None` when no
+/// vertex is near.
 pub fn pick_vertex(
     mesh: &Mesh,
+    triangles: &[[u32; 3]],
     framing: &HeadFraming,
     view: &HeadView,
     eligible: Option<&[bool]>,
 ) -> Option<usize> {
-    let triangles = label_triangles(mesh, eligible);
     let cursor = (view.cursor.0, -view.cursor.1);
     let radius = PICK_RADIUS / view.zoom;
     let vp = viewport(view, framing, 2.0 * radius, cursor);
-    let shot = HeadShot::render(&mesh.vertices, &triangles, &vp, PICK_PX, PICK_PX).ok()?;
+    let shot = HeadShot::render(&mesh.vertices, triangles, &vp, PICK_PX, PICK_PX).ok()?;
     let reach_px = f64::from(PICK_PX) / 4.0;
     shot.pick(&mesh.vertices, eligible, shot.pixel_of(&vp, cursor), reach_px)
 }
@@ -253,9 +261,8 @@ fn draw_shaded(app: &App, frame: &mut Frame, area: Rect, mesh: &Mesh, picked: Op
     vertices.extend(map.vertex(h.label).map(|v| (v, "◆", Color::Yellow)));
     vertices.extend(picked.map(|v| (v, "◆", Color::LightRed)));
     let overlay = Overlay { vertices, cursor: Some((h.cursor.0, -h.cursor.1)) };
-    let eligible = app.head.label_candidates.as_deref().map(Vec::as_slice);
     let vp = viewport(h, &app.head.framing, 1.05 / h.zoom, head_wire_view(app).centre);
-    draw_shaded_mesh(frame, area, mesh, &label_triangles(mesh, eligible), &vp, &overlay);
+    draw_shaded_mesh(frame, area, mesh, &app.head.triangles, &vp, &overlay);
 }
 
 /// The shaded drawing itself: one image pixel per half cell, markers as cell symbols.
@@ -327,6 +334,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         _ => app.mesh.as_ref().and_then(|m| {
             pick_vertex(
                 m,
+                &app.head.triangles,
                 &app.head.framing,
                 h,
                 app.head.label_candidates.as_deref().map(Vec::as_slice),
@@ -345,7 +353,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
                 canvas_area,
                 mesh,
                 &app.head.edges,
-                &rotation(h.yaw, h.pitch),
+                &view_rotation(h, &app.head.framing),
                 &head_wire_view(app),
                 |ctx, pts, visible| {
                     let mapped: Vec<(f64, f64)> = map
@@ -391,16 +399,8 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
     }
     let mapped = app.map.as_ref().map_or(0, |m| m.len());
     let current = app.map.as_ref().and_then(|m| m.vertex(h.label));
-    let mut lines = vec![
-        Line::from(format!("labelling the {} map", app.head.label_role.name().to_uppercase()))
-            .bold(),
-        Line::from(format!("on {}", app.head.label_mesh_name)).fg(Color::Gray),
-        Line::from(match (app.head.head_has_own_map, app.head.label_role) {
-            (false, _) => "(one map: model = head)",
-            (true, crate::session::MapRole::Model) => "(fit uses it; head map next)",
-            (true, crate::session::MapRole::Head) => "(for transfer, indices)",
-        })
-        .fg(Color::DarkGray),
+    let mut lines = map_selector(app, usize::from(side.width.saturating_sub(1)));
+    lines.extend([
         Line::from(crate::reference::current().names.label(h.label)).fg(Color::Yellow),
         Line::from(match current {
             Some(v) => format!("now vertex {v}"),
@@ -416,7 +416,7 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
         Line::from(format!("{mapped}/68 landmarks mapped")),
         Line::from(format!("yaw {:.0}° pitch {:.0}°", h.yaw, h.pitch)),
         Line::from(format!("zoom {:.1}×", h.zoom)),
-    ];
+    ]);
     if let Some(m) = &app.mesh {
         lines.push(Line::from(format!("{} vertices", m.vertices.len())).fg(Color::DarkGray));
     }
@@ -425,6 +425,53 @@ pub fn draw(app: &App, frame: &mut Frame, area: Rect) {
             .block(Block::new().borders(Borders::LEFT).border_style(Color::DarkGray)),
         side,
     );
+}
+
+/// The panel's head: which map is being labelled, on which mesh. With two maps (the head is
+/// another mesh than the model) both are listed, the labelled one marked (the status line
+/// names the key that switches); `width` is the panel's text width.
+fn map_selector(app: &App, width: usize) -> Vec<Line<'static>> {
+    use crate::session::MapRole;
+    let h = &app.head;
+    let fit = |name: &str, room: usize| -> String {
+        if name.chars().count() <= room {
+            name.to_string()
+        } else {
+            let kept: String = name.chars().take(room.saturating_sub(1)).collect();
+            format!("{kept}…")
+        }
+    };
+    if !h.head_has_own_map {
+        return vec![
+            Line::from(format!("labelling the {} map", h.label_role.name().to_uppercase())).bold(),
+            Line::from(format!("on {}", fit(&h.label_mesh_name, width.saturating_sub(3))))
+                .fg(Color::Gray),
+            Line::from("(one map: model = head)").fg(Color::DarkGray),
+        ];
+    }
+    let entry = |role: MapRole| {
+        let (mark, name) = if role == h.label_role {
+            ("▸ ", h.label_mesh_name.as_str())
+        } else {
+            ("  ", h.other_mesh_name.as_str())
+        };
+        let text = format!("{mark}{:<6}{}", role.name(), fit(name, width.saturating_sub(8)));
+        if role == h.label_role {
+            Line::from(text).bold().fg(Color::Yellow)
+        } else {
+            Line::from(text).fg(Color::Gray)
+        }
+    };
+    vec![
+        Line::from("map to label:").bold(),
+        entry(MapRole::Model),
+        entry(MapRole::Head),
+        Line::from(match h.label_role {
+            MapRole::Model => "(what fit uses)",
+            MapRole::Head => "(for transfer, indices)",
+        })
+        .fg(Color::DarkGray),
+    ]
 }
 
 /// The shown transferred head at the current frame, front and side (the side turned 90° from
@@ -449,7 +496,7 @@ fn draw_transferred(app: &App, index: usize, frame: &mut Frame, area: Rect) {
                 _ => (p.mesh.clone(), format!("frame {f}: not fitted, at rest")),
             };
             let half = canvas_area.width / 2;
-            let rot = rotation(h.yaw, h.pitch);
+            let rot = view_rotation(h, &p.framing);
             let views = [
                 (Rect::new(canvas_area.x, canvas_area.y, half, canvas_area.height), rot, "front"),
                 (
@@ -508,18 +555,85 @@ mod tests {
     #[test]
     fn picks_a_visible_vertex_under_the_cursor() {
         let mesh = synthetic_mesh();
+        let tris = mesh.triangles();
         let view = HeadView::default();
         let framing = HeadFraming::around(&mesh.vertices).unwrap();
-        let front = pick_vertex(&mesh, &framing, &view, None).unwrap();
+        let front = pick_vertex(&mesh, &tris, &framing, &view, None).unwrap();
         assert!(mesh.vertices[front].z > 0.0);
         // Turned around, the back of the head is in front.
-        let back = pick_vertex(&mesh, &framing, &HeadView { yaw: 180.0, ..view }, None).unwrap();
+        let back =
+            pick_vertex(&mesh, &tris, &framing, &HeadView { yaw: 180.0, ..view }, None).unwrap();
         assert!(mesh.vertices[back].z < 0.0);
         // Far outside the head there is nothing to pick.
         assert_eq!(
-            pick_vertex(&mesh, &framing, &HeadView { cursor: (1.4, 0.0), ..view }, None),
+            pick_vertex(&mesh, &tris, &framing, &HeadView { cursor: (1.4, 0.0), ..view }, None),
             None
         );
+    }
+
+    #[test]
+    fn picking_lands_on_the_surface_in_front_not_in_the_socket_behind_it() {
+        // A skin sheet at z = 0 with a square hole, a socket floor 28 units behind the hole,
+        // and an "eyeball" filling the hole at z = -1 whose vertices cannot be labelled: the
+        // cursor over the hole picks the skin vertex at the hole's rim, not the socket's.
+        let mut vertices = Vec::new();
+        let mut faces: Vec<Vec<u32>> = Vec::new();
+        let grid = |vertices: &mut Vec<crate::math::Point3>, z: f64, lo: f64, step: f64| {
+            let base = vertices.len() as u32;
+            for j in 0..5 {
+                for i in 0..5 {
+                    vertices.push(crate::math::Point3::new(
+                        lo + step * i as f64,
+                        lo + step * j as f64,
+                        z,
+                    ));
+                }
+            }
+            base
+        };
+        let skin = grid(&mut vertices, 0.0, -20.0, 10.0);
+        for j in 0..4u32 {
+            for i in 0..4u32 {
+                if (1..3).contains(&i) && (1..3).contains(&j) {
+                    continue; // the hole, −10..10 square
+                }
+                let v = skin + j * 5 + i;
+                faces.push(vec![v, v + 1, v + 6, v + 5]);
+            }
+        }
+        let socket = grid(&mut vertices, -28.0, -10.0, 5.0);
+        let eye = grid(&mut vertices, -1.0, -10.0, 5.0);
+        for base in [socket, eye] {
+            for j in 0..4u32 {
+                for i in 0..4u32 {
+                    let v = base + j * 5 + i;
+                    faces.push(vec![v, v + 1, v + 6, v + 5]);
+                }
+            }
+        }
+        let mesh = Mesh { vertices, faces };
+        let n = mesh.vertices.len();
+        // Labelable: skin and socket (a socket is skin too); the eyeball is not.
+        let labelable: Vec<bool> = (0..n).map(|v| v < eye as usize).collect();
+        let framing = HeadFraming {
+            centre: crate::math::Point3::origin(),
+            radius: 30.0,
+            rotation: Matrix3::identity(),
+        };
+        // The cursor over the hole, near its corner (−10, −10) but inside: head units are
+        // model units over the radius, y up (the cursor's y is down).
+        let view = HeadView { cursor: (-8.0 / 30.0, 8.0 / 30.0), ..HeadView::default() };
+        let with_eyes = label_triangles(&mesh, None);
+        let picked = pick_vertex(&mesh, &with_eyes, &framing, &view, Some(&labelable)).unwrap();
+        assert!(
+            mesh.vertices[picked].z > -2.0,
+            "the rim, not the socket: {:?}",
+            mesh.vertices[picked]
+        );
+        // Without the eyeball's surface the socket floor behind the hole is what is seen.
+        let holes = label_triangles(&mesh, Some(&labelable));
+        let behind = pick_vertex(&mesh, &holes, &framing, &view, Some(&labelable)).unwrap();
+        assert!(mesh.vertices[behind].z < -20.0, "{:?}", mesh.vertices[behind]);
     }
 
     #[test]

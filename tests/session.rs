@@ -86,6 +86,7 @@ fn arb_frame(f: usize) -> impl Strategy<Value = FrameLandmarks> {
             confidence,
             success,
             points,
+            lip_contact_px: None,
         })
 }
 

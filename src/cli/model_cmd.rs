@@ -133,7 +133,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(
             out,
             "inner lips   gap {:.3} at rest (mean identity), smallest reachable {:.3} (expressions \
-             β ≥ 0)",
+             β ≥ 0; frontal, model units)",
             r.neutral, r.smallest,
         )?;
     }
@@ -148,7 +148,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// The inner-lip gap of the mean identity with no expression, and the smallest its
+/// The frontal inner-lip gap of the mean identity with no expression, and the smallest its
 /// expressions reach, in model units.
 struct LipReach {
     neutral: f64,

@@ -9,6 +9,7 @@
 //! floors stop a perfectly still clip from flagging sub-pixel noise. Start at `flag_frames`;
 //! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
+pub use super::flags_image::{FrameRgb, image_flags, lower_lip_off_opening};
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
@@ -48,6 +49,10 @@ pub enum FlagReason {
     /// A measure's value breaks from its neighbours by `range_fraction` of the clip's range
     /// (5th to 95th percentile), a robust z-score `z` of such breaks.
     MeasureOutlier { measure: String, z: f64, range_fraction: f64 },
+    /// Image evidence: inner lower lip point `point` sits `px` pixels (`face_fraction` of the
+    /// face size) below the edge of the open mouth, on something neither dark nor teeth
+    /// between them — the tongue (`flags_image`).
+    LowerLipOffOpening { point: usize, px: f64, face_fraction: f64 },
 }
 
 impl fmt::Display for FlagReason {
@@ -71,6 +76,13 @@ impl fmt::Display for FlagReason {
             Self::MeasureOutlier { measure, z, range_fraction } => {
                 write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
             }
+            // 1-based, as the ids people read in the iBUG charts.
+            Self::LowerLipOffOpening { point, px, face_fraction } => write!(
+                f,
+                "point {} lower lip on the tongue: {px:.1} px ({face_fraction:.3} of eye \
+                 distance) below the open mouth's edge in the image",
+                point + 1
+            ),
         }
     }
 }
@@ -82,6 +94,15 @@ impl FlagReason {
     /// follow the points or the tracker's own doubt do not happen on a good track.
     pub fn discredits_frame(&self) -> bool {
         !matches!(self, Self::Jump { .. } | Self::MeasureOutlier { .. })
+    }
+
+    /// The point the reason is about (0-based), when it names one: what the TUI selects.
+    pub fn point(&self) -> Option<usize> {
+        match self {
+            Self::Jump { point, .. } | Self::LowerLipOffOpening { point, .. } => Some(*point),
+            Self::LipOrder { lower, .. } => Some(*lower),
+            _ => None,
+        }
     }
 }
 
@@ -140,6 +161,11 @@ pub struct FlagThresholds {
     /// clip: a fast real opening is a large z on a mostly still clip, but a small part of
     /// the speaker's range.
     pub measure_range_fraction: f64,
+    /// An inner lower lip point further below the open mouth's edge than this fraction of
+    /// the face size...
+    pub lower_lip_opening_face_fraction: f64,
+    /// ...plus this many pixels, the blur of the edge itself, is flagged (image evidence).
+    pub lower_lip_edge_px: f64,
 }
 
 impl Default for FlagThresholds {
@@ -158,6 +184,8 @@ impl Default for FlagThresholds {
             residual_min_px: 1.0,
             measure_z: 6.0,
             measure_range_fraction: 0.5,
+            lower_lip_opening_face_fraction: 0.08,
+            lower_lip_edge_px: 1.0,
         }
     }
 }

@@ -77,6 +77,12 @@ pub struct FrameLandmarks {
     pub success: bool,
     /// Exactly `N_LANDMARKS` points, index = 0-based iBUG id.
     pub points: Vec<LandmarkPoint>,
+    /// The inner lips meet on this frame, and the inner-lip gap is known to this standard
+    /// deviation (px), more precisely than each point's position: the fit then weighs the
+    /// gap by it (`landmarks::closure` sets it on the clip's sealed frames; `fit::shape`'s
+    /// lip-contact entries read it). Never stored: it is derived from the clip each time.
+    #[serde(skip)]
+    pub lip_contact_px: Option<f64>,
 }
 
 fn default_true() -> bool {
@@ -86,7 +92,7 @@ fn default_true() -> bool {
 impl FrameLandmarks {
     pub fn new(frame: usize, points: Vec<LandmarkPoint>) -> Self {
         debug_assert_eq!(points.len(), N_LANDMARKS);
-        Self { frame, timestamp: None, confidence: None, success: true, points }
+        Self { frame, timestamp: None, confidence: None, success: true, points, lip_contact_px: None }
     }
 
     /// Visible points as (index, position) pairs.

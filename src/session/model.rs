@@ -416,6 +416,7 @@ pub(crate) mod compact_track {
             confidence: c.confidence,
             success: c.success,
             points,
+            lip_contact_px: None,
         })
     }
 

@@ -9,7 +9,9 @@
 //! floors stop a perfectly still clip from flagging sub-pixel noise. Start at `flag_frames`;
 //! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
-pub use super::flags_image::{FrameRgb, image_flags, lower_lip_off_opening};
+pub use super::flags_image::{
+    FrameRgb, RgbPixels, frame_image_flag, image_flags, lower_lip_off_opening,
+};
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
@@ -76,12 +78,10 @@ impl fmt::Display for FlagReason {
             Self::MeasureOutlier { measure, z, range_fraction } => {
                 write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
             }
-            // 1-based, as the ids people read in the iBUG charts.
             Self::LowerLipOffOpening { point, px, face_fraction } => write!(
                 f,
-                "point {} lower lip on the tongue: {px:.1} px ({face_fraction:.3} of eye \
-                 distance) below the open mouth's edge in the image",
-                point + 1
+                "point {point} lower lip on the tongue: {px:.1} px ({face_fraction:.3} of eye \
+                 distance) below the open mouth's edge in the image"
             ),
         }
     }
@@ -227,6 +227,17 @@ pub fn flag_frames<F: FitResidual>(
         by_frame.entry(frame).or_default().push(reason);
     }
     by_frame.into_iter().map(|(frame, reasons)| FrameFlags { frame, reasons }).collect()
+}
+
+/// `flags` (ascending by frame, as [`flag_frames`] gives them) with `extra` reasons added
+/// to their frames, new frames inserted in order.
+pub fn add_reasons(flags: &mut Vec<FrameFlags>, extra: impl IntoIterator<Item = (usize, FlagReason)>) {
+    for (frame, reason) in extra {
+        match flags.binary_search_by_key(&frame, |f| f.frame) {
+            Ok(i) => flags[i].reasons.push(reason),
+            Err(i) => flags.insert(i, FrameFlags { frame, reasons: vec![reason] }),
+        }
+    }
 }
 
 /// Face size per frame of `track` (its outer eye-corner distance, 36–45), the clip's median
@@ -473,5 +484,19 @@ mod tests {
         assert_eq!(flags[0].0, 12);
         let constant = MeasureSeries { name: "H".into(), values: vec![(0, 1.0), (1, 1.0)] };
         assert!(measure_flags(&constant, &FlagThresholds::default()).is_empty());
+    }
+
+    #[test]
+    fn added_reasons_join_their_frames_in_order() {
+        let mut flags = vec![
+            FrameFlags { frame: 2, reasons: vec![FlagReason::TrackerFailed] },
+            FrameFlags { frame: 9, reasons: vec![FlagReason::TrackerFailed] },
+        ];
+        let r = |point| FlagReason::LowerLipOffOpening { point, px: 3.0, face_fraction: 0.1 };
+        add_reasons(&mut flags, [(9, r(66)), (5, r(65)), (0, r(67))]);
+        assert_eq!(flags.iter().map(|f| f.frame).collect::<Vec<_>>(), vec![0, 2, 5, 9]);
+        assert_eq!(flags[3].reasons, vec![FlagReason::TrackerFailed, r(66)]);
+        assert_eq!(flags[3].reasons[1].point(), Some(66));
+        assert_eq!(FlagReason::TrackerFailed.point(), None);
     }
 }

@@ -150,11 +150,30 @@ pub fn lower_lip_off_opening(
     Some(FlagReason::LowerLipOffOpening { point, px, face_fraction: px / face_size })
 }
 
-/// The image flags of a clip: [`lower_lip_off_opening`] on every frame `image_of` gives an
-/// image for (frame number → its pixels; frames it has none for are skipped).
-pub fn image_flags(
+/// Pixels the image checks can read as a [`FrameRgb`]: a decoded frame of any owner.
+pub trait RgbPixels {
+    fn frame_rgb(&self) -> FrameRgb<'_>;
+}
+
+impl RgbPixels for image::RgbImage {
+    fn frame_rgb(&self) -> FrameRgb<'_> {
+        FrameRgb::of(self)
+    }
+}
+
+impl<T: RgbPixels + ?Sized> RgbPixels for std::sync::Arc<T> {
+    fn frame_rgb(&self) -> FrameRgb<'_> {
+        (**self).frame_rgb()
+    }
+}
+
+/// The image flags of a clip: [`lower_lip_off_opening`] on every frame whose mouth is open
+/// enough to be checked ([`mouth_open_enough`]) and that `image_of` gives an image for
+/// (frame number → its pixels; frames it has none for are skipped, and frames too closed to
+/// check are never asked for).
+pub fn image_flags<T: RgbPixels>(
     track: &Track,
-    image_of: &(dyn Fn(usize) -> Option<std::sync::Arc<image::RgbImage>> + Sync),
+    image_of: impl Fn(usize) -> Option<T>,
     th: &FlagThresholds,
 ) -> Vec<(usize, FlagReason)> {
     let sizes = face_sizes(track);
@@ -168,9 +187,25 @@ pub fn image_flags(
                 return None;
             }
             let img = image_of(f.frame)?;
-            lower_lip_off_opening(f, &FrameRgb::of(&img), size, th).map(|r| (f.frame, r))
+            lower_lip_off_opening(f, &img.frame_rgb(), size, th).map(|r| (f.frame, r))
         })
         .collect()
+}
+
+/// The image flag of the frame at position `pos` of `track`, read from its pixels `img`
+/// (one frame re-checked after an edit); `None` when it has none or `pos` is out of range.
+pub fn frame_image_flag(
+    track: &Track,
+    pos: usize,
+    img: &FrameRgb<'_>,
+    th: &FlagThresholds,
+) -> Option<FlagReason> {
+    let frame = track.frames.get(pos)?;
+    let size = face_sizes(track).get(pos).copied().flatten()?;
+    if !mouth_open_enough(frame, size, th) {
+        return None;
+    }
+    lower_lip_off_opening(frame, img, size, th)
 }
 
 /// Whether the tracked inner lips of `frame` are far enough apart for the check to mean
@@ -252,9 +287,12 @@ mod tests {
         let all = |_: usize| Some(tongue.clone());
         // Only the open frame is looked at; both frames are number 0 here, so the one flag
         // comes from the open one.
-        assert_eq!(image_flags(&track, &all, &th).len(), 1);
-        let none = |_: usize| None;
-        assert!(image_flags(&track, &none, &th).is_empty());
+        assert_eq!(image_flags(&track, all, &th).len(), 1);
+        assert!(frame_image_flag(&track, 1, &FrameRgb::of(&tongue), &th).is_some());
+        assert_eq!(frame_image_flag(&track, 0, &FrameRgb::of(&tongue), &th), None);
+        assert_eq!(frame_image_flag(&track, 2, &FrameRgb::of(&tongue), &th), None);
+        let none = |_: usize| None::<image::RgbImage>;
+        assert!(image_flags(&track, none, &th).is_empty());
         // Off the image: no evidence either way.
         let tiny = image::RgbImage::new(4, 4);
         assert_eq!(lower_lip_off_opening(&frame(30.0), &FrameRgb::of(&tiny), 50.0, &th), None);

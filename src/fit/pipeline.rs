@@ -65,7 +65,12 @@ impl<'m> Fitter<'m> {
     }
 
     /// Fits one frame on its own with `basis` (this fitter's, or its lip-contact version).
-    fn fit_alone(&self, basis: &LandmarkBasis, lm: &FrameLandmarks, image_height: Real) -> FrameFit {
+    fn fit_alone(
+        &self,
+        basis: &LandmarkBasis,
+        lm: &FrameLandmarks,
+        image_height: Real,
+    ) -> FrameFit {
         let obs = FrameObservations::new(basis, lm);
         let g = fit_group(basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
         let id_pts = identity_points(basis, &g.alpha);
@@ -388,9 +393,7 @@ mod tests {
         let c = vec![0.3, -0.2, 0.1, 0.4, 0.5, 0.2];
         let at = |b: &LandmarkBasis, l: usize, side: Option<Real>| {
             let i = (0..b.len())
-                .find(|&i| {
-                    b.landmarks[i] == l && b.contact[i].map(|c| c.side) == side
-                })
+                .find(|&i| b.landmarks[i] == l && b.contact[i].map(|c| c.side) == side)
                 .unwrap();
             b.point(i, &c).coords
         };

@@ -95,8 +95,8 @@ pub fn inner_lip_gap(frame: &FrameLandmarks) -> Option<f64> {
 /// point is hidden or the length degenerate.
 fn reference_length(frame: &FrameLandmarks) -> Option<f64> {
     let p = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
-    let r = (nalgebra::center(&p(RIGHT_ENDOCANTHION)?, &p(LEFT_ENDOCANTHION)?) - p(NOSE_TIP)?)
-        .norm();
+    let r =
+        (nalgebra::center(&p(RIGHT_ENDOCANTHION)?, &p(LEFT_ENDOCANTHION)?) - p(NOSE_TIP)?).norm();
     (r > 1e-9 && r.is_finite()).then_some(r)
 }
 
@@ -222,8 +222,13 @@ pub fn lips_meet(track: &Track) -> Vec<bool> {
 pub fn mark_meeting_lips(track: &mut Track) -> usize {
     let meet = lips_meet(track);
     let gap_px = |f: &FrameLandmarks| Some(inner_lip_gap(f)? * reference_length(f)?);
-    let mut gaps: Vec<f64> =
-        track.frames.iter().zip(&meet).filter(|(_, m)| **m).filter_map(|(f, _)| gap_px(f)).collect();
+    let mut gaps: Vec<f64> = track
+        .frames
+        .iter()
+        .zip(&meet)
+        .filter(|(_, m)| **m)
+        .filter_map(|(f, _)| gap_px(f))
+        .collect();
     if gaps.len() < 3 {
         return 0;
     }
@@ -329,7 +334,8 @@ mod tests {
     #[test]
     fn a_tracker_that_closes_the_lips_itself_has_its_meeting_frames_marked() {
         // Gaps spread evenly (no separate sealed mode), four frames at or near 0.
-        let gaps: Vec<f64> = (0..40).map(|f| if f < 4 { 0.01 * f as f64 } else { 0.1 * f as f64 }).collect();
+        let gaps: Vec<f64> =
+            (0..40).map(|f| if f < 4 { 0.01 * f as f64 } else { 0.1 * f as f64 }).collect();
         let track = Track::new(gaps.iter().enumerate().map(|(f, g)| frame(f, 10.0 * g)).collect());
         assert!(matches!(
             estimate_closed_lips(&gaps.iter().map(|g| Some(*g)).collect::<Vec<_>>()),
@@ -343,7 +349,10 @@ mod tests {
         for (a, b) in marked.frames.iter().zip(&track.frames) {
             assert_eq!(a.points, b.points, "the points are left as tracked");
         }
-        assert_eq!(meeting(&[Some(0.0), None, Some(1.0), Some(0.06)]), vec![true, false, false, false]);
+        assert_eq!(
+            meeting(&[Some(0.0), None, Some(1.0), Some(0.06)]),
+            vec![true, false, false, false]
+        );
         assert_eq!(meeting(&[None, Some(0.0)]), vec![false, false]);
     }
 

@@ -231,7 +231,10 @@ pub fn flag_frames<F: FitResidual>(
 
 /// `flags` (ascending by frame, as [`flag_frames`] gives them) with `extra` reasons added
 /// to their frames, new frames inserted in order.
-pub fn add_reasons(flags: &mut Vec<FrameFlags>, extra: impl IntoIterator<Item = (usize, FlagReason)>) {
+pub fn add_reasons(
+    flags: &mut Vec<FrameFlags>,
+    extra: impl IntoIterator<Item = (usize, FlagReason)>,
+) {
     for (frame, reason) in extra {
         match flags.binary_search_by_key(&frame, |f| f.frame) {
             Ok(i) => flags[i].reasons.push(reason),

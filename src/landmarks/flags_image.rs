@@ -16,7 +16,8 @@ use crate::math::{Point2, Vector2};
 
 /// Inner lower lip points with the inner upper point across the mouth from each and the
 /// outer lower point below it (0-based iBUG ids): 67 ↔ 61 / 58, 66 ↔ 62 / 57, 65 ↔ 63 / 56.
-pub const LOWER_LIP_COLUMNS: [(usize, usize, usize); 3] = [(67, 61, 58), (66, 62, 57), (65, 63, 56)];
+pub const LOWER_LIP_COLUMNS: [(usize, usize, usize); 3] =
+    [(67, 61, 58), (66, 62, 57), (65, 63, 56)];
 
 /// Step (px) of the samples along the mouth's vertical.
 const STEP_PX: f64 = 0.25;
@@ -56,9 +57,12 @@ impl<'a> FrameRgb<'a> {
         let (fx, fy) = (p.x - x0, p.y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
         let mut out = [0.0; 3];
-        for (dx, dy, w) in
-            [(0, 0, (1.0 - fx) * (1.0 - fy)), (1, 0, fx * (1.0 - fy)), (0, 1, (1.0 - fx) * fy), (1, 1, fx * fy)]
-        {
+        for (dx, dy, w) in [
+            (0, 0, (1.0 - fx) * (1.0 - fy)),
+            (1, 0, fx * (1.0 - fy)),
+            (0, 1, (1.0 - fx) * fy),
+            (1, 1, fx * fy),
+        ] {
             let c = self.pixel(x0 + dx, y0 + dy);
             for k in 0..3 {
                 out[k] += w * c[k];
@@ -88,13 +92,21 @@ const TEETH_SATURATION: f64 = 0.2;
 /// median of the samples from `q` down to the outer lip, `below` px), or one brighter than
 /// that lip and nearly grey (teeth). `None` when the colours are off the image, or when
 /// nothing up to `reach` is at most half as bright as the lip (no open interior to border).
-fn interior_above(img: &FrameRgb<'_>, q: Point2, up: Vector2, reach: f64, below: f64) -> Option<f64> {
+fn interior_above(
+    img: &FrameRgb<'_>,
+    q: Point2,
+    up: Vector2,
+    reach: f64,
+    below: f64,
+) -> Option<f64> {
     let at = |t: f64| img.sample(q + up * t);
-    let mut lip: Vec<f64> = (1..8).map(|k| at(-below * f64::from(k) / 8.0).map(luma)).collect::<Option<_>>()?;
+    let mut lip: Vec<f64> =
+        (1..8).map(|k| at(-below * f64::from(k) / 8.0).map(luma)).collect::<Option<_>>()?;
     lip.sort_by(f64::total_cmp);
     let lip = lip[lip.len() / 2];
     let steps = (reach / STEP_PX).floor() as usize;
-    let samples: Vec<[f64; 3]> = (0..=steps).map(|k| at(k as f64 * STEP_PX)).collect::<Option<_>>()?;
+    let samples: Vec<[f64; 3]> =
+        (0..=steps).map(|k| at(k as f64 * STEP_PX)).collect::<Option<_>>()?;
     let dark = samples.iter().map(|c| luma(*c)).fold(f64::INFINITY, f64::min);
     if dark > 0.5 * lip {
         return None;
@@ -142,7 +154,8 @@ pub fn lower_lip_off_opening(
     }
     let mut d: Vec<f64> = offsets.iter().map(|o| o.1).collect();
     d.sort_by(f64::total_cmp);
-    let median = if d.len() % 2 == 1 { d[d.len() / 2] } else { 0.5 * (d[d.len() / 2 - 1] + d[d.len() / 2]) };
+    let median =
+        if d.len() % 2 == 1 { d[d.len() / 2] } else { 0.5 * (d[d.len() / 2 - 1] + d[d.len() / 2]) };
     if median <= limit {
         return None;
     }

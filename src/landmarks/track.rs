@@ -92,7 +92,14 @@ fn default_true() -> bool {
 impl FrameLandmarks {
     pub fn new(frame: usize, points: Vec<LandmarkPoint>) -> Self {
         debug_assert_eq!(points.len(), N_LANDMARKS);
-        Self { frame, timestamp: None, confidence: None, success: true, points, lip_contact_px: None }
+        Self {
+            frame,
+            timestamp: None,
+            confidence: None,
+            success: true,
+            points,
+            lip_contact_px: None,
+        }
     }
 
     /// Visible points as (index, position) pairs.

@@ -82,7 +82,15 @@ fn arb_frame(f: usize) -> impl Strategy<Value = FrameLandmarks> {
         prop::option::of(0.0f32..0.5),
     )
         .prop_map(move |(points, timestamp, confidence, success, rerun_disagreement)| {
-            FrameLandmarks { frame: f, timestamp, confidence, success, rerun_disagreement, points }
+            FrameLandmarks {
+                frame: f,
+                timestamp,
+                confidence,
+                success,
+                rerun_disagreement,
+                points,
+                lip_contact_px: None,
+            }
         })
 }
 

@@ -137,7 +137,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(
             out,
             "inner lips   gap {:.3} model units at rest (mean identity), smallest reachable {:.3} \
-             (expressions β ≥ 0)",
+             (expressions β ≥ 0; frontal)",
             r.neutral, r.smallest,
         )?;
     }
@@ -152,7 +152,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// The inner-lip gap of the mean identity with no expression, and the smallest its
+/// The frontal inner-lip gap of the mean identity with no expression, and the smallest its
 /// expressions reach, in model units.
 struct LipReach {
     neutral: f64,

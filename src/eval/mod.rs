@@ -9,6 +9,7 @@
 pub mod compare;
 pub mod report;
 pub mod rmse;
+pub mod seal;
 pub mod stats;
 pub mod visemes;
 pub mod worst;

@@ -13,6 +13,10 @@ use crate::math::{DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
 use rayon::prelude::*;
 
+/// The least lip-contact precision (px) a gain is made from: two coordinates rounded to whole
+/// pixels leave a gap with variance 2/12 px² whatever the tracker.
+const MIN_CONTACT_SD_PX: Real = 0.408_248_290_463_863;
+
 /// Frames fitted between two progress reports in per-frame mode.
 const PROGRESS_CHUNK: usize = 64;
 
@@ -56,11 +60,40 @@ impl<'m> Fitter<'m> {
 
     /// Fits one frame on its own (its own identity).
     pub fn fit_frame(&self, lm: &FrameLandmarks, image_height: Real) -> FrameFit {
-        let obs = FrameObservations::new(&self.basis, lm);
-        let g =
-            fit_group(&self.basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
-        let id_pts = identity_points(&self.basis, &g.alpha);
-        self.frame_fit(&obs, &g.alpha, &id_pts, &g.frames[0], image_height)
+        let contact = self.contact_basis(std::slice::from_ref(lm));
+        self.fit_alone(contact.as_ref().unwrap_or(&self.basis), lm, image_height)
+    }
+
+    /// Fits one frame on its own with `basis` (this fitter's, or its lip-contact version).
+    fn fit_alone(
+        &self,
+        basis: &LandmarkBasis,
+        lm: &FrameLandmarks,
+        image_height: Real,
+    ) -> FrameFit {
+        let obs = FrameObservations::new(basis, lm);
+        let g = fit_group(basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
+        let id_pts = identity_points(basis, &g.alpha);
+        self.frame_fit(basis, &obs, &g.alpha, &id_pts, &g.frames[0], image_height)
+    }
+
+    /// The basis with lip-contact entries when some of `frames` have their inner lips
+    /// meeting: gain γ = √(2σ²/σ_c²) (at least 1), σ² the data term's per-coordinate variance
+    /// and σ_c the contact precision the frames carry (their median), so that the gap of a
+    /// pair in contact weighs as that precision says (`docs/closure.md`).
+    fn contact_basis(&self, frames: &[FrameLandmarks]) -> Option<LandmarkBasis> {
+        let mut sd: Vec<Real> = frames
+            .iter()
+            .filter_map(|f| f.lip_contact_px)
+            .filter(|v| v.is_finite() && *v >= 0.0)
+            .collect();
+        if sd.is_empty() {
+            return None;
+        }
+        sd.sort_by(Real::total_cmp);
+        let sigma_c = sd[sd.len() / 2].max(MIN_CONTACT_SD_PX);
+        let gain = (2.0 * EOS_SIGMA_SQUARED / (sigma_c * sigma_c)).sqrt();
+        Some(self.basis.with_lip_contact(self.model, gain))
     }
 
     /// Fits frames as `settings.clip` says: one identity for all (clip) or each frame alone
@@ -76,22 +109,24 @@ impl<'m> Fitter<'m> {
                 p(n)
             }
         };
+        let contact = self.contact_basis(frames);
+        let basis = contact.as_ref().unwrap_or(&self.basis);
         if !self.settings.clip {
             let mut out = Vec::with_capacity(frames.len());
             for chunk in frames.chunks(PROGRESS_CHUNK) {
-                out.par_extend(chunk.par_iter().map(|lm| self.fit_frame(lm, image_height)));
+                out.par_extend(chunk.par_iter().map(|lm| self.fit_alone(basis, lm, image_height)));
                 report(out.len());
             }
             return out;
         }
         let obs: Vec<FrameObservations> =
-            frames.par_iter().map(|lm| FrameObservations::new(&self.basis, lm)).collect();
-        let g = fit_group(&self.basis, &obs, image_height, &self.params(), None);
-        let id_pts = identity_points(&self.basis, &g.alpha);
+            frames.par_iter().map(|lm| FrameObservations::new(basis, lm)).collect();
+        let g = fit_group(basis, &obs, image_height, &self.params(), None);
+        let id_pts = identity_points(basis, &g.alpha);
         let out: Vec<FrameFit> = obs
             .par_iter()
             .zip(g.frames.par_iter())
-            .map(|(o, st)| self.frame_fit(o, &g.alpha, &id_pts, st, image_height))
+            .map(|(o, st)| self.frame_fit(basis, o, &g.alpha, &id_pts, st, image_height))
             .collect();
         report(out.len());
         out
@@ -102,6 +137,7 @@ impl<'m> Fitter<'m> {
     /// of the landmark points for `alpha`.
     fn frame_fit(
         &self,
+        basis: &LandmarkBasis,
         obs: &FrameObservations,
         alpha: &DVector,
         id_pts: &[Vector3],
@@ -116,8 +152,8 @@ impl<'m> Fitter<'m> {
             scale: 0.0,
             tx: 0.0,
             ty: 0.0,
-            identity: vec![0.0; self.basis.k_id],
-            expression: vec![0.0; self.basis.k_exp],
+            identity: vec![0.0; basis.k_id],
+            expression: vec![0.0; basis.k_exp],
             reproj_rms_px: 0.0,
             residuals: vec![None; N_LANDMARKS],
             failed: st.failed.clone(),
@@ -128,14 +164,13 @@ impl<'m> Fitter<'m> {
         let c: Vec<Real> = alpha.iter().chain(st.beta.iter()).copied().collect();
         let mut sse = 0.0;
         let mut n = 0usize;
-        for i in 0..self.basis.len() {
-            if !obs.active[i] {
-                continue;
-            }
-            let x = landmark_point(&self.basis, id_pts, st.beta.as_slice(), i);
+        // Every landmark seen, its own vertex against its own point: a pair the fit took as
+        // a contact is reported like the others.
+        for i in (0..basis.len()).filter(|&i| obs.seen[i]) {
+            let x = landmark_point(basis, id_pts, st.beta.as_slice(), i);
             let p = st.pose.project(&Point3::from(x), image_height);
             let d = p - obs.points[i];
-            fit.residuals[self.basis.landmarks[i]] = Some([d.x, d.y]);
+            fit.residuals[basis.landmarks[i]] = Some([d.x, d.y]);
             sse += d.norm_squared();
             n += 1;
         }
@@ -225,7 +260,7 @@ mod tests {
     use super::*;
     use crate::fit::camera::{rotation_angle_between_deg, rotation_from_yaw_pitch_roll_deg};
     use crate::landmarks::LandmarkPoint;
-    use crate::math::DMatrix;
+    use crate::math::{DMatrix, Matrix3};
     use crate::model::{Expressions, PcaModel};
     use proptest::prelude::*;
 
@@ -340,6 +375,81 @@ mod tests {
             "{:?}",
             fit.failed
         );
+    }
+
+    /// The projected gap of an inner-lip pair in a fit: both points are observed at one
+    /// place, so the gap is the difference of their residuals.
+    fn fitted_gap(fit: &FrameFit, upper: usize, lower: usize) -> Real {
+        let (u, l) = (fit.residuals[upper].unwrap(), fit.residuals[lower].unwrap());
+        ((u[0] - l[0]).powi(2) + (u[1] - l[1]).powi(2)).sqrt()
+    }
+
+    #[test]
+    fn lip_contact_entries_keep_the_midpoint_and_scale_the_gap() {
+        let (model, map) = toy_model();
+        let plain = LandmarkBasis::new(&model, &map, crate::landmarks::LandmarkSet::F5, &[]);
+        let contact = plain.with_lip_contact(&model, 3.0);
+        assert_eq!(contact.len(), plain.len() + 6);
+        let c = vec![0.3, -0.2, 0.1, 0.4, 0.5, 0.2];
+        let at = |b: &LandmarkBasis, l: usize, side: Option<Real>| {
+            let i = (0..b.len())
+                .find(|&i| b.landmarks[i] == l && b.contact[i].map(|c| c.side) == side)
+                .unwrap();
+            b.point(i, &c).coords
+        };
+        for (u, l) in crate::landmarks::closure::INNER_LIP_PAIRS {
+            let (pu, pl) = (at(&plain, u, None), at(&plain, l, None));
+            let (a, b) = (at(&contact, u, Some(1.0)), at(&contact, l, Some(-1.0)));
+            assert!(((a + b) / 2.0 - (pu + pl) / 2.0).norm() < 1e-9);
+            assert!(((a - b) - 3.0 * (pu - pl)).norm() < 1e-9);
+        }
+        // A frame whose lips meet uses the contact entries instead of the pair's, and still
+        // sees the pair; one whose lips do not uses neither contact entry.
+        let pose = OrthoPose { r: Matrix3::identity(), s: 2.0, tx: 300.0, ty: 200.0 };
+        let mut lm = project_frame(&model, &pose, 720.0);
+        let open = FrameObservations::new(&contact, &lm);
+        lm.lip_contact_px = Some(0.5);
+        let meet = FrameObservations::new(&contact, &lm);
+        for i in 0..contact.len() {
+            let paired = crate::landmarks::closure::INNER_LIP_PAIRS
+                .iter()
+                .any(|&(u, l)| contact.landmarks[i] == u || contact.landmarks[i] == l);
+            match contact.contact[i] {
+                None => {
+                    assert!(open.active[i] && meet.seen[i]);
+                    assert_eq!(meet.active[i], !paired, "landmark {}", contact.landmarks[i]);
+                }
+                Some(_) => assert!(!open.active[i] && meet.active[i] && !meet.seen[i]),
+            }
+        }
+        assert_eq!(open.num_active, meet.num_active);
+    }
+
+    #[test]
+    fn a_lip_contact_closes_the_fitted_gap_that_the_other_points_hold_open() {
+        // The toy model's inner-lip pairs lie far apart; the tracked pairs are moved to
+        // their midpoints (sealed), so the rest of the points and the pair disagree.
+        let (model, map) = toy_model();
+        let pose = OrthoPose { r: Matrix3::identity(), s: 2.0, tx: 300.0, ty: 200.0 };
+        let mut lm = project_frame(&model, &pose, 720.0);
+        crate::landmarks::closure::close_inner_lips(&mut lm);
+        // The toy's pairs are tens of pixels apart: the fit cannot follow, which is the point.
+        let settings = FitSettings { max_reproj_rms_px: 1e6, ..FitSettings::default() };
+        let alone = fit_frame(&model, &map, &lm, 720.0, &settings);
+        lm.lip_contact_px = Some(0.5);
+        let contact = fit_frame(&model, &map, &lm, 720.0, &settings);
+        assert!(alone.failed.is_none() && contact.failed.is_none(), "{:?}", contact.failed);
+        // The toy's few components close about half of each gap (62/66: 150 → 76 px); the
+        // contact must take at least 40 % of the pairs' total away and shrink every pair.
+        let (mut before, mut after) = (0.0, 0.0);
+        for (u, l) in crate::landmarks::closure::INNER_LIP_PAIRS {
+            let (b, a) = (fitted_gap(&alone, u, l), fitted_gap(&contact, u, l));
+            assert!(a < b, "pair {u}/{l}: {b:.2} → {a:.2} px");
+            (before, after) = (before + b, after + a);
+        }
+        assert!(after < 0.6 * before, "inner-lip gaps {before:.2} → {after:.2} px in all");
+        // Every landmark's own residual is reported, the pairs' included.
+        assert!(contact.residuals.iter().all(|r| r.is_some()));
     }
 
     proptest! {

@@ -57,8 +57,14 @@ pub struct LandmarkBasis {
     pub landmarks: Vec<usize>,
     /// The model vertex of each landmark.
     pub vertices: Vec<usize>,
+    /// Which entries stand for one side of an inner-lip pair in contact ([`LipContact`])
+    /// rather than for their landmark's own vertex; all `None` in a basis made by
+    /// [`LandmarkBasis::new`].
+    pub contact: Vec<Option<LipContact>>,
     /// Per-landmark weight wᵢ (> 0).
     pub weights: Vec<Real>,
+    /// The lip-contact gain γ of the contact entries (1 when there are none).
+    pub gain: Real,
     /// Identity components (first columns of the rows).
     pub k_id: usize,
     /// Expression blendshapes (last columns).
@@ -77,6 +83,32 @@ pub struct LandmarkBasis {
     /// The expression part of `rows` alone (landmark i, axis j at `[(3i + j)·k_exp..]`):
     /// a frame's points are evaluated from it many times per iteration.
     expression_rows: Vec<Real>,
+}
+
+/// One entry of a basis: a landmark's vertex, or one side of a lip contact.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    landmark: usize,
+    vertex: usize,
+    weight: Real,
+    contact: Option<LipContact>,
+}
+
+/// One side of an inner-lip pair (upper u, lower l) seen as a contact: on a frame whose inner
+/// lips meet, the pair's two landmarks are replaced by two entries at the affine combinations
+/// `mid ± γ·d/2` of their vertices (mid = (v_u + v_l)/2, d = v_u − v_l), observed at
+/// `m ± γ·δ/2` (m, δ the same of the tracked points). Their squared residuals sum to
+/// `2|mid − m|² + γ²/2·|d − δ|²`: the midpoint keeps the weight the two points gave it, and
+/// the gap gets γ² times theirs, i.e. the variance the contact's precision says
+/// (`docs/closure.md`). Affine combinations keep the translation, so every solver takes the
+/// entries as landmarks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LipContact {
+    /// 0-based iBUG ids of the pair.
+    pub upper: usize,
+    pub lower: usize,
+    /// +1 for the entry on the upper side, −1 for the lower.
+    pub side: Real,
 }
 
 /// Index pairs of the six Gram blocks, matching `LandmarkBasis::gram`.
@@ -117,28 +149,89 @@ impl LandmarkBasis {
 
     /// As [`LandmarkBasis::new`] from explicit (landmark, vertex, weight) triples.
     pub fn from_vertices(model: &MorphableModel, pairs: &[(usize, usize, Real)]) -> Self {
+        let entries: Vec<Entry> = pairs
+            .iter()
+            .map(|&(l, v, w)| Entry { landmark: l, vertex: v, weight: w, contact: None })
+            .collect();
+        Self::from_entries(model, &entries, 1.0)
+    }
+
+    /// This basis plus, for each inner-lip pair (`landmarks::closure::INNER_LIP_PAIRS`) both
+    /// of whose landmarks it has, the two [`LipContact`] entries with gain γ = `gain` (≥ 1).
+    /// Frames whose lips meet use them instead of the pair's own entries
+    /// ([`FrameObservations::new`]); the others leave them out.
+    pub fn with_lip_contact(&self, model: &MorphableModel, gain: Real) -> Self {
+        let mut entries: Vec<Entry> = (0..self.len())
+            .filter(|&i| self.contact[i].is_none())
+            .map(|i| Entry {
+                landmark: self.landmarks[i],
+                vertex: self.vertices[i],
+                weight: self.weights[i],
+                contact: None,
+            })
+            .collect();
+        let at = |l: usize| entries.iter().position(|e| e.landmark == l);
+        let mut added = Vec::new();
+        for (upper, lower) in crate::landmarks::closure::INNER_LIP_PAIRS {
+            let (Some(u), Some(d)) = (at(upper), at(lower)) else { continue };
+            let weight = 0.5 * (entries[u].weight + entries[d].weight);
+            for (side, e) in [(1.0, u), (-1.0, d)] {
+                added.push(Entry {
+                    landmark: entries[e].landmark,
+                    vertex: entries[e].vertex,
+                    weight,
+                    contact: Some(LipContact { upper, lower, side }),
+                });
+            }
+        }
+        entries.extend(added);
+        Self::from_entries(model, &entries, gain.max(1.0))
+    }
+
+    /// The basis of `entries`; contact entries combine the rows of their pair's vertices
+    /// with gain `gain`.
+    fn from_entries(model: &MorphableModel, entries: &[Entry], gain: Real) -> Self {
         let k_id = model.num_shape_components();
         let k_exp = model.num_expressions();
         let k = k_id + k_exp;
-        let l = pairs.len();
+        let l = entries.len();
+        let vertex_of = |landmark: usize| {
+            entries.iter().find(|e| e.landmark == landmark && e.contact.is_none()).map(|e| e.vertex)
+        };
         let mut rows = vec![0.0; 3 * l * k];
         let mut mean = Vec::with_capacity(l);
-        for (i, &(_, v, _)) in pairs.iter().enumerate() {
-            let m = &model.shape.mean;
-            mean.push(Vector3::new(m[3 * v], m[3 * v + 1], m[3 * v + 2]));
+        let m = &model.shape.mean;
+        for (i, e) in entries.iter().enumerate() {
+            // (vertex, factor) terms of the entry's point.
+            let terms: Vec<(usize, Real)> = match e.contact {
+                None => vec![(e.vertex, 1.0)],
+                Some(c) => {
+                    let (u, d) = (vertex_of(c.upper), vertex_of(c.lower));
+                    let (u, d) = (u.unwrap_or(e.vertex), d.unwrap_or(e.vertex));
+                    let a = 0.5 * (1.0 + c.side * gain);
+                    vec![(u, a), (d, 1.0 - a)]
+                }
+            };
+            let mut p = Vector3::zeros();
+            for &(v, f) in &terms {
+                p += f * Vector3::new(m[3 * v], m[3 * v + 1], m[3 * v + 2]);
+            }
+            mean.push(p);
             for j in 0..3 {
                 let row = &mut rows[(3 * i + j) * k..(3 * i + j + 1) * k];
-                for (c, r) in row.iter_mut().enumerate().take(k_id) {
-                    *r = model.shape.basis[(3 * v + j, c)] * model.shape.sigma(c);
-                }
-                if let Some(e) = &model.expressions {
-                    for c in 0..k_exp {
-                        row[k_id + c] = e.deltas[(3 * v + j, c)];
+                for &(v, f) in &terms {
+                    for (c, r) in row.iter_mut().enumerate().take(k_id) {
+                        *r += f * model.shape.basis[(3 * v + j, c)] * model.shape.sigma(c);
+                    }
+                    if let Some(ex) = &model.expressions {
+                        for c in 0..k_exp {
+                            row[k_id + c] += f * ex.deltas[(3 * v + j, c)];
+                        }
                     }
                 }
             }
         }
-        let weights: Vec<Real> = pairs.iter().map(|p| p.2).collect();
+        let weights: Vec<Real> = entries.iter().map(|e| e.weight).collect();
         // The rows of each axis as L×K matrices, plain and weighted, so that every Gram block
         // is one matrix product: M_ab = Σᵢ wᵢ·Bᵢ[a,:]ᵀBᵢ[b,:] = B_aᵀ·diag(w)·B_b.
         let axis = |a: usize, weighted: bool| {
@@ -171,8 +264,10 @@ impl LandmarkBasis {
         let expression_rows =
             rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
         Self {
-            landmarks: pairs.iter().map(|p| p.0).collect(),
-            vertices: pairs.iter().map(|p| p.1).collect(),
+            landmarks: entries.iter().map(|e| e.landmark).collect(),
+            vertices: entries.iter().map(|e| e.vertex).collect(),
+            contact: entries.iter().map(|e| e.contact).collect(),
+            gain,
             weights,
             k_id,
             k_exp,
@@ -422,36 +517,67 @@ pub(crate) fn projector(pose: &OrthoPose) -> crate::math::Matrix3 {
 }
 
 /// The per-landmark data of one frame as the solvers need it: image points for each basis
-/// landmark and which of them are usable (visible and finite).
+/// landmark and which of them are used (visible and finite; on a frame whose inner lips meet,
+/// the basis's lip-contact entries instead of the pairs they stand for).
 #[derive(Clone, Debug)]
 pub struct FrameObservations {
     pub frame: usize,
     /// One per basis landmark; unusable ones hold (0, 0).
     pub points: Vec<Point2>,
+    /// Whether each entry enters the fit.
     pub active: Vec<bool>,
+    /// Whether a landmark entry's own point was seen (visible and finite), used or not: a
+    /// pair replaced by its contact entries is still seen and its residual reported.
+    pub seen: Vec<bool>,
     pub num_active: usize,
 }
 
 impl FrameObservations {
     /// Observations of `basis`'s landmarks from one frame; a point counts when it is visible
-    /// and both coordinates are finite.
+    /// and both coordinates are finite. When the frame's inner lips meet
+    /// (`lip_contact_px`) and the basis has contact entries for a pair seen whole, the
+    /// contact entries replace the pair.
     pub fn new(basis: &LandmarkBasis, lm: &crate::landmarks::FrameLandmarks) -> Self {
-        let mut points = Vec::with_capacity(basis.len());
-        let mut active = Vec::with_capacity(basis.len());
-        for &l in &basis.landmarks {
-            match lm.points.get(l) {
-                Some(p) if p.visible && p.x.is_finite() && p.y.is_finite() => {
-                    points.push(Point2::new(p.x, p.y));
-                    active.push(true);
+        let seen_point = |l: usize| {
+            lm.points
+                .get(l)
+                .filter(|p| p.visible && p.x.is_finite() && p.y.is_finite())
+                .map(|p| Point2::new(p.x, p.y))
+        };
+        let meet = lm.lip_contact_px.is_some();
+        // The pairs whose contact entries this frame uses.
+        let contact_pair = |upper: usize, lower: usize| {
+            meet && seen_point(upper).is_some()
+                && seen_point(lower).is_some()
+                && basis.contact.iter().flatten().any(|c| c.upper == upper && c.lower == lower)
+        };
+        let replaced = |l: usize| {
+            crate::landmarks::closure::INNER_LIP_PAIRS
+                .iter()
+                .any(|&(u, d)| (l == u || l == d) && contact_pair(u, d))
+        };
+        let n = basis.len();
+        let (mut points, mut active, mut seen) =
+            (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
+        for (&l, c) in basis.landmarks.iter().zip(&basis.contact) {
+            let (point, used, own) = match c {
+                None => match seen_point(l) {
+                    Some(p) => (p, !replaced(l), true),
+                    None => (Point2::origin(), false, false),
+                },
+                Some(c) if contact_pair(c.upper, c.lower) => {
+                    let (u, d) = (seen_point(c.upper).unwrap(), seen_point(c.lower).unwrap());
+                    let mid = nalgebra::center(&u, &d);
+                    (mid + (u - d) * (0.5 * c.side * basis.gain), true, false)
                 }
-                _ => {
-                    points.push(Point2::origin());
-                    active.push(false);
-                }
-            }
+                Some(_) => (Point2::origin(), false, false),
+            };
+            points.push(point);
+            active.push(used);
+            seen.push(own);
         }
         let num_active = active.iter().filter(|a| **a).count();
-        Self { frame: lm.frame, points, active, num_active }
+        Self { frame: lm.frame, points, active, seen, num_active }
     }
 }
 

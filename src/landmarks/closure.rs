@@ -85,12 +85,19 @@ pub struct ClosedLips {
 /// reference is degenerate). Divided by a length articulation does not change so that a
 /// head moving towards the camera does not shift frames between the clusters.
 pub fn inner_lip_gap(frame: &FrameLandmarks) -> Option<f64> {
-    let p = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
-    let reference =
-        (nalgebra::center(&p(RIGHT_ENDOCANTHION)?, &p(LEFT_ENDOCANTHION)?) - p(NOSE_TIP)?).norm();
     let (upper, lower) = INNER_LIP_PAIRS[1];
-    let gap = (p(upper)? - p(lower)?).norm() / reference;
-    (reference > 1e-9 && gap.is_finite()).then_some(gap)
+    let p = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
+    let gap = (p(upper)? - p(lower)?).norm() / reference_length(frame)?;
+    gap.is_finite().then_some(gap)
+}
+
+/// The reference length |mid(p39, p42) − p30| (px) the gap is divided by; `None` when a
+/// point is hidden or the length degenerate.
+fn reference_length(frame: &FrameLandmarks) -> Option<f64> {
+    let p = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
+    let r =
+        (nalgebra::center(&p(RIGHT_ENDOCANTHION)?, &p(LEFT_ENDOCANTHION)?) - p(NOSE_TIP)?).norm();
+    (r > 1e-9 && r.is_finite()).then_some(r)
 }
 
 fn median(v: &[f64]) -> f64 {
@@ -164,7 +171,10 @@ pub fn close_inner_lips(frame: &mut FrameLandmarks) {
 }
 
 /// Applies `closure` to `track`: under [`Closure::Seal`] the frames in the clip's sealed mode
-/// get their inner lips closed. Returns the estimate used (`None` under [`Closure::Off`]).
+/// get their inner lips closed and are marked as meeting (`lip_contact_px`: the sealed mode's
+/// spread in pixels, how precisely the tracker places the gap where the lips touch, which
+/// the fit weighs the closed gap by). Returns the estimate used (`None` under
+/// [`Closure::Off`]).
 ///
 /// # Errors
 /// As [`estimate_closed_lips`]; the track is then left as it was.
@@ -180,17 +190,69 @@ pub fn seal_inner_lips(
     for (frame, gap) in track.frames.iter_mut().zip(&gaps) {
         if gap.is_some_and(|g| g <= closed.threshold) {
             close_inner_lips(frame);
+            frame.lip_contact_px = reference_length(frame).map(|r| closed.spread * r);
         }
     }
     Ok(Some(closed))
 }
 
-/// `track` as fits take it: [`seal_inner_lips`] applied, or `track` unchanged when it has no
-/// sealed mode (too few frames, no separate cluster of low gaps, a gap that never varies;
-/// the measures report the last, `workflow::utterance_of_clip`).
+/// Share of the clip's widest tracked inner-lip gap at or below which the video's inner lips
+/// count as meeting when the tracker closes them itself (no separate sealed mode): a gap a
+/// twentieth of the widest opening is closed in the measure's own terms.
+pub const MEET_SHARE: f64 = 0.05;
+
+/// Which of a clip's inner-lip gaps (one per frame, in any unit: the video's H, pixels) are
+/// lips that meet: at or below [`MEET_SHARE`] of the clip's widest. All `false` when no
+/// frame has a gap or the widest is 0.
+pub fn meeting(gaps: &[Option<f64>]) -> Vec<bool> {
+    let widest = gaps.iter().flatten().copied().filter(|g| g.is_finite()).fold(0.0, f64::max);
+    gaps.iter().map(|g| widest > 0.0 && g.is_some_and(|g| g <= MEET_SHARE * widest)).collect()
+}
+
+/// Frames of `track` whose inner lips meet ([`meeting`] of their [`inner_lip_gap`]s; after
+/// [`seal_inner_lips`] the sealed frames' gap is 0).
+pub fn lips_meet(track: &Track) -> Vec<bool> {
+    meeting(&track.frames.iter().map(inner_lip_gap).collect::<Vec<_>>())
+}
+
+/// Marks the frames whose inner lips meet ([`lips_meet`]) on a clip whose tracker closes the
+/// lips itself: `lip_contact_px` is the robust spread (1.4826·MAD, px) of those frames' gaps,
+/// how precisely this tracker places a gap where the lips touch. Fewer than three such
+/// frames give no spread and nothing is marked. Returns how many frames were marked.
+pub fn mark_meeting_lips(track: &mut Track) -> usize {
+    let meet = lips_meet(track);
+    let gap_px = |f: &FrameLandmarks| Some(inner_lip_gap(f)? * reference_length(f)?);
+    let mut gaps: Vec<f64> = track
+        .frames
+        .iter()
+        .zip(&meet)
+        .filter(|(_, m)| **m)
+        .filter_map(|(f, _)| gap_px(f))
+        .collect();
+    if gaps.len() < 3 {
+        return 0;
+    }
+    gaps.sort_by(f64::total_cmp);
+    let centre = median(&gaps);
+    let mut dev: Vec<f64> = gaps.iter().map(|g| (g - centre).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let spread = 1.4826 * median(&dev);
+    for (frame, _) in track.frames.iter_mut().zip(&meet).filter(|(_, m)| **m) {
+        frame.lip_contact_px = Some(spread);
+    }
+    gaps.len()
+}
+
+/// `track` as fits take it. Under [`Closure::Seal`]: [`seal_inner_lips`] applied; when the
+/// lowest gaps are no separate mode (the tracker closes the lips itself) the frames whose
+/// lips meet are marked instead ([`mark_meeting_lips`]); otherwise (too few frames, a gap
+/// that never varies; the measures report the last, `workflow::utterance_of_clip`) `track`
+/// unchanged. Under [`Closure::Off`], `track` as tracked.
 pub fn with_sealed_lips(mut track: Track, closure: Closure) -> Track {
-    // On error the track is left as it was, which is what is wanted here.
-    let _ = seal_inner_lips(&mut track, closure);
+    // On error the track is left as it was.
+    if let Err(ClosureError::NoSealedMode(_)) = seal_inner_lips(&mut track, closure) {
+        mark_meeting_lips(&mut track);
+    }
     track
 }
 
@@ -250,6 +312,48 @@ mod tests {
         let mut off = before.clone();
         assert_eq!(seal_inner_lips(&mut off, Closure::Off), Ok(None));
         assert_eq!(off, before);
+    }
+
+    #[test]
+    fn sealed_frames_carry_the_sealed_modes_spread_as_their_contact_precision() {
+        let mut track = Track::new(
+            gaps().iter().enumerate().map(|(f, g)| frame(f, 10.0 * g.unwrap())).collect(),
+        );
+        let c = seal_inner_lips(&mut track, Closure::Seal).unwrap().unwrap();
+        // Reference length 10 px (see `frame`): the spread in pixels is ten times its value.
+        for f in &track.frames {
+            match f.lip_contact_px {
+                Some(sd) => assert!((sd - 10.0 * c.spread).abs() < 1e-9 && f.frame % 4 != 0),
+                None => assert_eq!(f.frame % 4, 0, "an open frame is not a contact"),
+            }
+        }
+        let off = with_sealed_lips(track.clone(), Closure::Off);
+        assert_eq!(off, track, "off leaves the track as given");
+    }
+
+    #[test]
+    fn a_tracker_that_closes_the_lips_itself_has_its_meeting_frames_marked() {
+        // Gaps spread evenly (no separate sealed mode), four frames at or near 0.
+        let gaps: Vec<f64> =
+            (0..40).map(|f| if f < 4 { 0.01 * f as f64 } else { 0.1 * f as f64 }).collect();
+        let track = Track::new(gaps.iter().enumerate().map(|(f, g)| frame(f, 10.0 * g)).collect());
+        assert!(matches!(
+            estimate_closed_lips(&gaps.iter().map(|g| Some(*g)).collect::<Vec<_>>()),
+            Err(ClosureError::NoSealedMode(_))
+        ));
+        let marked = with_sealed_lips(track.clone(), Closure::Seal);
+        // 5 % of the widest gap (3.9) is 0.195: frames 0–3 (and 0.0 … 0.03 ≤ it), nothing else.
+        let meet: Vec<usize> =
+            marked.frames.iter().filter(|f| f.lip_contact_px.is_some()).map(|f| f.frame).collect();
+        assert_eq!(meet, vec![0, 1, 2, 3]);
+        for (a, b) in marked.frames.iter().zip(&track.frames) {
+            assert_eq!(a.points, b.points, "the points are left as tracked");
+        }
+        assert_eq!(
+            meeting(&[Some(0.0), None, Some(1.0), Some(0.06)]),
+            vec![true, false, false, false]
+        );
+        assert_eq!(meeting(&[None, Some(0.0)]), vec![false, false]);
     }
 
     #[test]

@@ -11,6 +11,9 @@
 //! the thresholds and what they were calibrated on are in `docs/flags.md`.
 
 use super::PointNo;
+pub use super::flags_image::{
+    FrameRgb, RgbPixels, frame_image_flag, image_flags, lower_lip_off_opening,
+};
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
@@ -54,6 +57,10 @@ pub enum FlagReason {
     /// A measure's value breaks from its neighbours by `range_fraction` of the clip's range
     /// (5th to 95th percentile), a robust z-score `z` of such breaks.
     MeasureOutlier { measure: String, z: f64, range_fraction: f64 },
+    /// Image evidence: inner lower lip point `point` sits `px` pixels (`face_fraction` of the
+    /// face size) below the edge of the open mouth, on something neither dark nor teeth
+    /// between them — the tongue (`flags_image`).
+    LowerLipOffOpening { point: usize, px: f64, face_fraction: f64 },
 }
 
 impl fmt::Display for FlagReason {
@@ -84,6 +91,12 @@ impl fmt::Display for FlagReason {
             Self::MeasureOutlier { measure, z, range_fraction } => {
                 write!(f, "{measure} break {range_fraction:.2} of its range (z {z:.1})")
             }
+            Self::LowerLipOffOpening { point, px, face_fraction } => write!(
+                f,
+                "point {} lower lip on the tongue: {px:.1} px ({face_fraction:.3} of eye \
+                 distance) below the open mouth's edge in the image",
+                PointNo(*point)
+            ),
         }
     }
 }
@@ -95,6 +108,15 @@ impl FlagReason {
     /// follow the points or the tracker's own doubt do not happen on a good track.
     pub fn discredits_frame(&self) -> bool {
         !matches!(self, Self::Jump { .. } | Self::MeasureOutlier { .. })
+    }
+
+    /// The point the reason is about (0-based), when it names one: what the TUI selects.
+    pub fn point(&self) -> Option<usize> {
+        match self {
+            Self::Jump { point, .. } | Self::LowerLipOffOpening { point, .. } => Some(*point),
+            Self::LipOrder { lower, .. } => Some(*lower),
+            _ => None,
+        }
     }
 }
 
@@ -156,6 +178,11 @@ pub struct FlagThresholds {
     /// clip: a fast real opening is a large z on a mostly still clip, but a small part of
     /// the speaker's range.
     pub measure_range_fraction: f64,
+    /// An inner lower lip point further below the open mouth's edge than this fraction of
+    /// the face size...
+    pub lower_lip_opening_face_fraction: f64,
+    /// ...plus this many pixels, the blur of the edge itself, is flagged (image evidence).
+    pub lower_lip_edge_px: f64,
 }
 
 impl Default for FlagThresholds {
@@ -175,6 +202,8 @@ impl Default for FlagThresholds {
             residual_min_px: 1.0,
             measure_z: 6.0,
             measure_range_fraction: 0.5,
+            lower_lip_opening_face_fraction: 0.08,
+            lower_lip_edge_px: 1.0,
         }
     }
 }
@@ -216,6 +245,20 @@ pub fn flag_frames<F: FitResidual>(
         by_frame.entry(frame).or_default().push(reason);
     }
     by_frame.into_iter().map(|(frame, reasons)| FrameFlags { frame, reasons }).collect()
+}
+
+/// `flags` (ascending by frame, as [`flag_frames`] gives them) with `extra` reasons added
+/// to their frames, new frames inserted in order.
+pub fn add_reasons(
+    flags: &mut Vec<FrameFlags>,
+    extra: impl IntoIterator<Item = (usize, FlagReason)>,
+) {
+    for (frame, reason) in extra {
+        match flags.binary_search_by_key(&frame, |f| f.frame) {
+            Ok(i) => flags[i].reasons.push(reason),
+            Err(i) => flags.insert(i, FrameFlags { frame, reasons: vec![reason] }),
+        }
+    }
 }
 
 /// Face size per frame of `track` (its outer eye-corner distance, 36–45), the clip's median
@@ -454,5 +497,19 @@ mod tests {
         assert_eq!(flags[0].0, 12);
         let constant = MeasureSeries { name: "H".into(), values: vec![(0, 1.0), (1, 1.0)] };
         assert!(measure_flags(&constant, &FlagThresholds::default()).is_empty());
+    }
+
+    #[test]
+    fn added_reasons_join_their_frames_in_order() {
+        let mut flags = vec![
+            FrameFlags { frame: 2, reasons: vec![FlagReason::TrackerFailed] },
+            FrameFlags { frame: 9, reasons: vec![FlagReason::TrackerFailed] },
+        ];
+        let r = |point| FlagReason::LowerLipOffOpening { point, px: 3.0, face_fraction: 0.1 };
+        add_reasons(&mut flags, [(9, r(66)), (5, r(65)), (0, r(67))]);
+        assert_eq!(flags.iter().map(|f| f.frame).collect::<Vec<_>>(), vec![0, 2, 5, 9]);
+        assert_eq!(flags[3].reasons, vec![FlagReason::TrackerFailed, r(66)]);
+        assert_eq!(flags[3].reasons[1].point(), Some(66));
+        assert_eq!(FlagReason::TrackerFailed.point(), None);
     }
 }

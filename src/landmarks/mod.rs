@@ -4,6 +4,7 @@
 pub mod closure;
 pub mod edit;
 pub mod flags;
+mod flags_image;
 mod flags_lips;
 mod flags_motion;
 mod flags_procrustes;

@@ -82,6 +82,12 @@ pub struct FrameLandmarks {
     pub rerun_disagreement: Option<f32>,
     /// Exactly `N_LANDMARKS` points, index = 0-based iBUG id.
     pub points: Vec<LandmarkPoint>,
+    /// The inner lips meet on this frame, and the inner-lip gap is known to this standard
+    /// deviation (px), more precisely than each point's position: the fit then weighs the
+    /// gap by it (`landmarks::closure` sets it on the clip's sealed frames; `fit::shape`'s
+    /// lip-contact entries read it). Never stored: it is derived from the clip each time.
+    #[serde(skip)]
+    pub lip_contact_px: Option<f64>,
 }
 
 fn default_true() -> bool {
@@ -98,6 +104,7 @@ impl FrameLandmarks {
             success: true,
             rerun_disagreement: None,
             points,
+            lip_contact_px: None,
         }
     }
 

@@ -1,18 +1,20 @@
-//! How far a model can close its lips: the smallest inner-lip gap |v62 − v66| its one-sided
-//! expressions reach from a given identity.
+//! How far a model can close its lips: the smallest inner-lip gap v62 − v66 its one-sided
+//! expressions reach from a given identity, on the frontal projection (x, y) as the head's H
+//! measures it (`measure::mesh`, `MeshDistance::Frontal`): sealed lips may still have the
+//! upper lip's stomion a little in front of the lower one's, which is no opening.
 //!
 //! A fit may only add expression blendshapes (β ≥ 0) to the identity's mouth. When none of
 //! them brings the inner lips together, the fitted head cannot seal its lips on a closure
 //! however well it is fitted, and the gap it keeps is a property of the model, not a fitting
-//! error. With the identity fixed, the gap is linear in β, `g(β) = g₀ + D·β` (3-vectors), and
+//! error. With the identity fixed, the gap is linear in β, `g(β) = g₀ + D·β` (2-vectors), and
 //! its smallest length is a small non-negative least-squares problem.
 
 use crate::landmarks::ibug::point::{STOMION_LOWER, STOMION_UPPER};
 use crate::math::{DMatrix, DVector};
 use crate::model::{LandmarkMap, MorphableModel};
 
-/// The inner-lip gap vector v62 − v66 of a model as a linear function of its coefficients:
-/// `mean + identity·α + expressions·β`, cut once out of the model.
+/// The frontal inner-lip gap vector (x, y of v62 − v66) of a model as a linear function of
+/// its coefficients: `mean + identity·α + expressions·β`, cut once out of the model.
 #[derive(Clone, Debug)]
 pub struct InnerLipGap {
     mean: DVector,
@@ -24,11 +26,12 @@ impl InnerLipGap {
     /// The gap of `model` through `map`; `None` when 62 or 66 is unmapped or out of range.
     pub fn of(model: &MorphableModel, map: &LandmarkMap) -> Option<Self> {
         let (up, low) = (map.vertex(STOMION_UPPER)?, map.vertex(STOMION_LOWER)?);
-        let at = |v: usize| model.shape.mean.rows(3 * v, 3).into_owned();
+        let at = |v: usize| model.shape.mean.rows(3 * v, 2).into_owned();
+        let frontal = |m: DMatrix| m.rows(0, 2).into_owned();
         Some(Self {
             mean: at(up) - at(low),
-            identity: model.rescaled_basis_rows(up)? - model.rescaled_basis_rows(low)?,
-            expressions: model.expression_rows(up)? - model.expression_rows(low)?,
+            identity: frontal(model.rescaled_basis_rows(up)? - model.rescaled_basis_rows(low)?),
+            expressions: frontal(model.expression_rows(up)? - model.expression_rows(low)?),
         })
     }
 
@@ -77,7 +80,7 @@ fn add_columns(g: &mut DVector, m: &DMatrix, c: &[f64]) {
     }
 }
 
-/// The smallest inner-lip gap (model units) `model` reaches with identity `identity` and any
+/// The smallest frontal inner-lip gap (model units) `model` reaches with identity `identity` and any
 /// expression coefficients β ≥ 0, and the β that reach it. `None` when 62 or 66 is unmapped
 /// or out of range.
 pub fn smallest_inner_lip_gap(

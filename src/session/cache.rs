@@ -69,6 +69,11 @@ fn feed_frame(h: &mut Fnv64, frame: &FrameLandmarks, set: LandmarkSet) {
             h.u64(p.confidence.map_or(u64::MAX, |c| u64::from(c.to_bits())));
         }
     }
+    // Only when set, so that the hash of a frame whose lips do not meet is what it was before
+    // the fit took contacts into account (its cached fit stays valid).
+    if let Some(c) = frame.lip_contact_px {
+        h.str("lip contact").u64(c.to_bits());
+    }
 }
 
 /// Hash of every frame, for fits that couple the frames of a clip.

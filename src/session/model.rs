@@ -421,6 +421,7 @@ pub(crate) mod compact_track {
             success: c.success,
             rerun_disagreement: c.rerun_disagreement,
             points,
+            lip_contact_px: None,
         })
     }
 

@@ -9,6 +9,7 @@ use crate::tui::screens::View;
 use crate::tui::screens::analysis::update::request_analysis;
 use crate::tui::screens::analysis::{AnalysisTable, AnalysisView};
 use crate::tui::screens::frames::ImageView;
+use crate::tui::screens::frames::update::select_point;
 use crate::tui::screens::head::transferred::request_head_frame;
 use crate::tui::screens::head::{HeadView, TransferredHeads};
 use crate::tui::screens::side::SideState;
@@ -163,10 +164,12 @@ pub fn last_frame(app: &mut App) {
     go_to_pos(app, app.n_frames().saturating_sub(1));
 }
 
+/// Moves to the next flagged frame and selects the point its first point-naming reason
+/// names (a jump, lips out of order, a lower lip off the opening).
 pub fn next_flagged(app: &mut App) {
     let cur = app.frame();
     match app.flags.iter().find(|f| f.frame > cur).map(|f| f.frame) {
-        Some(f) => go_to_frame(app, f),
+        Some(f) => go_to_flagged(app, f),
         None => app.status = "no flagged frame after this one".into(),
     }
 }
@@ -174,8 +177,16 @@ pub fn next_flagged(app: &mut App) {
 pub fn prev_flagged(app: &mut App) {
     let cur = app.frame();
     match app.flags.iter().rev().find(|f| f.frame < cur).map(|f| f.frame) {
-        Some(f) => go_to_frame(app, f),
+        Some(f) => go_to_flagged(app, f),
         None => app.status = "no flagged frame before this one".into(),
+    }
+}
+
+fn go_to_flagged(app: &mut App, frame: usize) {
+    go_to_frame(app, frame);
+    let point = app.flags_of(frame).and_then(|f| f.reasons.iter().find_map(|r| r.point()));
+    if let Some(p) = point {
+        select_point(app, p);
     }
 }
 

@@ -17,7 +17,9 @@ use super::action::Action;
 use super::draw::draw;
 use super::global::Carried;
 use super::input::{key_to_action, mouse_to_action};
-use super::jobs::{AnalysisJob, FitJob, HeadFrameJob, Jobs, TrackJob, TrackerSource};
+use super::jobs::{
+    AnalysisJob, FitJob, HeadFrameJob, Jobs, TrackJob, TrackerSource, check_images_for_tui,
+};
 use super::keymap::Keymap;
 use super::screens::frames::view::draw_graphics;
 use super::session_bridge::SessionBridge;
@@ -110,7 +112,9 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         }
         bridge.start_saver(tx.clone());
         let jobs = Jobs::start(provider.clone(), tx.clone());
-        jobs.start_tracker(provider, tracker.clone());
+        jobs.start_tracker(provider.clone(), tracker.clone());
+        let checks = check_images_for_tui(provider, app.track.clone(), app.flag_thresholds.clone());
+        jobs.run_once("the image checks", checks);
         jobs.run_once("the speech-driven head", bridge.speech_job());
         if let Some(side) = bridge.side_frames() {
             jobs.start_side_frames(side, tx);

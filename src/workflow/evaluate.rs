@@ -136,9 +136,11 @@ pub fn utterance_of(
 const SEAL_SHARE: f64 = 0.1;
 
 /// When the video's lips meet but the model cannot bring its inner lips within
-/// [`SEAL_SHARE`] of the clip's widest fitted opening (its smallest gap reachable with the
-/// fitted identity and β ≥ 0), a warning naming that limit: the head's H error on those
-/// frames is the model's, not the fit's.
+/// [`SEAL_SHARE`] of the clip's widest fitted opening (its smallest frontal gap reachable with
+/// the clip's fitted identity and β ≥ 0), a warning naming that limit: the head's H error on
+/// those frames is the model's, not the fit's. Only for fits that share one identity (clip
+/// mode): a frame fitted alone chooses its identity too, and through it any model with a
+/// few components can close.
 fn lip_seal_limit(
     model: &MorphableModel,
     map: &LandmarkMap,
@@ -148,22 +150,17 @@ fn lip_seal_limit(
     let gap = crate::measure::lip_reach::InnerLipGap::of(model, map)?;
     let usable: Vec<&FrameFit> =
         input.fits.iter().filter(|f| f.is_usable_within(u.video.h.len())).collect();
+    let identity = &usable.first()?.identity;
+    if usable.iter().any(|f| &f.identity != identity) {
+        return None;
+    }
     let widest = usable.iter().map(|f| gap.length(&f.identity, &f.expression)).fold(0.0, f64::max);
-    // Sealed as the video reads it (after closing the tracked inner lips).
-    let sealed: Vec<&&FrameFit> =
-        usable.iter().filter(|f| u.video.h[f.frame] == Some(0.0)).collect();
+    let meet = crate::landmarks::closure::meeting(&u.video.h);
+    let sealed: Vec<&&FrameFit> = usable.iter().filter(|f| meet[f.frame]).collect();
     if sealed.is_empty() || widest <= 0.0 {
         return None;
     }
-    let mut reach = 0.0_f64;
-    let mut last: Option<&[f64]> = None;
-    for f in &sealed {
-        // Clip fits share one identity: solve once per distinct identity.
-        if last != Some(f.identity.as_slice()) {
-            reach = reach.max(gap.smallest(&f.identity)?.0);
-            last = Some(&f.identity);
-        }
-    }
+    let reach = gap.smallest(identity)?.0;
     if reach <= SEAL_SHARE * widest {
         return None;
     }
@@ -173,8 +170,9 @@ fn lip_seal_limit(
     Some(Warning(format!(
         "lipmap: clip `{}`: the model cannot seal its lips: its smallest reachable inner-lip \
          gap with the fitted identity is {reach:.3} ({:.0} % of the clip's widest fitted \
-         opening {widest:.3}, model units); on the {} sealed frames the head keeps a median \
-         {:.3}, of which {reach:.3} is the model's limit, not fitting error",
+         opening {widest:.3}, model units, frontal); on the {} frames where the video's lips \
+         meet the head keeps a median {:.3}, of which {reach:.3} is the model's limit, not \
+         fitting error",
         input.name,
         100.0 * reach / widest,
         sealed.len(),
@@ -352,11 +350,20 @@ pub struct EvalReport {
     pub visemes: Table,
     pub worst_frames: Table,
     pub worst_fits: Table,
+    /// Where the video's lips meet, the head's inner-lip gap ([`crate::eval::seal`]).
+    pub seals: Table,
 }
 
 impl EvalReport {
-    pub fn tables(&self) -> [&Table; 5] {
-        [&self.sentences, &self.phonemes, &self.visemes, &self.worst_frames, &self.worst_fits]
+    pub fn tables(&self) -> [&Table; 6] {
+        [
+            &self.sentences,
+            &self.phonemes,
+            &self.visemes,
+            &self.worst_frames,
+            &self.worst_fits,
+            &self.seals,
+        ]
     }
 
     /// Names what was compared in every table's title: the W/H/P tables get the whole of
@@ -364,9 +371,13 @@ impl EvalReport {
     /// table the landmark set alone.
     pub fn name_conditions(&mut self, conditions: &EvalConditions) {
         let label = conditions.label();
-        for t in
-            [&mut self.sentences, &mut self.phonemes, &mut self.visemes, &mut self.worst_frames]
-        {
+        for t in [
+            &mut self.sentences,
+            &mut self.phonemes,
+            &mut self.visemes,
+            &mut self.worst_frames,
+            &mut self.seals,
+        ] {
             t.name_conditions(&label, Some(conditions.pose));
         }
         let set = conditions.set.map_or(String::new(), set_label);
@@ -398,8 +409,9 @@ fn set_label(set: crate::landmarks::LandmarkSet) -> String {
     format!("fit on {set} ({} points)", set.indices().len())
 }
 
-/// Per-sentence, per-phoneme and per-viseme RMSE tables, and the worst frames by measure
-/// error (W, H, P pooled) and by fit residual.
+/// Per-sentence, per-phoneme and per-viseme RMSE tables, the worst frames by measure error
+/// (W, H, P pooled) and by fit residual, and the head's gap where the video's lips meet (on
+/// the measures as they are: a share of the head's own widest opening).
 pub fn evaluate(
     utterances: &[Utterance],
     fits: &[(&str, &[FrameFit])],
@@ -425,6 +437,7 @@ pub fn evaluate(
         .keyed("visemes"),
         worst_frames: worst_error_table(&worst).keyed("worst_frames"),
         worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)).keyed("worst_fits"),
+        seals: crate::eval::seal::seal_table(utterances).keyed("seals"),
     }
 }
 

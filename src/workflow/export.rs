@@ -95,8 +95,14 @@ pub struct ExportReport {
 }
 
 /// File names of the evaluation tables, in `EvalReport::tables` order.
-pub const TABLE_FILES: [&str; 5] =
-    ["sentences.csv", "phonemes.csv", "visemes.csv", "worst_frames.csv", "worst_fits.csv"];
+pub const TABLE_FILES: [&str; 6] = [
+    "sentences.csv",
+    "phonemes.csv",
+    "visemes.csv",
+    "worst_frames.csv",
+    "worst_fits.csv",
+    "seals.csv",
+];
 
 /// Decimals kept in exported landmark coordinates: 1/10,000 px is far below any tracker's or
 /// hand correction's precision, and drops float noise such as `41.28538095238095`.

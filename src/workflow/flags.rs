@@ -1,10 +1,13 @@
 //! Flagging a clip's frames as the TUI, `lipmap fit` and `lipmap eval` all do: the track's
-//! own checks (`landmarks::flags`), the fits' residuals when there are fits, and the video's
-//! W and H from the effective landmarks as measure series.
+//! own checks (`landmarks::flags`), the fits' residuals when there are fits, the video's
+//! W and H from the effective landmarks as measure series, and (where the frames can be read)
+//! what the frames show where the tracker put the lips (`clip_image_flags`).
 
 use crate::fit::FrameFit;
 use crate::landmarks::Track;
-use crate::landmarks::flags::{FlagReason, FlagThresholds, FrameFlags, MeasureSeries, flag_frames};
+use crate::landmarks::flags::{
+    FlagReason, FlagThresholds, FrameFlags, MeasureSeries, add_reasons, flag_frames, image_flags,
+};
 use crate::measure::Measure;
 use crate::session::{Session, SessionError};
 
@@ -60,7 +63,25 @@ pub fn flag_lines(name: &str, flags: &[FrameFlags], n_frames: usize) -> Vec<Stri
     lines
 }
 
-/// [`flag_lines`] of clip `clip` of `session` from its effective landmarks and `fits`.
+/// Decoded frames a clip's image checks may keep at once (MB): they read each frame once.
+const IMAGE_CACHE_MB: usize = 32;
+
+/// The image-evidence flags of clip `clip` of `session` for its landmarks `track`
+/// (`landmarks::flags::image_flags`), read from the clip's frames; `None` when the frames
+/// cannot be opened (the reason), and frames that cannot be decoded give no flag.
+pub fn clip_image_flags(
+    session: &Session,
+    clip: usize,
+    track: &Track,
+    thresholds: &FlagThresholds,
+) -> Result<Vec<(usize, FlagReason)>, String> {
+    let frames = session.open_frames(clip, IMAGE_CACHE_MB).map_err(|e| e.to_string())?;
+    Ok(image_flags(track, |f| frames.get(f).ok(), thresholds))
+}
+
+/// [`flag_lines`] of clip `clip` of `session` from its effective landmarks, `fits` and the
+/// image evidence of its frames ([`clip_image_flags`]); when the frames cannot be read, a
+/// line says the image checks were skipped and why.
 ///
 /// # Errors
 /// Unknown clip.
@@ -70,6 +91,17 @@ pub fn clip_flag_lines(
     fits: &[FrameFit],
 ) -> Result<Vec<String>, SessionError> {
     let track = session.effective_track(clip)?;
-    let flags = clip_flags(&track, fits, &[], &FlagThresholds::default());
-    Ok(flag_lines(&session.clip(clip)?.name, &flags, track.len()))
+    let name = &session.clip(clip)?.name;
+    let thresholds = FlagThresholds::default();
+    let mut flags = clip_flags(&track, fits, &[], &thresholds);
+    let skipped = match clip_image_flags(session, clip, &track, &thresholds) {
+        Ok(found) => {
+            add_reasons(&mut flags, found);
+            None
+        }
+        Err(why) => Some(format!("{name}: image checks skipped: {why}")),
+    };
+    let mut lines = flag_lines(name, &flags, track.len());
+    lines.extend(skipped);
+    Ok(lines)
 }

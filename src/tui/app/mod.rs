@@ -21,7 +21,10 @@ use super::screens::head::{HeadFraming, HeadScreen};
 use super::screens::side::SideState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
-use crate::landmarks::flags::{FlagThresholds, FrameFlags, MeasureSeries};
+use crate::landmarks::flags::{
+    FlagReason, FlagThresholds, FrameFlags, FrameRgb, MeasureSeries, RgbPixels, add_reasons,
+    image_flags,
+};
 use crate::landmarks::{N_LANDMARKS, Track};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
 use std::collections::{BTreeMap, BTreeSet};
@@ -43,6 +46,12 @@ impl FrameImage {
         }
         let i = 3 * (y as usize * self.width as usize + x as usize);
         [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
+    }
+}
+
+impl RgbPixels for FrameImage {
+    fn frame_rgb(&self) -> FrameRgb<'_> {
+        FrameRgb { width: self.width, height: self.height, rgb: &self.rgb }
     }
 }
 
@@ -129,6 +138,9 @@ pub struct App {
     /// Position in `track.frames` of the current frame.
     pub frame_pos: usize,
     pub flags: Vec<FrameFlags>,
+    /// The image checks' findings by frame (`landmarks::flags::image_flags`): the whole
+    /// clip's from a job at start, each decoded frame's re-checked as flags are recomputed.
+    pub image_flags: BTreeMap<usize, FlagReason>,
     pub flag_thresholds: FlagThresholds,
     pub measures: Vec<MeasureSeries>,
     /// The session's clips by name, which one this is, and the one to open next when the
@@ -189,6 +201,7 @@ impl App {
             fps: 25.0,
             frame_pos: 0,
             flags: Vec::new(),
+            image_flags: BTreeMap::new(),
             flag_thresholds: FlagThresholds::default(),
             measures: Vec::new(),
             clip_names: Vec::new(),
@@ -318,6 +331,8 @@ impl App {
     /// Recomputes the per-frame flags from the track, fits and measures.
     /// Measure outliers are looked for in the video's W and H (from the effective landmarks)
     /// and in any extra series in `measures` (e.g. the fitted head's).
+    /// The image checks are re-run on the decoded frames (an edit is on a shown, so decoded,
+    /// frame); the others keep their last finding.
     pub fn recompute_flags(&mut self) {
         let fits: Vec<FrameFit> = self.fits.by_frame.values().cloned().collect();
         self.flags = crate::workflow::flags::clip_flags(
@@ -326,6 +341,13 @@ impl App {
             &self.measures,
             &self.flag_thresholds,
         );
+        let images = &self.frames.cache.images;
+        for f in images.keys() {
+            self.image_flags.remove(f);
+        }
+        let found = image_flags(&self.track, |f| images.get(&f).cloned(), &self.flag_thresholds);
+        self.image_flags.extend(found);
+        add_reasons(&mut self.flags, self.image_flags.iter().map(|(f, r)| (*f, r.clone())));
     }
 
     /// The landmarks fits are made from and the video is measured on: the edited track with

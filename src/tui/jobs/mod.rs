@@ -4,12 +4,13 @@
 //!
 //! Each long-lived job has a one-request `Slot`: a new request replaces the pending one.
 //! Replies carry the frame number or generation they answer; `update` drops stale ones.
-//! One-off jobs (a head's set-up, the speech-driven head, the quality cross-validation) run
-//! with `Jobs::run_once`. What each job computes is in its file; this file owns the threads.
+//! One-off jobs (a head's set-up, the speech-driven head, the quality cross-validation, the
+//! clip's image checks) run with `Jobs::run_once`. What each job computes is in its file; this file owns the threads.
 
 mod analysis;
 mod fit;
 mod heads;
+mod images;
 mod session;
 mod slot;
 mod track;
@@ -17,6 +18,7 @@ mod track;
 pub use analysis::{AnalysisJob, analyse_for_tui};
 pub use fit::{FitJob, fit_for_tui};
 pub use heads::{HeadFrameJob, prepare_head_for_tui, transfer_frame_for_tui};
+pub use images::check_images_for_tui;
 pub use session::{quality_for_tui, speech_for_tui};
 pub use track::{MAX_BOX_FRAMES, TrackJob, TrackerSource, track_for_tui};
 

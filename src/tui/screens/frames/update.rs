@@ -3,6 +3,7 @@
 //! arriving from their job.
 
 use crate::landmarks::edit;
+use crate::landmarks::flags::FlagReason;
 use crate::landmarks::{LandmarkPoint, N_LANDMARKS};
 use crate::tui::app::history::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::tui::app::{App, Edit, FrameImage};
@@ -117,6 +118,13 @@ pub fn frame_loaded(app: &mut App, frame: usize, image: Arc<FrameImage>) {
     app.frames.cache.size = Some((image.width, image.height));
     app.frames.cache.errors.remove(&frame);
     app.cache_image(frame, image);
+}
+
+/// The whole clip's image checks from the job: they replace the findings, then the decoded
+/// frames are re-checked (edits made meanwhile are on them).
+pub fn images_checked(app: &mut App, flags: Vec<(usize, FlagReason)>) {
+    app.image_flags = flags.into_iter().collect();
+    app.recompute_flags();
 }
 
 pub fn frame_failed(app: &mut App, frame: usize, error: String) {

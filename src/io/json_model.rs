@@ -26,8 +26,8 @@ pub struct JsonModelKind {
 pub const SPEECH_MODEL: JsonModelKind = JsonModelKind {
     format: "lipmap speech model",
     // 2: per-recording normalised audio features, speech activity, the reference face and
-    // the held-out estimate.
-    version: 2,
+    // the held-out estimate. 3: the training clips' visual covariance (speaker adaptation).
+    version: 3,
     what: "speech model",
     made_by: "lipmap speech train",
 };

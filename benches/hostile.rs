@@ -69,9 +69,12 @@ fn hour_of_audio(tmp: &Path) {
     assert_eq!(code, 0, "demo of 130 sentences");
     let session = corpus.join("demo.lipmap.json");
     let model = tmp.join("speech130.json");
-    let (code, _, train_s) = run(&["speech", "train", s(&session), "--out", s(&model)]);
-    assert_eq!(code, 0, "speech train on 130 sentences");
-    println!("hostile/speech train, 130 sentences (for the hour): {train_s:.1} s");
+    let train = child::run_lipmap(&["speech", "train", s(&session), "--out", s(&model)]);
+    assert_eq!(train.code, 0, "speech train on 130 sentences");
+    println!(
+        "hostile/speech train, 130 sentences (for the hour): {:.1} s CPU, {:.1} s wall",
+        train.cpu_s, train.wall_s
+    );
     let loaded = lipmap::session::Session::load(&session).expect("demo session");
     let mut voice = Vec::new();
     for c in &loaded.clips {

@@ -36,12 +36,13 @@ fn main() {
     let frames: usize = clips.iter().map(|c| c.tracked.frames.len()).sum();
     let hmm = &loaded.speech.hmm;
     println!(
-        "speech/train (default settings, {SENTENCES} demo sentences, {frames} frames, {} × {}, held-out estimate included): {:.1} s CPU (target ≤ {TRAIN_BOUND_CPU_S:.0} s, ratio {:.2}); {:.1} s wall",
+        "speech/train (default settings, {SENTENCES} demo sentences, {frames} frames, {} × {}, held-out estimate included): {:.1} s CPU (target ≤ {TRAIN_BOUND_CPU_S:.0} s, ratio {:.2}); {:.1} s wall, peak {:.0} MB",
         hmm.n_states(),
         hmm.n_mixtures(),
         train.cpu_s,
         train.cpu_s / TRAIN_BOUND_CPU_S,
-        train.wall_s
+        train.wall_s,
+        train.peak_mb
     );
 
     // The voices joined into one recording, pauses and all.
@@ -59,9 +60,10 @@ fn main() {
         run_lipmap(&["speech", "animate", s(&model), "--audio", s(&wav), "--out", s(&anim)]);
     assert_eq!(animate.code, 0, "speech animate");
     println!(
-        "speech/animate ({audio_s:.0} s of audio): {:.1} s CPU, real-time factor {:.3} (target < 1); {:.1} s wall",
+        "speech/animate ({audio_s:.0} s of audio): {:.1} s CPU, real-time factor {:.3} (target < 1); {:.1} s wall, peak {:.0} MB",
         animate.cpu_s,
         animate.cpu_s / audio_s,
-        animate.wall_s
+        animate.wall_s,
+        animate.peak_mb
     );
 }

@@ -15,33 +15,17 @@
 //! Each command's peak resident memory is read from `wait4`'s rusage; prints MB and the
 //! ratio to the bound. Run: `cargo bench --bench hostile`.
 
+#[path = "support/child.rs"]
+mod child;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
 
 const BOUND_MB: f64 = 1024.0;
 
 /// Runs `lipmap args`, returning (exit code, peak RSS in MB, seconds).
-// The child is reaped by `wait4`, which also gives its rusage; `Child::wait` cannot.
-#[allow(clippy::zombie_processes)]
 fn run(args: &[&str]) -> (i32, f64, f64) {
-    let start = Instant::now();
-    let child = Command::new(env!("CARGO_BIN_EXE_lipmap"))
-        .args(args)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .expect("lipmap runs");
-    let pid = child.id() as libc::pid_t;
-    let mut status = 0;
-    // SAFETY: rusage is plain data that wait4 fills; the pid is our own child, reaped here
-    // once (the `Child` is never waited on).
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
-    assert_eq!(waited, pid, "wait4 failed");
-    let code = if libc::WIFEXITED(status) { libc::WEXITSTATUS(status) } else { -1 };
-    // Linux reports ru_maxrss in kilobytes.
-    (code, usage.ru_maxrss as f64 / 1024.0, start.elapsed().as_secs_f64())
+    let u = child::run_lipmap(args);
+    (u.code, u.peak_mb, u.wall_s)
 }
 
 fn report(what: &str, input_bytes: u64, args: &[&str]) {
@@ -85,9 +69,12 @@ fn hour_of_audio(tmp: &Path) {
     assert_eq!(code, 0, "demo of 130 sentences");
     let session = corpus.join("demo.lipmap.json");
     let model = tmp.join("speech130.json");
-    let (code, _, train_s) = run(&["speech", "train", s(&session), "--out", s(&model)]);
-    assert_eq!(code, 0, "speech train on 130 sentences");
-    println!("hostile/speech train, 130 sentences (for the hour): {train_s:.1} s");
+    let train = child::run_lipmap(&["speech", "train", s(&session), "--out", s(&model)]);
+    assert_eq!(train.code, 0, "speech train on 130 sentences");
+    println!(
+        "hostile/speech train, 130 sentences (for the hour): {:.1} s CPU, {:.1} s wall",
+        train.cpu_s, train.wall_s
+    );
     let loaded = lipmap::session::Session::load(&session).expect("demo session");
     let mut voice = Vec::new();
     for c in &loaded.clips {

@@ -1,4 +1,4 @@
-//! The speech path end to end on GRID sentences (issue "How it is judged"): an AV-HMM with
+//! The speech path end to end on GRID sentences: an AV-HMM with
 //! N 16, M 2, t_c 3 trained on ≥ 100 sentences, inverted on ≥ 30 held-out ones, must reach
 //! ACC ≥ 0.85 and AMSE ≤ 0.35 and beat the linear baseline by ≥ 0.1 ACC; once with Festival's
 //! voice (skipped when `festival` is absent), once with the demo's own voice.

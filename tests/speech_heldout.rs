@@ -1,21 +1,28 @@
-//! Held-out figures of `lipmap speech` through the release binary, against the
-//! targets: a model trained with default settings on one demo corpus (130 sentences, the
-//! default seed) and scored on corpora it never saw:
-//! - the same voice, other sentences (seeds 101–103, seeds the settings were not tuned on):
-//!   ACC ≥ 0.85, AMSE ≤ 0.35, ≥ 0.1 above the linear baseline's ACC;
-//! - other speakers (`--speakers 3`, speakers 1 and 2, seed 104): ACC ≥ 0.8, AMSE < 0.6, and
-//!   the AV-HMM beats the baseline;
-//! - real human recordings (praatio's `bobby` and `mary`, with phone TextGrids) and
-//!   Festival's voice: the mouth rests in silence (mean opening ≤ 20 % of the animation's
-//!   opening range) and opens on vowels (median ≥ 40 %).
+//! Held-out figures of `lipmap speech` through the binary, against the targets.
 //!
-//! All `#[ignore]`d (minutes of demo generation and training): run with
-//! `cargo test --release --test speech_heldout -- --ignored --nocapture`.
+//! The protocol (docs/speech.md, "Held-out figures"): the model is trained with default
+//! settings on 130 sentences of the demo's default seed. The settings were chosen looking at
+//! tuning data only — other sentences of seeds 101–103, the speakers of `--speakers 5 --seed
+//! 104`, Festival's voice on GRID sentences — and scored once, after the choices, on the
+//! evaluation data here:
+//! - the same voice, other sentences: seeds 201–208 (40 sentences each): ACC ≥ 0.85,
+//!   AMSE ≤ 0.35, ≥ 0.1 above the linear baseline's ACC;
+//! - other speakers: `--speakers 3` of seeds 301–303, speakers 1 and 2: ACC ≥ 0.8, AMSE < 0.6,
+//!   and the AV-HMM beats the baseline on both;
+//! - recordings it never heard, with phone alignments: praatio's `bobby` and `mary` (real
+//!   people), praat's and eSpeak NG's synthetic "bin blue at f two now", Festival's: the mouth
+//!   rests in silence (mean opening ≤ 20 % of the animation's opening range) and opens on
+//!   vowels (median ≥ 40 %).
+//!
+//! Those are `#[ignore]`d (minutes of demo generation and training): run them with
+//! `cargo test --release --test speech_heldout -- --ignored --nocapture --test-threads 1`.
+//! [`a_small_model_beats_the_baseline_on_another_seed`] is the check CI affords: a small
+//! model on 16 sentences, scored on another seed.
 
 #[path = "speech_corpus.rs"]
 mod speech_corpus;
 
-use lipmap::alignment::{Alignment, PhoneInventory};
+use lipmap::alignment::{Alignment, Phone, PhoneInventory};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
@@ -36,17 +43,18 @@ fn s(p: &Path) -> &str {
 
 /// A demo corpus of `sentences` per speaker (no frames) in `dir`.
 fn demo(dir: &Path, sentences: usize, seed: u64, speakers: usize) {
+    let (n, seed, speakers) = (sentences.to_string(), seed.to_string(), speakers.to_string());
     ok(
         lipmap(&[
             "demo",
             "--no-tui",
             "--no-frames",
             "--sentences",
-            &sentences.to_string(),
+            &n,
             "--seed",
-            &seed.to_string(),
+            &seed,
             "--speakers",
-            &speakers.to_string(),
+            &speakers,
             "--out",
             s(dir),
         ]),
@@ -61,68 +69,113 @@ fn model() -> &'static PathBuf {
         let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("speech_heldout");
         let _ = std::fs::remove_dir_all(&dir);
         let train = dir.join("train");
-        demo(&train, 130, 20_241_121, 1);
+        demo(&train, 130, lipmap::demo::DEFAULT_SEED, 1);
         let model = dir.join("speech.json");
-        let start = std::time::Instant::now();
         let said = ok(
             lipmap(&["speech", "train", s(&train.join("demo.lipmap.json")), "--out", s(&model)]),
             "speech train",
         );
-        eprintln!("speech train ({:.1} s):\n{said}", start.elapsed().as_secs_f64());
+        eprintln!("speech train:\n{said}");
         assert!(said.contains("held out (26 clips"), "{said}");
         model
     })
 }
 
-/// (AV-HMM ACC, AMSE, baseline ACC, AMSE) of `lipmap speech eval --json`, and whether it
-/// called the session held out.
-fn eval(session: &Path) -> ([f64; 4], bool) {
-    let out = ok(lipmap(&["speech", "eval", s(model()), s(session), "--json"]), "speech eval");
+/// The scores of `lipmap speech eval`: AV-HMM and linear baseline.
+struct Scores {
+    acc: f64,
+    amse: f64,
+    linear_acc: f64,
+    linear_amse: f64,
+}
+
+/// `lipmap speech eval --json` of `session` with the model, and whether it called the
+/// session held out.
+fn eval(model: &Path, session: &Path) -> (Scores, bool) {
+    let out = ok(lipmap(&["speech", "eval", s(model), s(session), "--json"]), "speech eval");
     let tables: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let scores = &tables["scores"]["rows"];
-    let row = |i: usize| (scores[i]["ACC"].as_f64().unwrap(), scores[i]["AMSE"].as_f64().unwrap());
-    let ((acc, amse), (lacc, lamse)) = (row(0), row(1));
-    let eval_text = ok(lipmap(&["speech", "eval", s(model()), s(session)]), "speech eval");
-    ([acc, amse, lacc, lamse], eval_text.contains("held out: none of the"))
+    let scores = &tables["scores"];
+    let row = |i: usize| {
+        let r = &scores["rows"][i];
+        (r["ACC"].as_f64().unwrap(), r["AMSE"].as_f64().unwrap())
+    };
+    let ((acc, amse), (linear_acc, linear_amse)) = (row(0), row(1));
+    let held_out = scores["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|n| n.as_str().is_some_and(|n| n.starts_with("held out: none of the")));
+    (Scores { acc, amse, linear_acc, linear_amse }, held_out)
+}
+
+/// Prints the mean and worst of `scored` (name, scores) and returns the lines below target.
+fn summarise(scored: &[(String, Scores)], meets: impl Fn(&Scores) -> bool) -> Vec<String> {
+    let n = scored.len() as f64;
+    let mean = |f: fn(&Scores) -> f64| scored.iter().map(|(_, s)| f(s)).sum::<f64>() / n;
+    let worst_acc = scored.iter().map(|(_, s)| s.acc).fold(f64::INFINITY, f64::min);
+    let worst_amse = scored.iter().map(|(_, s)| s.amse).fold(0.0, f64::max);
+    eprintln!(
+        "mean: AV-HMM ACC {:.3} AMSE {:.3}; linear ACC {:.3} AMSE {:.3}; worst ACC {worst_acc:.3}, worst AMSE {worst_amse:.3}",
+        mean(|s| s.acc),
+        mean(|s| s.amse),
+        mean(|s| s.linear_acc),
+        mean(|s| s.linear_amse)
+    );
+    scored
+        .iter()
+        .filter(|(_, s)| !meets(s))
+        .map(|(name, s)| {
+            format!(
+                "{name}: ACC {:.3} AMSE {:.3} (baseline {:.3}, {:.3})",
+                s.acc, s.amse, s.linear_acc, s.linear_amse
+            )
+        })
+        .collect()
+}
+
+fn report(name: &str, s: &Scores) {
+    eprintln!(
+        "{name}: AV-HMM ACC {:.3} AMSE {:.3}; linear ACC {:.3} AMSE {:.3}",
+        s.acc, s.amse, s.linear_acc, s.linear_amse
+    );
 }
 
 #[test]
-#[ignore = "generates four demo corpora and trains a model: run in release"]
+#[ignore = "generates nine demo corpora and trains a model: run in release"]
 fn same_voice_other_sentences_meet_the_targets() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("speech_heldout_seeds");
-    let mut failures = Vec::new();
-    for seed in [101u64, 102, 103] {
+    let mut scored = Vec::new();
+    for seed in 201u64..=208 {
         let corpus = dir.join(format!("seed{seed}"));
         demo(&corpus, 40, seed, 1);
-        let ([acc, amse, lacc, lamse], held_out) = eval(&corpus.join("demo.lipmap.json"));
-        eprintln!(
-            "seed {seed}: AV-HMM ACC {acc:.3} AMSE {amse:.3}; linear ACC {lacc:.3} AMSE {lamse:.3}"
-        );
+        let (scores, held_out) = eval(model(), &corpus.join("demo.lipmap.json"));
+        report(&format!("seed {seed}"), &scores);
         assert!(held_out, "seed {seed}: eval did not call the session held out");
-        if !(acc >= 0.85 && amse <= 0.35 && acc >= lacc + 0.1) {
-            failures.push(format!("seed {seed}: ACC {acc:.3} AMSE {amse:.3} (baseline {lacc:.3})"));
-        }
+        scored.push((format!("seed {seed}"), scores));
     }
+    let failures =
+        summarise(&scored, |s| s.acc >= 0.85 && s.amse <= 0.35 && s.acc >= s.linear_acc + 0.1);
     assert!(failures.is_empty(), "below target: {failures:?}");
 }
 
 #[test]
-#[ignore = "generates demo corpora and trains a model: run in release"]
+#[ignore = "generates demo corpora of three speakers and trains a model: run in release"]
 fn other_speakers_meet_the_targets() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("speech_heldout_speakers");
-    demo(&dir, 40, 104, 3);
-    let mut failures = Vec::new();
-    for speaker in ["speaker_01", "speaker_02"] {
-        let ([acc, amse, lacc, lamse], _) = eval(&dir.join(format!("{speaker}.lipmap.json")));
-        eprintln!(
-            "{speaker}: AV-HMM ACC {acc:.3} AMSE {amse:.3}; linear ACC {lacc:.3} AMSE {lamse:.3}"
-        );
-        if !(acc >= 0.8 && amse < 0.6 && acc > lacc && amse < lamse) {
-            failures.push(format!(
-                "{speaker}: ACC {acc:.3} AMSE {amse:.3} (baseline {lacc:.3}, {lamse:.3})"
-            ));
+    let mut scored = Vec::new();
+    for seed in 301u64..=303 {
+        let corpus = dir.join(format!("seed{seed}"));
+        demo(&corpus, 40, seed, 3);
+        for speaker in ["speaker_01", "speaker_02"] {
+            let (scores, _) = eval(model(), &corpus.join(format!("{speaker}.lipmap.json")));
+            let name = format!("seed {seed} {speaker}");
+            report(&name, &scores);
+            scored.push((name, scores));
         }
     }
+    let failures = summarise(&scored, |s| {
+        s.acc >= 0.8 && s.amse < 0.6 && s.acc > s.linear_acc && s.amse < s.linear_amse
+    });
     assert!(failures.is_empty(), "below target: {failures:?}");
 }
 
@@ -136,7 +189,8 @@ fn is_vowel(phones: &PhoneInventory, label: &str) -> bool {
 
 /// (mean opening in silence, median opening on vowels), each as a fraction of the
 /// animation's opening range, of `wav` animated by the model; the opening is the distance
-/// between the inner lips' midpoints (iBUG 62 and 66: mouth vertices 14 and 18).
+/// between the inner lips' midpoints (iBUG 62 and 66: mouth vertices 14 and 18). Silence is
+/// the inventory's silence labels and time outside every phone.
 fn rest_and_open(wav: &Path, alignment: &Alignment, out: &Path) -> (f64, f64) {
     ok(
         lipmap(&["speech", "animate", s(model()), "--audio", s(wav), "--out", s(out)]),
@@ -172,31 +226,73 @@ fn rest_and_open(wav: &Path, alignment: &Alignment, out: &Path) -> (f64, f64) {
     (mean, vowels[vowels.len() / 2])
 }
 
+/// eSpeak NG's phoneme events as written in `../shared/data/speech/generated` (`start_ms
+/// end_ms phoneme` lines; `#` comments and `W` word marks skipped).
+fn espeak_phonemes(path: &Path) -> Alignment {
+    let text = std::fs::read_to_string(path).unwrap();
+    let phones = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with('W'))
+        .filter_map(|l| {
+            let mut f = l.split_whitespace();
+            let (start, end, label) = (f.next()?, f.next()?, f.next()?);
+            Some(Phone {
+                start: start.parse::<f64>().ok()? / 1000.0,
+                end: end.parse::<f64>().ok()? / 1000.0,
+                label: label.to_string(),
+            })
+        })
+        .collect();
+    Alignment { phones }
+}
+
 #[test]
 #[ignore = "trains a model on 130 demo sentences: run in release"]
 fn unseen_voices_rest_in_silence_and_open_on_vowels() {
-    let Some(data) = lipmap::testdata::shared("data/speech/praatio_examples") else {
+    let Some(speech) = lipmap::testdata::shared("data/speech") else {
         eprintln!("skipping: ../shared/data is absent");
         return;
     };
-    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("speech_heldout_voices");
-    let tier = lipmap::io::textgrid::TierChoice::Name("phone".into());
-    let mut voices: Vec<(String, PathBuf, Alignment)> = ["bobby", "mary"]
-        .iter()
-        .map(|name| {
-            let grid = if *name == "bobby" { "bobby_phones.TextGrid" } else { "mary.TextGrid" };
-            let alignment =
-                lipmap::io::textgrid::read_textgrid(&data.join(grid), Some(&tier)).unwrap();
-            (name.to_string(), data.join(format!("{name}.wav")), alignment)
-        })
-        .collect();
-    let words = speech_corpus::grid_sentences(4, 99);
-    match speech_corpus::festival_wavs(&words) {
+    let (praatio, generated) = (speech.join("praatio_examples"), speech.join("generated"));
+    let tier = |name: &str| Some(lipmap::io::textgrid::TierChoice::Name(name.into()));
+    let read = |path: PathBuf, t: Option<lipmap::io::textgrid::TierChoice>| {
+        lipmap::io::alignment_format::read_alignment(&path, t.as_ref()).unwrap()
+    };
+    let mut voices: Vec<(String, PathBuf, Alignment)> = vec![
+        (
+            "bobby (real)".into(),
+            praatio.join("bobby.wav"),
+            read(praatio.join("bobby_phones.TextGrid"), tier("phone")),
+        ),
+        (
+            "mary (real)".into(),
+            praatio.join("mary.wav"),
+            read(praatio.join("mary.TextGrid"), tier("phone")),
+        ),
+        (
+            "praat, bin blue at f two now".into(),
+            generated.join("praat_bin_blue.wav"),
+            read(generated.join("praat_bin_blue.TextGrid"), tier("phoneme")),
+        ),
+        (
+            "eSpeak NG, bin blue at f two now".into(),
+            generated.join("espeak_bin_blue.wav"),
+            espeak_phonemes(&generated.join("espeak_bin_blue_phonemes.txt")),
+        ),
+        (
+            "Festival, bin blue at f two now".into(),
+            generated.join("festival_bin_blue.wav"),
+            read(generated.join("festival_segs.txt"), None),
+        ),
+    ];
+    // Festival's voice on other sentences (the tuning data had Festival on GRID sentences).
+    match speech_corpus::festival_wavs(&speech_corpus::grid_sentences(4, 2028)) {
         Some(w) => {
-            voices.extend(w.into_iter().map(|(text, wav, a)| (format!("festival: {text}"), wav, a)))
+            voices.extend(w.into_iter().map(|(text, wav, a)| (format!("Festival, {text}"), wav, a)))
         }
-        None => eprintln!("festival is not installed: its voice is skipped"),
+        None => eprintln!("festival is not installed: its other sentences are skipped"),
     }
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("speech_heldout_voices");
     let mut failures = Vec::new();
     for (i, (name, wav, alignment)) in voices.iter().enumerate() {
         let (rest, open) = rest_and_open(wav, alignment, &out.join(i.to_string()));
@@ -206,4 +302,45 @@ fn unseen_voices_rest_in_silence_and_open_on_vowels() {
         }
     }
     assert!(failures.is_empty(), "{failures:?}");
+}
+
+/// The held-out check CI affords (debug build, seconds): a small model (N 4, M 1, t_c 2)
+/// trained on 16 demo sentences holds three of them out for its own estimate, and on 6
+/// sentences of another seed, which `speech eval` calls held out, beats the linear baseline
+/// on both measures.
+#[test]
+fn a_small_model_beats_the_baseline_on_another_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let (train, test) = (dir.path().join("train"), dir.path().join("test"));
+    demo(&train, 16, 11, 1);
+    demo(&test, 6, 12, 1);
+    let model = dir.path().join("speech.json");
+    let said = ok(
+        lipmap(&[
+            "speech",
+            "train",
+            s(&train.join("demo.lipmap.json")),
+            "--states",
+            "4",
+            "--mixtures",
+            "1",
+            "--context",
+            "2",
+            "--out",
+            s(&model),
+        ]),
+        "speech train",
+    );
+    assert!(said.contains("held out (3 clips"), "{said}");
+    let (scores, held_out) = eval(&model, &test.join("demo.lipmap.json"));
+    report("seed 12", &scores);
+    assert!(held_out, "eval did not call another seed held out");
+    assert!(
+        scores.acc > scores.linear_acc && scores.amse < scores.linear_amse,
+        "the AV-HMM does not beat the baseline: ACC {:.3} vs {:.3}, AMSE {:.3} vs {:.3}",
+        scores.acc,
+        scores.linear_acc,
+        scores.amse,
+        scores.linear_amse
+    );
 }

@@ -6,8 +6,8 @@ use crate::cli::output::{FormatArgs, NormaliseArg, write_tables};
 use crate::cli::progress::print_warnings;
 use crate::eval::{Cell, Table};
 use crate::workflow::speech::{
-    AnimateOutputs, SpeechEvaluation, SpeechTrainSettings, TransferHead, animate_speech,
-    evaluate_speech, load_speech_model, save_speech_model, train_speech,
+    AnimateOutputs, SpeakerAdaptationChoice, SpeechEvaluation, SpeechTrainSettings, TransferHead,
+    animate_speech, evaluate_speech, load_speech_model, save_speech_model, train_speech,
 };
 use crate::workflow::speech_session::record_speech_model;
 use anyhow::Result;
@@ -58,6 +58,11 @@ pub struct EvalArgs {
     /// Also print the per-sentence tables.
     #[arg(long)]
     pub sentences: bool,
+    /// Score the estimates as the model makes them, without adapting them to the session's
+    /// speaker (by default each clip's estimate is adapted to the visual statistics of the
+    /// speaker's other clips; docs/speech.md).
+    #[arg(long)]
+    pub no_speaker_adaptation: bool,
     #[command(flatten)]
     pub output: FormatArgs,
 }
@@ -119,7 +124,6 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     save_speech_model(&a.out, &trained.file)?;
     print_warnings(&record_speech_model(&a.sessions, &a.out));
     let report = &trained.file.speech.report;
-    let ll = &report.log_likelihood_per_frame;
     writeln!(
         out,
         "trained on {} clips ({} frames) in {:.1} s: {} states × {} mixtures; wrote {}",
@@ -130,7 +134,23 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
         trained.file.speech.hmm.n_mixtures(),
         a.out.display()
     )?;
-    writeln!(out, "Baum-Welch (last run): {}", stopping_reason(ll, report.converged))?;
+    match &trained.kept_run {
+        Some(k) => {
+            writeln!(
+                out,
+                "Baum-Welch from k-means on the {} clips kept for the held-out estimate: {}",
+                k.clips,
+                stopping_reason(&k.report)
+            )?;
+            writeln!(
+                out,
+                "then on all {} clips, continuing from that model: {}",
+                trained.clips,
+                stopping_reason(report)
+            )?;
+        }
+        None => writeln!(out, "Baum-Welch from k-means: {}", stopping_reason(report))?,
+    }
     match &trained.file.held_out {
         Some(h) => {
             writeln!(
@@ -162,20 +182,27 @@ fn train(a: &TrainArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// Why Baum–Welch stopped, from its log-likelihoods per frame (the initial model's first).
-fn stopping_reason(ll: &[f64], converged: bool) -> String {
+/// Why Baum–Welch stopped, from its log-likelihoods per frame (the initial model's first);
+/// a run of at most two iterations says what that means.
+fn stopping_reason(report: &crate::speech::TrainReport) -> String {
+    let ll = &report.log_likelihood_per_frame;
     let iterations = ll.len().saturating_sub(1);
-    let gain = match ll {
+    let gain = match ll.as_slice() {
         [.., a, b] => b - a,
         _ => 0.0,
     };
     let first = ll.first().copied().unwrap_or(0.0);
     let last = ll.last().copied().unwrap_or(0.0);
-    if converged {
+    if report.converged {
         format!(
-            "stopped after {iterations} iteration{}: the last raised the log-likelihood by {gain:.3} nats/frame, below the tolerance {} ({first:.2} → {last:.2} nats/frame)",
+            "stopped after {iterations} iteration{}: the last raised the log-likelihood by {gain:.3} nats/frame, below the tolerance {} ({first:.2} → {last:.2} nats/frame){}",
             if iterations == 1 { "" } else { "s" },
-            crate::speech::TrainOptions::default().tolerance
+            crate::speech::TrainOptions::default().tolerance,
+            if iterations <= 2 {
+                "; the start was already close to a local optimum, so more iterations would change the model by less than that"
+            } else {
+                ""
+            }
         )
     } else {
         format!("stopped at the cap of {iterations} iterations ({first:.2} → {last:.2} nats/frame)")
@@ -186,7 +213,12 @@ fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let model = load_speech_model(&a.model)?;
     let bar = crate::cli::progress::frames_bar(0, "fitting");
     let progress = crate::cli::progress::show_on(&bar);
-    let e = evaluate_speech(&model, &a.session, a.normalise.into(), &progress)?;
+    let adaptation = if a.no_speaker_adaptation {
+        SpeakerAdaptationChoice::Off
+    } else {
+        SpeakerAdaptationChoice::OtherClips
+    };
+    let e = evaluate_speech(&model, &a.session, a.normalise.into(), adaptation, &progress)?;
     bar.finish_and_clear();
     print_warnings(&e.warnings);
     print_warnings(&record_speech_model(std::slice::from_ref(&a.session), &a.model));
@@ -243,6 +275,10 @@ fn scores_table(e: &SpeechEvaluation) -> Table {
         "AMSE: mean square error over each parameter's variance (Terissi et al. eq. 6, lower is better); ACC: mean correlation (eq. 7, higher is better)"
             .into(),
     );
+    t.notes.push(match e.adaptation {
+        SpeakerAdaptationChoice::OtherClips => "each clip's estimates adapted to the session's speaker from the visual truth of its other clips (--no-speaker-adaptation: as the model makes them)".into(),
+        SpeakerAdaptationChoice::Off => "estimates as the model makes them, not adapted to the session's speaker".into(),
+    });
     let o = e.overlap;
     t.notes.push(if o.trained_on == 0 {
         format!("held out: none of the {} clips was in the model's training set", o.scored)

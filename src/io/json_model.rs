@@ -26,8 +26,8 @@ pub struct JsonModelKind {
 pub const SPEECH_MODEL: JsonModelKind = JsonModelKind {
     format: "lipmap speech model",
     // 2: per-recording normalised audio features, speech activity, the reference face and
-    // the held-out estimate.
-    version: 2,
+    // the held-out estimate. 3: the training clips' visual covariance (speaker adaptation).
+    version: 3,
     what: "speech model",
     made_by: "lipmap speech train",
 };
@@ -97,14 +97,18 @@ mod tests {
     fn the_header_is_checked_before_the_rest() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.json");
-        std::fs::write(&p, r#"{"format":"lipmap speech model","version":2,"x":2}"#).unwrap();
+        let v = SPEECH_MODEL.version;
+        std::fs::write(&p, format!(r#"{{"format":"lipmap speech model","version":{v},"x":2}}"#))
+            .unwrap();
         assert_eq!(read_json_model(&p, &SPEECH_MODEL).unwrap()["x"], 2);
         let e = read_json_model(&p, &QUALITY_MODEL).unwrap_err().to_string();
         assert!(e.ends_with("not a quality model file (no `format: \"lipmap saqp model\"`); make one with `lipmap saqp train`"), "{e}");
         std::fs::write(&p, r#"{"format":"lipmap speech model"}"#).unwrap();
         let e = read_json_model(&p, &SPEECH_MODEL).unwrap_err().to_string();
         assert!(
-            e.ends_with("speech model version (missing) is not the version 2 this lipmap reads"),
+            e.ends_with(&format!(
+                "speech model version (missing) is not the version {v} this lipmap reads"
+            )),
             "{e}"
         );
         std::fs::write(&p, r#"{"format":"lipmap saqp model","version":1}"#).unwrap();

@@ -9,13 +9,15 @@
 //! the steps are one file each: [`mfcc`] (log mel energies as the audio streams in, cepstra)
 //! → [`activity`] (speech or not, against the recording's own noise floor) → [`features`]
 //! (per-recording normalisation) → [`context`] (audio); [`speaker`] (a speaker's mouth motion
-//! on the reference face) → [`visual`] (mouth PCA) → [`smooth`]; [`kmeans`] → [`baum_welch`]
+//! on the reference face) → [`visual`] (mouth PCA) → [`smooth`] → [`adaptation`] (what is left
+//! of another face, from the speaker's own statistics); [`kmeans`] → [`baum_welch`]
 //! (with [`forward_backward`]) (the AV-HMM), [`inversion`], [`regression`] (baseline),
 //! [`measures`] (AMSE, ACC); [`resample`] brings audio to the model's rate; [`drive`] turns
 //! estimated mouth motion into a morphable model's coefficients. `docs/speech.md` describes
 //! the method and its departures from the paper.
 
 pub mod activity;
+pub mod adaptation;
 pub mod baum_welch;
 pub mod context;
 pub mod drive;
@@ -36,6 +38,7 @@ pub mod speaker;
 pub mod visual;
 
 pub use activity::{ActivityOptions, speech_activity};
+pub use adaptation::{SpeakerAdaptation, VisualMoments};
 pub use baum_welch::{TrainOptions, TrainReport, improve_hmm, train_hmm};
 pub use context::stack_context;
 pub use drive::{Coefficients, MouthDriver, mouth_points, neutral_coefficients};

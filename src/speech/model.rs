@@ -9,6 +9,7 @@
 //! one line naming the difference, instead of silently producing nonsense.
 
 use super::activity::ActivityOptions;
+use super::adaptation::{PRIOR_FRAMES_S, SpeakerAdaptation, VisualMoments};
 use super::baum_welch::{TrainOptions, TrainReport, improve_hmm, train_hmm};
 use super::context::stack_context;
 use super::error::{SpeechError, bad, check_finite_within, field_error};
@@ -194,6 +195,9 @@ pub struct TrainingClip<'a> {
 pub struct SpeechModel {
     pub features: FeatureDescription,
     pub visual: VisualBasis,
+    /// Covariance (K × K) of the training clips' visual features (projected and smoothed):
+    /// the reference of [`super::adaptation`].
+    pub visual_covariance: DMatrix,
     pub hmm: Hmm,
     pub baseline: LinearRegression,
     pub report: TrainReport,
@@ -318,7 +322,10 @@ impl SpeechModel {
             None => train_hmm(&joint, &opts.train, progress)?,
         };
         let baseline = fit_linear_regression(&stack_rows(&audio), &stack_rows(&vis), opts.ridge)?;
-        let model = SpeechModel { features, visual, hmm, baseline, report };
+        let visual_covariance = VisualMoments::of(&stack_rows(&vis))
+            .covariance()
+            .ok_or(SpeechError::TooFew { what: "training frames", need: 2, got: 1 })?;
+        let model = SpeechModel { features, visual, visual_covariance, hmm, baseline, report };
         model.validate()?;
         Ok(model)
     }
@@ -356,6 +363,18 @@ impl SpeechModel {
         let gram = v.components.tr_mul(&v.components);
         if (gram - DMatrix::identity(dv, dv)).abs().max() > 1e-6 {
             return Err(field_error("visual.components", "the columns are not orthonormal"));
+        }
+        let c = &self.visual_covariance;
+        if c.shape() != (dv, dv) {
+            return Err(mismatch("visual covariance rows", dv, c.nrows()));
+        }
+        check_finite_within("visual_covariance", c.iter().copied(), MAX_PARAMETER)?;
+        if (c - c.transpose()).abs().max() > 1e-9 * c.abs().max() || c.clone().cholesky().is_none()
+        {
+            return Err(field_error(
+                "visual_covariance",
+                "not a covariance (symmetric, positive definite)",
+            ));
         }
         if self.baseline.weights.shape() != (da + 1, dv) {
             return Err(mismatch("baseline rows", da + 1, self.baseline.weights.nrows()));
@@ -420,6 +439,44 @@ impl SpeechModel {
     pub fn estimate_linear(&self, audio: &DMatrix) -> Result<DMatrix, SpeechError> {
         let raw = self.baseline.predict(audio)?;
         self.finish_estimate(raw, audio, "linear baseline")
+    }
+
+    /// The map of the training speakers' visual parameters onto those of a speaker whose
+    /// fitted clips have the visual features `speaker` ([`super::adaptation`]; the prior
+    /// worth [`PRIOR_FRAMES_S`] of frames at the model's rate).
+    ///
+    /// # Errors
+    /// As [`SpeakerAdaptation::new`].
+    pub fn adaptation(&self, speaker: &VisualMoments) -> Result<SpeakerAdaptation, SpeechError> {
+        SpeakerAdaptation::new(&self.visual_covariance, speaker, self.prior_frames())
+    }
+
+    /// Per clip of one speaker, the adaptation from the visual truth of the speaker's other
+    /// clips (`truths`, T × K each).
+    ///
+    /// # Errors
+    /// As [`SpeakerAdaptation::new`].
+    pub fn adaptations_leaving_out(
+        &self,
+        truths: &[DMatrix],
+    ) -> Result<Vec<SpeakerAdaptation>, SpeechError> {
+        super::adaptation::leave_one_out(&self.visual_covariance, truths, self.prior_frames())
+    }
+
+    /// `estimate` (T × K) as the speaker's of `adaptation`.
+    ///
+    /// # Errors
+    /// An estimate of another width.
+    pub fn adapt(
+        &self,
+        adaptation: &SpeakerAdaptation,
+        estimate: &DMatrix,
+    ) -> Result<DMatrix, SpeechError> {
+        adaptation.apply(estimate, &self.visual.rest())
+    }
+
+    fn prior_frames(&self) -> f64 {
+        PRIOR_FRAMES_S * self.features.mfcc.frame_rate
     }
 
     /// An estimate brought to rest where the audio has no speech, then smoothed.

@@ -35,9 +35,9 @@ use crate::model::{LandmarkMap, MorphableModel};
 use crate::session::Session;
 use crate::speech::{
     Coefficients, FaceRegion, LogMelAnalyser, MfccOptions, MouthClip, MouthDriver,
-    SpeakerNormaliser, SpeechError, SpeechModel, SpeechOptions, TrainingClip, average_correlation,
-    average_mse, frame_features, mouth_points, neutral_coefficients, stack_context, stack_rows,
-    visual_basis_of,
+    SpeakerAdaptation, SpeakerNormaliser, SpeechError, SpeechModel, SpeechOptions, TrainingClip,
+    average_correlation, average_mse, frame_features, mouth_points, neutral_coefficients,
+    stack_context, stack_rows, visual_basis_of,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -294,7 +294,7 @@ pub struct SpeechTrainSettings {
 }
 
 impl Default for SpeechTrainSettings {
-    /// The paper's t_c 3 with [`crate::speech::TrainOptions`]' N 16, M 2.
+    /// The paper's t_c 3 with [`crate::speech::TrainOptions`]' N 16, M 4.
     fn default() -> Self {
         let t = crate::speech::TrainOptions::default();
         Self { states: t.n_states, mixtures: t.n_mixtures, context: 3 }
@@ -309,7 +309,18 @@ pub struct SpeechTrained {
     pub frames: usize,
     /// The model size used, when the corpus was too small for the one asked for.
     pub shrunk: Option<(usize, usize)>,
+    /// Baum–Welch on the clips kept for the held-out estimate (from k-means), before the
+    /// model's last run on all clips continued from it (`file.speech.report`).
+    pub kept_run: Option<KeptRun>,
     pub warnings: Vec<Warning>,
+}
+
+/// The first Baum–Welch run of a training with a held-out estimate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeptRun {
+    /// Clips it trained on.
+    pub clips: usize,
+    pub report: crate::speech::TrainReport,
 }
 
 /// A clip's fits made ready: bridged over discredited frames, and its neutral.
@@ -601,10 +612,14 @@ pub fn train_speech(
     let frames: usize = data.iter().map(|d| d.mouth.len()).sum();
     let shrunk = fit_model_size(&mut opts, frames);
     if let Some((n, m)) = shrunk {
+        let per_dimension = match MIN_FRAMES_PER_DIMENSION {
+            1 => "one training frame".to_string(),
+            k => format!("{k} training frames"),
+        };
         warnings.push(Warning(format!(
             "lipmap: warning: {frames} frames are too few for {} states × {} mixtures of \
-             {}-dimensional Gaussians (at least {MIN_FRAMES_PER_DIMENSION} frames per dimension \
-             of each); training {n} × {m} instead (more sentences allow more)",
+             {}-dimensional Gaussians (each needs on average {per_dimension} per dimension); \
+             training {n} × {m} instead (more sentences allow more)",
             settings.states,
             settings.mixtures,
             opts.features(head.mouth_vertices.len()).audio_dim() + opts.visual_components
@@ -618,7 +633,7 @@ pub fn train_speech(
             mouth: MouthClip { frames: &d.mouth, neutral: &reference },
         })
         .collect();
-    let (speech, held_out) = train_with_held_out(&clips, &opts, progress)?;
+    let (speech, held_out, kept_run) = train_with_held_out(&clips, &opts, progress)?;
     progress(Progress::Finished);
     let n_clips = clips.len();
     drop(clips);
@@ -631,7 +646,7 @@ pub fn train_speech(
         held_out,
     };
     check_model_file(&file).map_err(|e| Error::Invalid(format!("training: {e}")))?;
-    Ok(SpeechTrained { file, clips: n_clips, frames, shrunk, warnings })
+    Ok(SpeechTrained { file, clips: n_clips, frames, shrunk, kept_run, warnings })
 }
 
 /// The audio analysis of models trained on clips at `fps`.
@@ -640,10 +655,11 @@ fn mfcc_options(fps: f64) -> MfccOptions {
 }
 
 /// Training frames each Gaussian needs per dimension of its vector: a full covariance of
-/// dimension d has d(d + 3)/2 parameters; with the covariance floor, 2d frames per
-/// component on average kept held-out scores of the 12-sentence example above the linear
-/// baseline's, fewer did not.
-pub const MIN_FRAMES_PER_DIMENSION: usize = 2;
+/// dimension d has d(d + 3)/2 parameters, but the covariance floor (a ridge from the whole
+/// corpus's variances) carries what few frames cannot; d frames per component on average
+/// let 130 sentences train 16 × 4 (held-out ACC 0.013–0.017 above 16 × 2, which 2d frames
+/// forced) and keep the 12-sentence example above the linear baseline (docs/speech.md).
+pub const MIN_FRAMES_PER_DIMENSION: usize = 1;
 
 /// Shrinks `opts`' states (then mixtures) until every Gaussian has on average
 /// [`MIN_FRAMES_PER_DIMENSION`] frames per dimension; the new size when it changed.
@@ -689,7 +705,7 @@ fn train_with_held_out(
     clips: &[TrainingClip],
     opts: &SpeechOptions,
     progress: ProgressFn<'_>,
-) -> Result<(SpeechModel, Option<HeldOutEstimate>)> {
+) -> Result<(SpeechModel, Option<HeldOutEstimate>, Option<KeptRun>)> {
     let training =
         |what: String,
          clips: &[TrainingClip],
@@ -711,7 +727,7 @@ fn train_with_held_out(
             clips,
             None,
         )?;
-        return Ok((model, None));
+        return Ok((model, None, None));
     }
     let part_of = |held: bool| -> Vec<TrainingClip> {
         let is_held = |i: usize| i % HELD_OUT_EVERY == HELD_OUT_EVERY - 1;
@@ -738,12 +754,13 @@ fn train_with_held_out(
         training_hmm,
         training_linear,
     };
+    let kept_run = KeptRun { clips: kept.len(), report: part.report.clone() };
     let model = training(
         format!("training on all {} clips, {frames} frames", clips.len()),
         clips,
         Some((part.visual.clone(), part.hmm.clone())),
     )?;
-    Ok((model, Some(estimate)))
+    Ok((model, Some(estimate), Some(kept_run)))
 }
 
 /// AMSE (eq. 6) and ACC (eq. 7) of one estimator.
@@ -780,6 +797,8 @@ pub struct Overlap {
 #[derive(Clone, Debug)]
 pub struct SpeechEvaluation {
     pub clips: usize,
+    /// How the estimates were adapted to the session's speaker.
+    pub adaptation: SpeakerAdaptationChoice,
     pub frames: usize,
     pub hmm: SpeechScores,
     pub linear: SpeechScores,
@@ -808,6 +827,8 @@ pub struct DrivenClip {
 
 /// Drives the session's head from clip `clip`'s audio with `model`; `Ok(None)` with a
 /// warning for a clip without audio or fits. Used by `speech eval` and the TUI's charts.
+/// The estimate is adapted to the session's speaker from the visual truth of its other
+/// clips ([`crate::speech::adaptation`]).
 ///
 /// # Errors
 /// The model was trained on other features (frame rate) or another morphable model; audio
@@ -828,11 +849,11 @@ pub fn drive_clip(
         let said = if k == clip { &mut *warnings } else { &mut others };
         fits.extend(clip_fits(session, res, k, progress, said)?);
     }
-    let Some(c) = fits.iter().find(|c| c.clip == clip) else {
+    let Some(i) = fits.iter().position(|c| c.clip == clip) else {
         return Ok(None);
     };
-    let neutral = speaker_neutral(&fits)?;
-    drive_fitted(model, session, res, c, &neutral, warnings).map(Some)
+    let speaker = SessionSpeaker::of(model, res, &fits, SpeakerAdaptationChoice::OtherClips)?;
+    drive_fitted(model, session, res, &fits[i], &speaker, i, warnings).map(Some)
 }
 
 /// `Ok` when `res`' model and map are those `model` was trained on.
@@ -854,42 +875,96 @@ fn speaker_neutral(fits: &[ClipFits]) -> Result<Coefficients> {
     neutral_coefficients(&neutrals, &[]).map_err(speech_error)
 }
 
-/// [`drive_clip`] of a clip's fits, with its speaker's neutral.
+/// Whether estimates are adapted to the scored speaker's visual statistics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpeakerAdaptationChoice {
+    /// From the visual truth of the speaker's other clips (each clip's own left out).
+    OtherClips,
+    /// Not at all: the training speakers' parameters as they are.
+    Off,
+}
+
+/// The speaker of a session's clips as a model sees them: its neutral, the map of its face
+/// onto the model's reference face, each clip's visual truth and each clip's adaptation.
+struct SessionSpeaker {
+    neutral: Coefficients,
+    normaliser: SpeakerNormaliser,
+    truths: Vec<DMatrix>,
+    adaptations: Vec<SpeakerAdaptation>,
+}
+
+impl SessionSpeaker {
+    fn of(
+        model: &SpeechModelFile,
+        res: &Resources,
+        fits: &[ClipFits],
+        choice: SpeakerAdaptationChoice,
+    ) -> Result<Self> {
+        let neutral = speaker_neutral(fits)?;
+        let normaliser = normaliser_of(&model.head, &res.model, &neutral)?;
+        let reference = model.head.reference_mouth();
+        let sm = &model.speech;
+        let truths = fits
+            .iter()
+            .map(|c| {
+                let frames = reference_mouth_frames(
+                    &res.model,
+                    &model.head.mouth_vertices,
+                    &c.bridged,
+                    &neutral,
+                    &normaliser,
+                    &reference,
+                )?;
+                sm.visual_features(&MouthClip { frames: &frames, neutral: &reference })
+                    .map_err(speech_error)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let adaptations = match choice {
+            SpeakerAdaptationChoice::OtherClips => {
+                sm.adaptations_leaving_out(&truths).map_err(speech_error)?
+            }
+            SpeakerAdaptationChoice::Off => {
+                vec![SpeakerAdaptation::identity(sm.visual.n_components()); truths.len()]
+            }
+        };
+        Ok(Self { neutral, normaliser, truths, adaptations })
+    }
+}
+
+/// [`drive_clip`] of a clip's fits, the `i`th clip of `speaker`.
 fn drive_fitted(
     model: &SpeechModelFile,
     session: &Session,
     res: &Resources,
     c: &ClipFits,
-    neutral: &Coefficients,
+    speaker: &SessionSpeaker,
+    i: usize,
     warnings: &mut Vec<Warning>,
 ) -> Result<DrivenClip> {
     let mouth = &model.head.mouth_vertices;
-    let clip = c.clip;
     let sm = &model.speech;
     let here =
         crate::speech::FeatureDescription { mfcc: mfcc_options(c.fps), ..sm.features.clone() };
     sm.features.check_matches(&here).map_err(speech_error)?;
     let audio = session
-        .clip(clip)?
+        .clip(c.clip)?
         .audio
         .clone()
         .ok_or_else(|| Error::Invalid("the clip has no audio".into()))?;
     let sound = clip_log_mel(&c.name, &audio, &sm.features.mfcc, c.held.len())?;
     warnings.extend(sound.warning);
-    let normaliser = normaliser_of(&model.head, &res.model, neutral)?;
-    let reference = model.head.reference_mouth();
-    let frames =
-        reference_mouth_frames(&res.model, mouth, &c.bridged, neutral, &normaliser, &reference)?;
-    let truth = sm
-        .visual_features(&MouthClip { frames: &frames, neutral: &reference })
-        .map_err(speech_error)?;
     let features = sm.audio_features(&sound.log_mel).map_err(speech_error)?;
-    let hmm =
-        sm.inverter().and_then(|inv| sm.estimate_visual(&inv, &features)).map_err(speech_error)?;
-    let linear = sm.estimate_linear(&features).map_err(speech_error)?;
+    let adapt = |estimate: DMatrix| sm.adapt(&speaker.adaptations[i], &estimate);
+    let hmm = sm
+        .inverter()
+        .and_then(|inv| sm.estimate_visual(&inv, &features))
+        .and_then(adapt)
+        .map_err(speech_error)?;
+    let linear = sm.estimate_linear(&features).and_then(adapt).map_err(speech_error)?;
     let driver = MouthDriver::new(&res.model, mouth, DRIVER_RIDGE).map_err(speech_error)?;
     let drive = |estimate: &DMatrix| -> Result<Vec<FrameFit>> {
-        let coefficients = drive_coefficients(sm, &driver, neutral, estimate, Some(&normaliser))?;
+        let coefficients =
+            drive_coefficients(sm, &driver, &speaker.neutral, estimate, Some(&speaker.normaliser))?;
         Ok(c.held
             .iter()
             .zip(coefficients)
@@ -905,7 +980,7 @@ fn drive_fitted(
     let utterance_fitted = utterance(&c.held)?;
     let trained_on = model.trained_on.iter().any(|t| t.audio_hash == sound.hash);
     Ok(DrivenClip {
-        truth,
+        truth: speaker.truths[i].clone(),
         hmm,
         linear,
         trained_on,
@@ -946,7 +1021,9 @@ fn drive_coefficients(
         .collect()
 }
 
-/// Evaluates `model` on every clip with audio of `session`.
+/// Evaluates `model` on every clip with audio of `session`, each clip's estimates adapted
+/// to the session's speaker as `adaptation` says (by default from the visual truth of the
+/// speaker's other clips, never the clip's own).
 ///
 /// # Errors
 /// As [`drive_clip`]; no clip with audio; fewer than 2 frames; scores that are not finite.
@@ -954,6 +1031,7 @@ pub fn evaluate_speech(
     model: &SpeechModelFile,
     session: &str,
     normalisation: Normalisation,
+    adaptation: SpeakerAdaptationChoice,
     progress: ProgressFn<'_>,
 ) -> Result<SpeechEvaluation> {
     let mut o = open(session)?;
@@ -969,10 +1047,11 @@ pub fn evaluate_speech(
     if fits.is_empty() {
         return Err(Error::Invalid(format!("{session}: no clip with audio and fits")));
     }
-    let neutral = speaker_neutral(&fits)?;
+    let speaker =
+        SessionSpeaker::of(model, &o.res, &fits, adaptation).map_err(|e| e.context(session))?;
     let mut driven = Vec::new();
-    for c in &fits {
-        let d = drive_fitted(model, &o.read.session, &o.res, c, &neutral, &mut warnings)
+    for (i, c) in fits.iter().enumerate() {
+        let d = drive_fitted(model, &o.read.session, &o.res, c, &speaker, i, &mut warnings)
             .map_err(|e| e.context(session))?;
         driven.push(d);
     }
@@ -996,6 +1075,7 @@ pub fn evaluate_speech(
     };
     Ok(SpeechEvaluation {
         clips: driven.len(),
+        adaptation,
         frames: truth.nrows(),
         hmm,
         linear,
@@ -1241,13 +1321,13 @@ mod tests {
     #[test]
     fn a_small_corpus_shrinks_the_model_and_a_large_one_keeps_it() {
         let mut opts = SpeechOptions::new(16_000.0, 24.0);
-        // 13 × 7 audio + 4 visual = 95 dimensions: 190 frames per Gaussian.
+        // 13 × 7 audio + 4 visual = 95 dimensions: 95 frames per Gaussian.
         assert_eq!(fit_model_size(&mut opts, 7_859), None);
-        assert_eq!((opts.train.n_states, opts.train.n_mixtures), (16, 2));
-        assert_eq!(fit_model_size(&mut opts, 734), Some((3, 1)));
-        assert_eq!((opts.train.n_states, opts.train.n_mixtures), (3, 1));
+        assert_eq!((opts.train.n_states, opts.train.n_mixtures), (16, 4));
+        assert_eq!(fit_model_size(&mut opts, 734), Some((7, 1)));
+        assert_eq!((opts.train.n_states, opts.train.n_mixtures), (7, 1));
         let mut opts = SpeechOptions::new(16_000.0, 24.0);
-        assert_eq!(fit_model_size(&mut opts, 4_000), Some((16, 1)));
+        assert_eq!(fit_model_size(&mut opts, 4_000), Some((16, 2)));
         assert_eq!(fit_model_size(&mut SpeechOptions::new(16_000.0, 24.0), 10), Some((2, 1)));
     }
 }

@@ -129,16 +129,15 @@ fn s(p: &Path) -> &str {
 
 /// The session at `from` with each listed clip's last tracked frame set to `frame` and
 /// no fit cache, written to `to`.
-fn edited(from: &Path, to: &Path, clips: &[usize], frame: u64) -> PathBuf {
-    let mut v: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(from).expect("session")).expect("JSON");
+fn edited(from: &Path, to: &Path, clips: &[usize], frame: usize) -> PathBuf {
+    let mut s = lipmap::session::Session::load(from).expect("session");
     for &c in clips {
-        let tracked = v["clips"][c]["tracked"].as_array_mut().expect("tracked frames");
-        let last = tracked.last_mut().expect("a tracked frame");
-        last["frame"] = serde_json::json!(frame);
+        let mut track = s.clips[c].tracked().expect("tracked frames").as_ref().clone();
+        track.frames.last_mut().expect("a tracked frame").frame = frame;
+        s.set_tracked(c, track).expect("clip");
     }
-    v.as_object_mut().expect("object").remove("fit_cache");
-    std::fs::write(to, serde_json::to_vec(&v).expect("JSON")).expect("write");
+    s.clear_fit_cache();
+    s.save(to).expect("write");
     to.to_path_buf()
 }
 

@@ -171,7 +171,7 @@ fn import_mapping_sets_the_map_and_a_differing_labelled_map_is_warned_about() {
     assert!(stdout.contains("cached fits dropped"), "{stdout}");
     let loaded = Session::load(&session).unwrap();
     assert!(loaded.landmark_map.inline.is_none());
-    assert!(loaded.fit_cache.is_empty());
+    assert!(!loaded.has_cached_fits());
     let out = lipmap(&["fit", s(&session)]);
     assert!(!text(&out.stderr).contains("labelled in the TUI"), "{}", text(&out.stderr));
 
@@ -237,7 +237,7 @@ fn too_small_a_map_fails_once_before_fitting() {
         );
     }
     // Nothing was fitted or cached.
-    assert!(Session::load(&session).unwrap().fit_cache.is_empty());
+    assert!(!Session::load(&session).unwrap().has_cached_fits());
     // The same check through the core, as the TUI calls it: 1 point reads singular.
     let map = lipmap::io::landmark_map_toml::read_landmark_map(&small).unwrap();
     let settings = lipmap::fit::FitSettings {

@@ -121,14 +121,8 @@ fn transfer_keeps_hostile_clip_names_inside_out() {
     let (session, head, map) = demo_with_head(dir.path());
     let mut json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&session).unwrap()).unwrap();
-    let old = json["clips"][0]["name"].as_str().unwrap().to_string();
     let evil = "../../evil";
     json["clips"][0]["name"] = evil.into();
-    for e in json["fit_cache"].as_array_mut().into_iter().flatten() {
-        if e["clip"] == old.as_str() {
-            e["clip"] = evil.into();
-        }
-    }
     std::fs::write(&session, serde_json::to_vec(&json).unwrap()).unwrap();
     let out = dir.path().join("a").join("b").join("out");
     // A symlink where a clip's folder goes is replaced, never written through.

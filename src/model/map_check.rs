@@ -355,6 +355,15 @@ pub fn check_layout(points: &BTreeMap<usize, Point3>) -> Vec<MapProblem> {
     let tol = 0.01 * size;
     let x = |l: usize| points.get(&l).map(|p| p.x);
     let y = |l: usize| points.get(&l).map(|p| p.y);
+    // Swapped pairs first: a swap also puts both points on the wrong side, and the swap is
+    // the cause a one-line summary should name.
+    for &(r, l) in &MIRROR_PAIRS {
+        if let (Some(xr), Some(xl)) = (x(r), x(l))
+            && xr >= xl
+        {
+            problems.push(MapProblem::PairSwapped { right: r, left: l });
+        }
+    }
     let mut mid: Vec<Real> = MIDLINE.iter().filter_map(|&l| x(l)).collect();
     mid.sort_by(Real::total_cmp);
     if let Some(&m) = mid.get(mid.len() / 2) {
@@ -365,13 +374,6 @@ pub fn check_layout(points: &BTreeMap<usize, Point3>) -> Vec<MapProblem> {
             if x(l).is_some_and(|xl| xl < m - tol) {
                 problems.push(MapProblem::WrongSide { landmark: l });
             }
-        }
-    }
-    for &(r, l) in &MIRROR_PAIRS {
-        if let (Some(xr), Some(xl)) = (x(r), x(l))
-            && xr >= xl
-        {
-            problems.push(MapProblem::PairSwapped { right: r, left: l });
         }
     }
     for chain in LEFT_TO_RIGHT {

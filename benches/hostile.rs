@@ -163,7 +163,11 @@ fn main() {
         &["speech", "train", s(&far), "--states", "2", "--mixtures", "1", "--out", s(&sp_far)],
     );
     let over = edited(&session, &demo.join("over.lipmap.json"), &[0, 1, 2, 3], 1_048_575);
-    report("every clip at frame 2^20-1: eval (one clip at a time)", size(&over), &["eval", s(&over)]);
+    report(
+        "every clip at frame 2^20-1: eval (one clip at a time)",
+        size(&over),
+        &["eval", s(&over)],
+    );
 
     // Long audio: the demo voice repeated to 62 s.
     let model = tmp.path().join("speech.json");

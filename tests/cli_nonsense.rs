@@ -93,7 +93,8 @@ fn maps_on_one_vertex_empty_or_swapped_are_refused_by_import_new_and_transfer() 
     // Nothing changed; accepted, it goes on with the problems said.
     let before = lipmap::session::Session::load(&session).unwrap();
     assert_eq!(before.landmark_map.file.as_deref(), Some(map.as_path()));
-    let out = lipmap(&["import", s(&session), "--mapping", s(&one_vertex), "--accept-map-warnings"]);
+    let out =
+        lipmap(&["import", s(&session), "--mapping", s(&one_vertex), "--accept-map-warnings"]);
     ok(&out);
     assert!(text(&out.stderr).contains("share vertex 5"), "{}", text(&out.stderr));
     ok(&lipmap(&["import", s(&session), "--mapping", s(&map)]));
@@ -155,10 +156,7 @@ fn map_check_refuses_a_head_that_is_not_a_surface() {
         ),
         (
             "slivers.obj",
-            vertices(cubic)
-                + "v 0 0 0\nv 1 1 1\nv 2 2 2\n"
-                + &faces()
-                + "f 69 70 71\nf 71 70 69\n",
+            vertices(cubic) + "v 0 0 0\nv 1 1 1\nv 2 2 2\n" + &faces() + "f 69 70 71\nf 71 70 69\n",
             "2 of the mesh's 68 faces have zero area",
         ),
     ];
@@ -205,12 +203,18 @@ fn validate_names_a_missing_file_an_absurd_field_and_a_damaged_data_file() {
     };
     let gone = dir.path().join("gone");
     for (name, field, edit) in [
-        ("m.lipmap.json", "model", &(|s: &mut lipmap::session::Session| {
-            s.model.as_mut().unwrap().path = gone.join("model.lmm")
-        }) as &dyn Fn(&mut lipmap::session::Session)),
+        (
+            "m.lipmap.json",
+            "model",
+            &(|s: &mut lipmap::session::Session| {
+                s.model.as_mut().unwrap().path = gone.join("model.lmm")
+            }) as &dyn Fn(&mut lipmap::session::Session),
+        ),
         ("h.lipmap.json", "head_mesh", &|s| s.head_mesh = Some(gone.join("head.obj"))),
         ("p.lipmap.json", "landmark_map", &|s| s.landmark_map.file = Some(gone.join("map.toml"))),
-        ("a.lipmap.json", "audio", &|s| s.clips[0].audio.as_mut().unwrap().file = gone.join("v.wav")),
+        ("a.lipmap.json", "audio", &|s| {
+            s.clips[0].audio.as_mut().unwrap().file = gone.join("v.wav")
+        }),
     ] {
         let path = variant(name, edit);
         let e = invalid(&lipmap(&["validate", s(&path)]));
@@ -234,7 +238,8 @@ fn validate_names_a_missing_file_an_absurd_field_and_a_damaged_data_file() {
     // the flags and a timestamp or confidence when flagged) made infinite: exponent all ones.
     let head = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
     let flags = bytes[16 + head + 4];
-    let xy = 16 + head + 5 + if flags & 2 != 0 { 8 } else { 0 } + if flags & 4 != 0 { 4 } else { 0 };
+    let xy =
+        16 + head + 5 + if flags & 2 != 0 { 8 } else { 0 } + if flags & 4 != 0 { 4 } else { 0 };
     bytes[xy + 6] |= 0xf0;
     bytes[xy + 7] = 0x7f;
     std::fs::write(&track, &bytes).unwrap();
@@ -251,11 +256,20 @@ fn validate_names_a_missing_file_an_absurd_field_and_a_damaged_data_file() {
 #[test]
 fn phone_files_with_empty_labels_or_phones_of_no_length_are_refused_with_the_line() {
     let dir = tempfile::tempdir().unwrap();
-    let many: String = (0..1000).map(|k| format!("{},{},AA\n", k as f64 * 1e-9, (k + 1) as f64 * 1e-9)).collect();
+    let many: String =
+        (0..1000).map(|k| format!("{},{},AA\n", k as f64 * 1e-9, (k + 1) as f64 * 1e-9)).collect();
     for (name, body, want) in [
-        ("empty_label.csv", "0,0.1,B\n0.1,0.2,\n".to_string(), ":3: the phone at 0.1–0.2 s has an empty label"),
+        (
+            "empty_label.csv",
+            "0,0.1,B\n0.1,0.2,\n".to_string(),
+            ":3: the phone at 0.1–0.2 s has an empty label",
+        ),
         ("zero.csv", "0,0.1,B\n0.1,0.1,AA\n".into(), ":3: phone `AA` (0.1–0.1 s) lasts no time"),
-        ("negative.csv", "0,0.1,B\n0.2,0.15,AA\n".into(), ":3: phone `AA` (0.2–0.15 s) ends before it starts"),
+        (
+            "negative.csv",
+            "0,0.1,B\n0.2,0.15,AA\n".into(),
+            ":3: phone `AA` (0.2–0.15 s) ends before it starts",
+        ),
         ("nanoseconds.csv", many, ":2: phone `AA` (0–0.000000001 s) lasts 1e-9 s"),
     ] {
         let file = dir.path().join(name);

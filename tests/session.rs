@@ -355,7 +355,10 @@ fn an_old_session_with_inline_tracks_migrates_to_data_files_on_save() {
     old.save(&file).unwrap();
     let text = std::fs::read_to_string(&file).unwrap();
     assert!(text.contains("\"schema_version\": 3"), "{text}");
-    assert!(!text.contains("\"xy\"") && !text.contains("\"yaw\""), "per-frame data left in the JSON");
+    assert!(
+        !text.contains("\"xy\"") && !text.contains("\"yaw\""),
+        "per-frame data left in the JSON"
+    );
     let data = dir.path().join("sessions").join("old.lipmap.d");
     let mut names: Vec<String> = std::fs::read_dir(&data)
         .unwrap()
@@ -409,7 +412,9 @@ fn a_session_saved_under_another_name_takes_its_data_along() {
     assert_eq!(back.effective_track(0).unwrap(), frames);
     assert_eq!(frames.frames.len(), 3);
     assert_eq!(back.clips.len(), 1);
-    assert!(back.clips[0].tracked_file().unwrap().starts_with(dir.path().join("b").join("t.lipmap.d")));
+    assert!(
+        back.clips[0].tracked_file().unwrap().starts_with(dir.path().join("b").join("t.lipmap.d"))
+    );
 }
 
 // Crash safety

@@ -182,7 +182,10 @@ fn export_and_eval_after_kill_9_see_the_edits_of_every_frame_but_the_last() {
     let edited: std::collections::BTreeSet<usize> =
         saved.clips[0].corrections.points.keys().copied().collect();
     assert!(edited.len() + 1 >= n && edited.len() <= n, "edited frames {edited:?}");
-    assert!(saved.stale_frames(0).unwrap().is_empty(), "eval fitted other landmarks than the edited");
+    assert!(
+        saved.stale_frames(0).unwrap().is_empty(),
+        "eval fitted other landmarks than the edited"
+    );
     assert!(!lipmap::session::journal::journal_path(&session).exists(), "journal left behind");
 }
 

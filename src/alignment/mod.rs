@@ -50,7 +50,10 @@ impl Phone {
         } else if d == 0.0 {
             "lasts no time".to_string()
         } else {
-            format!("lasts {} s, less than the {MIN_PHONE_S} s a phone takes", crate::math::short_number(d))
+            format!(
+                "lasts {} s, less than the {MIN_PHONE_S} s a phone takes",
+                crate::math::short_number(d)
+            )
         };
         Err(format!(
             "phone `{}` ({}–{} s) {what}",

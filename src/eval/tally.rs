@@ -8,11 +8,11 @@
 //! [`super::worst_frames_by_error`], [`super::worst_frames_by_residual`]): the same sums in
 //! the same order, the same ties.
 
+use super::Utterance;
 use super::report::SentenceRow;
 use super::rmse::{GroupRmse, GroupSums, finish_groups, phoneme_key, viseme_key};
 use super::visemes::VisemeTable;
 use super::worst::{WorstFit, WorstFrame, add_worst_fits, add_worst_frames};
-use super::Utterance;
 use crate::alignment::PhoneInventory;
 use crate::fit::FrameFit;
 use crate::measure::Measure;
@@ -90,9 +90,8 @@ mod tests {
 
     fn utt(name: &str, shift: f64) -> Utterance {
         let ph = |s: f64, e: f64, l: &str| Phone { start: s, end: e, label: l.into() };
-        let alignment = Alignment {
-            phones: vec![ph(0.0, 0.3, "B"), ph(0.3, 0.6, "AA1"), ph(0.6, 0.9, "UW")],
-        };
+        let alignment =
+            Alignment { phones: vec![ph(0.0, 0.3, "B"), ph(0.3, 0.6, "AA1"), ph(0.6, 0.9, "UW")] };
         let series = |k: f64| (0..9).map(|f| Some((f as f64 * k + shift).sin())).collect();
         let video = Trajectory { w: series(0.7), h: series(0.3), p: vec![] };
         let head = Trajectory { w: series(0.9), h: series(0.31), p: vec![] };
@@ -104,9 +103,11 @@ mod tests {
         let us: Vec<Utterance> = (0..5).map(|k| utt(&format!("s{k}"), k as f64 * 0.37)).collect();
         let phones = PhoneInventory::default();
         let visemes = VisemeTable::default();
-        let fit = |frame: usize, rms: f64| FrameFit { reproj_rms_px: rms, ..FrameFit::unposed(frame) };
-        let fits: Vec<Vec<FrameFit>> =
-            (0..5).map(|k| (0..9).map(|f| fit(f, ((f * 7 + k * 3) % 5) as f64)).collect()).collect();
+        let fit =
+            |frame: usize, rms: f64| FrameFit { reproj_rms_px: rms, ..FrameFit::unposed(frame) };
+        let fits: Vec<Vec<FrameFit>> = (0..5)
+            .map(|k| (0..9).map(|f| fit(f, ((f * 7 + k * 3) % 5) as f64)).collect())
+            .collect();
         let mut t = Tally::new(4);
         for (u, f) in us.iter().zip(&fits) {
             t.add_utterance(u, &phones, &visemes);

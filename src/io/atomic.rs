@@ -15,10 +15,10 @@
 //! leaves the temp file behind: the first atomic write of a later process into that folder
 //! removes the temp files of processes that are gone ([`remove_dead_temp_files`]).
 
+use std::collections::BTreeSet;
 use std::ffi::OsString;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
-use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -215,10 +215,7 @@ static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 
 /// [`remove_dead_temp_files`] of `dir`, the first time this process writes there.
 fn sweep_once(dir: &Path) {
-    let first = SWEPT
-        .lock()
-        .map(|mut swept| swept.insert(dir.to_path_buf()))
-        .unwrap_or(false);
+    let first = SWEPT.lock().map(|mut swept| swept.insert(dir.to_path_buf())).unwrap_or(false);
     if first {
         remove_dead_temp_files(dir);
     }

@@ -117,8 +117,10 @@ impl TextGrid {
         match &tier.kind {
             TierKind::Intervals(phones) => {
                 // The phones' own rule; an empty label is a silence here (Praat's way).
-                if let Some((k, m)) =
-                    phones.iter().enumerate().find_map(|(k, p)| p.check_duration().err().map(|m| (k, m)))
+                if let Some((k, m)) = phones
+                    .iter()
+                    .enumerate()
+                    .find_map(|(k, p)| p.check_duration().err().map(|m| (k, m)))
                 {
                     return Err(FormatError::at_line(
                         path,

@@ -108,21 +108,48 @@ pub struct Proportion {
 /// One thing wrong with a map (landmarks 0-based).
 #[derive(Clone, Debug, PartialEq)]
 pub enum MapProblem {
-    SharedVertex { vertex: usize, landmarks: Vec<usize> },
-    VertexOutOfRange { landmark: usize, vertex: usize },
-    WrongSide { landmark: usize },
-    PairSwapped { right: usize, left: usize },
-    OutOfOrder { first: usize, second: usize },
-    NotAbove { landmark: usize, reference: usize },
-    NotBelow { landmark: usize, reference: usize },
-    Proportion { name: &'static str, value: Real, range: (Real, Real) },
+    SharedVertex {
+        vertex: usize,
+        landmarks: Vec<usize>,
+    },
+    VertexOutOfRange {
+        landmark: usize,
+        vertex: usize,
+    },
+    WrongSide {
+        landmark: usize,
+    },
+    PairSwapped {
+        right: usize,
+        left: usize,
+    },
+    OutOfOrder {
+        first: usize,
+        second: usize,
+    },
+    NotAbove {
+        landmark: usize,
+        reference: usize,
+    },
+    NotBelow {
+        landmark: usize,
+        reference: usize,
+    },
+    Proportion {
+        name: &'static str,
+        value: Real,
+        range: (Real, Real),
+    },
     /// The map maps no landmark.
     NoLandmarks,
     /// The mesh has no faces: it is not a surface a map can be labelled on.
     NoFaces,
     /// Faces of (numerically) zero area: all of them (the vertices lie on a line or in one
     /// point), or some.
-    ZeroAreaFaces { count: usize, faces: usize },
+    ZeroAreaFaces {
+        count: usize,
+        faces: usize,
+    },
 }
 
 impl MapProblem {

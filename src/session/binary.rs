@@ -187,7 +187,11 @@ impl Reader {
     /// # Errors
     /// Not a regular file, unreadable, too short, another kind of file, a newer version, a
     /// header longer than [`MAX_HEADER_BYTES`] or than the file.
-    pub fn open(path: &Path, kind: Kind, newest: u16) -> Result<(Self, u16, Vec<u8>), SessionError> {
+    pub fn open(
+        path: &Path,
+        kind: Kind,
+        newest: u16,
+    ) -> Result<(Self, u16, Vec<u8>), SessionError> {
         let io = |source| SessionError::Io { path: path.to_path_buf(), source };
         let meta = crate::io::input::check_regular_file(path)
             .map_err(|e| SessionError::Invalid { path: path.to_path_buf(), message: e.message })?;
@@ -201,10 +205,9 @@ impl Reader {
             record: String::new(),
         };
         if r.len < 20 + 8 {
-            return Err(r.fault(
-                "header",
-                &format!("{} bytes is too short for a lipmap data file", r.len),
-            ));
+            return Err(
+                r.fault("header", &format!("{} bytes is too short for a lipmap data file", r.len))
+            );
         }
         let mut magic = [0u8; 8];
         r.fill(&mut magic, "magic")?;
@@ -242,8 +245,9 @@ impl Reader {
     /// # Errors
     /// The header is not the JSON `T` expects.
     pub fn header<T: serde::de::DeserializeOwned>(&self, head: &[u8]) -> Result<T, SessionError> {
-        serde_json::from_slice(head).map_err(|e| {
-            SessionError::Invalid { path: self.path.clone(), message: format!("header: {e}") }
+        serde_json::from_slice(head).map_err(|e| SessionError::Invalid {
+            path: self.path.clone(),
+            message: format!("header: {e}"),
         })
     }
 
@@ -361,10 +365,9 @@ impl Reader {
     pub fn finish(mut self) -> Result<u64, SessionError> {
         self.record.clear();
         if self.remaining() != 0 {
-            return Err(self.fault(
-                "records",
-                &format!("{} bytes past the last record", self.remaining()),
-            ));
+            return Err(
+                self.fault("records", &format!("{} bytes past the last record", self.remaining()))
+            );
         }
         let expected = self.hash.finish();
         let mut b = [0u8; 8];

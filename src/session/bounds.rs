@@ -59,8 +59,7 @@ pub fn check_tracked_frame(f: &crate::landmarks::FrameLandmarks) -> Result<(), S
     if f.frame > MAX_FRAME {
         return Err(format!("{PAST} ({MAX_FRAME})"));
     }
-    if f.timestamp.is_some_and(|t| !t.is_finite()) || f.confidence.is_some_and(|v| !v.is_finite())
-    {
+    if f.timestamp.is_some_and(|t| !t.is_finite()) || f.confidence.is_some_and(|v| !v.is_finite()) {
         return Err("has a non-finite timestamp or confidence".into());
     }
     if let Some(i) = f.points.iter().position(|p| p.confidence.is_some_and(|v| !v.is_finite())) {
@@ -92,8 +91,7 @@ pub(crate) fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), Stri
     if let Some(f) = e.frames.iter().find(|f| f.fit.frame > MAX_FRAME) {
         return Err(format!("cached fit of frame {} {}", f.fit.frame, PAST));
     }
-    if let Some(f) = e.frames.iter().find(|f| super::cache::storable_fit(f.fit.clone()) != f.fit)
-    {
+    if let Some(f) = e.frames.iter().find(|f| super::cache::storable_fit(f.fit.clone()) != f.fit) {
         return Err(format!("cached fit of frame {} has non-finite values", f.fit.frame));
     }
     // One model fitted every frame of an entry, so its good fits agree on their coefficient

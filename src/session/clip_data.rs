@@ -155,12 +155,22 @@ impl<T: ClipDataKind> ClipData<T> {
     /// Data in memory only (written to a file by the next save).
     pub fn new(value: T) -> Self {
         let summary = value.summary();
-        Self::from_slot(Slot { file: None, summary, hash: None, held: Held::Strong(Arc::new(value)) })
+        Self::from_slot(Slot {
+            file: None,
+            summary,
+            hash: None,
+            held: Held::Strong(Arc::new(value)),
+        })
     }
 
     /// Data in `file` (absolute), which the session says holds `summary`.
     pub(crate) fn in_file(file: PathBuf, summary: T::Summary) -> Self {
-        Self::from_slot(Slot { file: Some(file), summary, hash: None, held: Held::Weak(Weak::new()) })
+        Self::from_slot(Slot {
+            file: Some(file),
+            summary,
+            hash: None,
+            held: Held::Weak(Weak::new()),
+        })
     }
 
     fn from_slot(slot: Slot<T>) -> Self {
@@ -232,10 +242,10 @@ impl<T: ClipDataKind> ClipData<T> {
         }
         let h = match self.file().and_then(|f| hash_in_name(&f)) {
             Some(h) => h,
-            None => self.get()?.write(&mut HashOnly).map_err(|source| SessionError::Io {
-                path: PathBuf::from("(memory)"),
-                source,
-            })?,
+            None => self
+                .get()?
+                .write(&mut HashOnly)
+                .map_err(|source| SessionError::Io { path: PathBuf::from("(memory)"), source })?,
         };
         self.lock().hash = Some(h);
         Ok(h)
@@ -383,7 +393,10 @@ mod tests {
         let d = ClipData::new(track(2));
         d.put_in(dir.path(), "c").unwrap();
         let file = d.file().unwrap();
-        let wrong = ClipData::<Track>::in_file(file.clone(), TrackSummary { frames: 2, last_frame: Some(5) });
+        let wrong = ClipData::<Track>::in_file(
+            file.clone(),
+            TrackSummary { frames: 2, last_frame: Some(5) },
+        );
         let e = wrong.get().unwrap_err().to_string();
         assert!(e.contains(file.to_str().unwrap()) && e.contains("session says 5"), "{e}");
         std::fs::write(&file, b"not a track").unwrap();

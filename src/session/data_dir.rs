@@ -49,9 +49,9 @@ pub fn file_stem(clip: &str) -> String {
 fn is_data_file(name: &str) -> bool {
     let Some((rest, ext)) = name.rsplit_once('.') else { return false };
     matches!(ext, "track" | "fits")
-        && rest.rsplit_once('.').is_some_and(|(_, h)| {
-            h.len() == 16 && h.bytes().all(|b| b.is_ascii_hexdigit())
-        })
+        && rest
+            .rsplit_once('.')
+            .is_some_and(|(_, h)| h.len() == 16 && h.bytes().all(|b| b.is_ascii_hexdigit()))
 }
 
 /// The data file names a session file's text refers to (by file name: names carry their
@@ -95,7 +95,10 @@ impl<'de> Deserialize<'de> for FileRef {
             fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
                 f.write_str("a data file reference or inline data")
             }
-            fn visit_map<A: serde::de::MapAccess<'de>>(self, mut m: A) -> Result<FileRef, A::Error> {
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut m: A,
+            ) -> Result<FileRef, A::Error> {
                 let mut file = None;
                 while let Some(k) = m.next_key::<String>()? {
                     if k == "file" {
@@ -106,7 +109,10 @@ impl<'de> Deserialize<'de> for FileRef {
                 }
                 Ok(FileRef(file))
             }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut s: A) -> Result<FileRef, A::Error> {
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut s: A,
+            ) -> Result<FileRef, A::Error> {
                 while s.next_element::<IgnoredAny>()?.is_some() {}
                 Ok(FileRef(None))
             }
@@ -158,7 +164,8 @@ pub fn tidy(session: &Path, kept: &BTreeSet<OsString>, before: &BTreeSet<OsStrin
         }
         if before.contains(&name) {
             // Let go now: readers of the replaced version get the grace from here.
-            let _ = std::fs::File::options().write(true).open(&path).and_then(|f| f.set_modified(now));
+            let _ =
+                std::fs::File::options().write(true).open(&path).and_then(|f| f.set_modified(now));
             continue;
         }
         let old = entry

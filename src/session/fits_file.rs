@@ -151,8 +151,9 @@ pub fn read_fits(path: &Path, entries: usize) -> Result<Vec<FitCacheEntry>, Sess
             clip_input: e.clip_input,
             frames,
         };
-        super::bounds::check_settings_frames(&entry).map_err(|m| {
-            SessionError::Invalid { path: path.to_path_buf(), message: format!("entry {k}: {m}") }
+        super::bounds::check_settings_frames(&entry).map_err(|m| SessionError::Invalid {
+            path: path.to_path_buf(),
+            message: format!("entry {k}: {m}"),
         })?;
         out.push(entry);
     }

@@ -208,8 +208,12 @@ impl Session {
             session.name = model::session_name_of(&abs);
         }
         session.adopt_legacy_fit_cache();
-        session.validate().map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
-        session.check_data_files().map_err(|message| SessionError::Invalid { path: abs, message })?;
+        session
+            .validate()
+            .map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
+        session
+            .check_data_files()
+            .map_err(|message| SessionError::Invalid { path: abs, message })?;
         Ok(session)
     }
 
@@ -240,7 +244,9 @@ impl Session {
     /// than when its clip is reached).
     fn check_data_files(&self) -> Result<(), String> {
         for c in &self.clips {
-            for (what, file) in [("tracked", c.tracked_data().file()), ("fit_cache", c.fit_cache.file())] {
+            for (what, file) in
+                [("tracked", c.tracked_data().file()), ("fit_cache", c.fit_cache.file())]
+            {
                 if let Some(f) = file
                     && let Err(e) = std::fs::metadata(&f)
                 {
@@ -695,7 +701,12 @@ impl Session {
         let frames = c.corrections.frames_with_landmarks(&tracked);
         let entries = c.fit_cache.get()?;
         let Some(index) = entries.iter().position(|e| &e.settings == settings) else {
-            return Ok(CacheState { entries, index: None, fresh: Default::default(), stale: frames });
+            return Ok(CacheState {
+                entries,
+                index: None,
+                fresh: Default::default(),
+                stale: frames,
+            });
         };
         let entry = &entries[index];
         let input = crate::landmarks::closure::with_sealed_lips(

@@ -474,8 +474,9 @@ pub(crate) mod fits_field {
                 self,
                 seq: A,
             ) -> Result<Self::Value, A::Error> {
-                let entries =
-                    Vec::<FitCacheEntry>::deserialize(serde::de::value::SeqAccessDeserializer::new(seq))?;
+                let entries = Vec::<FitCacheEntry>::deserialize(
+                    serde::de::value::SeqAccessDeserializer::new(seq),
+                )?;
                 Ok(ClipData::new(entries))
             }
             fn visit_map<A: serde::de::MapAccess<'de>>(
@@ -625,27 +626,24 @@ pub(crate) mod compact_track {
     /// clip is never held in memory beside the result.
     pub(crate) struct Frames;
     impl<'de> serde::de::Visitor<'de> for Frames {
-            type Value = Track;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a list of tracked frames")
-            }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(
-                self,
-                mut seq: A,
-            ) -> Result<Track, A::Error> {
-                let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
-                let mut last: Option<usize> = None;
-                while let Some(c) = seq.next_element::<Frame>()? {
-                    if last.is_some_and(|l| c.frame <= l) {
-                        return Err(A::Error::custom(format!(
-                            "tracked frame {} is out of order or repeated",
-                            c.frame
-                        )));
-                    }
-                    last = Some(c.frame);
-                    out.push(from_compact(c).map_err(A::Error::custom)?);
+        type Value = Track;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a list of tracked frames")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Track, A::Error> {
+            let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
+            let mut last: Option<usize> = None;
+            while let Some(c) = seq.next_element::<Frame>()? {
+                if last.is_some_and(|l| c.frame <= l) {
+                    return Err(A::Error::custom(format!(
+                        "tracked frame {} is out of order or repeated",
+                        c.frame
+                    )));
                 }
-                Ok(Track { frames: out })
+                last = Some(c.frame);
+                out.push(from_compact(c).map_err(A::Error::custom)?);
             }
+            Ok(Track { frames: out })
+        }
     }
 }

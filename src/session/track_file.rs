@@ -182,7 +182,8 @@ pub fn read_track(path: &Path, frames: usize) -> Result<Track, SessionError> {
                 })?;
             }
         }
-        let f = FrameLandmarks { frame, timestamp, confidence, success: flags & SUCCESS != 0, points };
+        let f =
+            FrameLandmarks { frame, timestamp, confidence, success: flags & SUCCESS != 0, points };
         super::bounds::check_tracked_frame(&f).map_err(|m| r.fault("points", &m))?;
         out.push(f);
     }

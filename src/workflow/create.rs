@@ -6,8 +6,8 @@
 
 use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
-use super::resources::{check_map_for_fit, check_map_vertices};
 use super::map::check_map_to_use;
+use super::resources::{check_map_for_fit, check_map_vertices};
 use super::session::{clip_or_first, open_for_edit_at};
 use super::track::{TrackerFiles, load_tracker, track_frames};
 use crate::fit::FitSettings;
@@ -413,8 +413,7 @@ fn set_head_map_from_file(
     let mesh = obj::read_obj(&head)?;
     check_map_vertices(&map, mesh.vertices.len(), Some(file))?;
     let shown = head.display().to_string();
-    let warnings =
-        check_map_to_use(&map, file, &shown, &mesh.vertices, &mesh.triangles(), accept)?;
+    let warnings = check_map_to_use(&map, file, &shown, &mesh.vertices, &mesh.triangles(), accept)?;
     session.head_map = Some(MapRef { file: Some(absolute(file)), inline: None });
     Ok(((file.to_path_buf(), check_map(&map, &mesh.vertices)), warnings))
 }
@@ -616,7 +615,8 @@ fn set_map_from_file(
         session.clear_fit_cache();
     }
     let problem = n_vertices.and_then(|n| map_problem(&map, n, &session.fit_settings, path));
-    let set = MapSet { file: file.to_path_buf(), landmarks: map.len(), replaced, fits_dropped, problem };
+    let set =
+        MapSet { file: file.to_path_buf(), landmarks: map.len(), replaced, fits_dropped, problem };
     Ok((set, warnings))
 }
 

@@ -720,7 +720,8 @@ impl TransferredTallies {
         for h in &self.heads {
             let r = h.tally.report();
             for mut t in [r.sentences, r.phonemes, r.visemes] {
-                t.title = format!("{}, transferred head `{}` ({})", t.title, h.entry.name, h.entry.mode);
+                t.title =
+                    format!("{}, transferred head `{}` ({})", t.title, h.entry.name, h.entry.mode);
                 t.key = format!("transferred_{}", t.key);
                 tables.push(t.for_item(&h.entry.name));
             }

@@ -12,8 +12,8 @@ use crate::fit::suggest::{SuggestHead, surface_triangles};
 use crate::io::{model_source, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::Point3;
-use crate::model::{LandmarkMap, MapCheck, check_map};
 use crate::model::map_check::check_map_on_surface;
+use crate::model::{LandmarkMap, MapCheck, check_map};
 use crate::session::{MapRole, Session};
 use std::path::Path;
 
@@ -124,7 +124,11 @@ pub fn check_map_to_use(
         return Ok(Vec::new());
     }
     if !accept {
-        return Err(Error::MapRefused { file: file.to_path_buf(), mesh: mesh.to_string(), problems });
+        return Err(Error::MapRefused {
+            file: file.to_path_buf(),
+            mesh: mesh.to_string(),
+            problems,
+        });
     }
     Ok(problems
         .iter()
@@ -188,5 +192,8 @@ pub fn suggest_session_map(
 fn best_frame(session: &Session, clip: usize) -> Result<Option<FrameLandmarks>> {
     let visible = |f: &FrameLandmarks| f.points.iter().filter(|p| p.visible).count();
     let track = session.effective_track(clip)?;
-    Ok(track.frames.into_iter().reduce(|best, f| if visible(&f) > visible(&best) { f } else { best }))
+    Ok(track
+        .frames
+        .into_iter()
+        .reduce(|best, f| if visible(&f) > visible(&best) { f } else { best }))
 }

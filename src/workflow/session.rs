@@ -371,7 +371,9 @@ mod tests {
         let mut s = Session::new(&path);
         let mut clip = Clip::new("a", View::new(FramesRef::Images { dir: dir.join("f") }, 25.0));
         clip.set_tracked(crate::landmarks::Track::new(
-            (0..n).map(|f| FrameLandmarks::new(f, vec![LandmarkPoint::tracked(1.0, 1.0); 68])).collect(),
+            (0..n)
+                .map(|f| FrameLandmarks::new(f, vec![LandmarkPoint::tracked(1.0, 1.0); 68]))
+                .collect(),
         ));
         s.clips.push(clip);
         s.save(&path).unwrap();

@@ -367,4 +367,3 @@ pub fn transferred_utterance(
     let head = trajectory_from_shapes(shapes.iter().map(Option::as_ref), map, &options);
     Ok(Utterance { head, ..utterance.clone() })
 }
-

@@ -170,11 +170,9 @@ fn validate_session(path: &Path) -> Result<FileSummary> {
     let missing = |what: &str, file: &Path| -> Result<()> {
         match std::fs::metadata(file) {
             Ok(_) => Ok(()),
-            Err(e) => Err(Error::Invalid(format!(
-                "{}: {what}: {}: {e}",
-                path.display(),
-                file.display()
-            ))),
+            Err(e) => {
+                Err(Error::Invalid(format!("{}: {what}: {}: {e}", path.display(), file.display())))
+            }
         }
     };
     if let Some(m) = &s.model {
@@ -186,7 +184,8 @@ fn validate_session(path: &Path) -> Result<FileSummary> {
     if let Some(h) = &s.head_mesh {
         missing("head_mesh", h)?;
     }
-    for (what, map) in [("landmark_map", Some(&s.landmark_map)), ("head_map", s.head_map.as_ref())] {
+    for (what, map) in [("landmark_map", Some(&s.landmark_map)), ("head_map", s.head_map.as_ref())]
+    {
         if let Some(file) = map.and_then(|m| m.file.as_ref()) {
             missing(what, file)?;
         }

@@ -181,7 +181,7 @@ fn map_check_refuses_a_head_that_is_not_a_surface() {
 
 /// 68 OBJ vertices from `at(k)`.
 fn vertices(at: impl Fn(usize) -> [f64; 3]) -> String {
-    (0..68).map(|k| at(k)).map(|[x, y, z]| format!("v {x} {y} {z}\n")).collect()
+    (0..68).map(at).map(|[x, y, z]| format!("v {x} {y} {z}\n")).collect()
 }
 
 /// A strip of triangles over the 68 vertices.

@@ -257,8 +257,7 @@ mod tests {
     }
 
     fn entries() -> Vec<FitCacheEntry> {
-        let mut clip_fit = FitSettings::default();
-        clip_fit.clip = true;
+        let clip_fit = FitSettings { clip: true, ..FitSettings::default() };
         vec![
             FitCacheEntry {
                 settings: FitSettings::default(),

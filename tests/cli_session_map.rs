@@ -93,7 +93,11 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
     assert_eq!(loaded.clips[0].name, "carphone");
     let v = lipmap(&["validate", s(&session)]);
     assert!(v.status.success(), "{}", text(&v.stdout));
-    assert!(text(&v.stdout).contains("ok (session, 1 clip, 6 frames tracked"), "{}", text(&v.stdout));
+    assert!(
+        text(&v.stdout).contains("ok (session, 1 clip, 6 frames tracked"),
+        "{}",
+        text(&v.stdout)
+    );
 
     // fit and eval: one line, exit 2.
     let want = format!(

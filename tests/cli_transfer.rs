@@ -77,7 +77,10 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     let other = dir.path().join("other.toml");
     let text = std::fs::read_to_string(&map).unwrap();
     std::fs::write(&other, format!("{}\n", text.replacen("\n1 = ", "\n1 = 99999", 1))).unwrap();
-    assert_one_line_error(&transfer(&session, &head, &other, &out), &["other.toml", "head.obj", "beyond the mesh"]);
+    assert_one_line_error(
+        &transfer(&session, &head, &other, &out),
+        &["other.toml", "head.obj", "beyond the mesh"],
+    );
     // A non-manifold edge: two more triangles on the first face's first edge.
     let obj = std::fs::read_to_string(&head).unwrap();
     let n = obj.lines().filter(|l| l.starts_with("v ")).count();

@@ -113,11 +113,16 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
         assert_eq!(lines, std::slice::from_ref(&want), "{cmd}");
     }
 
-    // An empty map file is accepted too (a start for labelling) and fails the same way.
+    // An empty map file is refused as a map, and taken with --accept-map-warnings (a start
+    // for labelling), saying so; it then fails the same way.
     let empty = i.root.join("empty.toml");
     std::fs::write(&empty, "[landmark_mappings]\n").unwrap();
-    let (session, out) = new_session(&i, "emptymap", &["--mapping", s(&empty), "--fps", "30"]);
-    assert!(err_lines(&out).is_empty(), "{:?}", err_lines(&out));
+    let (session, out) = new_session(
+        &i,
+        "emptymap",
+        &["--mapping", s(&empty), "--fps", "30", "--accept-map-warnings"],
+    );
+    assert!(text(&out.stderr).contains("it maps no landmark"), "{:?}", err_lines(&out));
     assert!(text(&out.stdout).contains("maps no landmarks yet"), "{}", text(&out.stdout));
     assert_eq!(Session::load(&session).unwrap().clips[0].front.fps, 30.0);
     let out = lipmap(&["fit", s(&session)]);

@@ -81,7 +81,7 @@ fn build(dir: &Path, eos: &Path) {
                 FrameLandmarks::new(f, points)
             })
             .collect();
-        clip.tracked = Track::new(frames);
+        clip.set_tracked(Track::new(frames));
         let step = FRAMES as f64 / FPS / PHONES.len() as f64;
         clip.alignment = Some(Alignment {
             phones: PHONES
@@ -136,7 +136,7 @@ fn eval(dir: &Path, whole_meshes: bool) {
             assert_eq!(head.w, u.head.w, "{}: the two paths differ", u.name);
         }
     }
-    assert!(opened.session.stale_frames_with(0, &settings).is_empty(), "fits not cached");
+    assert!(opened.session.stale_frames_with(0, &settings).unwrap().is_empty(), "fits not cached");
     let report = workflow::evaluate(&done.utterances, &done.fit_refs(), Normalisation::MinMax, 10);
     let elapsed = t0.elapsed();
     let frames: usize = done.fits.iter().map(|(_, f)| f.len()).sum();

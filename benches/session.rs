@@ -40,7 +40,7 @@ fn create_fixture() -> Fixture {
     let mut clip = Clip::new("s1_bbaf2n", View::new(FramesRef::Images { dir: frames }, 25.0));
     clip.front.size = Some([8, 8]);
     // Realistic sub-pixel coordinates (full f64 precision), a few hidden points.
-    clip.tracked = Track::new(
+    clip.set_tracked(Track::new(
         (0..FRAMES)
             .map(|f| {
                 let pts = (0..N_LANDMARKS)
@@ -57,7 +57,7 @@ fn create_fixture() -> Fixture {
                 FrameLandmarks::new(f, pts)
             })
             .collect(),
-    );
+    ));
     let ci = s.add_clip(clip).expect("clip");
     for f in (0..FRAMES).step_by(50) {
         s.set_correction(ci, f, 62, LandmarkPoint::tracked(321.25, 250.5)).expect("correction");

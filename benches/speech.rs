@@ -33,7 +33,7 @@ fn main() {
     assert_eq!(train.code, 0, "speech train");
     let loaded = lipmap::workflow::speech::load_speech_model(&model).expect("trained model");
     let clips = lipmap::session::Session::load(&session).expect("demo session").clips;
-    let frames: usize = clips.iter().map(|c| c.tracked.frames.len()).sum();
+    let frames: usize = clips.iter().map(|c| c.tracked_summary().frames).sum();
     let hmm = &loaded.speech.hmm;
     println!(
         "speech/train (default settings, {SENTENCES} demo sentences, {frames} frames, {} × {}, held-out estimate included): {:.1} s CPU (target ≤ {TRAIN_BOUND_CPU_S:.0} s, ratio {:.2}); {:.1} s wall, peak {:.0} MB",

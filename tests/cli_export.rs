@@ -56,12 +56,13 @@ fn fixture() -> Option<Fixture> {
         mapping: Some(eos.join("ibug_to_sfm.txt")),
         set: LandmarkSet::F4,
         force: false,
+        accept_map_warnings: false,
     };
     create_session(&args).unwrap();
     // One correction, so effective landmarks differ from the tracked ones; its x carries the
     // float noise a drag in the TUI leaves, which the export must not spell out.
     let mut s = Session::load(&session).unwrap();
-    let mut p = s.effective_frame(0, 2).unwrap().points[62];
+    let mut p = s.effective_frame(0, 2).unwrap().unwrap().points[62];
     p.x = p.x.floor() + 0.285_380_952_380_95;
     p.source = PointSource::Corrected;
     s.set_correction(0, 2, 62, p).unwrap();
@@ -181,7 +182,7 @@ fn exports_all_but_meshes_by_default_and_leaves_an_up_to_date_session_alone() {
     }
 
     // Fits were stored; a second export fits nothing and leaves the file byte for byte.
-    assert_eq!(session.cached_fits(0, &session.fit_settings).len(), FRAMES);
+    assert_eq!(session.cached_fits(0, &session.fit_settings).unwrap().len(), FRAMES);
     let before = std::fs::read(&f.session).unwrap();
     let again = f.root.join("again");
     let a = ExportRequest { plan: plan(None, false, true), ..args(&again) };
@@ -277,6 +278,7 @@ fn a_failed_fit_is_skipped_and_makes_the_outcome_partial() {
     let s = Session::load(&f.session).unwrap();
     let failed: Vec<usize> = s
         .cached_fits(0, &s.fit_settings)
+        .unwrap()
         .iter()
         .filter(|fit| fit.failed.is_some())
         .map(|fit| fit.frame)

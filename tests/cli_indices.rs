@@ -259,7 +259,7 @@ fn demo_session(dir: &Path) -> (PathBuf, PathBuf) {
         let mut view = View::new(FramesRef::Images { dir: c.dir.join("front") }, c.fps);
         view.size = Some([c.width, c.height]);
         let mut clip = Clip::new(c.name.clone(), view);
-        clip.tracked = lipmap::io::landmark_format::read_track(&c.true_csv).unwrap();
+        clip.set_tracked(lipmap::io::landmark_format::read_track(&c.true_csv).unwrap());
         clip.alignment =
             Some(lipmap::io::alignment_format::read_alignment(&c.phones_csv, None).unwrap());
         session.add_clip(clip).unwrap();

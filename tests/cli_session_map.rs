@@ -93,7 +93,11 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
     assert_eq!(loaded.clips[0].name, "carphone");
     let v = lipmap(&["validate", s(&session)]);
     assert!(v.status.success(), "{}", text(&v.stdout));
-    assert!(text(&v.stdout).contains("ok (session, 1 clip)"), "{}", text(&v.stdout));
+    assert!(
+        text(&v.stdout).contains("ok (session, 1 clip, 6 frames tracked"),
+        "{}",
+        text(&v.stdout)
+    );
 
     // fit and eval: one line, exit 2.
     let want = format!(
@@ -109,11 +113,16 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
         assert_eq!(lines, std::slice::from_ref(&want), "{cmd}");
     }
 
-    // An empty map file is accepted too (a start for labelling) and fails the same way.
+    // An empty map file is refused as a map, and taken with --accept-map-warnings (a start
+    // for labelling), saying so; it then fails the same way.
     let empty = i.root.join("empty.toml");
     std::fs::write(&empty, "[landmark_mappings]\n").unwrap();
-    let (session, out) = new_session(&i, "emptymap", &["--mapping", s(&empty), "--fps", "30"]);
-    assert!(err_lines(&out).is_empty(), "{:?}", err_lines(&out));
+    let (session, out) = new_session(
+        &i,
+        "emptymap",
+        &["--mapping", s(&empty), "--fps", "30", "--accept-map-warnings"],
+    );
+    assert!(text(&out.stderr).contains("it maps no landmark"), "{:?}", err_lines(&out));
     assert!(text(&out.stdout).contains("maps no landmarks yet"), "{}", text(&out.stdout));
     assert_eq!(Session::load(&session).unwrap().clips[0].front.fps, 30.0);
     let out = lipmap(&["fit", s(&session)]);
@@ -171,7 +180,7 @@ fn import_mapping_sets_the_map_and_a_differing_labelled_map_is_warned_about() {
     assert!(stdout.contains("cached fits dropped"), "{stdout}");
     let loaded = Session::load(&session).unwrap();
     assert!(loaded.landmark_map.inline.is_none());
-    assert!(loaded.fit_cache.is_empty());
+    assert!(!loaded.has_cached_fits());
     let out = lipmap(&["fit", s(&session)]);
     assert!(!text(&out.stderr).contains("labelled in the TUI"), "{}", text(&out.stderr));
 
@@ -245,7 +254,7 @@ fn too_small_a_map_fails_once_before_fitting() {
         );
     }
     // Nothing was fitted or cached.
-    assert!(Session::load(&session).unwrap().fit_cache.is_empty());
+    assert!(!Session::load(&session).unwrap().has_cached_fits());
     // The same check through the core, as the TUI calls it: 1 point reads singular.
     let map = lipmap::io::landmark_map_toml::read_landmark_map(&small).unwrap();
     let settings = lipmap::fit::FitSettings {

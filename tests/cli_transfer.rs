@@ -88,7 +88,10 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     let other = dir.path().join("other.toml");
     let text = std::fs::read_to_string(&map).unwrap();
     std::fs::write(&other, format!("{}\n", text.replacen("\n1 = ", "\n1 = 99999", 1))).unwrap();
-    assert_one_line_error(&transfer(&session, &head, &other, &out), &["head.obj", "another mesh"]);
+    assert_one_line_error(
+        &transfer(&session, &head, &other, &out),
+        &["other.toml", "head.obj", "beyond the mesh"],
+    );
     // A non-manifold edge: two more triangles on the first face's first edge.
     let obj = std::fs::read_to_string(&head).unwrap();
     let n = obj.lines().filter(|l| l.starts_with("v ")).count();
@@ -132,14 +135,8 @@ fn transfer_keeps_hostile_clip_names_inside_out() {
     let (session, head, map) = demo_with_head(dir.path());
     let mut json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&session).unwrap()).unwrap();
-    let old = json["clips"][0]["name"].as_str().unwrap().to_string();
     let evil = "../../evil";
     json["clips"][0]["name"] = evil.into();
-    for e in json["fit_cache"].as_array_mut().into_iter().flatten() {
-        if e["clip"] == old.as_str() {
-            e["clip"] = evil.into();
-        }
-    }
     std::fs::write(&session, serde_json::to_vec(&json).unwrap()).unwrap();
     let out = dir.path().join("a").join("b").join("out");
     // A symlink where a clip's folder goes is replaced, never written through.

@@ -204,7 +204,7 @@ const CASES: &[(&str, Reader, &str)] = &[
         alignment,
         ":3: phone `AA1` starts at 0.35, before `B` ends at 0.4 (overlap)",
     ),
-    ("lab_end_before_start.lab", alignment, ":2: phone `B` ends (0.1) before it starts (0.2)"),
+    ("lab_end_before_start.lab", alignment, ":2: phone `B` (0.2–0.1 s) ends before it starts"),
     ("lab_two_fields.lab", alignment, ":2: expected `start end label`, found `2000000 4000000`"),
     ("lab_bad_time.lab", alignment, ":2: end time `0.3O` is not a non-negative number"),
     ("lab_empty.lab", alignment, ": no labels found"),
@@ -337,7 +337,7 @@ const CASES: &[(&str, Reader, &str)] = &[
     (
         "session_newer_schema.lipmap.json",
         session,
-        ": this session was written by a newer lipmap (session schema 7; this build reads up to 2); update lipmap to open it",
+        ": this session was written by a newer lipmap (session schema 7; this build reads up to 3); update lipmap to open it",
     ),
     ("session_no_schema.lipmap.json", session, ": no `schema_version`: not a lipmap session file"),
     (

@@ -35,7 +35,7 @@ fn session_with_frames(file: &Path, n: usize) -> Session {
     let mut s = Session::new(file);
     let mut clip =
         Clip::new("clip1", View::new(FramesRef::Images { dir: root.join("frames") }, 29.97));
-    clip.tracked = Track::new((0..n).map(|f| frame(f, 0.0)).collect());
+    clip.set_tracked(Track::new((0..n).map(|f| frame(f, 0.0)).collect()));
     s.add_clip(clip).unwrap();
     s
 }
@@ -143,7 +143,7 @@ fn build_session(parts: Parts, file: &Path) -> Session {
             offset_s: offset,
         });
     }
-    clip.tracked = Track::new(frames);
+    clip.set_tracked(Track::new(frames));
     clip.landmarks_file = Some(root.join("lm/clip.csv"));
     for (f, i, p) in corr {
         clip.corrections.set(f, i, p).unwrap();
@@ -189,7 +189,7 @@ proptest! {
         let back = Session::load(&file).unwrap();
         prop_assert_eq!(&back, &s);
         // Exact floats: the cache made before saving is still valid after loading.
-        prop_assert!(back.stale_frames(0).is_empty(), "stale after reload: {:?}", back.stale_frames(0));
+        prop_assert!(back.stale_frames(0).unwrap().is_empty(), "stale after reload: {:?}", back.stale_frames(0));
         // Saving the loaded session writes the same bytes.
         prop_assert_eq!(back.to_json(&file).unwrap(), std::fs::read(&file).unwrap());
     }
@@ -221,7 +221,7 @@ fn the_tracked_layer_is_never_changed_by_corrections() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("sessions/c.lipmap.json");
     let mut s = session_with_frames(&file, 3);
-    let before = s.clips[0].tracked.clone();
+    let before = s.clips[0].tracked().unwrap().as_ref().clone();
     s.set_correction(0, 1, 62, LandmarkPoint::tracked(7.5, 8.5)).unwrap();
     s.set_correction(0, 9, 0, LandmarkPoint::tracked(1.0, 2.0)).unwrap(); // untracked frame
     assert!(s.set_correction(0, 1, 68, LandmarkPoint::tracked(0.0, 0.0)).is_err());
@@ -232,13 +232,13 @@ fn the_tracked_layer_is_never_changed_by_corrections() {
     s.set_reviewed(0, 1, true).unwrap();
     s.save(&file).unwrap();
     let mut back = Session::load(&file).unwrap();
-    assert_eq!(back.clips[0].tracked, before);
-    let e = back.effective_frame(0, 1).unwrap();
+    assert_eq!(*back.clips[0].tracked().unwrap(), before);
+    let e = back.effective_frame(0, 1).unwrap().unwrap();
     assert_eq!((e.points[62].x, e.points[62].source), (7.5, PointSource::Corrected));
-    assert_eq!(back.effective_frame(0, 9).unwrap().visible_points().count(), 1);
+    assert_eq!(back.effective_frame(0, 9).unwrap().unwrap().visible_points().count(), 1);
     assert!(back.corrections_of(0).unwrap().is_reviewed(1));
     back.clear_correction(0, 1, 62).unwrap();
-    assert_eq!(back.effective_frame(0, 1).unwrap(), before.get(1).unwrap().clone());
+    assert_eq!(back.effective_frame(0, 1).unwrap().unwrap(), before.get(1).unwrap().clone());
 }
 
 // ---------------------------------------------------------------------------------------
@@ -304,21 +304,124 @@ fn duplicate_clip_names_and_non_finite_values_are_refused() {
     assert!(s.save(&file).unwrap_err().to_string().contains("two clips are named"));
     assert!(!file.exists(), "nothing may be written for an invalid session");
     s.clips.pop();
-    s.clips[0].tracked.frames[0].points[5].x = f64::NAN;
-    assert!(
-        s.save(&file).unwrap_err().to_string().contains("point 6 is not finite"),
-        "index 5 is point 6 to people"
-    );
-    s.clips[0].tracked.frames[0].points[5].x = 1.0;
+    let good = s.clips[0].tracked().unwrap().as_ref().clone();
+    let mut bad = good.clone();
+    bad.frames[0].points[5].x = f64::NAN;
+    s.clips[0].set_tracked(bad);
+    let err = s.save(&file).unwrap_err().to_string();
+    assert!(err.contains("tracked frame 0: point 6 (NaN"), "{err}");
+    s.clips[0].set_tracked(good);
     // A non-finite fit is stored as a failed frame instead of making the file unloadable.
     let settings = FitSettings::default();
     s.store_fits(0, &settings, vec![FrameFit { yaw: f64::NAN, ..fit_of(0) }]).unwrap();
     s.save(&file).unwrap();
     let back = Session::load(&file).unwrap();
-    assert!(back.cached_fit(0, &settings, 0).unwrap().failed.is_some());
+    assert!(back.cached_fit(0, &settings, 0).unwrap().unwrap().failed.is_some());
 }
 
 // ---------------------------------------------------------------------------------------
+// Per-clip data files (schema 3)
+
+/// The session `s` as a schema-2 build wrote it to `file`: each clip's tracks inline, every
+/// clip's cache entries in one session-wide `fit_cache` naming their clip.
+fn as_schema_2(s: &Session, file: &Path) -> String {
+    let mut v: serde_json::Value = serde_json::from_slice(&s.to_json(file).unwrap()).unwrap();
+    let mut cache = Vec::new();
+    for clip in v["clips"].as_array_mut().unwrap() {
+        assert!(clip["tracked"].is_array(), "unsaved data is written inline: {}", clip["tracked"]);
+        let name = clip["name"].clone();
+        let entries = clip.as_object_mut().unwrap().remove("fit_cache").unwrap_or_default();
+        for mut e in entries.as_array().cloned().unwrap_or_default() {
+            e["clip"] = name.clone();
+            cache.push(e);
+        }
+    }
+    v["fit_cache"] = cache.into();
+    v["schema_version"] = 2.into();
+    serde_json::to_string_pretty(&v).unwrap()
+}
+
+#[test]
+fn an_old_session_with_inline_tracks_migrates_to_data_files_on_save() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("old.lipmap.json");
+    let mut s = session_with_frames(&file, 6);
+    let settings = FitSettings::default();
+    s.store_fits(0, &settings, (0..6).map(fit_of).collect()).unwrap();
+    std::fs::create_dir_all(file.parent().unwrap()).unwrap();
+    std::fs::write(&file, as_schema_2(&s, &file)).unwrap();
+
+    // Read as it is: the tracks in memory, the cache moved into its clip and still valid.
+    let old = Session::load(&file).unwrap();
+    assert_eq!(old, s);
+    assert!(old.stale_frames(0).unwrap().is_empty());
+    assert_eq!(old.clips[0].tracked_file(), None);
+    // Saved: schema 3, a reference and a summary in the JSON, the frames in the data folder.
+    old.save(&file).unwrap();
+    let text = std::fs::read_to_string(&file).unwrap();
+    assert!(text.contains("\"schema_version\": 3"), "{text}");
+    assert!(
+        !text.contains("\"xy\"") && !text.contains("\"yaw\""),
+        "per-frame data left in the JSON"
+    );
+    let data = dir.path().join("sessions").join("old.lipmap.d");
+    let mut names: Vec<String> = std::fs::read_dir(&data)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 2, "{names:?}");
+    assert!(names[0].starts_with("clip1.") && names[0].ends_with(".fits"), "{names:?}");
+    assert!(names[1].starts_with("clip1.") && names[1].ends_with(".track"), "{names:?}");
+    assert!(text.contains(&format!("\"file\": \"old.lipmap.d/{}\"", names[1])), "{text}");
+    let back = Session::load(&file).unwrap();
+    assert_eq!(back, s);
+    assert_eq!(back.cached_fits(0, &settings).unwrap().len(), 6);
+    assert!(back.stale_frames(0).unwrap().is_empty(), "the cache survives the move");
+    // A load-save cycle is byte-identical and writes no new data file.
+    back.save(&file).unwrap();
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), text);
+    assert_eq!(std::fs::read_dir(&data).unwrap().count(), 2);
+}
+
+#[test]
+fn a_clips_data_is_read_when_used_and_a_missing_file_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("lazy.lipmap.json");
+    let s = session_with_frames(&file, 4);
+    s.save(&file).unwrap();
+    let loaded = Session::load(&file).unwrap();
+    let track = loaded.clips[0].tracked_file().expect("saved to a file");
+    // Loading read only the JSON: the file is read when the clip is used.
+    std::fs::write(&track, b"not a track file").unwrap();
+    let e = loaded.effective_track(0).unwrap_err().to_string();
+    assert!(e.contains(track.to_str().unwrap()) && e.contains("too short"), "{e}");
+    std::fs::remove_file(&track).unwrap();
+    let e = Session::load(&file).unwrap_err().to_string();
+    assert!(e.contains("lazy.lipmap.json") && e.contains("tracked") && e.contains("clip1."), "{e}");
+}
+
+#[test]
+fn a_session_saved_under_another_name_takes_its_data_along() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a").join("s.lipmap.json");
+    let s = session_with_frames(&a, 3);
+    s.save(&a).unwrap();
+    let b = dir.path().join("b").join("t.lipmap.json");
+    let loaded = Session::load(&a).unwrap();
+    let frames = loaded.effective_track(0).unwrap();
+    loaded.save(&b).unwrap();
+    std::fs::remove_dir_all(dir.path().join("a")).unwrap();
+    let back = Session::load(&b).unwrap();
+    // The old folder is gone, so these frames were read from the new name's data folder.
+    assert_eq!(back.effective_track(0).unwrap(), frames);
+    assert_eq!(frames.frames.len(), 3);
+    assert_eq!(back.clips.len(), 1);
+    assert!(
+        back.clips[0].tracked_file().unwrap().starts_with(dir.path().join("b").join("t.lipmap.d"))
+    );
+}
+
 // Crash safety
 
 const SAVE_LOOP_ENV: &str = "LIPMAP_TEST_SAVE_LOOP";
@@ -516,27 +619,27 @@ fn a_correction_makes_only_its_frame_stale() {
     s.model = Some(ModelRef { path: dir.path().join("m.bin"), blendshapes: None });
     s.fit_settings.set = LandmarkSet::F4;
     let settings = s.fit_settings.clone();
-    assert_eq!(s.stale_frames(0), (0..6).collect::<Vec<_>>());
+    assert_eq!(s.stale_frames(0).unwrap(), (0..6).collect::<Vec<_>>());
     s.store_fits(0, &settings, (0..6).map(fit_of).collect()).unwrap();
-    assert!(s.stale_frames(0).is_empty());
+    assert!(s.stale_frames(0).unwrap().is_empty());
 
     s.set_correction(0, 2, 62, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
-    assert_eq!(s.stale_frames(0), vec![2]);
+    assert_eq!(s.stale_frames(0).unwrap(), vec![2]);
     // A jaw point is outside the F4 set: the F4 fit is still valid.
     s.set_correction(0, 4, 3, LandmarkPoint::tracked(10.0, 20.0)).unwrap();
-    assert_eq!(s.stale_frames(0), vec![2]);
-    assert_eq!(s.cached_fits(0, &settings).len(), 5);
+    assert_eq!(s.stale_frames(0).unwrap(), vec![2]);
+    assert_eq!(s.cached_fits(0, &settings).unwrap().len(), 5);
     // Re-fitting the stale frame merges into the cache; saving and loading keeps it valid.
     s.store_fits(0, &settings, vec![fit_of(2)]).unwrap();
     s.save(&file).unwrap();
     let mut s = Session::load(&file).unwrap();
-    assert!(s.stale_frames(0).is_empty());
+    assert!(s.stale_frames(0).unwrap().is_empty());
     // Other settings have their own entry; a changed model invalidates everything.
     let f5 = FitSettings { set: LandmarkSet::F5, ..settings.clone() };
-    assert_eq!(s.stale_frames_with(0, &f5).len(), 6);
+    assert_eq!(s.stale_frames_with(0, &f5).unwrap().len(), 6);
     s.model.as_mut().unwrap().path = dir.path().join("other.bin");
-    assert_eq!(s.stale_frames(0).len(), 6);
-    assert!(s.cached_fit(0, &settings, 1).is_none());
+    assert_eq!(s.stale_frames(0).unwrap().len(), 6);
+    assert!(s.cached_fit(0, &settings, 1).unwrap().is_none());
 }
 
 #[test]
@@ -546,9 +649,9 @@ fn a_clip_fit_goes_stale_as_a_whole() {
     let mut s = session_with_frames(&file, 4);
     let settings = FitSettings { clip: true, ..FitSettings::default() };
     s.store_fits(0, &settings, (0..4).map(fit_of).collect()).unwrap();
-    assert!(s.stale_frames_with(0, &settings).is_empty());
+    assert!(s.stale_frames_with(0, &settings).unwrap().is_empty());
     s.set_correction(0, 1, 50, LandmarkPoint::tracked(1.0, 1.0)).unwrap();
-    assert_eq!(s.stale_frames_with(0, &settings), vec![0, 1, 2, 3]);
+    assert_eq!(s.stale_frames_with(0, &settings).unwrap(), vec![0, 1, 2, 3]);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -762,7 +865,7 @@ fn a_session_from_before_the_solver_setting_loads_with_the_same_solver_and_cache
         let back = Session::load(&file).unwrap();
         assert_eq!(back.fit_settings, settings, "steps {steps}");
         // The cache is keyed by the settings: the old entry still answers.
-        assert_eq!(back.cached_fits(0, &settings).len(), 4, "steps {steps}");
+        assert_eq!(back.cached_fits(0, &settings).unwrap().len(), 4, "steps {steps}");
     }
     // Settings older still (neither key) take the defaults of that time: the joint solver.
     session_with_frames(&file, 1).save(&file).unwrap();

@@ -216,7 +216,7 @@ fn session_names_the_model(session: &Path, model: &Path) {
     let mut s = lipmap::session::Session::load(session).unwrap();
     let named = s.speech_model.clone().expect("speech train records the model");
     assert_eq!(named, std::path::absolute(model).unwrap());
-    let n = s.clips[0].tracked.len();
+    let n = s.clips[0].tracked_summary().frames;
     match lipmap::tui::jobs::speech_for_tui(&mut s.clone(), 0) {
         Action::SpeechReady { series } => {
             let names: Vec<&str> = series.iter().map(|(m, _)| m.as_str()).collect();

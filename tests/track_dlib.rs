@@ -349,7 +349,7 @@ fn session_realignment_moves_the_lip_and_propagate_saves_it() {
     let mut view = View::new(FramesRef::Images { dir: c.dir.join("front") }, c.fps);
     view.size = Some([c.width, c.height]);
     let mut clip = Clip::new(c.name.clone(), view);
-    clip.tracked = tracked;
+    clip.set_tracked(tracked);
     for &i in &LOWER_FIXED {
         let p = truth.frames[f].points[i];
         clip.corrections.set(f, i, LandmarkPoint::tracked(p.x, p.y)).unwrap();

@@ -35,7 +35,7 @@ fn make_session(dir: &std::path::Path) -> std::path::PathBuf {
     let view =
         View { source: FramesRef::Images { dir: frames }, fps: 25.0, size: None, offset_s: 0.0 };
     let mut clip = Clip::new("clip1", view);
-    clip.tracked = synthetic_track(6, W, H);
+    clip.set_tracked(synthetic_track(6, W, H));
     s.add_clip(clip).unwrap();
     s.save(&path).unwrap();
     path
@@ -64,7 +64,7 @@ fn edits_round_trip_through_the_session_file() {
     let fixed = c.corrections.get(0, 62).expect("correction stored");
     assert_eq!(fixed.source, PointSource::Corrected);
     assert!(fixed.y < original.y);
-    assert_eq!(c.tracked.frames[0].points[62], original, "tracker's value kept");
+    assert_eq!(c.tracked().unwrap().frames[0].points[62], original, "tracker's value kept");
     assert_eq!(c.corrections.len(), 1);
     assert!(c.corrections.is_reviewed(0));
 
@@ -140,12 +140,12 @@ fn autosave_runs_on_the_saver_thread_and_keeps_later_edits_unsaved() {
     assert!(!app.save.in_flight());
     assert_eq!(app.save.unsaved(), 1, "the later edit is still to be saved");
     let on_disk = Session::load(&path).unwrap();
-    let p = on_disk.effective_frame(0, 0).unwrap().points[62];
+    let p = on_disk.effective_frame(0, 0).unwrap().unwrap().points[62];
     assert_eq!(p.source, PointSource::Corrected);
     // The next save writes the later edit too; dropping the bridge waits for the saver.
     apply(&mut app, &[Action::Save]);
     bridge.save_in_background(&app, app.save.generation()).unwrap();
     drop(bridge);
-    let q = Session::load(&path).unwrap().effective_frame(0, 0).unwrap().points[62];
+    let q = Session::load(&path).unwrap().effective_frame(0, 0).unwrap().unwrap().points[62];
     assert!(q.x > p.x, "{} then {}", p.x, q.x);
 }

@@ -40,7 +40,7 @@ fn side_view_corrections_reach_the_session_and_p() {
     let mut clip = Clip::new(c.name.clone(), front);
     clip.side =
         Some(SessionView::new(FramesRef::Images { dir: c.side_dir.clone().unwrap() }, c.fps));
-    clip.tracked = lipmap::io::track_csv::read_track_csv(&c.tracked_csv).unwrap();
+    clip.set_tracked(lipmap::io::track_csv::read_track_csv(&c.tracked_csv).unwrap());
     session.add_clip(clip).unwrap();
     session.save(&path).unwrap();
 

@@ -28,6 +28,53 @@ pub struct Alignment {
 /// phone's end × fps, so an end past this is a corrupt file, not a recording.
 pub const MAX_PHONE_END_S: f64 = crate::landmarks::MAX_FRAME as f64;
 
+/// Shortest phone a phone file may hold, in seconds. Aligners work in 10 ms frames and no
+/// phone is spoken in less than a few of them; a phone shorter than a millisecond (zero
+/// long, or a thousand phones of a nanosecond) is a broken file, not speech.
+pub const MIN_PHONE_S: f64 = 1e-3;
+
+impl Phone {
+    /// The rule for a phone read from a file: it lasts at least [`MIN_PHONE_S`] (so neither
+    /// zero nor a negative time). Where a label must be written out (CSV, HTK, xlabel, unlike
+    /// a TextGrid's empty interval, which is a silence), [`Phone::check_label`] too.
+    ///
+    /// # Errors
+    /// A message naming the phone's label and times.
+    pub fn check_duration(&self) -> Result<(), String> {
+        let d = self.end - self.start;
+        if d >= MIN_PHONE_S {
+            return Ok(());
+        }
+        let what = if d < 0.0 {
+            "ends before it starts".to_string()
+        } else if d == 0.0 {
+            "lasts no time".to_string()
+        } else {
+            format!(
+                "lasts {} s, less than the {MIN_PHONE_S} s a phone takes",
+                crate::math::short_number(d)
+            )
+        };
+        Err(format!(
+            "phone `{}` ({}–{} s) {what}",
+            crate::io::pts::shorten(&self.label),
+            self.start,
+            self.end
+        ))
+    }
+
+    /// A label that is not empty (nor only spaces).
+    ///
+    /// # Errors
+    /// A message naming the phone's times.
+    pub fn check_label(&self) -> Result<(), String> {
+        if self.label.trim().is_empty() {
+            return Err(format!("the phone at {}–{} s has an empty label", self.start, self.end));
+        }
+        Ok(())
+    }
+}
+
 impl Alignment {
     /// Checks every phone's times: finite, `0 ≤ start ≤ end ≤ max_end_s`.
     ///

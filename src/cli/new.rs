@@ -147,6 +147,10 @@ pub struct NewArgs {
     /// Overwrite an existing session file.
     #[arg(long)]
     pub force: bool,
+    /// Use a --mapping that fails the map checks (`lipmap map check`: shared vertices,
+    /// left/right swaps, no landmarks, a mesh that is not a surface) anyway.
+    #[arg(long)]
+    pub accept_map_warnings: bool,
 }
 
 /// Add a clip to an existing session, and/or set or replace its landmark map or head mesh.
@@ -169,6 +173,10 @@ pub struct ImportArgs {
     /// the head it named; the session's map is checked on it.
     #[arg(long, value_name = "HEAD.obj")]
     pub head: Option<PathBuf>,
+    /// Use a --mapping or --head-mapping that fails the map checks (`lipmap map check`)
+    /// anyway.
+    #[arg(long)]
+    pub accept_map_warnings: bool,
 }
 
 /// Creates the session and says what it holds (warnings go to stderr first).
@@ -185,6 +193,7 @@ pub fn run_new(a: &NewArgs) -> Result<String> {
         mapping: a.mapping.clone(),
         set: a.set,
         force: a.force,
+        accept_map_warnings: a.accept_map_warnings,
     })?;
     print_warnings(&created.warnings);
     let path = &created.path;
@@ -219,6 +228,7 @@ pub fn run_import(a: &ImportArgs) -> Result<String> {
         mapping: a.mapping.clone(),
         head: a.head.clone(),
         head_mapping: a.head_mapping.clone(),
+        accept_map_warnings: a.accept_map_warnings,
     })?;
     print_warnings(&imported.warnings);
     let path = &imported.path;

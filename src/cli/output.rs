@@ -75,20 +75,7 @@ pub fn write_tables(tables: &[&Table], format: TableFormat, out: &mut dyn Write)
 /// The first non-finite number found.
 pub fn ensure_figures_finite(tables: &[&Table]) -> Result<()> {
     for t in tables {
-        for (r, row) in t.rows.iter().enumerate() {
-            for (c, cell) in row.iter().enumerate() {
-                if let crate::eval::Cell::Num(v) = cell
-                    && !v.is_finite()
-                {
-                    let column = t.headers.get(c).map_or("?", String::as_str);
-                    anyhow::bail!(
-                        "`{}`, row {}, column `{column}`: {v} is not a figure (a damaged model or a degenerate input upstream); nothing written",
-                        terminal_safe(&t.title),
-                        r + 1
-                    );
-                }
-            }
-        }
+        t.check_finite().map_err(|e| anyhow::anyhow!("{}", terminal_safe(&e.to_string())))?;
     }
     Ok(())
 }

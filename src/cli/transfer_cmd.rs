@@ -6,7 +6,7 @@ use crate::cli::output::terminal_safe;
 use crate::cli::progress::{frames_bar, print_warnings, show_on};
 use crate::glossary::names::{PLACEMENT_RESIDUAL, TRIANGLES_DROPPED};
 use crate::transfer::Interpolation;
-use crate::workflow::{self, open_for_edit, select_clips};
+use crate::workflow::{self, open_for_read, select_clips};
 use anyhow::Result;
 use std::io::Write;
 use std::path::PathBuf;
@@ -36,6 +36,10 @@ pub struct TransferArgs {
     /// Output folder (one subfolder per clip).
     #[arg(long)]
     pub out: PathBuf,
+    /// Transfer with a map that fails the map checks (`lipmap map check`: shared vertices,
+    /// left/right swaps, no landmarks, a mesh that is not a surface) anyway.
+    #[arg(long)]
+    pub accept_map_warnings: bool,
 }
 
 /// `--mode` (and `eval --transfer-mode`).
@@ -55,7 +59,9 @@ impl From<ModeArg> for Interpolation {
 }
 
 pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
-    let mut opened = open_for_edit(&a.session)?;
+    // Its output goes to --out: a session that cannot be saved (read-only, or open in an
+    // editor) is read as it is, and the head is then not recorded in it.
+    let mut opened = open_for_read(&a.session)?;
     print_warnings(&opened.notices);
     let (res, warnings) = workflow::load_resources(&opened.session, &opened.path)?;
     print_warnings(&warnings);
@@ -71,7 +77,15 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
     };
     let mapping = match &a.mapping {
         Some(m) => Some(m.clone()),
-        None => workflow::transfer::session_head_mapping(&mut opened.session, &head)?,
+        None => {
+            // Written beside the session when it is saved, else with the output.
+            let dir = if opened.is_locked() {
+                opened.session.base_dir().to_path_buf()
+            } else {
+                a.out.clone()
+            };
+            workflow::transfer::session_head_mapping(&mut opened.session, &head, &dir)?
+        }
     };
     let request = workflow::transfer::TransferRequest {
         head,
@@ -80,11 +94,13 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
         clips,
         out_dir: a.out.clone(),
         objs: a.objs,
+        accept_map_warnings: a.accept_map_warnings,
     };
     let bar = frames_bar(0, "fitting");
     let report =
         workflow::transfer::transfer_session(&mut opened.session, &res, &request, &show_on(&bar))?;
-    opened.save()?;
+    print_warnings(&report.warnings);
+    opened.save_if_locked()?;
     // Head units mean nothing alone: the head's eye distance is the yardstick.
     let of_eyes = |r: f64| {
         report
@@ -113,7 +129,16 @@ pub fn run(a: &TransferArgs, out: &mut dyn Write) -> Result<()> {
             (terminal_safe(clip), terminal_safe(&file.to_string_lossy()).into_owned());
         writeln!(out, "{clip}: {frames} frames -> {file}")?;
     }
-    writeln!(out, "recorded head `{}` in {}", report.head_name, opened.path.display())?;
+    if opened.is_locked() {
+        writeln!(out, "recorded head `{}` in {}", report.head_name, opened.path.display())?;
+    } else {
+        writeln!(
+            out,
+            "head `{}` not recorded: {} was read without saving",
+            report.head_name,
+            opened.path.display()
+        )?;
+    }
     writeln!(
         out,
         "(the terms: `lipmap help placement residual`, `lipmap help {TRIANGLES_DROPPED}`)"

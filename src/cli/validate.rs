@@ -21,14 +21,19 @@ pub struct ValidateArgs {
 /// What a valid file holds, in a few words.
 fn describe(summary: &FileSummary) -> String {
     match summary {
-        FileSummary::Session { clips, map, notices } => {
+        FileSummary::Session { clips, frames, cached_fits, map, notices } => {
             let map = match map {
                 Some(Ok(summary)) => format!("; {summary}"),
                 Some(Err(e)) => format!("; map not checked: {e}"),
                 None => String::new(),
             };
             let notes: String = notices.iter().map(|w| format!("; {}", w.status_text())).collect();
-            format!("session, {}{map}{notes}", plural(*clips, "clip"))
+            format!(
+                "session, {}, {} tracked, {}{map}{notes}",
+                plural(*clips, "clip"),
+                plural(*frames, "frame"),
+                plural(*cached_fits, "cached fit")
+            )
         }
         FileSummary::Landmarks { frames } => format!("landmarks, {}", plural(*frames, "frame")),
         FileSummary::Alignment { phones } => format!("alignment, {}", plural(*phones, "phone")),

@@ -4,13 +4,15 @@
 //!
 //! Start with an [`Utterance`] per sentence (alignment, fps, video and head trajectories),
 //! then [`rmse::sentence_rmse`], [`rmse::phoneme_rmse`], [`rmse::viseme_rmse`],
-//! [`compare::compare_configurations`] and the table builders in [`report`].
+//! [`compare::compare_configurations`] and the table builders in [`report`]; [`Tally`] builds
+//! the same tables one sentence at a time, for corpora too large to hold.
 
 pub mod compare;
 pub mod report;
 pub mod rmse;
 pub mod seal;
 pub mod stats;
+pub mod tally;
 pub mod visemes;
 pub mod worst;
 
@@ -22,6 +24,7 @@ pub use compare::{Comparison, Configuration, RowKey, compare_configurations};
 pub use report::{Cell, Table};
 pub use rmse::{GroupRmse, phoneme_rmse, sentence_rmse, viseme_rmse};
 pub use stats::{TTest, normalised_mse, paired_t_test, pearson};
+pub use tally::Tally;
 pub use visemes::VisemeTable;
 pub use worst::{WorstFit, WorstFrame, worst_frames_by_error, worst_frames_by_residual};
 

@@ -167,6 +167,34 @@ impl Table {
         }
     }
 
+    /// Refuses a number cell that is NaN or ±inf (a computation gone wrong): no writer
+    /// prints one as a figure. [`Cell::num`] makes such values empty; this catches the
+    /// `Cell::Num` built directly.
+    ///
+    /// # Errors
+    /// `InvalidData` naming the table, row and column.
+    pub fn check_finite(&self) -> io::Result<()> {
+        for (r, row) in self.rows.iter().enumerate() {
+            for (c, cell) in row.iter().enumerate() {
+                if let Cell::Num(v) = cell
+                    && !v.is_finite()
+                {
+                    let column = self.headers.get(c).map_or("?", String::as_str);
+                    return Err(io::Error::new(
+                        io::ErrorKind::InvalidData,
+                        format!(
+                            "`{}`, row {}, column `{column}`: {v} is not a figure (a damaged \
+                             model or a degenerate input upstream); nothing written",
+                            self.title,
+                            r + 1
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
     fn cell(&self, r: usize, c: usize) -> &Cell {
         self.rows[r].get(c).unwrap_or(&Cell::Empty)
     }
@@ -196,8 +224,9 @@ impl Table {
     /// Numbers are right-aligned, text left-aligned; widths count characters.
     ///
     /// # Errors
-    /// Any error of the writer.
+    /// Any error of the writer; a non-finite number ([`Table::check_finite`]).
     pub fn write_text(&self, w: &mut impl Write) -> io::Result<()> {
+        self.check_finite()?;
         let rows = self.formatted_rows();
         let numeric = self.numeric_columns();
         let widths: Vec<usize> = (0..self.headers.len())
@@ -244,17 +273,20 @@ impl Table {
     /// The aligned text as a string.
     pub fn to_text(&self) -> String {
         let mut buf = Vec::new();
-        // Writing to a Vec cannot fail.
-        let _ = self.write_text(&mut buf);
-        String::from_utf8_lossy(&buf).into_owned()
+        // Writing to a Vec fails only on a non-finite number, which is then what is shown.
+        match self.write_text(&mut buf) {
+            Ok(()) => String::from_utf8_lossy(&buf).into_owned(),
+            Err(e) => e.to_string(),
+        }
     }
 
     /// Writes the header and rows as CSV (numbers at full precision, empty cells empty);
     /// title and notes are left out so the file loads as plain data.
     ///
     /// # Errors
-    /// Any error of the writer.
+    /// Any error of the writer; a non-finite number ([`Table::check_finite`]).
     pub fn write_csv(&self, w: &mut impl Write) -> io::Result<()> {
+        self.check_finite()?;
         let mut csv = csv::Writer::from_writer(w);
         csv.write_record(&self.headers).map_err(io::Error::other)?;
         for r in 0..self.rows.len() {
@@ -274,8 +306,9 @@ impl Table {
     /// numbers, empty cells `null`.
     ///
     /// # Errors
-    /// Any error of the writer.
+    /// Any error of the writer; a non-finite number ([`Table::check_finite`]).
     pub fn write_json(&self, w: &mut impl Write) -> io::Result<()> {
+        self.check_finite()?;
         serde_json::to_writer_pretty(&mut *w, self).map_err(io::Error::other)?;
         writeln!(w)
     }
@@ -297,11 +330,37 @@ impl Table {
     }
 }
 
-/// Which measures a set of utterances can compare: P only when some clip's video carries it
-/// (every column compares video with head, so a head's P alone fills nothing).
-fn measures_present(utterances: &[Utterance]) -> Vec<Measure> {
-    let has_p = utterances.iter().any(|u| u.video.has_p());
+/// Which measures a table can compare: P only when some clip's video carries it (every
+/// column compares video with head, so a head's P alone fills nothing).
+fn measures_present(has_p: bool) -> Vec<Measure> {
     Measure::ALL.into_iter().filter(|m| *m != Measure::P || has_p).collect()
+}
+
+/// One sentence's row of the per-sentence table: RMSE, Pearson r and variance-normalised
+/// MSE of W, H and P (the table keeps the columns some row can fill).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SentenceRow {
+    pub name: String,
+    /// RMSE, r and NMSE, each of W, H, P.
+    pub values: [PerMeasure; 3],
+    /// Whether the video carries P.
+    pub video_has_p: bool,
+}
+
+impl SentenceRow {
+    /// The row of `u` (as compared: normalised or not).
+    pub fn of(u: &Utterance) -> Self {
+        let (v, h) = (&u.video, &u.head);
+        Self {
+            name: u.name.clone(),
+            values: [
+                sentence_rmse(u),
+                PerMeasure::from_fn(|m| stats::pearson(v.series(m), h.series(m))),
+                PerMeasure::from_fn(|m| stats::normalised_mse(v.series(m), h.series(m))),
+            ],
+            video_has_p: v.has_p(),
+        }
+    }
 }
 
 fn per_measure_cells(v: &PerMeasure, measures: &[Measure]) -> Vec<Cell> {
@@ -311,22 +370,23 @@ fn per_measure_cells(v: &PerMeasure, measures: &[Measure]) -> Vec<Cell> {
 /// Per-sentence table: RMSE, Pearson r and variance-normalised MSE of W, H (and P), one
 /// row per utterance and a final mean row.
 pub fn sentence_table(utterances: &[Utterance]) -> Table {
-    let measures = measures_present(utterances);
+    let rows: Vec<SentenceRow> = utterances.iter().map(SentenceRow::of).collect();
+    sentence_table_of(&rows)
+}
+
+/// [`sentence_table`] of rows made with [`SentenceRow::of`].
+pub fn sentence_table_of(rows: &[SentenceRow]) -> Table {
+    let measures = measures_present(rows.iter().any(|r| r.video_has_p));
     let mut headers = vec!["sentence".to_string()];
     for kind in ["RMSE", "r", "NMSE"] {
         headers.extend(measures.iter().map(|m| format!("{kind} {m}")));
     }
     let mut t = Table::new("RMSE per sentence (video vs head)", headers);
     let mut sums: Vec<Vec<Option<f64>>> = vec![Vec::new(); 3 * measures.len()];
-    for u in utterances {
-        let rmse = sentence_rmse(u);
-        let mut row = vec![Cell::text(&u.name)];
-        let mut values: Vec<Option<f64>> = measures.iter().map(|m| rmse.get(*m)).collect();
-        values
-            .extend(measures.iter().map(|m| stats::pearson(u.video.series(*m), u.head.series(*m))));
-        values.extend(
-            measures.iter().map(|m| stats::normalised_mse(u.video.series(*m), u.head.series(*m))),
-        );
+    for r in rows {
+        let mut row = vec![Cell::text(&r.name)];
+        let values: Vec<Option<f64>> =
+            r.values.iter().flat_map(|v| measures.iter().map(|m| v.get(*m))).collect();
         for (k, v) in values.iter().enumerate() {
             sums[k].push(*v);
             row.push(Cell::num(*v));

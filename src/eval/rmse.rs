@@ -5,7 +5,7 @@
 //! frame with both values contributes no occurrence for that measure.
 
 use super::visemes::VisemeTable;
-use super::{PerMeasure, Utterance, mean_of};
+use super::{PerMeasure, Utterance};
 use crate::alignment::{Alignment, PhoneInventory};
 use crate::measure::Measure;
 use serde::{Deserialize, Serialize};
@@ -60,23 +60,68 @@ pub struct GroupRmse {
     pub rmse: PerMeasure,
 }
 
-/// Per-occurrence RMSE of every phone of an utterance, keyed by `key(label)` (phones whose
-/// key is `None` are skipped).
-fn occurrences(
-    u: &Utterance,
-    key: &dyn Fn(&str) -> Option<String>,
-    out: &mut BTreeMap<String, Vec<PerMeasure>>,
-) {
-    if !(u.fps.is_finite() && u.fps > 0.0) {
-        return;
+/// The running sums of a group's occurrence RMSEs: what [`group_rmse`] needs of each
+/// utterance, so utterances can be added one at a time and dropped ([`GroupSums::add`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GroupSums {
+    occurrences: usize,
+    /// Occurrences with a value, per measure.
+    counted: [usize; 3],
+    /// Sum and count of the finite values, per measure (the mean skips non-finite ones, as
+    /// `eval::mean_of` does).
+    sum: [f64; 3],
+    finite: [usize; 3],
+}
+
+impl GroupSums {
+    fn push(&mut self, v: PerMeasure) {
+        self.occurrences += 1;
+        for (k, m) in Measure::ALL.into_iter().enumerate() {
+            if let Some(x) = v.get(m) {
+                self.counted[k] += 1;
+                if x.is_finite() {
+                    self.sum[k] += x;
+                    self.finite[k] += 1;
+                }
+            }
+        }
     }
-    for phone in &u.alignment.phones {
-        let Some(k) = key(&phone.label) else { continue };
-        let frames = Alignment::frames_of(phone, u.fps);
-        let v =
-            PerMeasure::from_fn(|m| rmse_over(u.video.series(m), u.head.series(m), frames.clone()));
-        out.entry(k).or_default().push(v);
+
+    /// Adds every phone of `u` to its group `key(label)` (phones whose key is `None` are
+    /// skipped): each occurrence's RMSE over the frames inside its interval.
+    pub fn add(
+        u: &Utterance,
+        key: &dyn Fn(&str) -> Option<String>,
+        groups: &mut BTreeMap<String, GroupSums>,
+    ) {
+        if !(u.fps.is_finite() && u.fps > 0.0) {
+            return;
+        }
+        for phone in &u.alignment.phones {
+            let Some(k) = key(&phone.label) else { continue };
+            let frames = Alignment::frames_of(phone, u.fps);
+            let v = PerMeasure::from_fn(|m| {
+                rmse_over(u.video.series(m), u.head.series(m), frames.clone())
+            });
+            groups.entry(k).or_default().push(v);
+        }
     }
+
+    /// The group's row: the plain mean over its occurrences.
+    pub fn finish(&self, label: String) -> GroupRmse {
+        let mean = |k: usize| (self.finite[k] > 0).then(|| self.sum[k] / self.finite[k] as f64);
+        GroupRmse {
+            label,
+            occurrences: self.occurrences,
+            counted: self.counted,
+            rmse: PerMeasure { w: mean(0), h: mean(1), p: mean(2) },
+        }
+    }
+}
+
+/// The rows of groups summed with [`GroupSums::add`], sorted by label.
+pub fn finish_groups(groups: &BTreeMap<String, GroupSums>) -> Vec<GroupRmse> {
+    groups.iter().map(|(label, g)| g.finish(label.clone())).collect()
 }
 
 /// RMSE per group over many utterances: each occurrence's RMSE over the frames inside its
@@ -86,23 +131,31 @@ pub fn group_rmse(
     utterances: &[Utterance],
     key: &dyn Fn(&str) -> Option<String>,
 ) -> Vec<GroupRmse> {
-    let mut map = BTreeMap::new();
+    let mut groups = BTreeMap::new();
     for u in utterances {
-        occurrences(u, key, &mut map);
+        GroupSums::add(u, key, &mut groups);
     }
-    map.into_iter()
-        .map(|(label, occ)| {
-            let counted = Measure::ALL.map(|m| occ.iter().filter(|o| o.get(m).is_some()).count());
-            let rmse = PerMeasure::from_fn(|m| mean_of(occ.iter().map(|o| o.get(m))));
-            GroupRmse { label, occurrences: occ.len(), counted, rmse }
-        })
-        .collect()
+    finish_groups(&groups)
 }
 
 /// RMSE per phoneme, phones grouped by their key in `phones` (stress digits, case and symbol
 /// set dropped, silences folded to `sil`) over many utterances.
 pub fn phoneme_rmse(utterances: &[Utterance], phones: &PhoneInventory) -> Vec<GroupRmse> {
-    group_rmse(utterances, &|l| Some(phones.key_of(l)))
+    group_rmse(utterances, &phoneme_key(phones))
+}
+
+/// The phoneme row a phone label counts in: its key in `phones`.
+pub fn phoneme_key(phones: &PhoneInventory) -> impl Fn(&str) -> Option<String> + '_ {
+    |l| Some(phones.key_of(l))
+}
+
+/// The viseme row a phone label counts in: the class of its key in `table`, `?` when the
+/// table does not know it (so it stays visible).
+pub fn viseme_key<'a>(
+    phones: &'a PhoneInventory,
+    table: &'a VisemeTable,
+) -> impl Fn(&str) -> Option<String> + 'a {
+    |l| Some(table.class_of(&phones.key_of(l)).unwrap_or("?").to_string())
 }
 
 /// RMSE per viseme class of `table` (phones by their key in `phones`): the mean over every
@@ -113,7 +166,7 @@ pub fn viseme_rmse(
     phones: &PhoneInventory,
     table: &VisemeTable,
 ) -> Vec<GroupRmse> {
-    group_rmse(utterances, &|l| Some(table.class_of(&phones.key_of(l)).unwrap_or("?").to_string()))
+    group_rmse(utterances, &viseme_key(phones, table))
 }
 
 #[cfg(test)]

@@ -47,17 +47,17 @@ pub fn lip_seal(u: &Utterance) -> Option<LipSeal> {
     Some(LipSeal { frames: n, head_median, head_max: gaps[n - 1], head_widest })
 }
 
-/// One row per utterance: where the video's lips meet, the head's H there (median and
-/// largest), its widest H and the median's share of it. Utterances whose lips never meet get
-/// a row of blanks after their frame count of 0.
-pub fn seal_table(utterances: &[Utterance]) -> Table {
+/// One row per sentence (its name and [`lip_seal`]): where the video's lips meet, the head's
+/// H there (median and largest), its widest H and the median's share of it. Sentences whose
+/// lips never meet get a row of blanks after their frame count of 0.
+pub fn seal_table(seals: &[(String, Option<LipSeal>)]) -> Table {
     let headers = ["sentence", "frames lips meet", "head H median", "head H max", "head H widest"];
     let mut headers: Vec<String> = headers.iter().map(|h| h.to_string()).collect();
     headers.push("median % of widest".into());
     let mut t = Table::new("sealed lips: the head's H where the video's lips meet", headers);
-    for u in utterances {
-        let mut row = vec![Cell::text(&u.name)];
-        match lip_seal(u) {
+    for (sentence, seal) in seals {
+        let mut row = vec![Cell::text(sentence)];
+        match seal {
             Some(s) => row.extend([
                 Cell::Int(s.frames as i64),
                 Cell::num(Some(s.head_median)),
@@ -96,7 +96,8 @@ mod tests {
         assert_eq!(s.frames, 3);
         assert!((s.head_median - 0.2).abs() < 1e-12 && (s.head_max - 0.3).abs() < 1e-12);
         assert!((s.share() - 0.1).abs() < 1e-12, "{s:?}");
-        let t = seal_table(&[u, utterance(&[0.5, 0.6], &[1.0, 1.0])]);
+        let apart = utterance(&[0.5, 0.6], &[1.0, 1.0]);
+        let t = seal_table(&[u, apart].map(|u| (u.name.clone(), lip_seal(&u))));
         assert!(matches!(t.rows[0][5], Cell::Num(v) if (v - 10.0).abs() < 1e-9), "{:?}", t.rows[0]);
         assert_eq!(t.rows[1], vec![Cell::text("s"), Cell::Int(0)]);
     }

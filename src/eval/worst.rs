@@ -25,32 +25,42 @@ pub struct WorstFrame {
 /// The `n` frames with the largest |head − video| of measure `m` over all utterances,
 /// worst first; ties keep utterance and frame order. Frames without both values are skipped.
 pub fn worst_frames_by_error(utterances: &[Utterance], m: Measure, n: usize) -> Vec<WorstFrame> {
-    let mut all = Vec::new();
+    let mut top = Vec::new();
     for u in utterances {
-        let (v, h) = (u.video.series(m), u.head.series(m));
-        for (frame, (a, b)) in v.iter().zip(h).enumerate() {
-            let (Some(video), Some(head)) = (*a, *b) else { continue };
-            if !(video.is_finite() && head.is_finite()) {
-                continue;
-            }
-            let phone = (u.fps > 0.0)
-                .then(|| u.alignment.phone_at(frame as f64 / u.fps))
-                .flatten()
-                .map(|p| p.label.clone());
-            all.push(WorstFrame {
-                utterance: u.name.clone(),
-                frame,
-                measure: m,
-                video,
-                head,
-                error: head - video,
-                phone,
-            });
-        }
+        add_worst_frames(&mut top, u, m, n);
     }
-    all.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
-    all.truncate(n);
-    all
+    top
+}
+
+/// Merges the frames of `u` into `top`, the `n` worst so far of measure `m` (as
+/// [`worst_frames_by_error`] ranks them): utterances can be added one at a time and dropped.
+/// Candidates are kept only while they can still rank, so memory is `n` plus a clip.
+pub fn add_worst_frames(top: &mut Vec<WorstFrame>, u: &Utterance, m: Measure, n: usize) {
+    let (v, h) = (u.video.series(m), u.head.series(m));
+    let floor = if top.len() >= n { top.last().map_or(0.0, |w| w.error.abs()) } else { -1.0 };
+    for (frame, (a, b)) in v.iter().zip(h).enumerate() {
+        let (Some(video), Some(head)) = (*a, *b) else { continue };
+        // A later frame that only ties the n-th never ranks: ties keep the earlier one.
+        if !(video.is_finite() && head.is_finite()) || (head - video).abs() <= floor {
+            continue;
+        }
+        let phone = (u.fps > 0.0)
+            .then(|| u.alignment.phone_at(frame as f64 / u.fps))
+            .flatten()
+            .map(|p| p.label.clone());
+        top.push(WorstFrame {
+            utterance: u.name.clone(),
+            frame,
+            measure: m,
+            video,
+            head,
+            error: head - video,
+            phone,
+        });
+    }
+    // Stable: among equal errors the earlier utterance and frame stay first.
+    top.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
+    top.truncate(n);
 }
 
 /// A frame ranked by fit residual.
@@ -68,28 +78,33 @@ pub struct WorstFit {
 /// whatever their residual), then by reprojection RMS in pixels, largest first; a non-finite
 /// RMS ranks as worst.
 pub fn worst_frames_by_residual(clips: &[(&str, &[FrameFit])], n: usize) -> Vec<WorstFit> {
-    let mut all: Vec<WorstFit> = clips
-        .iter()
-        .flat_map(|(name, fits)| {
-            fits.iter().map(move |f| WorstFit {
-                clip: name.to_string(),
-                frame: f.frame,
-                reproj_rms_px: f.reproj_rms_px,
-                failed: f.failed.clone(),
-            })
-        })
-        .collect();
+    let mut top = Vec::new();
+    for (name, fits) in clips {
+        add_worst_fits(&mut top, name, fits, n);
+    }
+    top
+}
+
+/// Merges the fits of clip `name` into `top`, the `n` worst so far (as
+/// [`worst_frames_by_residual`] ranks them): clips can be added one at a time and dropped.
+pub fn add_worst_fits(top: &mut Vec<WorstFit>, name: &str, fits: &[FrameFit], n: usize) {
+    top.extend(fits.iter().map(|f| WorstFit {
+        clip: name.to_string(),
+        frame: f.frame,
+        reproj_rms_px: f.reproj_rms_px,
+        failed: f.failed.clone(),
+    }));
     let key = |w: &WorstFit| {
         let rms = if w.reproj_rms_px.is_finite() { w.reproj_rms_px } else { f64::INFINITY };
         (w.failed.is_some(), rms)
     };
-    all.sort_by(|a, b| {
+    // Stable: among equal ranks the earlier clip and frame stay first.
+    top.sort_by(|a, b| {
         let (fa, ra) = key(a);
         let (fb, rb) = key(b);
         fb.cmp(&fa).then(rb.total_cmp(&ra))
     });
-    all.truncate(n);
-    all
+    top.truncate(n);
 }
 
 #[cfg(test)]

@@ -10,11 +10,17 @@
 //! is atomic), are fsynced, and the temp file is renamed over the target; then the folder is
 //! fsynced so the rename itself survives a power cut. Renaming replaces a symlink at the target,
 //! never the file it points to, so an output can never be redirected through a planted link.
+//!
+//! A writer killed between creating its temp file and the rename (kill -9, a power cut)
+//! leaves the temp file behind: the first atomic write of a later process into that folder
+//! removes the temp files of processes that are gone ([`remove_dead_temp_files`]).
 
+use std::collections::BTreeSet;
 use std::ffi::OsString;
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Distinguishes temp files of one process (threads writing the same target at once).
@@ -37,6 +43,7 @@ impl AtomicFile {
         if target.file_name().is_none() {
             return Err(io::Error::new(io::ErrorKind::InvalidInput, "not a file name"));
         }
+        sweep_once(&parent_dir(target));
         // A crashed process whose pid has been reused may have left our next name behind; a
         // fresh counter value is as good a name.
         let (temp, file) = loop {
@@ -93,6 +100,39 @@ impl AtomicFile {
     }
 }
 
+impl AtomicFile {
+    /// Flushes and fsyncs the contents and hands back the temp file, for a writer that puts
+    /// it in place itself (the session lock hard-links it, which refuses an existing name
+    /// where a rename would replace it). The temp file is removed when the result is dropped.
+    ///
+    /// # Errors
+    /// The I/O error of the flush or sync; the temp file is removed.
+    pub fn stage(mut self) -> io::Result<Staged> {
+        let writer = self.writer.take().expect("writer present until commit");
+        let file = writer.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()?;
+        Ok(Staged { temp: std::mem::take(&mut self.temp) })
+    }
+}
+
+/// A written and synced temp file ([`AtomicFile::stage`]); removed on drop.
+pub struct Staged {
+    temp: PathBuf,
+}
+
+impl Staged {
+    /// The temp file.
+    pub fn path(&self) -> &Path {
+        &self.temp
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.temp);
+    }
+}
+
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
         self.writer.as_mut().expect("writer present until commit").write(buf)
@@ -112,9 +152,12 @@ impl Seek for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        // After a successful commit the temp name no longer exists; otherwise this is cleanup.
+        // After a successful commit the temp name no longer exists (after `stage` it is the
+        // `Staged`'s to remove); otherwise this is cleanup.
         drop(self.writer.take());
-        let _ = fs::remove_file(&self.temp);
+        if !self.temp.as_os_str().is_empty() {
+            let _ = fs::remove_file(&self.temp);
+        }
     }
 }
 
@@ -163,6 +206,59 @@ pub fn temp_owner(target: &Path, file_name: &str) -> Option<u32> {
     let name = target.file_name()?.to_str()?;
     let rest = file_name.strip_prefix('.')?.strip_prefix(name)?.strip_prefix(".tmp.")?;
     let (pid, n) = rest.split_once('.')?;
+    n.parse::<u64>().ok()?;
+    pid.parse().ok()
+}
+
+/// Folders this process has swept of dead writers' temp files.
+static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+
+/// [`remove_dead_temp_files`] of `dir`, the first time this process writes there.
+fn sweep_once(dir: &Path) {
+    let first = SWEPT.lock().map(|mut swept| swept.insert(dir.to_path_buf())).unwrap_or(false);
+    if first {
+        remove_dead_temp_files(dir);
+    }
+}
+
+/// Removes the temp files in `dir` ([`temp_path`] names) whose writer is a process that no
+/// longer exists on this machine; a live writer's temp file is never touched. Failures are
+/// ignored (a file another process removed first, a read-only folder).
+pub fn remove_dead_temp_files(dir: &Path) {
+    let Ok(entries) = fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let Some(pid) = entry.file_name().to_str().and_then(temp_file_owner) else { continue };
+        if pid != std::process::id() && !process_alive(pid) {
+            let _ = fs::remove_file(entry.path());
+        }
+    }
+}
+
+/// Whether process `pid` exists on this machine and is not a zombie. Without `/proc` (not
+/// Linux) a process cannot be checked, so it is assumed alive: nothing of a live process is
+/// ever removed or taken over, at the price of cleaning up by hand.
+pub fn process_alive(pid: u32) -> bool {
+    let proc_root = Path::new("/proc");
+    if !proc_root.join("self").exists() {
+        return true;
+    }
+    // A killed process stays a zombie until its parent (a shell, tmux) reaps it: its /proc
+    // entry is still there, but it holds nothing. The state is the field after the `(comm)`.
+    match fs::read_to_string(proc_root.join(pid.to_string()).join("stat")) {
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .and_then(|(_, rest)| rest.split_whitespace().next())
+            .is_none_or(|state| !matches!(state, "Z" | "X")),
+        Err(_) => proc_root.join(pid.to_string()).exists(),
+    }
+}
+
+/// The pid of the process that wrote `file_name` as a temp file for any target (a name
+/// `.NAME.tmp.PID.N`, see [`temp_path`]), or `None` when it is not one.
+pub fn temp_file_owner(file_name: &str) -> Option<u32> {
+    let rest = file_name.strip_prefix('.')?;
+    let (_, tail) = rest.rsplit_once(".tmp.")?;
+    let (pid, n) = tail.split_once('.')?;
     n.parse::<u64>().ok()?;
     pid.parse().ok()
 }

@@ -111,25 +111,17 @@ pub fn parse_htk_lab(text: &str, path: &Path) -> Result<Alignment> {
     Ok(Alignment { phones })
 }
 
-/// Appends a phone after checking it ends after it starts and does not overlap the last.
+/// Appends a phone after checking it has a label, lasts at least
+/// [`crate::alignment::MIN_PHONE_S`] and does not overlap the last.
 pub(crate) fn push_phone(
     phones: &mut Vec<Phone>,
     p: Phone,
     path: &Path,
     line: usize,
 ) -> Result<()> {
-    if p.end < p.start {
-        return Err(FormatError::at_line(
-            path,
-            line,
-            format!(
-                "phone `{}` ends ({}) before it starts ({})",
-                shorten(&p.label),
-                p.end,
-                p.start
-            ),
-        ));
-    }
+    p.check_label()
+        .and_then(|()| p.check_duration())
+        .map_err(|m| FormatError::at_line(path, line, m))?;
     if let Some(prev) = phones.last()
         && p.start < prev.end - 1e-9
     {
@@ -196,7 +188,12 @@ pub fn parse_xlabel(text: &str, path: &Path) -> Result<Alignment> {
                 format!("end time {end} is before the previous end {start}"),
             ));
         }
-        phones.push(Phone { start, end, label });
+        let phone = Phone { start, end, label };
+        phone
+            .check_label()
+            .and_then(|()| phone.check_duration())
+            .map_err(|m| FormatError::at_line(path, line, m))?;
+        phones.push(phone);
     }
     if phones.is_empty() {
         return Err(FormatError::whole(path, "no labels after the `#` line"));

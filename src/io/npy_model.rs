@@ -454,8 +454,11 @@ impl NpyF32Writer {
     /// Appends `values` (f32, or f64 rounded to f32 as `as` does).
     ///
     /// # Errors
-    /// More values than the shape holds, or I/O errors, naming the file.
+    /// More values than the shape holds; a value that is not finite as f32 (NaN, ±inf, or
+    /// beyond f32's range), naming its index: lipmap never writes one into an output (the
+    /// file is not put in place); I/O errors, naming the file.
     pub fn write<T: Copy + Into<f64>>(&mut self, values: &[T]) -> Result<()> {
+        let first = self.written;
         self.written += values.len() as u64;
         if self.written > self.expected {
             return Err(FormatError::whole(
@@ -464,8 +467,19 @@ impl NpyF32Writer {
             ));
         }
         self.bytes.resize(4 * values.len(), 0);
-        for (out, &v) in self.bytes.chunks_exact_mut(4).zip(values) {
-            out.copy_from_slice(&(v.into() as f32).to_le_bytes());
+        for (k, (out, &v)) in self.bytes.chunks_exact_mut(4).zip(values).enumerate() {
+            let x = v.into() as f32;
+            if !x.is_finite() {
+                return Err(FormatError::whole(
+                    &self.path,
+                    format!(
+                        "value {} is {}, not a number lipmap writes (nothing written)",
+                        first + k as u64,
+                        crate::math::short_number(v.into())
+                    ),
+                ));
+            }
+            out.copy_from_slice(&x.to_le_bytes());
         }
         std::io::Write::write_all(&mut self.file, &self.bytes)
             .map_err(|e| FormatError::io(&self.path, e))

@@ -215,8 +215,16 @@ pub fn write_obj(path: &Path, mesh: &Mesh) -> Result<()> {
 /// Writes OBJ text to any writer (see [`write_obj`]).
 ///
 /// # Errors
-/// Errors of the writer.
+/// Errors of the writer; a vertex with a non-finite coordinate (`InvalidData` naming it):
+/// lipmap never writes NaN or ±inf into an output.
 pub fn write_obj_to<W: Write + ?Sized>(w: &mut W, mesh: &Mesh) -> std::io::Result<()> {
+    if let Some(i) = mesh.vertices.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        let p = mesh.vertices[i];
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("vertex {} is ({}, {}, {}), not a point lipmap writes", i + 1, p.x, p.y, p.z),
+        ));
+    }
     writeln!(w, "# lipmap mesh: {} vertices, {} faces", mesh.vertices.len(), mesh.faces.len())?;
     for p in &mesh.vertices {
         writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;

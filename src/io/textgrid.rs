@@ -115,7 +115,21 @@ impl TextGrid {
             })?,
         };
         match &tier.kind {
-            TierKind::Intervals(phones) => Ok(Alignment { phones: phones.clone() }),
+            TierKind::Intervals(phones) => {
+                // The phones' own rule; an empty label is a silence here (Praat's way).
+                if let Some((k, m)) = phones
+                    .iter()
+                    .enumerate()
+                    .find_map(|(k, p)| p.check_duration().err().map(|m| (k, m)))
+                {
+                    return Err(FormatError::at_line(
+                        path,
+                        tier.line,
+                        format!("tier `{}`, interval {}: {m}", tier.name, k + 1),
+                    ));
+                }
+                Ok(Alignment { phones: phones.clone() })
+            }
             TierKind::Points(_) => Err(FormatError::at_line(
                 path,
                 tier.line,

@@ -43,6 +43,10 @@ impl WavSummary {
 /// Multi-channel frames read per block.
 const BLOCK_FRAMES: usize = 8192;
 
+/// The highest sample rate lipmap accepts anywhere a rate is read (a session's clip audio, a
+/// speech model's analysis): above any recording format's.
+pub const MAX_SAMPLE_RATE_HZ: u32 = 384_000;
+
 /// A WAV file read block by block as mono samples, at its own rate or brought down to
 /// another ([`WavStream::open_at_rate`]).
 pub struct WavStream<R: Read> {

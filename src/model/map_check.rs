@@ -3,8 +3,10 @@
 //! of order (the jaw line, brows, nose base, lips), eyes not above the nose tip or the mouth
 //! not below it, and eye/mouth proportions outside the human range.
 //!
-//! Start with [`check_map`] (a map on a mesh, the head's axes found from the map itself) or
-//! [`check_layout`] (points already in face axes, as the suggester has them from a camera).
+//! Start with [`check_map`] (a map on a mesh, the head's axes found from the map itself),
+//! [`check_map_on_surface`] (the same, and the mesh checked to be a surface a map can be
+//! labelled on) or [`check_layout`] (points already in face axes, as the suggester has them
+//! from a camera).
 //!
 //! Face axes: x towards the subject's left (image right on a frontal view), y up, z out of
 //! the face. iBUG numbers the subject's right side first (landmark 0 is on the image's left).
@@ -106,14 +108,48 @@ pub struct Proportion {
 /// One thing wrong with a map (landmarks 0-based).
 #[derive(Clone, Debug, PartialEq)]
 pub enum MapProblem {
-    SharedVertex { vertex: usize, landmarks: Vec<usize> },
-    VertexOutOfRange { landmark: usize, vertex: usize },
-    WrongSide { landmark: usize },
-    PairSwapped { right: usize, left: usize },
-    OutOfOrder { first: usize, second: usize },
-    NotAbove { landmark: usize, reference: usize },
-    NotBelow { landmark: usize, reference: usize },
-    Proportion { name: &'static str, value: Real, range: (Real, Real) },
+    SharedVertex {
+        vertex: usize,
+        landmarks: Vec<usize>,
+    },
+    VertexOutOfRange {
+        landmark: usize,
+        vertex: usize,
+    },
+    WrongSide {
+        landmark: usize,
+    },
+    PairSwapped {
+        right: usize,
+        left: usize,
+    },
+    OutOfOrder {
+        first: usize,
+        second: usize,
+    },
+    NotAbove {
+        landmark: usize,
+        reference: usize,
+    },
+    NotBelow {
+        landmark: usize,
+        reference: usize,
+    },
+    Proportion {
+        name: &'static str,
+        value: Real,
+        range: (Real, Real),
+    },
+    /// The map maps no landmark.
+    NoLandmarks,
+    /// The mesh has no faces: it is not a surface a map can be labelled on.
+    NoFaces,
+    /// Faces of (numerically) zero area: all of them (the vertices lie on a line or in one
+    /// point), or some.
+    ZeroAreaFaces {
+        count: usize,
+        faces: usize,
+    },
 }
 
 impl MapProblem {
@@ -134,6 +170,7 @@ impl MapProblem {
                 .filter(|p| p.name == *name)
                 .flat_map(|p| [p.num.0, p.num.1, p.den.0, p.den.1])
                 .collect(),
+            Self::NoLandmarks | Self::NoFaces | Self::ZeroAreaFaces { .. } => Vec::new(),
         }
     }
 }
@@ -171,6 +208,16 @@ impl fmt::Display for MapProblem {
                 "{name} is {value:.2}, outside the human range {:.2}–{:.2}",
                 range.0, range.1
             ),
+            Self::NoLandmarks => write!(f, "it maps no landmark"),
+            Self::NoFaces => write!(f, "the mesh has no faces, so it is not a head's surface"),
+            Self::ZeroAreaFaces { count, faces } if count == faces => write!(
+                f,
+                "every one of the mesh's {faces} faces has zero area (its vertices lie on a line \
+                 or in one point), so it is not a head's surface"
+            ),
+            Self::ZeroAreaFaces { count, faces } => {
+                write!(f, "{count} of the mesh's {faces} faces have zero area")
+            }
         }
     }
 }
@@ -253,6 +300,57 @@ pub fn check_map(map: &LandmarkMap, vertices: &[Point3]) -> MapCheck {
     MapCheck { problems, axes_found: axes.is_some() }
 }
 
+/// [`check_map`] on a mesh with faces `triangles`: first whether the mesh is a surface a map
+/// can mean anything on ([`check_surface`]), and whether the map maps anything.
+pub fn check_map_on_surface(
+    map: &LandmarkMap,
+    vertices: &[Point3],
+    triangles: &[[u32; 3]],
+) -> MapCheck {
+    let mut problems = check_surface(vertices, triangles);
+    if map.is_empty() {
+        problems.push(MapProblem::NoLandmarks);
+    }
+    let on_map = check_map(map, vertices);
+    problems.extend(on_map.problems);
+    MapCheck { problems, axes_found: on_map.axes_found }
+}
+
+/// A face's area below this fraction of the squared size of the mesh's bounding box counts
+/// as zero: far below any real face (a head mesh of 20,000 faces has faces of ~1e-5 of it),
+/// far above rounding.
+pub const ZERO_AREA_FRACTION: Real = 1e-12;
+
+/// Whether vertices and `triangles` make a surface: faces at all, and faces of some area (a
+/// mesh whose vertices lie on a line has faces of zero area only). Faces naming a vertex
+/// past the mesh are left to the reader that made them.
+pub fn check_surface(vertices: &[Point3], triangles: &[[u32; 3]]) -> Vec<MapProblem> {
+    if triangles.is_empty() {
+        return vec![MapProblem::NoFaces];
+    }
+    let (lo, hi) = vertices.iter().fold(
+        (Vector3::repeat(Real::INFINITY), Vector3::repeat(Real::NEG_INFINITY)),
+        |(lo, hi), p| (lo.inf(&p.coords), hi.sup(&p.coords)),
+    );
+    let size2 = if vertices.is_empty() { 0.0 } else { (hi - lo).norm_squared() };
+    let zero = triangles
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|v| vertices.get(v as usize));
+            match (a, b, c) {
+                (Some(a), Some(b), Some(c)) => {
+                    0.5 * (b - a).cross(&(c - a)).norm() <= ZERO_AREA_FRACTION * size2
+                }
+                _ => false,
+            }
+        })
+        .count();
+    if zero == 0 {
+        return Vec::new();
+    }
+    vec![MapProblem::ZeroAreaFaces { count: zero, faces: triangles.len() }]
+}
+
 /// Groups of landmarks mapped to one vertex.
 pub fn shared_vertices(map: &LandmarkMap) -> Vec<MapProblem> {
     let mut by_vertex: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
@@ -285,6 +383,15 @@ pub fn check_layout(points: &BTreeMap<usize, Point3>) -> Vec<MapProblem> {
     let tol = 0.01 * size;
     let x = |l: usize| points.get(&l).map(|p| p.x);
     let y = |l: usize| points.get(&l).map(|p| p.y);
+    // Swapped pairs first: a swap also puts both points on the wrong side, and the swap is
+    // the cause a one-line summary should name.
+    for &(r, l) in &MIRROR_PAIRS {
+        if let (Some(xr), Some(xl)) = (x(r), x(l))
+            && xr >= xl
+        {
+            problems.push(MapProblem::PairSwapped { right: r, left: l });
+        }
+    }
     let mut mid: Vec<Real> = MIDLINE.iter().filter_map(|&l| x(l)).collect();
     mid.sort_by(Real::total_cmp);
     if let Some(&m) = mid.get(mid.len() / 2) {
@@ -295,13 +402,6 @@ pub fn check_layout(points: &BTreeMap<usize, Point3>) -> Vec<MapProblem> {
             if x(l).is_some_and(|xl| xl < m - tol) {
                 problems.push(MapProblem::WrongSide { landmark: l });
             }
-        }
-    }
-    for &(r, l) in &MIRROR_PAIRS {
-        if let (Some(xr), Some(xl)) = (x(r), x(l))
-            && xr >= xl
-        {
-            problems.push(MapProblem::PairSwapped { right: r, left: l });
         }
     }
     for chain in LEFT_TO_RIGHT {

@@ -21,26 +21,20 @@ pub const MAX_ITERATIONS: usize = 1000;
 /// A message naming the clip and field at fault.
 pub fn check_values(session: &Session) -> Result<(), String> {
     check_fit_settings(&session.fit_settings).map_err(|m| format!("fit_settings: {m}"))?;
-    for e in &session.fit_cache {
-        check_settings_frames(e)?;
-    }
     for clip in &session.clips {
         check_clip(clip).map_err(|m| format!("clip {:?}: {m}", clip.name))?;
     }
-    check_session_frames(&session.clips)
+    Ok(())
 }
 
-/// Most frames a session's clips may span together: as many as one clip may
-/// ([`MAX_FRAME`] + 1, 12 hours at 24 fps). Every clip's analyses hold a few values per frame
-/// of its span and a report holds all clips, so the bound keeps a small hand-edited file
-/// from sizing gigabytes through frame numbers alone.
-pub const MAX_SESSION_FRAMES: usize = MAX_FRAME + 1;
-
 /// The frames clip `clip` spans: up to its last tracked, corrected, reviewed or
-/// profile-corrected frame, or its last phone's end.
+/// profile-corrected frame, or its last phone's end. At most [`MAX_FRAME`] + 1 (12 hours at
+/// 24 fps): a clip's analyses hold a few values per frame of its span, and the uses cases
+/// work clip by clip, so this per-clip bound is what keeps a small hand-edited file from
+/// sizing gigabytes through frame numbers alone, however many clips a session has.
 pub fn clip_span(clip: &Clip) -> usize {
     let last = [
-        clip.tracked.frames.last().map(|f| f.frame),
+        clip.tracked_summary().last_frame,
         clip.corrections.points.keys().next_back().copied(),
         clip.corrections.reviewed.iter().next_back().copied(),
         clip.profile_corrections.keys().next_back().copied(),
@@ -52,26 +46,56 @@ pub fn clip_span(clip: &Clip) -> usize {
     frames.max(phones as usize)
 }
 
-fn check_session_frames(clips: &[Clip]) -> Result<(), String> {
-    let spans: Vec<usize> = clips.iter().map(clip_span).collect();
-    let total = spans.iter().fold(0usize, |t, &s| t.saturating_add(s));
-    if total <= MAX_SESSION_FRAMES {
-        return Ok(());
+/// The one rule for a tracked frame, inline in a session or in its track file: 68 points,
+/// a frame number lipmap accepts, finite timestamp and confidences, coordinates within
+/// ±[`MAX_COORDINATE_PX`].
+///
+/// # Errors
+/// A message naming the point or field.
+pub fn check_tracked_frame(f: &crate::landmarks::FrameLandmarks) -> Result<(), String> {
+    if f.points.len() != N_LANDMARKS {
+        return Err(format!("has {} points, not {N_LANDMARKS}", f.points.len()));
     }
-    // The longest clip is the likely culprit: name it.
-    let (clip, span) = clips.iter().zip(&spans).max_by_key(|(_, s)| **s).expect("over budget");
-    Err(format!(
-        "clip {:?}: spans {span} frames, and the session's clips {total} together, past the \
-         {MAX_SESSION_FRAMES} a session holds (a frame number far past the clip's end?)",
-        clip.name
-    ))
+    if f.frame > MAX_FRAME {
+        return Err(format!("{PAST} ({MAX_FRAME})"));
+    }
+    if f.timestamp.is_some_and(|t| !t.is_finite())
+        || f.confidence.is_some_and(|v| !v.is_finite())
+        || f.rerun_disagreement.is_some_and(|v| !v.is_finite())
+    {
+        return Err("has a non-finite timestamp, confidence or rerun_disagreement".into());
+    }
+    if let Some(i) = f.points.iter().position(|p| p.confidence.is_some_and(|v| !v.is_finite())) {
+        return Err(format!("point {}: confidence is not finite", crate::landmarks::PointNo(i)));
+    }
+    point_out_of_bounds(f).map_or(Ok(()), Err)
 }
 
-fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
-    check_fit_settings(&e.settings)
-        .map_err(|m| format!("clip {:?}: cached fit settings: {m}", e.clip))?;
+/// The one rule for a clip's cached fits: each entry as [`check_settings_frames`] says, and
+/// at most [`super::cache::MAX_CACHED_SETTINGS_PER_CLIP`] of them.
+///
+/// # Errors
+/// A message naming the entry's frame and field.
+pub fn check_cache_entries(entries: &[super::FitCacheEntry]) -> Result<(), String> {
+    let most = super::cache::MAX_CACHED_SETTINGS_PER_CLIP;
+    if entries.len() > most {
+        return Err(format!("{} cached fit settings, more than {most}", entries.len()));
+    }
+    entries.iter().try_for_each(check_settings_frames)
+}
+
+/// One cache entry: settings within bounds, frames lipmap accepts, finite fits (JSON and
+/// the fits file hold no NaN), and coefficient counts that agree.
+///
+/// # Errors
+/// A message naming the frame and field.
+pub(crate) fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
+    check_fit_settings(&e.settings).map_err(|m| format!("cached fit settings: {m}"))?;
     if let Some(f) = e.frames.iter().find(|f| f.fit.frame > MAX_FRAME) {
-        return Err(format!("clip {:?}: cached fit of frame {} {}", e.clip, f.fit.frame, PAST));
+        return Err(format!("cached fit of frame {} {}", f.fit.frame, PAST));
+    }
+    if let Some(f) = e.frames.iter().find(|f| super::cache::storable_fit(f.fit.clone()) != f.fit) {
+        return Err(format!("cached fit of frame {} has non-finite values", f.fit.frame));
     }
     // One model fitted every frame of an entry, so its good fits agree on their coefficient
     // counts; whether those match the model is checked where the model is loaded.
@@ -80,9 +104,8 @@ fn check_settings_frames(e: &super::FitCacheEntry) -> Result<(), String> {
         let counts = (first.identity.len(), first.expression.len());
         if let Some(f) = good.find(|f| (f.identity.len(), f.expression.len()) != counts) {
             return Err(format!(
-                "clip {:?}: cached fit of frame {} has {} identity and {} expression \
-                 coefficients where frame {} has {} and {}",
-                e.clip,
+                "cached fit of frame {} has {} identity and {} expression coefficients where \
+                 frame {} has {} and {}",
                 f.frame,
                 f.identity.len(),
                 f.expression.len(),
@@ -109,13 +132,9 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
     if let Some(side) = &clip.side {
         check_view(side).map_err(|m| format!("side: {m}"))?;
     }
-    // Frame keys are sorted: the last is the largest.
-    check_frame("tracked frame", clip.tracked.frames.last().map(|f| f.frame))?;
-    for f in &clip.tracked.frames {
-        if let Some(why) = point_out_of_bounds(f) {
-            return Err(format!("tracked frame {}: {why}", f.frame));
-        }
-    }
+    // Frame keys are sorted: the last is the largest. Tracked frames are checked one by one
+    // in memory (`Session::validate`) and when their file is read.
+    check_frame("tracked frame", clip.tracked_summary().last_frame)?;
     let far = |v: f64| !(v.is_finite() && v.abs() <= MAX_COORDINATE_PX);
     for (frame, points) in &clip.corrections.points {
         if let Some((i, p)) = points.iter().find(|(_, p)| far(p.x) || far(p.y)) {
@@ -134,11 +153,29 @@ fn check_clip(clip: &Clip) -> Result<(), String> {
         "profile correction of frame",
         clip.profile_corrections.keys().next_back().copied(),
     )?;
+    if let Some(a) = &clip.audio {
+        check_audio(a).map_err(|m| format!("audio: {m}"))?;
+    }
     if let Some(a) = &clip.alignment {
         // A phone past the last frame lipmap accepts at this clip's rate would size the
         // per-frame phone table beyond it.
         let max_end = (MAX_FRAME + 1) as f64 / clip.front.fps;
         a.check_times(max_end).map_err(|m| format!("alignment: {m}"))?;
+    }
+    Ok(())
+}
+
+fn check_audio(a: &super::ClipAudio) -> Result<(), String> {
+    let max = crate::io::wav::MAX_SAMPLE_RATE_HZ;
+    if !(1..=max).contains(&a.sample_rate) {
+        return Err(format!("sample_rate {} Hz is not within 1–{max} Hz", a.sample_rate));
+    }
+    if a.channels == 0 {
+        return Err("channels is 0".into());
+    }
+    let max_offset = MAX_FRAME as f64;
+    if !(a.offset_s.is_finite() && a.offset_s.abs() <= max_offset) {
+        return Err(format!("offset_s {} is not within ±{max_offset} s", short_number(a.offset_s)));
     }
     Ok(())
 }
@@ -227,7 +264,7 @@ mod tests {
     fn refused(field: &str, edit: impl Fn(&mut Session)) {
         let mut s = session_with_clip();
         edit(&mut s);
-        let err = check_values(&s).expect_err(field);
+        let err = s.validate().expect_err(field);
         assert!(err.contains(field), "{field}: {err}");
         assert!(!err.contains('\n'), "one line: {err}");
     }
@@ -247,18 +284,18 @@ mod tests {
             super::super::CachedFrame { input: String::new(), fit: f }
         };
         let entry = |frames| super::super::FitCacheEntry {
-            clip: "a".into(),
             settings: Default::default(),
             context: String::new(),
             clip_input: None,
             frames,
         };
-        let mut s = session_with_clip();
-        s.fit_cache.push(entry(vec![fit(0, 3), fit(1, 3)]));
-        assert_eq!(check_values(&s), Ok(()));
-        s.fit_cache[0] = entry(vec![fit(0, 3), fit(1, 0)]);
-        let err = check_values(&s).unwrap_err();
+        assert_eq!(check_cache_entries(&[entry(vec![fit(0, 3), fit(1, 3)])]), Ok(()));
+        let err = check_cache_entries(&[entry(vec![fit(0, 3), fit(1, 0)])]).unwrap_err();
         assert!(err.contains("frame 1 has 0 identity"), "{err}");
+        let mut nan = fit(1, 3);
+        nan.fit.tx = f64::NAN;
+        let err = check_cache_entries(&[entry(vec![fit(0, 3), nan])]).unwrap_err();
+        assert!(err.contains("frame 1 has non-finite values"), "{err}");
     }
 
     #[test]
@@ -282,7 +319,8 @@ mod tests {
         refused("tracked frame 0: point 1 (1e300, 2)", |s| {
             let mut points = vec![crate::landmarks::LandmarkPoint::tracked(1.0, 2.0); N_LANDMARKS];
             points[0].x = 1e300;
-            s.clips[0].tracked.frames.push(crate::landmarks::FrameLandmarks::new(0, points));
+            let frame = crate::landmarks::FrameLandmarks::new(0, points);
+            s.clips[0].set_tracked(crate::landmarks::Track::new(vec![frame]));
         });
         refused("correction of frame 3 point 5: (-2000000, 1)", |s| {
             let p = crate::landmarks::LandmarkPoint::tracked(-2e6, 1.0);
@@ -295,24 +333,38 @@ mod tests {
             let p = crate::math::Point2::new(1.0, 1.0);
             s.clips[0].profile_corrections.insert(MAX_FRAME + 1, p);
         });
+        let audio = |rate: u32, channels: u16| crate::session::ClipAudio {
+            file: "/tmp/a.wav".into(),
+            sample_rate: rate,
+            channels,
+            offset_s: 0.0,
+        };
+        refused("audio: sample_rate 0 Hz", |s| s.clips[0].audio = Some(audio(0, 1)));
+        refused("audio: sample_rate 1000000 Hz", |s| s.clips[0].audio = Some(audio(1_000_000, 1)));
+        refused("audio: channels is 0", |s| s.clips[0].audio = Some(audio(16_000, 0)));
         refused("end before its start", |s| phones(s, 2.0, 1.0));
         refused("end past", |s| phones(s, 0.0, 1e9));
         refused("negative start", |s| phones(s, -1.0, 1.0));
     }
 
     #[test]
-    fn the_clips_together_span_at_most_a_session_of_frames() {
+    fn each_clip_spans_at_most_the_largest_frame_however_many_clips() {
         let mut s = session_with_clip();
-        s.clips[0].corrections.reviewed.insert(MAX_FRAME / 2);
-        let mut b = s.clips[0].clone();
-        b.name = "b".into();
-        s.clips.push(b.clone());
+        s.clips[0].corrections.reviewed.insert(MAX_FRAME);
+        for k in 0..4 {
+            let mut b = s.clips[0].clone();
+            b.name = format!("b{k}");
+            s.clips.push(b);
+        }
         assert_eq!(check_values(&s), Ok(()));
-        // Phones count as frames too: 2 s at 25 fps more than half the budget.
-        phones(&mut s, 0.0, 2.0 + (MAX_FRAME / 2) as f64 / 25.0);
+        assert_eq!(clip_span(&s.clips[0]), MAX_FRAME + 1);
+        // Phones count as frames too.
+        s.clips[0].corrections.reviewed.clear();
+        phones(&mut s, 0.0, 2.0);
+        assert_eq!(clip_span(&s.clips[0]), 50);
+        phones(&mut s, 0.0, (MAX_FRAME + 10) as f64 / 25.0);
         let err = check_values(&s).unwrap_err();
-        assert!(err.starts_with("clip \"a\"") && err.contains("past the 1048576"), "{err}");
-        assert_eq!(clip_span(&s.clips[0]), MAX_FRAME / 2 + 50);
+        assert!(err.starts_with("clip \"a\": alignment") && err.contains("end past"), "{err}");
     }
 
     #[test]

@@ -101,8 +101,6 @@ pub struct CachedFrame {
 /// The fits of one clip under one set of settings and one model/map context.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitCacheEntry {
-    /// Name of the clip.
-    pub clip: String,
     pub settings: FitSettings,
     /// Hash of the model, blendshapes and landmark map references.
     pub context: String,

@@ -3,15 +3,27 @@
 //!
 //! To change the format: bump `CURRENT_SCHEMA`, add a step `(old, fn)` to `STEPS` that turns
 //! a version-`old` tree into a version-`old + 1` tree, add a test with a real old file, and
-//! describe the change in docs/session-format.md. Files at the current version skip the JSON
-//! tree entirely (a 10,000-frame session is tens of MB; a `Value` of it would be several
-//! times that).
+//! describe the change in docs/session-format.md. Files from [`TYPED_FROM`] on skip the JSON
+//! tree entirely: the types read them as they are (a schema-2 session holds its tracks inline,
+//! hundreds of MB for a corpus; a `Value` of it would be several times that).
+//!
+//! Schema 3 moved tracks and cached fits into per-clip files (`clip_data`). It needs no tree
+//! step: the types read a schema-2 file's inline tracks and its session-wide `fit_cache`
+//! (`Session::load` moves the entries into their clips), and the next save writes them to
+//! files. The version bump is what keeps an older build from misreading a file reference.
 
 use serde::Deserialize;
 use serde_json::Value;
 
 /// The schema this build reads and writes.
-pub const CURRENT_SCHEMA: u32 = 2;
+pub const CURRENT_SCHEMA: u32 = 3;
+
+/// The oldest schema the session types read directly; older files are upgraded on the JSON
+/// tree by [`STEPS`] up to it first.
+pub const TYPED_FROM: u32 = 2;
+
+/// The first schema whose clips refer to data files (`NAME.lipmap.d/`).
+pub const DATA_FILES_FROM: u32 = 3;
 
 /// One upgrade step: a tree at version `from` to a tree at `from + 1`.
 pub type MigrationStep = fn(Value) -> Result<Value, String>;
@@ -155,6 +167,6 @@ mod tests {
         s.save(&path).unwrap();
         let again = crate::session::Session::load(&path).unwrap();
         assert_eq!(again, s);
-        assert!(std::fs::read_to_string(&path).unwrap().contains("\"schema_version\": 2"));
+        assert!(std::fs::read_to_string(&path).unwrap().contains("\"schema_version\": 3"));
     }
 }

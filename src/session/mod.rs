@@ -1,18 +1,27 @@
 //! Sessions: everything a user does on a set of clips, in one JSON file
-//! (`sessions/NAME.lipmap.json`), saved atomically, versioned, and locked while edited.
+//! (`sessions/NAME.lipmap.json`) with the clips' per-frame data (tracked landmarks, cached
+//! fits) in files beside it (`NAME.lipmap.d/`), saved atomically, versioned, and locked while
+//! edited.
 //!
 //! Start with `Session::load` / `Session::save` and `SessionLock::acquire`; edits go through
 //! `set_correction`/`clear_correction` (the tracker's values are never changed), the landmarks
 //! a fit should use come from `effective_frame`, and fits are cached with `store_fits` and
-//! checked with `stale_frames`. The file format is described in docs/session-format.md.
+//! checked with `stale_frames`. A clip's per-frame data is read when it is first used and
+//! dropped when no caller holds it (`clip_data`), so memory follows the clips being worked
+//! on, not the corpus. The file format is described in docs/session-format.md.
 
+pub mod binary;
 pub mod bounds;
 pub mod cache;
+pub mod clip_data;
 pub mod corrections;
+pub mod data_dir;
+pub mod fits_file;
 pub mod journal;
 pub mod migrate;
 pub mod model;
 pub mod store;
+pub mod track_file;
 pub mod transferred;
 
 pub use cache::{CachedFrame, FitCacheEntry};
@@ -25,8 +34,27 @@ pub use transferred::TransferredHead;
 use crate::fit::{FitSettings, FrameFit};
 use crate::io::frames::{FrameError, FrameOptions, FrameSource};
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, Track};
+use clip_data::ClipDataKind;
 use migrate::SchemaVersion;
 use std::path::{Path, PathBuf};
+
+/// How many bytes of new per-frame data (imports, fits) a session that writes its data early
+/// ([`Session::write_data_early`]) keeps in memory before putting it in files.
+pub const SPILL_BUDGET_BYTES: usize = 64 << 20;
+
+/// Where a session's new per-frame data goes before the save, and how much of it waits in
+/// memory. Not part of the session's value: two sessions equal in content are equal.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Spill {
+    dir: Option<PathBuf>,
+    pending: usize,
+}
+
+impl PartialEq for Spill {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
 
 /// The default folder of session files, relative to the working directory.
 pub const SESSIONS_DIR: &str = "sessions";
@@ -148,13 +176,13 @@ impl Session {
                 supported: CURRENT_SCHEMA,
             });
         }
-        let mut session: Session = if version == CURRENT_SCHEMA {
+        let mut session: Session = if version >= migrate::TYPED_FROM {
             store::with_base_dir(&base, || serde_json::from_str(&text))
                 .map_err(|e| parse_error(&abs, &e))?
         } else {
             let tree: serde_json::Value =
                 serde_json::from_str(&text).map_err(|e| parse_error(&abs, &e))?;
-            let tree = migrate::migrate(tree, version, migrate::STEPS, CURRENT_SCHEMA)
+            let tree = migrate::migrate(tree, version, migrate::STEPS, migrate::TYPED_FROM)
                 .map_err(|message| SessionError::Schema { path: abs.clone(), message })?;
             match store::with_base_dir(&base, || serde_json::from_value(tree)) {
                 Ok(session) => session,
@@ -175,11 +203,58 @@ impl Session {
             }
         };
         session.base_dir = base;
+        session.schema_version = CURRENT_SCHEMA;
         if session.name.is_empty() {
             session.name = model::session_name_of(&abs);
         }
-        session.validate().map_err(|message| SessionError::Invalid { path: abs, message })?;
+        session.adopt_legacy_fit_cache();
+        session
+            .validate()
+            .map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
+        session
+            .check_data_files()
+            .map_err(|message| SessionError::Invalid { path: abs, message })?;
         Ok(session)
+    }
+
+    /// Moves a schema-2 file's session-wide fit cache into its clips (entries of clips the
+    /// session does not have are dropped: nothing could use them).
+    fn adopt_legacy_fit_cache(&mut self) {
+        let legacy = std::mem::take(&mut self.legacy_fit_cache);
+        if legacy.is_empty() {
+            return;
+        }
+        let mut per_clip: Vec<Vec<FitCacheEntry>> = vec![Vec::new(); self.clips.len()];
+        for e in legacy {
+            if let Some(i) = self.clip_index(&e.clip) {
+                per_clip[i].push(e.entry);
+            }
+        }
+        for (clip, mut entries) in self.clips.iter_mut().zip(per_clip) {
+            if entries.is_empty() {
+                continue;
+            }
+            let excess = entries.len().saturating_sub(cache::MAX_CACHED_SETTINGS_PER_CLIP);
+            entries.drain(..excess);
+            clip.fit_cache = clip_data::ClipData::new(entries);
+        }
+    }
+
+    /// Every data file the session refers to exists (a missing one is named at once rather
+    /// than when its clip is reached).
+    fn check_data_files(&self) -> Result<(), String> {
+        for c in &self.clips {
+            for (what, file) in
+                [("tracked", c.tracked_data().file()), ("fit_cache", c.fit_cache.file())]
+            {
+                if let Some(f) = file
+                    && let Err(e) = std::fs::metadata(&f)
+                {
+                    return Err(format!("clip {:?}: {what}: {}: {e}", c.name, f.display()));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Writes the session to `path` atomically (temp file, fsync, rename, fsync folder),
@@ -191,8 +266,64 @@ impl Session {
     /// cannot be written; the file on disk is unchanged in both cases.
     pub fn save(&self, path: &Path) -> Result<(), SessionError> {
         let abs = absolute(path);
+        let target = link_target(&abs);
+        self.validate().map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
+        // The data first: the session file that refers to it is written only once it is all
+        // on disk.
+        self.store_data(&data_dir::data_dir_of(&target))?;
         let bytes = self.to_json(&abs)?;
-        store::write_atomically(&link_target(&abs), &bytes)
+        let before = data_dir::names_referenced_by_file(&target);
+        store::write_atomically(&target, &bytes)?;
+        data_dir::tidy(&target, &self.data_file_names(), &before);
+        Ok(())
+    }
+
+    /// Puts every clip's per-frame data in a file of `dir` (what is there already is kept).
+    ///
+    /// # Errors
+    /// `Invalid` for data breaking a rule, `Io` for a file that cannot be written.
+    fn store_data(&self, dir: &Path) -> Result<(), SessionError> {
+        for c in &self.clips {
+            let stem = data_dir::file_stem(&c.name);
+            c.tracked_data().put_in(dir, &stem)?;
+            c.fit_cache.put_in(dir, &stem)?;
+        }
+        Ok(())
+    }
+
+    /// The names of the data files the session refers to.
+    fn data_file_names(&self) -> std::collections::BTreeSet<std::ffi::OsString> {
+        self.clips
+            .iter()
+            .flat_map(|c| [c.tracked_data().file(), c.fit_cache.file()])
+            .flatten()
+            .filter_map(|f| f.file_name().map(std::ffi::OsString::from))
+            .collect()
+    }
+
+    /// Lets the per-frame data this session makes (imports, fits) go to the data folder of
+    /// the session file `file` whenever more than [`SPILL_BUDGET_BYTES`] of it waits in
+    /// memory, rather than all at the save: for a session this process holds the lock of
+    /// and will save at `file`. Until that save the files are referred to by nothing on
+    /// disk; a crash leaves them to be tidied away.
+    pub fn write_data_early(&mut self, file: &Path) {
+        let dir = data_dir::data_dir_of(&link_target(&absolute(file)));
+        self.spill = Spill { dir: Some(dir), pending: 0 };
+    }
+
+    /// Counts `bytes` of new data in memory, putting the session's unsaved data in files
+    /// when it passes the budget.
+    ///
+    /// # Errors
+    /// As [`Session::save`]'s writing of data.
+    fn note_new_data(&mut self, bytes: usize) -> Result<(), SessionError> {
+        let Some(dir) = self.spill.dir.clone() else { return Ok(()) };
+        self.spill.pending = self.spill.pending.saturating_add(bytes);
+        if self.spill.pending >= SPILL_BUDGET_BYTES {
+            self.store_data(&dir)?;
+            self.spill.pending = 0;
+        }
+        Ok(())
     }
 
     /// The exact bytes `save` writes for a file at `path`.
@@ -213,8 +344,9 @@ impl Session {
     }
 
     /// Checks the rules serde cannot: unique clip names, values within what the data can
-    /// mean (`bounds`), and finite numbers everywhere (JSON has no NaN; serde_json would write `null` and the file would
-    /// not load again).
+    /// mean (`bounds`), and finite numbers everywhere (JSON has no NaN; serde_json would
+    /// write `null` and the file would not load again). Per-frame data is checked while it
+    /// is in memory only; a data file is checked when it is read.
     ///
     /// # Errors
     /// A message naming the clip, frame and point at fault.
@@ -235,29 +367,14 @@ impl Session {
                 !(p.x.is_finite() && p.y.is_finite())
                     || p.confidence.is_some_and(|v| !v.is_finite())
             };
-            for f in &clip.tracked.frames {
-                if f.points.len() != crate::landmarks::N_LANDMARKS {
-                    return Err(format!(
-                        "clip {c:?}: tracked frame {} has {} points",
-                        f.frame,
-                        f.points.len()
-                    ));
+            if let Some(track) = clip.tracked_data().unsaved() {
+                for f in &track.frames {
+                    bounds::check_tracked_frame(f)
+                        .map_err(|m| format!("clip {c:?}: tracked frame {}: {m}", f.frame))?;
                 }
-                if f.timestamp.is_some_and(|t| !t.is_finite())
-                    || f.confidence.is_some_and(|v| !v.is_finite())
-                {
-                    return Err(format!(
-                        "clip {c:?}: tracked frame {} has a non-finite timestamp or confidence",
-                        f.frame
-                    ));
-                }
-                if let Some(i) = f.points.iter().position(bad_point) {
-                    return Err(format!(
-                        "clip {c:?}: tracked frame {} point {} is not finite",
-                        f.frame,
-                        crate::landmarks::PointNo(i)
-                    ));
-                }
+            }
+            if let Some(entries) = clip.fit_cache.unsaved() {
+                bounds::check_cache_entries(&entries).map_err(|m| format!("clip {c:?}: {m}"))?;
             }
             for (frame, pts) in &clip.corrections.points {
                 if let Some((i, _)) =
@@ -267,14 +384,6 @@ impl Session {
                         "clip {c:?}: correction of frame {frame} point index {i} is out of range or not finite"
                     ));
                 }
-            }
-        }
-        for e in &self.fit_cache {
-            if let Some(f) = e.frames.iter().find(|f| cache::storable_fit(f.fit.clone()) != f.fit) {
-                return Err(format!(
-                    "clip {:?}: cached fit of frame {} has non-finite values",
-                    e.clip, f.fit.frame
-                ));
             }
         }
         bounds::check_values(self)
@@ -293,8 +402,20 @@ impl Session {
                 message: "a clip of this name exists".into(),
             });
         }
+        let bytes = clip.tracked_data().unsaved().map_or(0, |t| t.approx_bytes());
         self.clips.push(clip);
+        self.note_new_data(bytes)?;
         Ok(self.clips.len() - 1)
+    }
+
+    /// Replaces clip `clip`'s tracked landmarks (the tracker, an import).
+    ///
+    /// # Errors
+    /// `NoClip`; as [`Session::write_data_early`]'s writing of data.
+    pub fn set_tracked(&mut self, clip: usize, track: Track) -> Result<(), SessionError> {
+        let bytes = track.approx_bytes();
+        self.clip_mut(clip)?.set_tracked(track);
+        self.note_new_data(bytes)
     }
 
     /// Index of the clip named `name`.
@@ -345,19 +466,26 @@ impl Session {
     // -- landmarks and corrections ---------------------------------------------------------
 
     /// The landmarks a fit should use for `frame` of clip `clip`: the tracked ones with the
-    /// corrections applied. `None` for an unknown clip or a frame with no landmarks.
-    pub fn effective_frame(&self, clip: usize, frame: usize) -> Option<FrameLandmarks> {
-        let c = self.clips.get(clip)?;
-        c.corrections.effective_frame(&c.tracked, frame)
+    /// corrections applied. `None` for a frame with no landmarks.
+    ///
+    /// # Errors
+    /// `NoClip`; the clip's track file cannot be read.
+    pub fn effective_frame(
+        &self,
+        clip: usize,
+        frame: usize,
+    ) -> Result<Option<FrameLandmarks>, SessionError> {
+        let c = self.clip(clip)?;
+        Ok(c.corrections.effective_frame(&*c.tracked()?, frame))
     }
 
     /// The whole clip's effective landmarks.
     ///
     /// # Errors
-    /// `NoClip`.
+    /// `NoClip`; the clip's track file cannot be read.
     pub fn effective_track(&self, clip: usize) -> Result<Track, SessionError> {
         let c = self.clip(clip)?;
-        Ok(c.corrections.effective_track(&c.tracked))
+        Ok(c.corrections.effective_track(&*c.tracked()?))
     }
 
     /// The landmarks a fit under `settings` is made from: the effective track with the inner
@@ -366,14 +494,13 @@ impl Session {
     /// why (`workflow::utterance_of_clip`).
     ///
     /// # Errors
-    /// `NoClip`.
+    /// `NoClip`; the clip's track file cannot be read.
     pub fn fit_input_track(
         &self,
         clip: usize,
         settings: &FitSettings,
     ) -> Result<Track, SessionError> {
-        let c = self.clip(clip)?;
-        Ok(fit_input_of(c, settings))
+        fit_input_of(self.clip(clip)?, settings)
     }
 
     /// Records a corrected (or interpolated) point; the tracked value stays as it was.
@@ -499,16 +626,13 @@ impl Session {
         h.hex()
     }
 
-    fn cache_entry(&self, clip: &str, settings: &FitSettings) -> Option<&cache::FitCacheEntry> {
-        self.fit_cache.iter().find(|e| e.clip == clip && &e.settings == settings)
-    }
-
     /// Caches `fits` of clip `clip` made with `settings` from the current effective
     /// landmarks, merging with fresh fits already cached for those settings. Non-finite
     /// numbers are zeroed and the frame marked failed (JSON cannot hold them).
     ///
     /// # Errors
-    /// `NoClip`; `Edit` when a fit names a frame without landmarks.
+    /// `NoClip`; `Edit` when a fit names a frame without landmarks; the clip's data files
+    /// cannot be read.
     pub fn store_fits(
         &mut self,
         clip: usize,
@@ -516,14 +640,13 @@ impl Session {
         fits: Vec<FrameFit>,
     ) -> Result<(), SessionError> {
         let c = self.clip(clip)?;
-        let name = c.name.clone();
         let context = self.context_hash();
-        let input = fit_input_of(c, settings);
+        let input = fit_input_of(c, settings)?;
         let mut new = Vec::with_capacity(fits.len());
         for fit in fits {
             let Some(frame) = input.get(fit.frame) else {
                 return Err(SessionError::Edit {
-                    clip: name,
+                    clip: c.name.clone(),
                     message: format!("fit of frame {} which has no landmarks", fit.frame),
                 });
             };
@@ -532,12 +655,11 @@ impl Session {
                 fit: cache::storable_fit(fit),
             });
         }
-        let clip_input = settings.clip.then(|| self.clip_input_hash(clip, settings));
-        let pos = self.fit_cache.iter().position(|e| e.clip == name && &e.settings == settings);
-        let mut entry = match pos {
-            Some(i) => self.fit_cache.remove(i),
+        let clip_input = settings.clip.then(|| cache::clip_input_hash(&input.frames, settings.set));
+        let mut entries: Vec<FitCacheEntry> = c.fit_cache.get()?.as_ref().clone();
+        let mut entry = match entries.iter().position(|e| &e.settings == settings) {
+            Some(i) => entries.remove(i),
             None => FitCacheEntry {
-                clip: name.clone(),
                 settings: settings.clone(),
                 context: context.clone(),
                 clip_input: None,
@@ -551,93 +673,133 @@ impl Session {
         entry.context = context;
         entry.clip_input = clip_input;
         entry.merge(new);
-        self.fit_cache.push(entry); // most recently stored last
-        let of_clip: Vec<usize> =
-            (0..self.fit_cache.len()).filter(|&i| self.fit_cache[i].clip == name).collect();
-        if of_clip.len() > cache::MAX_CACHED_SETTINGS_PER_CLIP {
-            let drop_n = of_clip.len() - cache::MAX_CACHED_SETTINGS_PER_CLIP;
-            for &i in of_clip[..drop_n].iter().rev() {
-                self.fit_cache.remove(i);
-            }
+        entries.push(entry); // most recently stored last
+        let excess = entries.len().saturating_sub(cache::MAX_CACHED_SETTINGS_PER_CLIP);
+        entries.drain(..excess);
+        let bytes = clip_data::ClipDataKind::approx_bytes(&entries);
+        self.clip_mut(clip)?.fit_cache = clip_data::ClipData::new(entries);
+        self.note_new_data(bytes)
+    }
+
+    /// Whether any clip has cached fits.
+    pub fn has_cached_fits(&self) -> bool {
+        self.clips.iter().any(|c| !c.fit_cache.is_empty())
+    }
+
+    /// Drops every clip's cached fits (their model or map changed).
+    pub fn clear_fit_cache(&mut self) {
+        for c in &mut self.clips {
+            c.fit_cache = clip_data::ClipData::default();
         }
-        Ok(())
     }
 
-    fn clip_input_hash(&self, clip: usize, settings: &FitSettings) -> String {
-        cache::clip_input_hash(&fit_input_of(&self.clips[clip], settings).frames, settings.set)
+    /// Which cached fits of clip `clip` under `settings` are still valid for the current
+    /// landmarks, model and map, and which frames with landmarks lack one.
+    fn cache_state(&self, clip: usize, settings: &FitSettings) -> Result<CacheState, SessionError> {
+        let c = self.clip(clip)?;
+        let tracked = c.tracked()?;
+        let frames = c.corrections.frames_with_landmarks(&tracked);
+        let entries = c.fit_cache.get()?;
+        let Some(index) = entries.iter().position(|e| &e.settings == settings) else {
+            return Ok(CacheState {
+                entries,
+                index: None,
+                fresh: Default::default(),
+                stale: frames,
+            });
+        };
+        let entry = &entries[index];
+        let input = crate::landmarks::closure::with_sealed_lips(
+            c.corrections.effective_track(&tracked),
+            settings.closure,
+        );
+        let valid = entry.context == self.context_hash()
+            && (!settings.clip
+                || entry.clip_input.as_deref()
+                    == Some(cache::clip_input_hash(&input.frames, settings.set).as_str()));
+        let (fresh, stale): (Vec<usize>, Vec<usize>) = frames.into_iter().partition(|&f| {
+            valid
+                && entry.frame(f).zip(input.get(f)).is_some_and(|(cached, now)| {
+                    cached.input == cache::frame_input_hash(now, settings.set)
+                })
+        });
+        Ok(CacheState { entries, index: Some(index), fresh: fresh.into_iter().collect(), stale })
     }
 
-    /// The cached fit of `frame`, if it is still valid for the current landmarks, model and map.
+    /// The cached fit of `frame`, if it is still valid for the current landmarks, model and
+    /// map.
+    ///
+    /// # Errors
+    /// `NoClip`; the clip's data files cannot be read.
     pub fn cached_fit(
         &self,
         clip: usize,
         settings: &FitSettings,
         frame: usize,
-    ) -> Option<&FrameFit> {
-        let c = self.clips.get(clip)?;
-        let entry = self.cache_entry(&c.name, settings)?;
-        if entry.context != self.context_hash() {
-            return None;
-        }
-        if settings.clip
-            && entry.clip_input.as_deref() != Some(self.clip_input_hash(clip, settings).as_str())
-        {
-            return None;
-        }
-        let cached = entry.frame(frame)?;
-        let input = fit_input_of(c, settings);
-        let now = input.get(frame)?;
-        (cached.input == cache::frame_input_hash(now, settings.set)).then_some(&cached.fit)
+    ) -> Result<Option<FrameFit>, SessionError> {
+        let state = self.cache_state(clip, settings)?;
+        Ok(state
+            .index
+            .filter(|_| state.fresh.contains(&frame))
+            .and_then(|i| state.entries[i].frame(frame))
+            .map(|c| c.fit.clone()))
     }
 
     /// Every still-valid cached fit of the clip, ascending by frame.
-    pub fn cached_fits(&self, clip: usize, settings: &FitSettings) -> Vec<&FrameFit> {
-        let stale: std::collections::BTreeSet<usize> =
-            self.stale_frames_with(clip, settings).into_iter().collect();
-        let Some(c) = self.clips.get(clip) else { return Vec::new() };
-        self.cache_entry(&c.name, settings)
-            .map(|e| {
-                e.frames.iter().filter(|f| !stale.contains(&f.fit.frame)).map(|f| &f.fit).collect()
-            })
-            .unwrap_or_default()
+    ///
+    /// # Errors
+    /// `NoClip`; the clip's data files cannot be read.
+    pub fn cached_fits(
+        &self,
+        clip: usize,
+        settings: &FitSettings,
+    ) -> Result<Vec<FrameFit>, SessionError> {
+        let state = self.cache_state(clip, settings)?;
+        let Some(i) = state.index else { return Ok(Vec::new()) };
+        Ok(state.entries[i]
+            .frames
+            .iter()
+            .filter(|c| state.fresh.contains(&c.fit.frame))
+            .map(|c| c.fit.clone())
+            .collect())
     }
 
     /// Frames of clip `clip` that need fitting under the session's `fit_settings`: frames
     /// with landmarks and no valid cached fit.
-    pub fn stale_frames(&self, clip: usize) -> Vec<usize> {
+    ///
+    /// # Errors
+    /// `NoClip`; the clip's data files cannot be read.
+    pub fn stale_frames(&self, clip: usize) -> Result<Vec<usize>, SessionError> {
         self.stale_frames_with(clip, &self.fit_settings)
     }
 
     /// As `stale_frames`, for any settings.
-    pub fn stale_frames_with(&self, clip: usize, settings: &FitSettings) -> Vec<usize> {
-        let Some(c) = self.clips.get(clip) else { return Vec::new() };
-        let frames = c.corrections.frames_with_landmarks(&c.tracked);
-        let Some(entry) = self.cache_entry(&c.name, settings) else { return frames };
-        if entry.context != self.context_hash()
-            || (settings.clip
-                && entry.clip_input.as_deref()
-                    != Some(self.clip_input_hash(clip, settings).as_str()))
-        {
-            return frames;
-        }
-        let input = fit_input_of(c, settings);
-        frames
-            .into_iter()
-            .filter(|&f| {
-                let fresh = entry.frame(f).zip(input.get(f)).is_some_and(|(cached, now)| {
-                    cached.input == cache::frame_input_hash(now, settings.set)
-                });
-                !fresh
-            })
-            .collect()
+    ///
+    /// # Errors
+    /// As [`Session::stale_frames`].
+    pub fn stale_frames_with(
+        &self,
+        clip: usize,
+        settings: &FitSettings,
+    ) -> Result<Vec<usize>, SessionError> {
+        Ok(self.cache_state(clip, settings)?.stale)
     }
+}
+
+/// A clip's cache under some settings: its entries, the one for the settings, the frames
+/// whose cached fit is still valid and the frames with landmarks that lack one.
+struct CacheState {
+    entries: std::sync::Arc<Vec<FitCacheEntry>>,
+    index: Option<usize>,
+    fresh: std::collections::BTreeSet<usize>,
+    stale: Vec<usize>,
 }
 
 /// The landmarks a fit of clip `c` under `settings` is made from (see
 /// [`Session::fit_input_track`]).
-fn fit_input_of(c: &Clip, settings: &FitSettings) -> Track {
-    let track = c.corrections.effective_track(&c.tracked);
-    crate::landmarks::closure::with_sealed_lips(track, settings.closure)
+fn fit_input_of(c: &Clip, settings: &FitSettings) -> Result<Track, SessionError> {
+    let track = c.corrections.effective_track(&*c.tracked()?);
+    Ok(crate::landmarks::closure::with_sealed_lips(track, settings.closure))
 }
 
 /// Opens one view's frames with the fps and size the session knows.

@@ -1,11 +1,13 @@
 //! The serde shape of a session file: `Session`, its `Clip`s and their views, and the model,
 //! map and fit references. Paths are absolute here and relative to the file on disk.
 //!
-//! Tracked landmarks are stored inline, as imported, in a compact per-frame form (`xy` holds
-//! the 136 coordinates) so a 10,000-frame clip stays a few tens of MB and loads in a fraction
-//! of a second; `landmarks_file` records where they came from. Edits live in `corrections`.
+//! A clip's tracked landmarks and cached fits live in files beside the session
+//! ([`super::clip_data`]); the JSON holds a reference and a summary of each (an older
+//! session's inline arrays are read too, and moved to files by the next save).
+//! `landmarks_file` records where the landmarks came from. Edits live in `corrections`.
 
 use super::cache::FitCacheEntry;
+use super::clip_data::{ClipData, FitsSummary, TrackSummary};
 use super::corrections::Corrections;
 use super::migrate::CURRENT_SCHEMA;
 use super::store::{rel_path, rel_path_opt};
@@ -44,9 +46,9 @@ pub struct Session {
     pub head_map: Option<MapRef>,
     #[serde(default)]
     pub fit_settings: FitSettings,
-    /// Cached fits of every clip (see `cache`).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub fit_cache: Vec<FitCacheEntry>,
+    /// Schema 2 kept every clip's cached fits here; a load moves them into their clips.
+    #[serde(default, rename = "fit_cache", skip_serializing)]
+    pub(crate) legacy_fit_cache: Vec<LegacyFitCacheEntry>,
     /// Data owned by other parts of lipmap (TUI layout, ...), kept verbatim.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub extensions: BTreeMap<String, Value>,
@@ -60,6 +62,17 @@ pub struct Session {
     /// Folder the session's relative paths were resolved against (the file's folder).
     #[serde(skip)]
     pub(crate) base_dir: PathBuf,
+    /// Where new per-frame data goes before the save, for a session this process will save.
+    #[serde(skip)]
+    pub(crate) spill: super::Spill,
+}
+
+/// A schema-2 cache entry: the clip it belongs to, then the entry.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+pub(crate) struct LegacyFitCacheEntry {
+    pub clip: String,
+    #[serde(flatten)]
+    pub entry: FitCacheEntry,
 }
 
 /// One recording: its frames, the tracker's landmarks, the corrections and the phones.
@@ -72,9 +85,10 @@ pub struct Clip {
     /// An optional side view (for protrusion), with its own rate and offset.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub side: Option<View>,
-    /// The landmarks as the tracker gave them; never edited (see `corrections`).
-    #[serde(default, with = "compact_track")]
-    pub tracked: Track,
+    /// The landmarks as the tracker gave them; never edited (see `corrections`). Read with
+    /// [`Clip::tracked`], replaced with [`Clip::set_tracked`].
+    #[serde(default, with = "tracked_field")]
+    tracked: ClipData<Track>,
     /// The file the tracked landmarks were imported from.
     #[serde(default, with = "rel_path_opt", skip_serializing_if = "Option::is_none")]
     pub landmarks_file: Option<PathBuf>,
@@ -97,6 +111,9 @@ pub struct Clip {
     /// ...), kept verbatim.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub extensions: BTreeMap<String, Value>,
+    /// Cached fits of the clip, one entry per fit settings (see `cache`), oldest first.
+    #[serde(default, skip_serializing_if = "ClipData::is_empty", with = "fits_field")]
+    pub(crate) fit_cache: ClipData<Vec<FitCacheEntry>>,
 }
 
 /// One camera's frames.
@@ -233,11 +250,12 @@ impl Session {
             landmark_map: MapRef::default(),
             head_map: None,
             fit_settings: FitSettings::default(),
-            fit_cache: Vec::new(),
             extensions: BTreeMap::new(),
             transferred_heads: Vec::new(),
             speech_model: None,
+            legacy_fit_cache: Vec::new(),
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
+            spill: super::Spill::default(),
         }
     }
 
@@ -282,7 +300,7 @@ impl Clip {
             name: name.into(),
             front,
             side: None,
-            tracked: Track::default(),
+            tracked: ClipData::default(),
             landmarks_file: None,
             corrections: Corrections::default(),
             profile_corrections: BTreeMap::new(),
@@ -290,7 +308,49 @@ impl Clip {
             alignment_file: None,
             audio: None,
             extensions: BTreeMap::new(),
+            fit_cache: ClipData::default(),
         }
+    }
+
+    /// The landmarks as the tracker gave them, read from the session's data folder when they
+    /// are not in memory.
+    ///
+    /// # Errors
+    /// The clip's track file cannot be read or is not what the session says.
+    pub fn tracked(&self) -> Result<std::sync::Arc<Track>, super::SessionError> {
+        self.tracked.get()
+    }
+
+    /// Replaces the tracked landmarks (an import, the tracker); kept in memory until the
+    /// session is saved.
+    pub fn set_tracked(&mut self, track: Track) {
+        self.tracked = ClipData::new(track);
+    }
+
+    /// The file holding the tracked landmarks, once they are in one (a saved session).
+    pub fn tracked_file(&self) -> Option<PathBuf> {
+        self.tracked.file()
+    }
+
+    /// How many frames are tracked and the last of them, without reading the landmarks.
+    pub fn tracked_summary(&self) -> TrackSummary {
+        self.tracked.summary()
+    }
+
+    /// Reads and checks the clip's data files (whatever is in memory is taken as it is):
+    /// returns the tracked frames and the cached fits they hold. Nothing stays in memory.
+    ///
+    /// # Errors
+    /// A data file cannot be read or is not what the session says.
+    pub fn check_data(&self) -> Result<(usize, usize), super::SessionError> {
+        let frames = self.tracked.get()?.len();
+        let fits = self.fit_cache.get()?.iter().map(|e| e.frames.len()).sum();
+        Ok((frames, fits))
+    }
+
+    /// The clip's tracked landmarks as data (for the session's store).
+    pub(crate) fn tracked_data(&self) -> &ClipData<Track> {
+        &self.tracked
     }
 }
 
@@ -301,12 +361,151 @@ impl View {
     }
 }
 
-/// On-disk form of a `Track`: per frame `xy` (x0, y0, x1, y1, ...), then only what differs
-/// from a plain visible tracked point, so typical files carry no per-point objects.
+/// The JSON form of a clip's tracked landmarks: `{"file", "frames", "last_frame"}` naming
+/// the track file, or (older sessions, hand-written files) the frames inline in the
+/// [`compact_track`] form.
+pub(crate) mod tracked_field {
+    use super::{ClipData, Track, TrackSummary, rel_path};
+    use crate::landmarks::MAX_FRAME;
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::path::PathBuf;
+
+    #[derive(Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct TrackRef {
+        #[serde(with = "rel_path")]
+        file: PathBuf,
+        frames: usize,
+        last_frame: usize,
+    }
+
+    pub fn serialize<S: Serializer>(data: &ClipData<Track>, s: S) -> Result<S::Ok, S::Error> {
+        match (data.file(), data.unsaved()) {
+            (_, Some(track)) => super::compact_track::serialize(&track, s),
+            (Some(file), None) => {
+                let sum = data.summary();
+                let last_frame = sum.last_frame.unwrap_or_default();
+                TrackRef { file, frames: sum.frames, last_frame }.serialize(s)
+            }
+            (None, None) => unreachable!("data neither in memory nor in a file"),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ClipData<Track>, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = ClipData<Track>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a track file reference or a list of tracked frames")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> Result<ClipData<Track>, A::Error> {
+                super::compact_track::Frames.visit_seq(seq).map(ClipData::new)
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<ClipData<Track>, A::Error> {
+                let r = TrackRef::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                crate::session::data_dir::check_reference(&r.file, "track")
+                    .map_err(A::Error::custom)?;
+                if r.last_frame > MAX_FRAME {
+                    return Err(A::Error::custom(format!(
+                        "last_frame {} is past the largest frame lipmap accepts ({MAX_FRAME})",
+                        r.last_frame
+                    )));
+                }
+                if r.frames == 0 || r.frames > r.last_frame + 1 {
+                    return Err(A::Error::custom(format!(
+                        "frames {} is not within 1 to last_frame + 1 ({})",
+                        r.frames,
+                        r.last_frame + 1
+                    )));
+                }
+                let summary = TrackSummary { frames: r.frames, last_frame: Some(r.last_frame) };
+                Ok(ClipData::in_file(r.file, summary))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// The JSON form of a clip's cached fits: `{"file", "entries"}` naming the fits file, or
+/// (hand-written files) the entries inline.
+pub(crate) mod fits_field {
+    use super::{ClipData, FitCacheEntry, FitsSummary, rel_path};
+    use crate::session::cache::MAX_CACHED_SETTINGS_PER_CLIP;
+    use serde::de::Error as _;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use std::path::PathBuf;
+
+    #[derive(Serialize, Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct FitsRef {
+        #[serde(with = "rel_path")]
+        file: PathBuf,
+        entries: usize,
+    }
+
+    pub fn serialize<S: Serializer>(
+        data: &ClipData<Vec<FitCacheEntry>>,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        match (data.file(), data.unsaved()) {
+            (_, Some(entries)) => entries.serialize(s),
+            (Some(file), None) => FitsRef { file, entries: data.summary().entries }.serialize(s),
+            (None, None) => unreachable!("data neither in memory nor in a file"),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<ClipData<Vec<FitCacheEntry>>, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = ClipData<Vec<FitCacheEntry>>;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a fits file reference or a list of cache entries")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                seq: A,
+            ) -> Result<Self::Value, A::Error> {
+                let entries = Vec::<FitCacheEntry>::deserialize(
+                    serde::de::value::SeqAccessDeserializer::new(seq),
+                )?;
+                Ok(ClipData::new(entries))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<Self::Value, A::Error> {
+                let r = FitsRef::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                crate::session::data_dir::check_reference(&r.file, "fits")
+                    .map_err(A::Error::custom)?;
+                if !(1..=MAX_CACHED_SETTINGS_PER_CLIP).contains(&r.entries) {
+                    return Err(A::Error::custom(format!(
+                        "entries {} is not within 1 to {MAX_CACHED_SETTINGS_PER_CLIP}",
+                        r.entries
+                    )));
+                }
+                Ok(ClipData::in_file(r.file, FitsSummary { entries: r.entries }))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// On-disk form of a `Track` inline in the JSON (sessions before schema 3, hand-written
+/// files): per frame `xy` (x0, y0, x1, y1, ...), then only what differs from a plain visible
+/// tracked point, so typical files carry no per-point objects.
 pub(crate) mod compact_track {
     use crate::landmarks::{FrameLandmarks, LandmarkPoint, N_LANDMARKS, PointSource, Track};
     use serde::de::Error as _;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde::{Deserialize, Serialize, Serializer};
     use std::collections::BTreeMap;
 
     #[derive(Serialize, Deserialize)]
@@ -429,34 +628,28 @@ pub(crate) mod compact_track {
         FramesOut(&track.frames).serialize(s)
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Track, D::Error> {
-        // A visitor converts each frame as it is parsed, so the compact form of the whole
-        // clip is never held in memory beside the result.
-        struct Frames;
-        impl<'de> serde::de::Visitor<'de> for Frames {
-            type Value = Track;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a list of tracked frames")
-            }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(
-                self,
-                mut seq: A,
-            ) -> Result<Track, A::Error> {
-                let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
-                let mut last: Option<usize> = None;
-                while let Some(c) = seq.next_element::<Frame>()? {
-                    if last.is_some_and(|l| c.frame <= l) {
-                        return Err(A::Error::custom(format!(
-                            "tracked frame {} is out of order or repeated",
-                            c.frame
-                        )));
-                    }
-                    last = Some(c.frame);
-                    out.push(from_compact(c).map_err(A::Error::custom)?);
-                }
-                Ok(Track { frames: out })
-            }
+    /// A visitor that converts each frame as it is parsed, so the compact form of the whole
+    /// clip is never held in memory beside the result.
+    pub(crate) struct Frames;
+    impl<'de> serde::de::Visitor<'de> for Frames {
+        type Value = Track;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a list of tracked frames")
         }
-        d.deserialize_seq(Frames)
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Track, A::Error> {
+            let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 20));
+            let mut last: Option<usize> = None;
+            while let Some(c) = seq.next_element::<Frame>()? {
+                if last.is_some_and(|l| c.frame <= l) {
+                    return Err(A::Error::custom(format!(
+                        "tracked frame {} is out of order or repeated",
+                        c.frame
+                    )));
+                }
+                last = Some(c.frame);
+                out.push(from_compact(c).map_err(A::Error::custom)?);
+            }
+            Ok(Track { frames: out })
+        }
     }
 }

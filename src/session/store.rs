@@ -263,27 +263,11 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<(), SessionError>
     file.write_all(bytes).map_err(io_err(target))?;
     file.commit_after(|t| if t.exists() { rotate_backups(t) } else { Ok(()) })
         .map_err(io_err(target))?;
-    remove_dead_temp_files(target);
-    Ok(())
-}
-
-/// Deletes temp files left by saves of `target` whose process has died (a crash mid-save);
-/// a live process's temp file is never touched.
-fn remove_dead_temp_files(target: &Path) {
-    let Some(dir) = target.parent() else { return };
-    let Ok(entries) = fs::read_dir(if dir.as_os_str().is_empty() { Path::new(".") } else { dir })
-    else {
-        return;
-    };
-    for entry in entries.flatten() {
-        let Some(pid) = entry.file_name().to_str().and_then(|f| atomic::temp_owner(target, f))
-        else {
-            continue;
-        };
-        if pid != std::process::id() && !process_alive(pid) {
-            let _ = fs::remove_file(entry.path());
-        }
+    // Saves are few and the folder small: every save clears what crashed saves left.
+    if let Some(dir) = target.parent() {
+        atomic::remove_dead_temp_files(dir);
     }
+    Ok(())
 }
 
 fn rotate_backups(target: &Path) -> io::Result<()> {
@@ -370,22 +354,11 @@ fn current_host() -> String {
         .unwrap_or_else(|| "localhost".into())
 }
 
-/// Without `/proc` (not Linux) a process cannot be checked, so it is assumed alive: a lock
-/// is never stolen from a live editor, at the price of deleting truly stale locks by hand.
-fn process_alive(pid: u32) -> bool {
-    let proc_root = Path::new("/proc");
-    if !proc_root.join("self").exists() {
-        return true;
-    }
-    // A killed editor stays a zombie until its parent (a shell, tmux) reaps it: its /proc
-    // entry is still there, but it holds nothing. The state is the field after the `(comm)`.
-    match fs::read_to_string(proc_root.join(pid.to_string()).join("stat")) {
-        Ok(stat) => stat
-            .rsplit_once(')')
-            .and_then(|(_, rest)| rest.split_whitespace().next())
-            .is_none_or(|state| !matches!(state, "Z" | "X")),
-        Err(_) => proc_root.join(pid.to_string()).exists(),
-    }
+/// Whether process `pid` is alive on this machine (see [`atomic::process_alive`]: without
+/// `/proc` a lock is never stolen from a live editor, at the price of deleting truly stale
+/// locks by hand).
+pub(crate) fn process_alive(pid: u32) -> bool {
+    atomic::process_alive(pid)
 }
 
 /// `YYYY-MM-DD HH:MM:SS UTC` from Unix seconds (Howard Hinnant's civil-from-days algorithm).
@@ -432,17 +405,10 @@ impl SessionLock {
                 .map_err(|source| SessionError::Io { path: dir.to_path_buf(), source })?;
         }
         let info = LockInfo::current();
+        let text = serde_json::to_string(&info).unwrap_or_default();
         for attempt in 0..2 {
-            // Not through `io::atomic`: creating the lock file in place with `create_new` is
-            // what makes taking it exclusive (a rename would silently replace a rival's lock).
-            match OpenOptions::new().write(true).create_new(true).open(&path) {
-                Ok(mut f) => {
-                    let text = serde_json::to_string(&info).unwrap_or_default();
-                    f.write_all(text.as_bytes())
-                        .and_then(|_| f.sync_all())
-                        .map_err(|source| SessionError::Io { path: path.clone(), source })?;
-                    return Ok(SessionLock { path, info });
-                }
+            match create_whole_exclusive(&path, text.as_bytes()) {
+                Ok(()) => return Ok(SessionLock { path, info }),
                 Err(e) if e.kind() == io::ErrorKind::AlreadyExists && attempt == 0 => {
                     let holder = read_lock(&path);
                     match holder {
@@ -495,6 +461,28 @@ impl SessionLock {
     /// The current holder of `session`'s lock, if any.
     pub fn holder(session: &Path) -> Option<LockInfo> {
         read_lock(&lock_path(session))
+    }
+}
+
+/// Creates `path` holding `bytes`, failing with `AlreadyExists` when it exists, and never
+/// leaving it partly written: the bytes go to a temp file (fsynced), which is then hard-linked
+/// to `path` (a link, unlike a rename, refuses an existing name, so two editors cannot both
+/// win). A full disk fails the temp file's write, and no lock file appears at all. Where the
+/// file system has no hard links, `path` is created in place and removed again if its write
+/// fails.
+fn create_whole_exclusive(path: &Path, bytes: &[u8]) -> io::Result<()> {
+    let mut temp = AtomicFile::create(path)?;
+    temp.write_all(bytes)?;
+    let staged = temp.stage()?;
+    match fs::hard_link(staged.path(), path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == io::ErrorKind::AlreadyExists => Err(e),
+        Err(_) => {
+            let mut f = OpenOptions::new().write(true).create_new(true).open(path)?;
+            f.write_all(bytes).and_then(|()| f.sync_all()).inspect_err(|_| {
+                let _ = fs::remove_file(path);
+            })
+        }
     }
 }
 

@@ -70,7 +70,7 @@ impl MfccOptions {
     /// The first option out of its range, named.
     pub fn validate(&self) -> Result<(), SpeechError> {
         let within = |v: f64, hi: f64| v.is_finite() && v > 0.0 && v <= hi;
-        if !within(self.sample_rate, 384_000.0) {
+        if !within(self.sample_rate, f64::from(crate::io::wav::MAX_SAMPLE_RATE_HZ)) {
             return Err(bad("sample rate", format!("{} Hz", self.sample_rate)));
         }
         if !within(self.frame_rate, 1000.0) {

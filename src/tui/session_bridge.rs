@@ -105,8 +105,8 @@ impl SessionBridge {
             std::mem::take(&mut edit.notices).iter().map(|w| w.status_text().to_string()).collect();
         let session = &edit.session;
         let c = session.clip(clip)?;
-        let tracked = c.tracked.clone();
-        let track = c.corrections.effective_track(&c.tracked);
+        let tracked = c.tracked()?.as_ref().clone();
+        let track = c.corrections.effective_track(&tracked);
         let mut app = App::new(format!("{} · {}", session.name, c.name), tracked, track);
         app.reviewed = c.corrections.reviewed.clone();
         app.alignment = c.alignment.clone();
@@ -192,8 +192,11 @@ impl SessionBridge {
         }
         app.map = map.clone();
         app.frame_head();
-        for fit in session.cached_fits(clip, &session.fit_settings) {
-            app.fits.by_frame.insert(fit.frame, fit.clone());
+        // The cache only saves time: a cache file that cannot be read is said, and the
+        // frames are fitted again.
+        match session.cached_fits(clip, &session.fit_settings) {
+            Ok(fits) => app.fits.by_frame.extend(fits.into_iter().map(|f| (f.frame, f))),
+            Err(e) => problems.push(format!("cached fits: {e}")),
         }
         if !app.fits.by_frame.is_empty() {
             app.recompute_flags();

@@ -184,8 +184,8 @@ pub fn read_clip_audio(clip: &Clip, session_file: &Path, input: &AudioInput) -> 
             audio.sample_rate
         )));
     }
-    if let Some(last) = clip.tracked.frames.last() {
-        let clip_s = (last.frame + 1) as f64 / clip.front.fps;
+    if let Some(last) = clip.tracked_summary().last_frame {
+        let clip_s = (last + 1) as f64 / clip.front.fps;
         check_coverage(
             &clip.name,
             &file,

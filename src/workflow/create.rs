@@ -6,6 +6,7 @@
 
 use super::audio::{AudioInput, read_clip_audio};
 use super::error::{Error, Result, Warning};
+use super::map::check_map_to_use;
 use super::resources::{check_map_for_fit, check_map_vertices};
 use super::session::{clip_or_first, open_for_edit_at};
 use super::track::{TrackerFiles, load_tracker, track_frames};
@@ -87,6 +88,8 @@ pub struct NewSession {
     pub set: LandmarkSet,
     /// Replace an existing session file.
     pub force: bool,
+    /// Use a map that fails the map checks (`lipmap map check`) anyway.
+    pub accept_map_warnings: bool,
 }
 
 /// What to add to an existing session.
@@ -102,6 +105,8 @@ pub struct Import {
     pub head: Option<PathBuf>,
     /// A map file for a head that is another mesh than the model (its own map).
     pub head_mapping: Option<PathBuf>,
+    /// Use a map that fails the map checks (`lipmap map check`) anyway.
+    pub accept_map_warnings: bool,
 }
 
 /// Whether a session's map can be fitted with, as far as creating it can tell.
@@ -211,7 +216,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
             path.display()
         )));
     }
-    let (mut clip, warnings) = read_clip(&new.clip)?;
+    let (mut clip, mut warnings) = read_clip(&new.clip)?;
     if let Some(audio) = &new.clip.audio {
         clip.audio = Some(read_clip_audio(&clip, path, audio)?);
     }
@@ -219,6 +224,8 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     let map = new.mapping.as_deref().map(landmark_map_toml::read_landmark_map).transpose()?;
     if let (Some(map), Some(file)) = (&map, &new.mapping) {
         check_map_vertices(map, model.num_vertices(), Some(file))?;
+        let accept = new.accept_map_warnings;
+        warnings.extend(check_on_model_mean(map, file, &new.model, &model, accept)?);
     }
     let settings = FitSettings { set: new.set, ..FitSettings::default() };
     let head = match &new.head {
@@ -231,6 +238,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     };
     let _lock = SessionLock::acquire(path)?;
     let mut session = Session::new(path);
+    session.write_data_early(path);
     session.head_mesh = new.head.as_deref().map(absolute);
     if head.as_ref().is_some_and(HeadMesh::needs_own_map) {
         session.head_map = Some(MapRef::default());
@@ -241,7 +249,7 @@ pub fn create_session(new: &NewSession) -> Result<Created> {
     });
     session.landmark_map.file = new.mapping.as_deref().map(absolute);
     session.fit_settings = settings.clone();
-    let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
+    let added = AddedClip { name: clip.name.clone(), frames: clip.tracked_summary().frames };
     session.add_clip(clip)?;
     session.save(path)?;
     // A journal of the session this one replaces (`--force`) holds that session's edits:
@@ -308,8 +316,15 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         Some(file) => Some((file, obj::read_obj(file)?)),
         None => None,
     };
-    let map =
-        import.mapping.as_deref().map(|file| set_map_from_file(session, file, path)).transpose()?;
+    let accept = import.accept_map_warnings;
+    let map = match import.mapping.as_deref() {
+        Some(file) => {
+            let (set, more) = set_map_from_file(session, file, path, accept)?;
+            warnings.extend(more);
+            Some(set)
+        }
+        None => None,
+    };
     // Checked after a map given in the same import is set, so the check is of the pair the
     // session now holds.
     let head = match head {
@@ -317,12 +332,17 @@ pub fn import_into_session(import: &Import) -> Result<Imported> {
         None => None,
     };
     let head_map = match &import.head_mapping {
-        Some(file) => Some(set_head_map_from_file(session, file)?),
+        Some(file) => {
+            let (set, more) = set_head_map_from_file(session, file, accept)?;
+            warnings.extend(more);
+            Some(set)
+        }
         None => None,
     };
     let clip = match clip {
         Some(clip) => {
-            let added = AddedClip { name: clip.name.clone(), frames: clip.tracked.len() };
+            let added =
+                AddedClip { name: clip.name.clone(), frames: clip.tracked_summary().frames };
             session.add_clip(clip)?;
             Some(added)
         }
@@ -373,7 +393,11 @@ fn set_head(
 /// # Errors
 /// No head, or a head that is the model's own mesh (its map is the model's, `--mapping`);
 /// an unreadable map or head; a vertex the head lacks.
-fn set_head_map_from_file(session: &mut Session, file: &Path) -> Result<(PathBuf, MapCheck)> {
+fn set_head_map_from_file(
+    session: &mut Session,
+    file: &Path,
+    accept: bool,
+) -> Result<((PathBuf, MapCheck), Vec<Warning>)> {
     let Some(head) = session.head_mesh.clone() else {
         return Err(Error::Invalid(
             "the session has no head: give it one with --head HEAD.obj".into(),
@@ -388,8 +412,10 @@ fn set_head_map_from_file(session: &mut Session, file: &Path) -> Result<(PathBuf
     let map = landmark_map_toml::read_landmark_map(file)?;
     let mesh = obj::read_obj(&head)?;
     check_map_vertices(&map, mesh.vertices.len(), Some(file))?;
+    let shown = head.display().to_string();
+    let warnings = check_map_to_use(&map, file, &shown, &mesh.vertices, &mesh.triangles(), accept)?;
     session.head_map = Some(MapRef { file: Some(absolute(file)), inline: None });
-    Ok((file.to_path_buf(), check_map(&map, &mesh.vertices)))
+    Ok(((file.to_path_buf(), check_map(&map, &mesh.vertices)), warnings))
 }
 
 /// Reads one clip's files into a [`Clip`], checking them before anything is written; the
@@ -422,7 +448,7 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
                 inputs.name.clone().unwrap_or_else(|| default_clip_name(frames_path)),
                 front,
             );
-            clip.tracked = tracked.track;
+            clip.set_tracked(tracked.track);
             return finish_clip(clip, inputs, &frames, warnings);
         }
     };
@@ -457,7 +483,7 @@ pub fn read_clip(inputs: &ClipInputs) -> Result<(Clip, Vec<Warning>)> {
     }
     let name = inputs.name.clone().unwrap_or_else(|| default_clip_name(frames_path));
     let mut clip = Clip::new(name, front);
-    clip.tracked = tracked;
+    clip.set_tracked(tracked);
     clip.landmarks_file = Some(absolute(landmarks));
     finish_clip(clip, inputs, &frames, warnings)
 }
@@ -552,13 +578,20 @@ fn map_problem(
 
 /// Points the session's map at `file` (checked against the model when the session has one),
 /// dropping any inline map labelled in the TUI and the cached fits made with another map.
-fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<MapSet> {
+fn set_map_from_file(
+    session: &mut Session,
+    file: &Path,
+    path: &Path,
+    accept: bool,
+) -> Result<(MapSet, Vec<Warning>)> {
     let map = landmark_map_toml::read_landmark_map(file)?;
+    let mut warnings = Vec::new();
     let n_vertices = match &session.model {
         Some(m) => {
-            let n = model_source::load_model(&m.path, m.blendshapes.as_deref())?.num_vertices();
-            check_map_vertices(&map, n, Some(file))?;
-            Some(n)
+            let model = model_source::load_model(&m.path, m.blendshapes.as_deref())?;
+            check_map_vertices(&map, model.num_vertices(), Some(file))?;
+            warnings = check_on_model_mean(&map, file, &m.path, &model, accept)?;
+            Some(model.num_vertices())
         }
         None => None,
     };
@@ -577,12 +610,29 @@ fn set_map_from_file(session: &mut Session, file: &Path, path: &Path) -> Result<
     // The cache is keyed by the map's file name, not its content: drop fits made with a
     // different map so a map edited in place is not mistaken for the old one.
     let fits_dropped =
-        previous.is_some_and(|p| p.to_vertex != map.to_vertex) && !session.fit_cache.is_empty();
+        previous.is_some_and(|p| p.to_vertex != map.to_vertex) && session.has_cached_fits();
     if fits_dropped {
-        session.fit_cache.clear();
+        session.clear_fit_cache();
     }
     let problem = n_vertices.and_then(|n| map_problem(&map, n, &session.fit_settings, path));
-    Ok(MapSet { file: file.to_path_buf(), landmarks: map.len(), replaced, fits_dropped, problem })
+    let set =
+        MapSet { file: file.to_path_buf(), landmarks: map.len(), replaced, fits_dropped, problem };
+    Ok((set, warnings))
+}
+
+/// The map checks of a model map file on the model's mean shape ([`check_map_to_use`]).
+///
+/// # Errors
+/// As [`check_map_to_use`].
+fn check_on_model_mean(
+    map: &LandmarkMap,
+    file: &Path,
+    model_file: &Path,
+    model: &crate::model::MorphableModel,
+    accept: bool,
+) -> Result<Vec<Warning>> {
+    let shown = format!("the mean of {}", model_file.display());
+    check_map_to_use(map, file, &shown, &model.mean_mesh().vertices, &model.triangles, accept)
 }
 
 #[cfg(test)]
@@ -612,6 +662,7 @@ mod tests {
             audio: None,
             head: None,
             head_mapping: None,
+            accept_map_warnings: false,
         })
         .unwrap_err();
         assert!(e.to_string().contains("--mapping FILE"), "{e}");

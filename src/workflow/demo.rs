@@ -43,6 +43,8 @@ pub fn write_demo_sessions(out: &DemoOutput) -> Result<Vec<PathBuf>> {
 
 fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Session> {
     let mut session = Session::new(path);
+    // A corpus of sentences: each clip's landmarks go to the data folder as they are read.
+    session.write_data_early(path);
     session.head_mesh = Some(abs(&out.head_obj));
     let model = out
         .model
@@ -60,7 +62,7 @@ fn demo_session(out: &DemoOutput, sp: &SpeakerOutput, path: &Path) -> Result<Ses
             v.size = Some([c.width, c.height]);
             clip.side = Some(v);
         }
-        clip.tracked = read_track(&c.tracked_csv)?;
+        clip.set_tracked(read_track(&c.tracked_csv)?);
         clip.landmarks_file = Some(abs(&c.tracked_csv));
         let alignment = read_alignment(&c.phones_csv, None)?;
         clip.audio = Some(write_demo_voice(&alignment, &c.dir, voice_seed(sp.index, k))?);

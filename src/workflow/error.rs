@@ -23,6 +23,14 @@ pub enum Error {
     /// check without `--accept-map-warnings`).
     #[error(transparent)]
     FitRefused(#[from] super::resources::FitRefusal),
+    /// A map file that fails the checks of `lipmap map check` on the mesh it names vertices
+    /// of, given to be used (import, new, transfer) without `--accept-map-warnings`.
+    #[error(
+        "{}: the landmark map fails the checks on {mesh}: {}; fix it (`lipmap map check`, the TUI's view 2) or go on with --accept-map-warnings",
+        file.display(),
+        super::resources::problems_summary(problems)
+    )]
+    MapRefused { file: PathBuf, mesh: String, problems: Vec<String> },
     /// A map naming vertices the model lacks.
     #[error(transparent)]
     MapRange(#[from] super::resources::MapRangeError),

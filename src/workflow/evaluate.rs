@@ -12,12 +12,11 @@ use super::measure_fits::head_trajectory;
 use super::resources::{Resources, load_resources};
 use super::session::{ReadSession, select_clips};
 use super::side_view::{HeadP, head_p_of_clip_by_render, head_p_options, side_view_protrusion};
-use super::transfer::transferred_head_tables;
 use super::{Progress, ProgressFn};
-use crate::eval::report::{group_table, sentence_table, worst_error_table, worst_fit_table};
+use crate::eval::report::{group_table, sentence_table_of, worst_error_table, worst_fit_table};
+use crate::eval::seal::{LipSeal, lip_seal, seal_table};
 use crate::eval::{Comparison, Configuration, RowKey, compare_configurations};
-use crate::eval::{Table, Utterance, phoneme_rmse, viseme_rmse};
-use crate::eval::{worst_frames_by_error, worst_frames_by_residual};
+use crate::eval::{Table, Tally, Utterance};
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::closure::{ClosureError, seal_inner_lips};
 use crate::measure::mouth::trajectory_from_track;
@@ -291,26 +290,79 @@ pub fn utterances_with(
 ) -> Result<ClipsEvaluated> {
     let ClipsToMeasure { clips, head_p, pose } = which;
     let mut out = ClipsEvaluated::default();
+    let (warnings, refitted) = for_each_clip_evaluated(
+        session,
+        res,
+        clips,
+        &ClipRequest { settings, head_p, pose },
+        progress,
+        &mut |_, clip| {
+            out.utterances.push(clip.utterance);
+            out.fits.push((clip.name, clip.fits));
+            Ok(())
+        },
+    )?;
+    out.warnings = warnings;
+    out.refitted = refitted;
+    Ok(out)
+}
+
+/// How the clips of [`for_each_clip_evaluated`] are fitted and measured.
+#[derive(Clone, Copy, Debug)]
+pub struct ClipRequest<'a> {
+    pub settings: &'a FitSettings,
+    pub head_p: HeadP,
+    pub pose: PoseComparison,
+}
+
+/// One clip fitted and measured.
+#[derive(Clone, Debug)]
+pub struct ClipEvaluated {
+    /// Its index in the session.
+    pub index: usize,
+    pub name: String,
+    pub utterance: Utterance,
+    /// One fit per frame with landmarks, ascending.
+    pub fits: Vec<FrameFit>,
+}
+
+/// Fits (from cache where valid) and measures the clips `clips` of a session one at a time,
+/// handing each to `each` before the next is read: what a whole-corpus use case needs in
+/// memory is one clip and what `each` keeps of it. Returns the warnings and how many frames
+/// were fitted now. Progress: one stage per clip.
+///
+/// # Errors
+/// As [`fit_clip_cached`] and [`utterance_of_clip`]; a render failure with `HeadP::Render`;
+/// `each`'s error.
+pub fn for_each_clip_evaluated(
+    session: &mut Session,
+    res: &Resources,
+    clips: &[usize],
+    req: &ClipRequest<'_>,
+    progress: ProgressFn<'_>,
+    each: &mut dyn FnMut(&Session, ClipEvaluated) -> Result<()>,
+) -> Result<(Vec<Warning>, usize)> {
+    let (mut warnings, mut refitted) = (Vec::new(), 0);
+    let settings = req.settings;
     for &c in clips {
         let name = session.clip(c)?.name.clone();
         progress(Progress::Stage { what: format!("fitting {name} ({})", settings.set), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let clip_fits = fit_clip_cached(session, res, c, settings, Some(&steps))?;
         let options = MeshMeasureOptions::default();
-        let (mut u, warnings) =
-            utterance_of_clip(session, res, c, &clip_fits.fits, &options, pose)?;
-        out.warnings.extend(warnings);
-        if let HeadP::Render { pitch_deg } = head_p {
+        let (mut u, more) =
+            utterance_of_clip(session, res, c, &clip_fits.fits, &options, req.pose)?;
+        warnings.extend(more);
+        if let HeadP::Render { pitch_deg } = req.head_p {
             progress(Progress::Stage { what: format!("rendering {name} from the side"), total: 0 });
             let n = u.head.p.len();
             u.head.p = head_p_of_clip_by_render(session, res, c, &clip_fits.fits, n, pitch_deg)?.p;
         }
-        out.utterances.push(u);
-        out.refitted += clip_fits.refitted;
-        out.fits.push((name, clip_fits.fits));
+        refitted += clip_fits.refitted;
+        each(session, ClipEvaluated { index: c, name, utterance: u, fits: clip_fits.fits })?;
     }
     progress(Progress::Finished);
-    Ok(out)
+    Ok((warnings, refitted))
 }
 
 /// How video and head trajectories are compared.
@@ -335,9 +387,14 @@ impl Normalisation {
 
     /// `utterances` on the scale they are compared on.
     pub fn apply(self, utterances: &[Utterance]) -> Vec<Utterance> {
+        utterances.iter().map(|u| self.apply_one(u)).collect()
+    }
+
+    /// One utterance on the scale it is compared on.
+    pub fn apply_one(self, u: &Utterance) -> Utterance {
         match self {
-            Normalisation::MinMax => utterances.iter().map(Utterance::min_max_normalised).collect(),
-            Normalisation::None => utterances.to_vec(),
+            Normalisation::MinMax => u.min_max_normalised(),
+            Normalisation::None => u.clone(),
         }
     }
 }
@@ -383,6 +440,62 @@ impl EvalReport {
         let set = conditions.set.map_or(String::new(), set_label);
         self.worst_fits.name_conditions(&set, None);
     }
+
+    /// The tables of the sentences and fits added to `tally`, and the sealed-lips table of
+    /// `seals` (sentence, its seal).
+    pub fn of(tally: &Tally, seals: &[(String, Option<LipSeal>)]) -> Self {
+        let visemes = &crate::reference::current().visemes;
+        EvalReport {
+            sentences: sentence_table_of(tally.sentences()).keyed("sentences"),
+            phonemes: group_table("RMSE per phoneme", &tally.phonemes(), None).keyed("phonemes"),
+            visemes: group_table("RMSE per viseme class", &tally.visemes(), Some(visemes))
+                .keyed("visemes"),
+            worst_frames: worst_error_table(&tally.worst_frames()).keyed("worst_frames"),
+            worst_fits: worst_fit_table(tally.worst_fits()).keyed("worst_fits"),
+            seals: seal_table(seals).keyed("seals"),
+        }
+    }
+}
+
+/// A [`Tally`] of utterances compared as `normalisation` says, phones by the reference
+/// tables: one sentence added at a time ([`EvalTally::add`]), the report at the end.
+#[derive(Clone, Debug)]
+pub struct EvalTally {
+    tally: Tally,
+    normalisation: Normalisation,
+    /// Each sentence's sealed lips, measured before normalisation (a share of the head's own
+    /// widest opening, `eval::seal`).
+    seals: Vec<(String, Option<LipSeal>)>,
+}
+
+impl EvalTally {
+    pub fn new(normalisation: Normalisation, n_worst: usize) -> Self {
+        Self { tally: Tally::new(n_worst), normalisation, seals: Vec::new() }
+    }
+
+    /// Adds one clip: its utterance (as measured) and its fits.
+    pub fn add(&mut self, utterance: &Utterance, clip: &str, fits: &[FrameFit]) {
+        self.add_utterance(utterance);
+        self.add_fits(clip, fits);
+    }
+
+    /// Adds one sentence as measured.
+    pub fn add_utterance(&mut self, utterance: &Utterance) {
+        let tables = crate::reference::current();
+        let compared = self.normalisation.apply_one(utterance);
+        self.tally.add_utterance(&compared, &tables.phones, &tables.visemes);
+        self.seals.push((utterance.name.clone(), lip_seal(utterance)));
+    }
+
+    /// Adds a clip's fits to the worst fits.
+    pub fn add_fits(&mut self, clip: &str, fits: &[FrameFit]) {
+        self.tally.add_fits(clip, fits);
+    }
+
+    /// The tables of everything added.
+    pub fn report(&self) -> EvalReport {
+        EvalReport::of(&self.tally, &self.seals)
+    }
 }
 
 /// What an evaluation compared, as every table's header says it: the landmark set the fits
@@ -418,27 +531,14 @@ pub fn evaluate(
     normalisation: Normalisation,
     n_worst: usize,
 ) -> EvalReport {
-    let compared = normalisation.apply(utterances);
-    let tables = crate::reference::current();
-    let (phones, visemes) = (&tables.phones, &tables.visemes);
-    let mut worst: Vec<_> =
-        Measure::ALL.iter().flat_map(|&m| worst_frames_by_error(&compared, m, n_worst)).collect();
-    worst.sort_by(|a, b| b.error.abs().total_cmp(&a.error.abs()));
-    worst.truncate(n_worst);
-    EvalReport {
-        sentences: sentence_table(&compared).keyed("sentences"),
-        phonemes: group_table("RMSE per phoneme", &phoneme_rmse(&compared, phones), None)
-            .keyed("phonemes"),
-        visemes: group_table(
-            "RMSE per viseme class",
-            &viseme_rmse(&compared, phones, visemes),
-            Some(visemes),
-        )
-        .keyed("visemes"),
-        worst_frames: worst_error_table(&worst).keyed("worst_frames"),
-        worst_fits: worst_fit_table(&worst_frames_by_residual(fits, n_worst)).keyed("worst_fits"),
-        seals: crate::eval::seal::seal_table(utterances).keyed("seals"),
+    let mut tally = EvalTally::new(normalisation, n_worst);
+    for u in utterances {
+        tally.add_utterance(u);
     }
+    for (clip, f) in fits {
+        tally.add_fits(clip, f);
+    }
+    tally.report()
 }
 
 /// Rows of the worst-frame tables unless the user asks for another number: `eval`,
@@ -514,8 +614,8 @@ pub struct SessionEvaluation {
     pub report: EvalReport,
     /// The same tables on each head the motion was transferred onto (`lipmap transfer`).
     pub transferred: Vec<Table>,
-    /// The clips' utterances and fits.
-    pub clips: ClipsEvaluated,
+    /// What fitting the clips found: frames, failures, frames fitted now.
+    pub fits: FitTally,
     /// Per clip, its flags as lines: a count, then one line per flagged frame.
     pub flag_lines: Vec<Vec<String>>,
     /// What was worked around, one line each.
@@ -530,7 +630,55 @@ impl SessionEvaluation {
 
     /// Whether any frame of any clip failed to fit.
     pub fn any_failed(&self) -> bool {
-        self.clips.fits.iter().flat_map(|(_, f)| f).any(|f| !f.is_usable())
+        self.fits.failed > 0
+    }
+}
+
+/// What the fits of the clips evaluated came to, counted clip by clip.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitTally {
+    pub clips: usize,
+    /// Frames fitted (from the cache or now).
+    pub frames: usize,
+    /// Frames whose fit failed.
+    pub failed: usize,
+    /// Frames fitted now.
+    pub refitted: usize,
+    /// The first failure: the clip and the reason.
+    pub first_failure: Option<(String, String)>,
+}
+
+impl FitTally {
+    /// Counts one clip's fits.
+    pub fn add(&mut self, clip: &str, fits: &[FrameFit]) {
+        self.clips += 1;
+        self.frames += fits.len();
+        for f in fits.iter().filter(|f| !f.is_usable()) {
+            self.failed += 1;
+            if self.first_failure.is_none() {
+                let why = f.failed.clone().unwrap_or_default();
+                self.first_failure = Some((clip.to_string(), why));
+            }
+        }
+    }
+
+    /// Fails when no frame of any clip was fitted: the error is one line with the count and
+    /// the first clip's first reason.
+    ///
+    /// # Errors
+    /// [`Error::Invalid`] when every fit failed or there was no frame to fit.
+    pub fn require_some_fit(&self) -> Result<()> {
+        if self.frames > self.failed {
+            return Ok(());
+        }
+        Err(Error::Invalid(match &self.first_failure {
+            Some((clip, why)) => format!(
+                "every fit failed ({} of {}), nothing to evaluate; first: {clip}: {why}",
+                plural(self.frames, "frame"),
+                plural(self.clips, "clip")
+            ),
+            None => "no frame has landmarks to fit".into(),
+        }))
     }
 }
 
@@ -559,47 +707,126 @@ pub fn evaluate_session(
         opened.session.fit_settings.closure = c;
     }
     let settings = opened.session.fit_settings.clone();
-    let done =
-        utterances_with(&mut opened.session, &res, req.measuring(&clips), &settings, progress)?;
-    warnings.extend(done.warnings.iter().cloned());
+    // Each clip is fitted, measured, flagged and added to the tallies (the model's and each
+    // transferred head's) before the next is read: nothing per frame is kept across clips.
+    let (mut heads, more) = TransferredTallies::prepare(&opened.session, &res, req);
+    warnings.extend(more);
+    let mut tally = EvalTally::new(req.normalisation, req.worst);
+    let mut fits = FitTally::default();
+    let mut flag_lines = Vec::new();
+    let clip_req = ClipRequest { settings: &settings, head_p: req.head_p, pose: req.pose };
+    let (more, refitted) = for_each_clip_evaluated(
+        &mut opened.session,
+        &res,
+        &clips,
+        &clip_req,
+        progress,
+        &mut |session, clip| {
+            flag_lines.push(clip_flag_lines(session, clip.index, &clip.fits)?);
+            tally.add(&clip.utterance, &clip.name, &clip.fits);
+            fits.add(&clip.name, &clip.fits);
+            heads.add(&res, &clip);
+            Ok(())
+        },
+    )?;
+    warnings.extend(more);
+    fits.refitted = refitted;
     opened.save_if_locked()?;
-    require_some_fit(&done.fits)?;
-    let flag_lines = clips
-        .iter()
-        .zip(&done.fits)
-        .map(|(&c, (_, fits))| clip_flag_lines(&opened.session, c, fits))
-        .collect::<std::result::Result<_, _>>()?;
-    let mut report = evaluate(&done.utterances, &done.fit_refs(), req.normalisation, req.worst);
+    fits.require_some_fit()?;
+    let mut report = tally.report();
     let conditions = EvalConditions {
         set: Some(settings.set),
         normalisation: req.normalisation,
         pose: req.pose,
     };
     report.name_conditions(&conditions);
-    let (transferred, more) =
-        transferred_head_tables(&opened.session, &res, &done, &conditions, req.worst);
+    let (transferred, more) = heads.tables(&conditions);
     warnings.extend(more);
-    Ok(SessionEvaluation { report, transferred, clips: done, flag_lines, warnings })
+    Ok(SessionEvaluation { report, transferred, fits, flag_lines, warnings })
 }
 
-/// Fails when no frame of any clip was fitted: the error is one line with the count and the
-/// first clip's first reason.
-fn require_some_fit(fits: &NamedFits) -> Result<()> {
-    if fits.iter().flat_map(|(_, f)| f).any(FrameFit::is_usable) {
-        return Ok(());
+/// The tallies of the heads the motion was transferred onto, one per head that could be set
+/// up, each clip's head side measured on the transferred head as it comes.
+struct TransferredTallies {
+    heads: Vec<TransferredTally>,
+    warnings: Vec<Warning>,
+}
+
+struct TransferredTally {
+    entry: crate::session::TransferredHead,
+    head: super::transfer::PreparedHead,
+    tally: EvalTally,
+}
+
+impl TransferredTallies {
+    /// Sets up every transferred head of the session; a head that cannot be (a moved file)
+    /// is a warning, not a failure.
+    fn prepare(session: &Session, res: &Resources, req: &EvalRequest) -> (Self, Vec<Warning>) {
+        let mut heads = Vec::new();
+        let mut warnings = Vec::new();
+        for entry in &session.transferred_heads {
+            match super::transfer::prepare_head(res, entry) {
+                Ok(head) => heads.push(TransferredTally {
+                    entry: entry.clone(),
+                    head,
+                    tally: EvalTally::new(req.normalisation, req.worst),
+                }),
+                Err(e) => warnings.push(skipped_head(entry, &e)),
+            }
+        }
+        (Self { heads, warnings: Vec::new() }, warnings)
     }
-    let total: usize = fits.iter().map(|(_, f)| f.len()).sum();
-    let first = fits.iter().find_map(|(clip, f)| {
-        f.iter().find_map(|x| x.failed.as_deref().map(|why| format!("{clip}: {why}")))
-    });
-    Err(Error::Invalid(match first {
-        Some(why) => format!(
-            "every fit failed ({} of {}), nothing to evaluate; first: {why}",
-            plural(total, "frame"),
-            plural(fits.len(), "clip")
-        ),
-        None => "no frame has landmarks to fit".into(),
-    }))
+
+    /// Adds one clip to every head's tally; a head whose transfer fails is dropped with a
+    /// warning.
+    fn add(&mut self, res: &Resources, clip: &ClipEvaluated) {
+        let mut failed = Vec::new();
+        for (k, h) in self.heads.iter_mut().enumerate() {
+            match super::transfer::transferred_utterance(
+                res,
+                &h.head.transfer,
+                &h.head.map,
+                &clip.utterance,
+                &clip.fits,
+            ) {
+                Ok(u) => h.tally.add(&u, &clip.name, &clip.fits),
+                Err(e) => {
+                    self.warnings.push(skipped_head(&h.entry, &e));
+                    failed.push(k);
+                }
+            }
+        }
+        for k in failed.into_iter().rev() {
+            self.heads.remove(k);
+        }
+    }
+
+    /// The per-sentence, per-phoneme and per-viseme tables of each head, titles naming it
+    /// and what was compared.
+    fn tables(self, conditions: &EvalConditions) -> (Vec<Table>, Vec<Warning>) {
+        let mut tables = Vec::new();
+        for h in &self.heads {
+            let mut r = h.tally.report();
+            for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes] {
+                t.title =
+                    format!("{}, transferred head `{}` ({})", t.title, h.entry.name, h.entry.mode);
+            }
+            r.name_conditions(conditions);
+            for mut t in [r.sentences, r.phonemes, r.visemes] {
+                t.key = format!("transferred_{}", t.key);
+                tables.push(t.for_item(&h.entry.name));
+            }
+        }
+        (tables, self.warnings)
+    }
+}
+
+fn skipped_head(entry: &crate::session::TransferredHead, e: &Error) -> Warning {
+    Warning(format!(
+        "lipmap: warning: transferred head `{}` skipped: {}",
+        entry.name,
+        error_chain(e)
+    ))
 }
 
 fn plural(n: usize, noun: &str) -> String {
@@ -649,16 +876,19 @@ mod tests {
     #[test]
     fn every_fit_failed_is_an_error() {
         let why = "too few usable landmarks (2 of 2)";
-        let all = vec![("c".to_string(), vec![fit(0, Some(why)), fit(1, Some(why))])];
-        let e = require_some_fit(&all).unwrap_err().to_string();
+        let tally = |fits: &[FrameFit]| {
+            let mut t = FitTally::default();
+            t.add("c", fits);
+            t
+        };
+        let e = tally(&[fit(0, Some(why)), fit(1, Some(why))]).require_some_fit();
         assert_eq!(
-            e,
+            e.unwrap_err().to_string(),
             format!("every fit failed (2 frames of 1 clip), nothing to evaluate; first: c: {why}")
         );
-        let some = vec![("c".to_string(), vec![fit(0, Some(why)), fit(1, None)])];
-        assert!(require_some_fit(&some).is_ok());
+        assert!(tally(&[fit(0, Some(why)), fit(1, None)]).require_some_fit().is_ok());
         assert_eq!(
-            require_some_fit(&Vec::new()).unwrap_err().to_string(),
+            FitTally::default().require_some_fit().unwrap_err().to_string(),
             "no frame has landmarks to fit"
         );
     }

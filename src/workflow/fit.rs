@@ -43,7 +43,7 @@ pub fn fit_clip_cached(
     settings: &FitSettings,
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ClipFits> {
-    let stale = session.stale_frames_with(clip, settings);
+    let stale = session.stale_frames_with(clip, settings)?;
     if !stale.is_empty() {
         check_before_fit(&res.model, &res.map, settings, res.accept_map_warnings)?;
     }
@@ -68,7 +68,7 @@ pub fn fit_clip_cached(
         let fits = fit_clip(&res.model, &res.map, &to_fit, height, settings, Some(&report));
         session.store_fits(clip, settings, fits)?;
     }
-    let fits: Vec<FrameFit> = session.cached_fits(clip, settings).into_iter().cloned().collect();
+    let fits = session.cached_fits(clip, settings)?;
     Ok(ClipFits { fits, refitted })
 }
 
@@ -196,6 +196,9 @@ mod tests {
             mapping: Some(mapping.to_path_buf()),
             set: crate::landmarks::LandmarkSet::F4,
             force: false,
+            // The swapped map below is made to fail the checks: it is created anyway, to
+            // see the fit refuse it.
+            accept_map_warnings: true,
         };
         // Two meshes, two maps: the model's is the eos map, the head's is still to label.
         let path = dir.path().join("s.lipmap.json");
@@ -226,7 +229,7 @@ mod tests {
         };
         assert!(problems.iter().any(|p| p.contains("swapped left/right")), "{problems:?}");
         assert!(e.to_string().contains("--accept-map-warnings"), "{e}");
-        assert!(opened.session.fit_cache.is_empty(), "nothing fitted");
+        assert!(!opened.session.has_cached_fits(), "nothing fitted");
         let fitted = fit_session(&mut opened, &settings, None, true, &quiet).unwrap();
         assert_eq!(fitted.clips[0].fits.fits.len(), 120);
         assert!(fitted.warnings.iter().any(|w| w.0.contains("swapped left/right")));

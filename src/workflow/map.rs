@@ -12,6 +12,7 @@ use crate::fit::suggest::{SuggestHead, surface_triangles};
 use crate::io::{model_source, obj};
 use crate::landmarks::FrameLandmarks;
 use crate::math::Point3;
+use crate::model::map_check::check_map_on_surface;
 use crate::model::{LandmarkMap, MapCheck, check_map};
 use crate::session::{MapRole, Session};
 use std::path::Path;
@@ -110,7 +111,45 @@ pub fn check_session_map(session: &Session, role: MapRole) -> Result<Option<MapC
         return Ok(None);
     };
     let head = label_mesh(session, role)?;
-    Ok(Some(check_map(&map, &head.vertices)))
+    Ok(Some(check_map_on_surface(&map, &head.vertices, &head.triangles)))
+}
+
+/// The checks of `lipmap map check` on a map file about to be used (`import --mapping`,
+/// `new --mapping`, `transfer --mapping`) on the mesh `mesh` names (its vertices and
+/// faces): refused with every problem listed unless `accept`, when they come back as
+/// warnings to show.
+///
+/// # Errors
+/// [`Error::MapRefused`] naming the file, the mesh and the problems.
+pub fn check_map_to_use(
+    map: &LandmarkMap,
+    file: &Path,
+    mesh: &str,
+    vertices: &[Point3],
+    triangles: &[[u32; 3]],
+    accept: bool,
+) -> Result<Vec<super::Warning>> {
+    let check = check_map_on_surface(map, vertices, triangles);
+    let problems: Vec<String> = check.problems.iter().map(ToString::to_string).collect();
+    if problems.is_empty() {
+        return Ok(Vec::new());
+    }
+    if !accept {
+        return Err(Error::MapRefused {
+            file: file.to_path_buf(),
+            mesh: mesh.to_string(),
+            problems,
+        });
+    }
+    Ok(problems
+        .iter()
+        .map(|p| {
+            super::Warning(format!(
+                "lipmap: warning: {}: going on with a map problem on {mesh}: {p}",
+                file.display()
+            ))
+        })
+        .collect())
 }
 
 /// What [`suggest_session_map`] made.
@@ -143,9 +182,9 @@ pub fn suggest_session_map(
     let labels = session.map_of(role).resolve()?.unwrap_or_default();
     let landmarks = match frame {
         Some(n) => session
-            .effective_frame(c, n)
+            .effective_frame(c, n)?
             .ok_or_else(|| Error::Invalid(format!("frame {n} has no landmarks in the clip")))?,
-        None => best_frame(session, c)
+        None => best_frame(session, c)?
             .ok_or_else(|| Error::Invalid("the clip has no frame with landmarks".into()))?,
     };
     let head = label_mesh(session, role)?;
@@ -167,12 +206,14 @@ pub fn suggest_session_map(
 }
 
 /// The first frame with the most visible landmarks.
-fn best_frame(session: &Session, clip: usize) -> Option<FrameLandmarks> {
-    let c = session.clips.get(clip)?;
+///
+/// # Errors
+/// The clip's track cannot be read.
+fn best_frame(session: &Session, clip: usize) -> Result<Option<FrameLandmarks>> {
     let visible = |f: &FrameLandmarks| f.points.iter().filter(|p| p.visible).count();
-    c.tracked
+    let track = session.effective_track(clip)?;
+    Ok(track
         .frames
-        .iter()
-        .filter_map(|f| session.effective_frame(clip, f.frame))
-        .reduce(|best, f| if visible(&f) > visible(&best) { f } else { best })
+        .into_iter()
+        .reduce(|best, f| if visible(&f) > visible(&best) { f } else { best }))
 }

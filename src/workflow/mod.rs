@@ -38,10 +38,11 @@ pub use error::{
     Context, Error, NO_MAP_MESSAGE, Progress, ProgressFn, Result, Warning, error_chain, no_progress,
 };
 pub use evaluate::{
-    ClipEvaluation, ClipInput, ClipsEvaluated, ClipsToMeasure, DEFAULT_WORST_ROWS, EvalConditions,
-    EvalReport,
-    EvalRequest, NamedFits, Normalisation, SessionEvaluation, evaluate, evaluate_clip,
-    evaluate_session, utterance_from_parts, utterance_of, utterance_of_clip, utterances_with,
+    ClipEvaluated, ClipEvaluation, ClipInput, ClipRequest, ClipsEvaluated, ClipsToMeasure,
+    DEFAULT_WORST_ROWS, EvalConditions, EvalReport, EvalRequest, EvalTally, FitTally, NamedFits,
+    Normalisation, SessionEvaluation, evaluate, evaluate_clip, evaluate_session,
+    for_each_clip_evaluated, utterance_from_parts, utterance_of, utterance_of_clip,
+    utterances_with,
 };
 pub use fit::{ClipFits, ClipFitted, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame};
 pub use resources::{

@@ -544,11 +544,16 @@ pub fn train_predictor(
     Ok(SaqpTrained { file, report, warnings })
 }
 
-/// Writes a quality model atomically (a failed write leaves the old file).
+/// Writes a quality model atomically (a failed write leaves the old file). It is held to the
+/// rules a load checks first, so a non-finite or out-of-range value stops here, naming the
+/// field.
 ///
 /// # Errors
-/// The file cannot be written.
+/// A value out of its range (nothing written); the file cannot be written.
 pub fn save_predictor(path: &Path, file: &SaqpModelFile) -> Result<()> {
+    file.predictor.validate().map_err(|e| {
+        Error::Invalid(format!("{}: not written: the trained model has {e}", path.display()))
+    })?;
     let text = serde_json::to_string(file)
         .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
     crate::io::atomic::write_atomic_bytes(path, text.as_bytes()).map_err(|e| Error::io(path, e))

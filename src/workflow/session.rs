@@ -93,6 +93,9 @@ pub fn open_for_edit(s: &str) -> Result<EditSession> {
 pub fn open_for_edit_at(path: &Path) -> Result<EditSession> {
     let lock = SessionLock::acquire(path)?;
     let mut session = Session::load(path)?;
+    // This process will save it: data made on the way (fits of a corpus) need not wait in
+    // memory for the save.
+    session.write_data_early(path);
     let mut notices = Vec::new();
     let restored = match journal::replay(&mut session, path) {
         Ok(r) => r,
@@ -333,7 +336,7 @@ pub fn image_height(session: &Session, clip: usize) -> Result<f64> {
 /// Unknown clip.
 pub fn clip_length(session: &Session, clip: usize) -> Result<usize> {
     let c = session.clip(clip)?;
-    Ok(c.tracked.frames.last().map_or(0, |f| f.frame + 1))
+    Ok(c.tracked_summary().last_frame.map_or(0, |f| f + 1))
 }
 
 #[cfg(test)]
@@ -367,11 +370,11 @@ mod tests {
         let path = dir.join("s.lipmap.json");
         let mut s = Session::new(&path);
         let mut clip = Clip::new("a", View::new(FramesRef::Images { dir: dir.join("f") }, 25.0));
-        for f in 0..n {
-            clip.tracked
-                .frames
-                .push(FrameLandmarks::new(f, vec![LandmarkPoint::tracked(1.0, 1.0); 68]));
-        }
+        clip.set_tracked(crate::landmarks::Track::new(
+            (0..n)
+                .map(|f| FrameLandmarks::new(f, vec![LandmarkPoint::tracked(1.0, 1.0); 68]))
+                .collect(),
+        ));
         s.clips.push(clip);
         s.save(&path).unwrap();
         let mut corrections = crate::session::Corrections::default();

@@ -274,11 +274,16 @@ fn check_model_file(file: &SpeechModelFile) -> std::result::Result<(), SpeechErr
     Ok(())
 }
 
-/// Writes a speech model file atomically (a failed write leaves the old one).
+/// Writes a speech model file atomically (a failed write leaves the old one). It is held
+/// to the rules a load checks first: training that produced a non-finite or out-of-range
+/// value stops here, naming the field, instead of writing a file no command could read.
 ///
 /// # Errors
-/// The file cannot be written.
+/// A value out of its range (nothing written); the file cannot be written.
 pub fn save_speech_model(path: &Path, file: &SpeechModelFile) -> Result<()> {
+    check_model_file(file).map_err(|e| {
+        Error::Invalid(format!("{}: not written: the trained model has {e}", path.display()))
+    })?;
     let text = serde_json::to_string(file)
         .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
     crate::io::atomic::write_atomic_bytes(path, text.as_bytes())

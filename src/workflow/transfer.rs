@@ -3,11 +3,10 @@
 //! move the head frame by frame, write `shapes.npy` (and OBJs), and record the head in the
 //! session so `eval` can measure it again.
 //!
-//! Start at [`transfer_session`]; [`set_up_for_head`] and [`transferred_utterances`] serve
+//! Start at [`transfer_session`]; [`set_up_for_head`] and [`transferred_utterance`] serve
 //! `eval` and the TUI.
 
 use super::error::{Error, Result};
-use super::evaluate::ClipsEvaluated;
 use super::fit::fit_clip_cached;
 use super::resources::Resources;
 use super::{Progress, ProgressFn};
@@ -66,13 +65,18 @@ pub fn default_mapping(head: &Path) -> Result<PathBuf> {
 
 /// The map file of the session's head when `head` is that head (`None` for any other head):
 /// its own map when it is another mesh than the model, else the model's. A map labelled in
-/// the TUI is written beside the session as `NAME.head_map.toml` first (and recorded as the
-/// head map's file), so the transferred head names a file as every other does.
+/// the TUI is written to `write_dir` as `NAME.head_map.toml` first (beside the session when
+/// it will be saved, and then recorded as the head map's file), so the transferred head
+/// names a file as every other does.
 ///
 /// # Errors
 /// The session's head has no map yet (what to do, in one line); a map file that does not
 /// parse; the map file cannot be written.
-pub fn session_head_mapping(session: &mut Session, head: &Path) -> Result<Option<PathBuf>> {
+pub fn session_head_mapping(
+    session: &mut Session,
+    head: &Path,
+    write_dir: &Path,
+) -> Result<Option<PathBuf>> {
     let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
     if session.head_mesh.as_deref().map(abs) != Some(abs(head)) {
         return Ok(None);
@@ -88,7 +92,8 @@ pub fn session_head_mapping(session: &mut Session, head: &Path) -> Result<Option
     if let (Some(file), None) = (&r.file, &r.inline) {
         return Ok(Some(file.clone()));
     }
-    let file = session.base_dir().join(format!("{}.head_map.toml", session.name));
+    std::fs::create_dir_all(write_dir).map_err(|e| Error::io(write_dir, e))?;
+    let file = write_dir.join(format!("{}.head_map.toml", session.name));
     landmark_map_toml::write_landmark_map(&file, &map, &crate::reference::current().names)?;
     // The model's map keys the fit cache: a file written from it is not recorded there.
     if session.head_has_own_map() {
@@ -182,6 +187,8 @@ pub struct TransferRequest {
     pub out_dir: PathBuf,
     /// Also write one OBJ per frame.
     pub objs: bool,
+    /// Transfer with a map that fails the map checks (`lipmap map check`) anyway.
+    pub accept_map_warnings: bool,
 }
 
 /// What a transfer run did.
@@ -202,6 +209,8 @@ pub struct TransferReport {
     pub eye_distance: Option<f64>,
     /// (clip name, frames written, folder).
     pub clips: Vec<(String, usize, PathBuf)>,
+    /// The map problems accepted (`accept_map_warnings`), one line each.
+    pub warnings: Vec<super::Warning>,
 }
 
 /// Fits the requested clips (cached), transfers every fitted frame onto the head, writes
@@ -222,6 +231,16 @@ pub fn transfer_session(
         None => default_mapping(&request.head)?,
     };
     let target = load_target(&request.head, &mapping)?;
+    // The map as written (before the mouth corners are completed), checked as `map check`
+    // checks it: a left/right swap would mirror every frame's motion.
+    let warnings = super::map::check_map_to_use(
+        &landmark_map_toml::read_landmark_map(&mapping)?,
+        &mapping,
+        &request.head.display().to_string(),
+        &target.mesh.vertices,
+        &target.mesh.triangles(),
+        request.accept_map_warnings,
+    )?;
     let start = Instant::now();
     let transfer = set_up_for_head(res, &target, request.mode, &request.head)?;
     let setup = start.elapsed();
@@ -259,6 +278,7 @@ pub fn transfer_session(
         triangles_dropped: transfer.triangles_dropped,
         eye_distance: eye_distance(&target.mesh, &target.map),
         clips,
+        warnings,
     })
 }
 
@@ -330,23 +350,21 @@ pub fn record_head(
     name
 }
 
-/// The evaluated clips with the head's W/H/P measured on `entry`'s transferred head (its own
-/// landmark map) instead of the fitted model; the video side and the alignment unchanged.
+/// A transferred head set up for evaluation: the transfer onto it and its landmark map.
+pub struct PreparedHead {
+    pub transfer: Transfer,
+    pub map: LandmarkMap,
+}
+
+/// Sets up `entry`'s transferred head (its mesh and map read, the transfer prepared) so each
+/// clip's head side can be measured on it ([`transferred_utterance`]).
 ///
 /// # Errors
-/// As [`load_target`], [`set_up_for_head`], [`transfer_fits`].
-pub fn transferred_utterances(
-    res: &Resources,
-    entry: &TransferredHead,
-    done: &ClipsEvaluated,
-) -> Result<Vec<Utterance>> {
+/// As [`load_target`], [`set_up_for_head`].
+pub fn prepare_head(res: &Resources, entry: &TransferredHead) -> Result<PreparedHead> {
     let target = load_target(&entry.mesh, &entry.mapping)?;
     let transfer = set_up_for_head(res, &target, parse_mode(&entry.mode)?, &entry.mesh)?;
-    done.utterances
-        .iter()
-        .zip(&done.fits)
-        .map(|(u, (_, fits))| transferred_utterance(res, &transfer, &target.map, u, fits))
-        .collect()
+    Ok(PreparedHead { transfer, map: target.map })
 }
 
 /// `utterance` (the clip measured on the fitted model) with its head side measured on the
@@ -372,45 +390,4 @@ pub fn transferred_utterance(
     let options = MeshMeasureOptions::default();
     let head = trajectory_from_shapes(shapes.iter().map(Option::as_ref), map, &options);
     Ok(Utterance { head, ..utterance.clone() })
-}
-
-/// The per-sentence, per-phoneme and per-viseme tables of every head recorded in the session,
-/// measured on the transferred head ([`transferred_utterances`]), titles naming the head; a
-/// head that cannot be transferred any more (a moved file) is a warning, not a failure.
-pub fn transferred_head_tables(
-    session: &Session,
-    res: &Resources,
-    done: &ClipsEvaluated,
-    conditions: &super::EvalConditions,
-    n_worst: usize,
-) -> (Vec<crate::eval::Table>, Vec<super::Warning>) {
-    let mut tables = Vec::new();
-    let mut warnings = Vec::new();
-    for entry in &session.transferred_heads {
-        match transferred_utterances(res, entry, done) {
-            Ok(utterances) => {
-                let mut r = super::evaluate(
-                    &utterances,
-                    &done.fit_refs(),
-                    conditions.normalisation,
-                    n_worst,
-                );
-                for t in [&mut r.sentences, &mut r.phonemes, &mut r.visemes] {
-                    t.title =
-                        format!("{}, transferred head `{}` ({})", t.title, entry.name, entry.mode);
-                }
-                r.name_conditions(conditions);
-                for mut t in [r.sentences, r.phonemes, r.visemes] {
-                    t.key = format!("transferred_{}", t.key);
-                    tables.push(t.for_item(&entry.name));
-                }
-            }
-            Err(e) => warnings.push(super::Warning(format!(
-                "lipmap: warning: transferred head `{}` skipped: {}",
-                entry.name,
-                super::error_chain(&e)
-            ))),
-        }
-    }
-    (tables, warnings)
 }

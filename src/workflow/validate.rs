@@ -19,6 +19,10 @@ use std::path::{Path, PathBuf};
 pub enum FileSummary {
     Session {
         clips: usize,
+        /// Tracked frames over every clip, each clip's track file read and checked.
+        frames: usize,
+        /// Cached fits over every clip, each clip's fits file read and checked.
+        cached_fits: usize,
         /// The map checked on the head: its one-line summary, or why it was not checked;
         /// `None` without a map.
         map: Option<std::result::Result<String, String>>,
@@ -110,14 +114,7 @@ pub enum FileSummary {
 /// The reader's one-line error (naming the file and line or field); a mesh without faces.
 pub fn validate_file(path: &Path) -> Result<FileSummary> {
     Ok(match detect_kind(path) {
-        FileKind::Session => {
-            let read = read_session(path)?;
-            let map = super::map::check_session_map(&read.session, crate::session::MapRole::Model)
-                .map(|c| c.map(|c| c.summary()))
-                .map_err(|e| e.to_string())
-                .transpose();
-            FileSummary::Session { clips: read.session.clips.len(), map, notices: read.notices }
-        }
+        FileKind::Session => validate_session(path)?,
         FileKind::Landmarks => {
             FileSummary::Landmarks { frames: landmark_format::read_track(path)?.len() }
         }
@@ -227,6 +224,83 @@ fn fit_results(path: &Path) -> Result<FileSummary> {
         }
     }
     Ok(FileSummary::FitResults { frames: t.rows.len(), failed: n_failed })
+}
+
+/// A session read as every reader reads it, then every file it refers to: each clip's data
+/// files read and checked one clip at a time (memory bounded by the largest clip), the
+/// files its use cases need (model, blendshapes, head, maps, audio, speech model,
+/// transferred heads) present, and the model's map checked. Files kept only as a record of
+/// where data came from (landmark and alignment files) and frames (a session made without
+/// frames still fits and evaluates) are noted when missing.
+///
+/// # Errors
+/// The session's or a data file's one-line error; a needed file missing, naming the field.
+fn validate_session(path: &Path) -> Result<FileSummary> {
+    let read = read_session(path)?;
+    let s = &read.session;
+    let mut notices = read.notices.clone();
+    let (mut frames, mut cached_fits) = (0, 0);
+    for c in &s.clips {
+        let (f, fits) = c.check_data()?;
+        frames += f;
+        cached_fits += fits;
+    }
+    let missing = |what: &str, file: &Path| -> Result<()> {
+        match std::fs::metadata(file) {
+            Ok(_) => Ok(()),
+            Err(e) => {
+                Err(Error::Invalid(format!("{}: {what}: {}: {e}", path.display(), file.display())))
+            }
+        }
+    };
+    if let Some(m) = &s.model {
+        missing("model", &m.path)?;
+        if let Some(b) = &m.blendshapes {
+            missing("model blendshapes", b)?;
+        }
+    }
+    if let Some(h) = &s.head_mesh {
+        missing("head_mesh", h)?;
+    }
+    for (what, map) in [("landmark_map", Some(&s.landmark_map)), ("head_map", s.head_map.as_ref())]
+    {
+        if let Some(file) = map.and_then(|m| m.file.as_ref()) {
+            missing(what, file)?;
+        }
+    }
+    if let Some(m) = &s.speech_model {
+        missing("speech_model", m)?;
+    }
+    for h in &s.transferred_heads {
+        missing(&format!("transferred head `{}` mesh", h.name), &h.mesh)?;
+        missing(&format!("transferred head `{}` mapping", h.name), &h.mapping)?;
+    }
+    for c in &s.clips {
+        if let Some(a) = &c.audio {
+            missing(&format!("clip {:?}: audio", c.name), &a.file)?;
+            crate::io::wav::WavStream::open(&a.file)?;
+        }
+        let records = [
+            ("frames", Some(c.front.source.path())),
+            ("side frames", c.side.as_ref().map(|v| v.source.path())),
+            ("landmarks_file", c.landmarks_file.as_deref()),
+            ("alignment_file", c.alignment_file.as_deref()),
+        ];
+        for (what, file) in records {
+            if let Some(file) = file.filter(|f| !f.exists()) {
+                notices.push(Warning(format!(
+                    "lipmap: note: clip {:?}: {what} {} not found",
+                    c.name,
+                    file.display()
+                )));
+            }
+        }
+    }
+    let map = super::map::check_session_map(s, crate::session::MapRole::Model)
+        .map(|c| c.map(|c| c.summary()))
+        .map_err(|e| e.to_string())
+        .transpose();
+    Ok(FileSummary::Session { clips: s.clips.len(), frames, cached_fits, map, notices })
 }
 
 /// `path` read as expression blendshapes (an eos `.bin`, or a folder of MakeHuman targets);

@@ -210,10 +210,15 @@ pub fn read_lab(path: &Path) -> Result<Alignment> {
     parse_lab(&super::textgrid::decode_text(&bytes, path)?, path)
 }
 
-/// A label as one HTK word: whitespace becomes `_`, and an empty (silence) label `sil`.
+/// What formats that refuse an empty label write for a silence (a TextGrid's empty
+/// interval); the phone inventory reads it back as a silence.
+pub const SILENCE_WORD: &str = "sil";
+
+/// A label as one HTK word: whitespace becomes `_`, and an empty (silence) label
+/// [`SILENCE_WORD`].
 fn htk_word(label: &str) -> String {
     let w: String = label.trim().chars().map(|c| if c.is_whitespace() { '_' } else { c }).collect();
-    if w.is_empty() { "sil".to_string() } else { w }
+    if w.is_empty() { SILENCE_WORD.to_string() } else { w }
 }
 
 /// HTK `.lab` text: times in 100 ns integer units (exact for times read from such a file).

@@ -6,7 +6,7 @@
 //! decimals, so a write then read gives bit-identical times.
 
 use super::error::{FormatError, Result};
-use super::htk_lab::push_phone;
+use super::htk_lab::{SILENCE_WORD, push_phone};
 use super::track_csv::{parse_f64_field, read_csv_table};
 use crate::alignment::{Alignment, Phone};
 use std::path::Path;
@@ -72,13 +72,15 @@ pub fn read_phones_csv(path: &Path) -> Result<Alignment> {
     parse_phones_csv(&super::textgrid::decode_text(&bytes, path)?, path)
 }
 
-/// The `start,end,phone` CSV text of an alignment (labels quoted when they need it).
+/// The `start,end,phone` CSV text of an alignment (labels quoted when they need it; a
+/// silence, which the reader would refuse as an empty label, as [`SILENCE_WORD`]).
 pub fn format_phones_csv(alignment: &Alignment) -> String {
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     // Writing into a Vec cannot fail; errors would only come from the sink.
     let _ = w.write_record(["start", "end", "phone"]);
     for p in &alignment.phones {
-        let _ = w.write_record([p.start.to_string(), p.end.to_string(), p.label.clone()]);
+        let label = if p.label.trim().is_empty() { SILENCE_WORD } else { p.label.as_str() };
+        let _ = w.write_record([p.start.to_string(), p.end.to_string(), label.to_string()]);
     }
     let bytes = w.into_inner().unwrap_or_default();
     String::from_utf8(bytes).unwrap_or_default()
@@ -107,7 +109,9 @@ mod tests {
             ],
         };
         let text = format_phones_csv(&a);
-        assert!(text.starts_with("start,end,phone\n0,0.1,\n"));
-        assert_eq!(parse_phones_csv(&text, Path::new("p.csv")).unwrap(), a);
+        assert!(text.starts_with("start,end,phone\n0,0.1,sil\n"), "{text}");
+        let mut silence_named = a.clone();
+        silence_named.phones[0].label = SILENCE_WORD.into();
+        assert_eq!(parse_phones_csv(&text, Path::new("p.csv")).unwrap(), silence_named);
     }
 }

@@ -115,7 +115,8 @@ const CASES: &[(&str, Reader, &str)] = &[
     (
         "lipmap_frame_fields_disagree.csv",
         landmarks,
-        ":3: frame 0: timestamp, frame_confidence or success differ from its earlier rows",
+        ":3: frame 0: timestamp, frame_confidence, success or rerun_disagreement differ from its \
+         earlier rows",
     ),
     (
         "landmarks_unknown.csv",

@@ -270,7 +270,7 @@ mod tests {
         far.frames[0].points[4].x = 1e300;
         let p = written(dir.path(), &far);
         let e = read_track(&p, 3).unwrap_err().to_string();
-        assert!(e.contains("frame record 0 (frame 0): points: point 4 (1e300"), "{e}");
+        assert!(e.contains("frame record 0 (frame 0): points: point 5 (1e300"), "{e}");
         let mut past = track();
         past.frames[2].frame = MAX_FRAME + 1;
         let p = written(dir.path(), &past);

@@ -81,7 +81,7 @@ impl TrackerSource {
 fn status_line(e: &crate::workflow::Error) -> String {
     match e {
         crate::workflow::Error::NoTrackerFile { what, path, package, flag } => format!(
-            "no {what} at {}: `apt-get install {package}`, or reopen with `lipmap tui SESSION {flag} FILE` (the file `lipmap track {flag}` takes)",
+            "no {what} at {}: `apt-get install {package}`, or reopen `lipmap tui SESSION` with {flag} FILE (as `lipmap track` takes it)",
             path.display()
         ),
         e => format!("tracker: {}", crate::workflow::error_chain(e)),

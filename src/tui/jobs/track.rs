@@ -160,8 +160,8 @@ mod tests {
         assert_eq!(
             status_line(&e),
             "no shape predictor at /usr/share/dlib/shape_predictor_68_face_landmarks.dat: \
-             `apt-get install libdlib-data`, or reopen with `lipmap tui SESSION --predictor FILE` \
-             (the file `lipmap track --predictor` takes)"
+             `apt-get install libdlib-data`, or reopen `lipmap tui SESSION` with --predictor FILE \
+             (as `lipmap track` takes it)"
         );
     }
 }

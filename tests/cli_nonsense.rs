@@ -6,19 +6,10 @@
 //! data file of a session. Each is exit 2 with one line naming the file (and line or field).
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{lipmap, s, text};
 
 /// The one error line of a run that must exit 2.
 fn refused(out: &Output) -> String {

@@ -3,6 +3,7 @@
 //! what `validate` says about a video. Real data from ../shared (skipped when absent).
 
 mod common;
+use common::{lipmap, s, text};
 
 use lipmap::landmarks::{LandmarkPoint, PointSource};
 use lipmap::session::Session;
@@ -34,18 +35,6 @@ fn inputs() -> Option<Inputs> {
         mapping: c.eos.join("ibug_to_sfm.txt"),
         _carphone: c,
     })
-}
-
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// `lipmap new` of the clip without a map (plus `extra` arguments); returns the session path.

@@ -4,17 +4,10 @@
 //! from ../shared (skipped with a notice when absent); the rest on a one-sentence demo.
 
 mod common;
+use common::{lipmap, s};
 
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use std::process::Output;
 
 /// eos's SFM model, its expression blendshapes and `map`, as `fit` and `new` take them.
 fn sfm_args(share: &Path, map: &Path) -> Vec<String> {

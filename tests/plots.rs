@@ -6,23 +6,16 @@
 //! (`plot::font::find_text`), so a label cut, crossed by a line or drawn as `?` fails.
 
 mod common;
+use common::{lipmap, s};
 
 use image::RgbImage;
 use lipmap::plot::font::find_text;
 use lipmap::plot::trajectory::{INK, LABEL_PX, PHONE_PX, TITLE_PX};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
+use std::process::Output;
 
 fn ok(out: &Output, what: &str) {
     assert!(out.status.success(), "{what}: {}", String::from_utf8_lossy(&out.stderr));
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 fn png(path: &Path) -> RgbImage {

@@ -4,24 +4,13 @@
 //! give it, each a one-line error naming the file or folder.
 
 mod common;
+use common::{lipmap, s, text};
 
 use lipmap::io::motion_csv::{VertexMotion, format_motion_csv};
 use lipmap::math::Point3;
 use lipmap::workflow::saqp::{CorpusOptions, marker_vertices, session_corpus};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+use std::process::Output;
 
 /// The one error line of a failed run (progress lines aside).
 fn one_error(out: &Output) -> String {

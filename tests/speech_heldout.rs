@@ -24,21 +24,16 @@ mod speech_corpus;
 
 use lipmap::alignment::{Alignment, Phone, PhoneInventory};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
-fn lipmap(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
-}
+mod common;
+use common::{lipmap, s};
 
 fn ok(out: Output, what: &str) -> String {
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(out.status.success(), "{what}: {}{text}", String::from_utf8_lossy(&out.stderr));
     text
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
 }
 
 /// A demo corpus of `sentences` per speaker (no frames) in `dir`.

@@ -10,7 +10,7 @@ pub mod tmux;
 
 use lipmap::io::landmark_format::{LandmarkFormat, read_track, write_track};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 pub struct Carphone {
     /// Keeps the temp folder alive as long as the inputs.
@@ -99,4 +99,19 @@ pub fn demo_session(dir: &Path) -> PathBuf {
         .unwrap();
     assert!(st.status.success(), "demo failed: {}", String::from_utf8_lossy(&st.stderr));
     demo.join("demo.lipmap.json")
+}
+
+/// Runs the lipmap binary under test with `args`.
+pub fn lipmap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lipmap")).args(args).output().unwrap()
+}
+
+/// A run's output bytes as text.
+pub fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// A path as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
 }

@@ -384,6 +384,20 @@ pub fn lock_path(session: &Path) -> PathBuf {
     session.with_file_name(name)
 }
 
+/// Deletes `session`'s lock file when this process holds it: for a process about to exit
+/// without unwinding (a signal its event loop did not answer), where [`SessionLock`]'s drop
+/// would not run. Another process's lock is left alone.
+pub fn release_lock_if_ours(session: &Path) {
+    let lock = lock_path(session);
+    let ours = std::fs::read_to_string(&lock)
+        .ok()
+        .and_then(|t| serde_json::from_str::<LockInfo>(&t).ok())
+        .is_some_and(|info| info.pid == std::process::id());
+    if ours {
+        let _ = std::fs::remove_file(&lock);
+    }
+}
+
 /// An editor's claim on a session file; released (the lock file deleted) on drop.
 #[derive(Debug)]
 pub struct SessionLock {

@@ -201,10 +201,10 @@ impl Signals {
             .map(|sig| signal_hook::flag::register_usize(sig, caught.clone(), sig as usize))
             .collect::<Result<Vec<_>, _>>()?;
         let (c, left) = (caught.clone(), loop_left.clone());
-        let lock = crate::session::store::lock_path(session);
+        let session = session.to_path_buf();
         std::thread::Builder::new()
             .name("signal watchdog".into())
-            .spawn(move || stop_when_loop_is_stuck(&c, &left, &lock))?;
+            .spawn(move || stop_when_loop_is_stuck(&c, &left, &session))?;
         Ok(Self { caught, loop_left, ids })
     }
 
@@ -229,7 +229,7 @@ impl Signals {
 /// The watchdog's body: waits for a stopping signal, gives the event loop [`SIGNAL_GRACE`] to
 /// return, and otherwise releases the lock (when it is still this process's) and exits with
 /// the shell's code for the signal.
-fn stop_when_loop_is_stuck(caught: &AtomicUsize, loop_left: &AtomicBool, lock: &Path) {
+fn stop_when_loop_is_stuck(caught: &AtomicUsize, loop_left: &AtomicBool, session: &Path) {
     let step = Duration::from_millis(100);
     let sig = loop {
         if loop_left.load(Ordering::SeqCst) {
@@ -247,13 +247,7 @@ fn stop_when_loop_is_stuck(caught: &AtomicUsize, loop_left: &AtomicBool, lock: &
         }
         std::thread::sleep(step);
     }
-    let ours = std::fs::read_to_string(lock)
-        .ok()
-        .and_then(|t| serde_json::from_str::<crate::session::LockInfo>(&t).ok())
-        .is_some_and(|info| info.pid == std::process::id());
-    if ours {
-        let _ = std::fs::remove_file(lock);
-    }
+    crate::workflow::session::release_lock_if_ours(session);
     std::process::exit(128 + sig as i32);
 }
 

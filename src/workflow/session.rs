@@ -22,6 +22,12 @@ use crate::session::journal::{self, Journal, Replayed};
 use crate::session::{LockInfo, Session, SessionError, SessionLock};
 use std::path::{Path, PathBuf};
 
+/// One edit layer as an editor records it (what [`EditSession::record`] takes).
+pub use crate::session::journal::JournalEntry;
+/// For a front about to exit without unwinding: frees the session's lock if it is this
+/// process's.
+pub use crate::session::store::release_lock_if_ours;
+
 /// `NAME` -> sessions/NAME.lipmap.json; anything with a slash or a .json ending is a path.
 pub fn session_path(s: &str) -> PathBuf {
     if s.contains('/') || s.ends_with(".json") {

@@ -19,6 +19,7 @@
 //! Skips what is absent; asserts only that no vertex is used twice.
 
 mod common;
+use common::to_polyline;
 
 use lipmap::fit::map_suggest::suggest_map;
 use lipmap::fit::suggest::{SuggestHead, surface_triangles};
@@ -73,17 +74,6 @@ fn nearest(vertices: &[Point3], eligible: Option<&[bool]>, p: &Point3) -> usize 
         .filter(|&v| eligible.is_none_or(|e| e[v]))
         .min_by(|&a, &b| (vertices[a] - p).norm().total_cmp(&(vertices[b] - p).norm()))
         .unwrap()
-}
-
-fn to_polyline(p: &Point3, points: &[Point3]) -> f64 {
-    points
-        .windows(2)
-        .map(|w| {
-            let d = w[1] - w[0];
-            let t = ((p - w[0]).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
-            (p - (w[0] + t * d)).norm()
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// The rigid placements every face is tried in: rotation and translation (in face sizes).

@@ -3,20 +3,11 @@
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use lipmap::io::npy_model::{parse_npy, read_npz};
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use scratch::scratch_dir;
+use std::path::Path;
 
-fn scratch() -> &'static PathBuf {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| {
-        let dir = if Path::new("/dev/shm").is_dir() {
-            PathBuf::from("/dev/shm")
-        } else {
-            std::env::temp_dir()
-        };
-        dir.join(format!("lipmap-fuzz-{}.npz", std::process::id()))
-    })
-}
+#[path = "common/scratch.rs"]
+mod scratch;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&which, bytes)) = data.split_first() else { return };
@@ -25,8 +16,9 @@ fuzz_target!(|data: &[u8]| {
             assert_eq!(a.shape.iter().product::<usize>(), a.data.len());
         }
     } else {
-        std::fs::write(scratch(), bytes).expect("write scratch file");
-        if let Ok(model) = read_npz(scratch()) {
+        let file = scratch_dir("npy").join("fuzz.npz");
+        std::fs::write(&file, bytes).expect("write scratch file");
+        if let Ok(model) = read_npz(&file) {
             assert_eq!(model.shape.basis.nrows(), model.shape.mean.len());
         }
     }

@@ -3,25 +3,13 @@
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use lipmap::session::Session;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use scratch::scratch_dir;
 
-fn scratch_dir() -> &'static PathBuf {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| {
-        let base = if Path::new("/dev/shm").is_dir() {
-            PathBuf::from("/dev/shm")
-        } else {
-            std::env::temp_dir()
-        };
-        let dir = base.join(format!("lipmap-fuzz-session-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("scratch dir");
-        dir
-    })
-}
+#[path = "common/scratch.rs"]
+mod scratch;
 
 fuzz_target!(|data: &[u8]| {
-    let path = scratch_dir().join("fuzz.lipmap.json");
+    let path = scratch_dir("session").join("fuzz.lipmap.json");
     std::fs::write(&path, data).expect("write scratch file");
     if let Ok(session) = Session::load(&path) {
         let bytes = session.to_json(&path).expect("a loaded session serialises");

@@ -5,33 +5,24 @@
 use libfuzzer_sys::fuzz_target;
 use lipmap::landmarks::N_LANDMARKS;
 use lipmap::session::{fits_file::read_fits, track_file::read_track};
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use scratch::scratch_dir;
 
-fn scratch() -> &'static PathBuf {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| {
-        let dir = if Path::new("/dev/shm").is_dir() {
-            PathBuf::from("/dev/shm")
-        } else {
-            std::env::temp_dir()
-        };
-        dir.join(format!("lipmap-fuzz-{}.data", std::process::id()))
-    })
-}
+#[path = "common/scratch.rs"]
+mod scratch;
 
 fuzz_target!(|data: &[u8]| {
     let Some((&which, rest)) = data.split_first() else { return };
     let Some((&count, bytes)) = rest.split_first() else { return };
     let count = usize::from(count);
-    std::fs::write(scratch(), bytes).expect("write scratch file");
+    let file = scratch_dir("session_data").join("fuzz.data");
+    std::fs::write(&file, bytes).expect("write scratch file");
     if which & 1 == 0 {
-        if let Ok(track) = read_track(scratch(), count) {
+        if let Ok(track) = read_track(&file, count) {
             assert_eq!(track.frames.len(), count);
             assert!(track.frames.windows(2).all(|w| w[0].frame < w[1].frame));
             assert!(track.frames.iter().all(|f| f.points.len() == N_LANDMARKS));
         }
-    } else if let Ok(entries) = read_fits(scratch(), count) {
+    } else if let Ok(entries) = read_fits(&file, count) {
         assert_eq!(entries.len(), count);
     }
 });

@@ -3,21 +3,15 @@
 //! panic, an abort or an allocation sized by a number in the file.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
-use std::path::PathBuf;
-use std::sync::OnceLock;
+use scratch::scratch_dir;
 
-fn scratch_file() -> &'static PathBuf {
-    static P: OnceLock<PathBuf> = OnceLock::new();
-    P.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!("lipmap-fuzz-eval-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("scratch dir");
-        dir.join("fuzz.lipmap.json")
-    })
-}
+#[path = "common/scratch.rs"]
+mod scratch;
 
 fuzz_target!(|data: &[u8]| {
-    std::fs::write(scratch_file(), data).expect("write scratch file");
-    if let Err(e) = lipmap::workflow::untrusted::session_through_eval(scratch_file()) {
+    let file = scratch_dir("eval").join("fuzz.lipmap.json");
+    std::fs::write(&file, data).expect("write scratch file");
+    if let Err(e) = lipmap::workflow::untrusted::session_through_eval(&file) {
         assert!(!e.contains('\n'), "a multi-line error: {e}");
     }
 });

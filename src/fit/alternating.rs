@@ -5,12 +5,14 @@
 //!
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 
-use super::clip::{FrameState, Group, SolverParams, identity_points, in_parallel};
+use super::clip::{
+    FrameState, Group, SolverParams, identity_normal_matrix, identity_points, in_parallel,
+};
 use super::shape::{
     FrameObservations, LandmarkBasis, apply_forces, cholesky_solve_in_place, landmark_forces,
-    normal_matrix, projector,
+    normal_matrix,
 };
-use crate::math::{DMatrix, DVector, Matrix3, Real, Vector3};
+use crate::math::{DMatrix, DVector, Real, Vector3};
 use rayon::prelude::*;
 
 /// Alternates pose, identity (when `solve_identity`) and expressions from the started states
@@ -49,8 +51,8 @@ pub(crate) fn solve(
 
 /// Identity shared by the frames, jointly with each frame's free expressions (eliminated by a
 /// Schur complement); clamped expressions stay at 0. The prior λ_id·|α|² enters once.
-/// The identity block of all frames is one Gram combination with the frames' projectors
-/// summed (`Σ_f s_f²·Q_f`), corrected only for points a frame does not see.
+/// The identity block of all frames is one Gram combination per set of entries the frames
+/// use, with those frames' projectors summed ([`identity_normal_matrix`]).
 fn solve_identity_jointly(
     basis: &LandmarkBasis,
     observations: &[FrameObservations],
@@ -60,23 +62,11 @@ fn solve_identity_jointly(
     params: &SolverParams,
 ) -> Option<DVector> {
     let (kid, k) = (basis.k_id, basis.num_coefficients());
-    let mut q_sum = Matrix3::zeros();
-    for st in states.iter().filter(|s| s.failed.is_none()) {
-        q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
-    }
-    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut s);
+    let mut s = identity_normal_matrix(basis, observations, states, params);
     let per_frame =
         |(obs, st): (&FrameObservations, &FrameState)| -> (Option<DMatrix>, DVector, Vec<Vector3>) {
             let pose = &st.pose;
-            let scale = pose.s * pose.s / params.sigma2;
             let mut corr: Option<DMatrix> = None;
-            for (i, &a) in obs.active.iter().enumerate() {
-                if !a {
-                    let c = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
-                    basis.sub_point_block(i, pose, scale, 0..kid, 0..kid, c);
-                }
-            }
             let forces = landmark_forces(basis, obs, pose, image_height, params.sigma2, mean_pts);
             // The identity part of the gradient is applied once for the clip (summed forces);
             // here only the Schur correction of r.

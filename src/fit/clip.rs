@@ -11,11 +11,13 @@
 use super::camera::{self, OrthoPose};
 use super::result::Solver;
 use super::shape::{
-    FrameObservations, LandmarkBasis, gradient_rhs, nonnegative_quadratic, normal_matrix,
+    FrameObservations, GramBlocks, LandmarkBasis, gradient_rhs, nonnegative_quadratic,
+    normal_matrix, projector,
 };
 use super::{alternating, joint};
-use crate::math::{DVector, Matrix3, Point3, Real, Vector3};
+use crate::math::{DMatrix, DVector, Matrix3, Point3, Real, Vector3};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Solver parameters in the units of the equations (see `FitSettings` for their meaning).
 #[derive(Clone, Copy, Debug)]
@@ -59,6 +61,33 @@ pub(crate) fn frame_points(
     beta: &DVector,
 ) -> Vec<Vector3> {
     (0..id_pts.len()).map(|i| landmark_point(basis, id_pts, beta.as_slice(), i)).collect()
+}
+
+/// The identity block of a group's normal equations at its frames' poses,
+/// `λ_id·I + Σ_f s_f²/σ²·Σⱼₖ Q_f,jk·Mⱼₖ(f)` with `Mⱼₖ(f)` the Gram blocks of the entries
+/// frame f uses: frames using the same entries share one combination, their projectors
+/// summed first, so the cost is per entry set, not per frame. Failed frames are left out.
+pub(crate) fn identity_normal_matrix(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    states: &[FrameState],
+    params: &SolverParams,
+) -> DMatrix {
+    let kid = basis.k_id;
+    let mut sets: Vec<(Arc<GramBlocks>, Matrix3)> = Vec::new();
+    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
+        let q = projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
+        let grams = basis.used_grams(&obs.active);
+        match sets.iter_mut().find(|(g, _)| Arc::ptr_eq(g, &grams)) {
+            Some((_, sum)) => *sum += q,
+            None => sets.push((grams, q)),
+        }
+    }
+    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
+    for (grams, q) in &sets {
+        grams.add(q, 1.0, 0..kid, 0..kid, &mut s);
+    }
+    s
 }
 
 /// Identity part `mean + B_id·α` of every landmark point.

@@ -16,15 +16,18 @@
 
 use super::camera::{OrthoPose, PoseResidual, PoseSums};
 use super::clip::{
-    FrameState, Group, ResidualSums, SolverParams, identity_points, in_parallel, landmark_point,
+    FrameState, Group, ResidualSums, SolverParams, identity_normal_matrix, identity_points,
+    in_parallel, landmark_point,
 };
 use super::shape::{
-    FrameObservations, GRAM_PAIRS, LandmarkBasis, axpy, back_substitute_rows, cholesky_in_place,
-    cholesky_solve_in_place, dot, forward_substitute_rows, projector, vectorised,
+    FrameObservations, GRAM_PAIRS, GramBlocks, LandmarkBasis, axpy, back_substitute_rows,
+    cholesky_in_place, cholesky_solve_in_place, dot, forward_substitute_rows, projector,
+    vectorised,
 };
-use crate::math::{DMatrix, DVector, Matrix3, Point2, Real, Vector3};
+use crate::math::{DMatrix, DVector, Point2, Real, Vector3};
 use nalgebra::{DMatrixView, Rotation3};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
 /// many times a rejected step is retried with 10× more damping.
@@ -332,17 +335,17 @@ vectorised! {
     /// points `cᵢ = R·xᵢ` and rotated rows `Pᵢ = R·Bᵢ`, every row of `H_pc` is a combination
     /// of `Σᵢ wᵢ·cᵢ[a]·Pᵢ[b,:] = R·(Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:])·Rᵀ` and `R·Σᵢ wᵢ·Bᵢ`, and
     /// `Σᵢ wᵢ·xᵢ[a]·Bᵢ[b,:]` is the identity part (shared by the frames) plus `Σ_e β_e` times
-    /// the precomputed expression moments; the coefficient blocks come from the Gram blocks.
-    /// Landmarks the frame does not use are subtracted one by one. Returns the identity-block
-    /// correction for those landmarks, if any.
+    /// the precomputed expression moments, minus the landmarks the frame does not use; the
+    /// coefficient blocks come from the Gram blocks of the entries it uses (`grams`).
     fn frame_blocks<'a>(
         sh: &'a Shared<'a>,
         obs: &'a FrameObservations,
         st: &'a FrameState,
+        grams: &'a GramBlocks,
         moments: &'a [Real],
         scr: &'a mut BlockScratch,
         out: FrameOut<'a>,
-    ) -> Option<DMatrix> = frame_blocks_kernel
+    ) -> () = frame_blocks_kernel
 }
 
 #[inline(always)]
@@ -350,10 +353,11 @@ fn frame_blocks_kernel(
     sh: &Shared<'_>,
     obs: &FrameObservations,
     st: &FrameState,
+    grams: &GramBlocks,
     moments: &[Real],
     scr: &mut BlockScratch,
     out: FrameOut<'_>,
-) -> Option<DMatrix> {
+) {
     let (basis, params) = (sh.basis, sh.params);
     let (kid, k) = (basis.k_id, basis.num_coefficients());
     let pose = &st.pose;
@@ -432,7 +436,7 @@ fn frame_blocks_kernel(
     }
     let hpc = &scr.hpc;
     let gc = &scr.gc;
-    // Coefficient rows of the free expressions: Gram blocks, minus unused landmarks.
+    // Coefficient rows of the free expressions, from the Gram blocks.
     scr.free.clear();
     scr.free.extend((0..basis.k_exp).filter(|&e| st.free[e]));
     let q = projector(pose);
@@ -440,26 +444,7 @@ fn frame_blocks_kernel(
         let hb = &mut scr.hb[e * k..(e + 1) * k];
         hb.fill(0.0);
         for (g, &(a, b)) in GRAM_PAIRS.iter().enumerate() {
-            axpy(s2 * q[(a, b)], basis.gram_column(g, kid + fe), hb);
-        }
-    }
-    let mut corr: Option<DMatrix> = None;
-    for i in (0..basis.len()).filter(|&i| !obs.active[i]) {
-        let m = corr.get_or_insert_with(|| DMatrix::zeros(kid, kid));
-        basis.sub_point_block(i, pose, s2, 0..kid, 0..kid, m);
-        if !scr.free.is_empty() {
-            let mut p = [vec![0.0; k], vec![0.0; k]];
-            for (d, pd) in p.iter_mut().enumerate() {
-                for j in 0..3 {
-                    axpy(r[(d, j)], basis.row(i, j), pd);
-                }
-            }
-            let f = s2 * basis.weights[i];
-            for (e, &fe) in scr.free.iter().enumerate() {
-                let hb = &mut scr.hb[e * k..(e + 1) * k];
-                axpy(-f * p[0][kid + fe], &p[0], hb);
-                axpy(-f * p[1][kid + fe], &p[1], hb);
-            }
+            axpy(s2 * q[(a, b)], grams.column(g, kid + fe), hb);
         }
     }
     // Assemble A (row-major, n = 6 + free), C and b.
@@ -488,7 +473,6 @@ fn frame_blocks_kernel(
         c[row * kid..(row + 1) * kid].copy_from_slice(&hb[..kid]);
     }
     out.g_alpha.copy_from_slice(&gc[..kid]);
-    corr
 }
 
 impl Linearisation {
@@ -536,23 +520,18 @@ impl Linearisation {
             .enumerate()
             .filter(|(f, _)| states[*f].failed.is_none())
             .collect();
-        let corrections = each_frame_with(
+        let grams: Vec<Arc<GramBlocks>> =
+            group.observations.iter().map(|o| basis.used_grams(&o.active)).collect();
+        each_frame_with(
             items,
             || BlockScratch::new(k, k_exp),
             |scr, (f, out)| {
                 let m = moments.column(f);
-                frame_blocks(&sh, &group.observations[f], &states[f], m.as_slice(), scr, out)
+                let obs = &group.observations[f];
+                frame_blocks(&sh, obs, &states[f], &grams[f], m.as_slice(), scr, out)
             },
         );
-        let mut q_sum = Matrix3::zeros();
-        for st in states.iter().filter(|s| s.failed.is_none()) {
-            q_sum += projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
-        }
-        self.s = DMatrix::identity(kid, kid) * params.lambda_identity;
-        basis.add_gram_block(&q_sum, 1.0, 0..kid, 0..kid, &mut self.s);
-        for corr in corrections.iter().flatten() {
-            self.s += corr;
-        }
+        self.s = identity_normal_matrix(basis, group.observations, states, params);
         self.g = alpha * params.lambda_identity;
         for g_alpha in g_frames.chunks(kid.max(1)) {
             axpy(1.0, g_alpha, self.g.as_mut_slice());
@@ -927,6 +906,36 @@ mod tests {
         let d: Real = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
         let n: Real = b.iter().map(|y| y * y).sum();
         (d / n.max(1e-300)).sqrt()
+    }
+
+    #[test]
+    fn gram_blocks_of_a_frames_entries_are_the_sums_over_those_entries_and_kept() {
+        let basis = basis();
+        let k = basis.num_coefficients();
+        let mut used = vec![true; basis.len()];
+        (used[5], used[30], used[67]) = (false, false, false);
+        let grams = basis.used_grams(&used);
+        for (g, &(a, b)) in GRAM_PAIRS.iter().enumerate() {
+            for j in 0..k {
+                let mut want = vec![0.0; k];
+                for i in (0..basis.len()).filter(|&i| used[i]) {
+                    let w = basis.weights[i];
+                    axpy(w * basis.row(i, a)[j], basis.row(i, b), &mut want);
+                    if a != b {
+                        axpy(w * basis.row(i, b)[j], basis.row(i, a), &mut want);
+                    }
+                }
+                let scale = want.iter().fold(1.0, |m: Real, v| m.max(v.abs()));
+                for (got, want) in grams.column(g, j).iter().zip(&want) {
+                    assert!((got - want).abs() < 1e-12 * scale, "block {g}, column {j}");
+                }
+            }
+        }
+        // The same set again is the kept blocks; every entry used is the basis's own.
+        assert!(Arc::ptr_eq(&grams, &basis.used_grams(&used)));
+        let all = vec![true; basis.len()];
+        assert!(Arc::ptr_eq(&basis.used_grams(&all), &basis.used_grams(&all)));
+        assert!(!Arc::ptr_eq(&grams, &basis.used_grams(&all)));
     }
 
     #[test]

@@ -12,6 +12,7 @@ use crate::landmarks::{LandmarkSet, N_LANDMARKS};
 use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
 use nalgebra::Dyn;
+use std::sync::{Arc, Mutex};
 
 use super::camera::{OrthoPose, PoseResidual};
 
@@ -72,8 +73,10 @@ pub struct LandmarkBasis {
     mean: Vec<Vector3>,
     /// Row-major rows: landmark i, axis j at `rows[(3i + j)·K ..][..K]`.
     rows: Vec<Real>,
-    /// Gram blocks over all landmarks: xx, yy, zz, xy+yx, xz+zx, yz+zy (K×K each).
-    gram: [DMatrix; 6],
+    /// Gram blocks over all entries.
+    gram: Arc<GramBlocks>,
+    /// Gram blocks of the entry sets frames used lately (see [`LandmarkBasis::used_grams`]).
+    used_grams: UsedGramCache,
     /// Per expression e, the nine rows `Σᵢ wᵢ·Eᵢ[a,e]·Bᵢ[b,:]` (a, b = x, y, z; row 3a + b;
     /// K each): the expression rows of the ordered Gram blocks, which the joint solver's
     /// pose–coefficient coupling is made of (`fit::joint`).
@@ -232,19 +235,7 @@ impl LandmarkBasis {
             }
         }
         let weights: Vec<Real> = entries.iter().map(|e| e.weight).collect();
-        // The rows of each axis as L×K matrices, plain and weighted, so that every Gram block
-        // is one matrix product: M_ab = Σᵢ wᵢ·Bᵢ[a,:]ᵀBᵢ[b,:] = B_aᵀ·diag(w)·B_b.
-        let axis = |a: usize, weighted: bool| {
-            DMatrix::from_fn(l, k, |i, c| {
-                rows[(3 * i + a) * k + c] * if weighted { weights[i] } else { 1.0 }
-            })
-        };
-        let plain: [DMatrix; 3] = std::array::from_fn(|a| axis(a, false));
-        let weighted: [DMatrix; 3] = std::array::from_fn(|a| axis(a, true));
-        let gram = GRAM_PAIRS.map(|(a, b)| {
-            let m = weighted[a].tr_mul(&plain[b]);
-            if a == b { m } else { &m + m.transpose() }
-        });
+        let gram = Arc::new(GramBlocks::of_entries(&rows, &weights, k, 0..l));
         let mut expression_moments = vec![0.0; k_exp * 9 * k];
         for (e, block) in expression_moments.chunks_exact_mut(9 * k.max(1)).enumerate() {
             for (ab, row) in block.chunks_exact_mut(k).enumerate() {
@@ -274,6 +265,7 @@ impl LandmarkBasis {
             mean,
             rows,
             gram,
+            used_grams: UsedGramCache::default(),
             expression_moments,
             row_sums,
             expression_rows,
@@ -336,10 +328,25 @@ impl LandmarkBasis {
         &self.row_sums
     }
 
-    /// Column `j` of Gram block `g` (the order of `GRAM_PAIRS`), which is also its row.
-    pub(crate) fn gram_column(&self, g: usize, j: usize) -> &[Real] {
+    /// The Gram blocks of the entries `used` marks (one flag per entry, as
+    /// [`FrameObservations::active`]): all entries' blocks minus those of the unused ones.
+    /// A clip's frames use few distinct sets (every point seen; the lips apart or meeting,
+    /// which swaps the inner-lip pairs for their contact entries), so the sets met lately are
+    /// kept and a frame's normal matrix costs six K×K multiply-adds whatever it leaves out,
+    /// where subtracting each unused entry per frame and iteration cost 2K² apiece.
+    pub(crate) fn used_grams(&self, used: &[bool]) -> Arc<GramBlocks> {
+        if used.iter().all(|&u| u) {
+            return Arc::clone(&self.gram);
+        }
+        if let Some(g) = self.used_grams.find(used) {
+            return g;
+        }
         let k = self.num_coefficients();
-        &self.gram[g].as_slice()[j * k..(j + 1) * k]
+        let unused = (0..self.len()).filter(|&i| !used.get(i).copied().unwrap_or(false));
+        let unused = GramBlocks::of_entries(&self.rows, &self.weights, k, unused);
+        let g = Arc::new(GramBlocks(std::array::from_fn(|p| &self.gram.0[p] - &unused.0[p])));
+        self.used_grams.keep(used, Arc::clone(&g));
+        g
     }
 
     /// Mean position of landmark `i`'s vertex.
@@ -396,10 +403,48 @@ impl LandmarkBasis {
         }
         out
     }
+}
 
-    /// Adds `scale · Σⱼₖ Qⱼₖ·Mⱼₖ[rows, cols]` over ALL landmarks to `out` (shape rows × cols).
-    /// One pass over `out`, a column at a time, the six blocks added in `GRAM_PAIRS` order.
-    pub(crate) fn add_gram_block(
+/// The six weighted Gram blocks `Mⱼₖ = Σᵢ wᵢ·Bᵢ[j,:]ᵀBᵢ[k,:]` of a set of basis entries, in
+/// `GRAM_PAIRS` order (xx, yy, zz, xy+yx, xz+zx, yz+zy; K×K each, symmetric).
+#[derive(Debug)]
+pub(crate) struct GramBlocks([DMatrix; 6]);
+
+impl GramBlocks {
+    /// The blocks of `entries` of the row-major basis rows `rows` (K wide) with `weights`.
+    fn of_entries(
+        rows: &[Real],
+        weights: &[Real],
+        k: usize,
+        entries: impl Iterator<Item = usize>,
+    ) -> Self {
+        let entries: Vec<usize> = entries.collect();
+        // The rows of each axis as n×K matrices, plain and weighted, so that every block is
+        // one matrix product: B_aᵀ·diag(w)·B_b.
+        let axis = |a: usize, weighted: bool| {
+            DMatrix::from_fn(entries.len(), k, |r, c| {
+                let i = entries[r];
+                rows[(3 * i + a) * k + c] * if weighted { weights[i] } else { 1.0 }
+            })
+        };
+        let plain: [DMatrix; 3] = std::array::from_fn(|a| axis(a, false));
+        let weighted: [DMatrix; 3] = std::array::from_fn(|a| axis(a, true));
+        Self(GRAM_PAIRS.map(|(a, b)| {
+            let m = weighted[a].tr_mul(&plain[b]);
+            if a == b { m } else { &m + m.transpose() }
+        }))
+    }
+
+    /// Column `j` of block `g` (the order of `GRAM_PAIRS`), which is also its row.
+    pub(crate) fn column(&self, g: usize, j: usize) -> &[Real] {
+        let k = self.0[g].nrows();
+        &self.0[g].as_slice()[j * k..(j + 1) * k]
+    }
+
+    /// Adds `scale · Σⱼₖ Qⱼₖ·Mⱼₖ[rows, cols]` to `out` (shape rows × cols): the normal matrix
+    /// of these entries seen through projector `Q`. One pass over `out`, a column at a time,
+    /// the six blocks added in `GRAM_PAIRS` order.
+    pub(crate) fn add(
         &self,
         q: &crate::math::Matrix3,
         scale: Real,
@@ -411,17 +456,17 @@ impl LandmarkBasis {
     }
 
     #[inline(always)]
-    fn add_gram_kernel(
-        basis: &Self,
+    fn add_kernel(
+        grams: &Self,
         f: [Real; 6],
         rows: std::ops::Range<usize>,
         cols: std::ops::Range<usize>,
         out: &mut DMatrix,
     ) {
-        let (k, n) = (basis.num_coefficients(), rows.len());
+        let (k, n) = (grams.0[0].nrows(), rows.len());
         for (oc, c) in cols.enumerate() {
             let g: [&[Real]; 6] = std::array::from_fn(|i| {
-                &basis.gram[i].as_slice()[c * k + rows.start..c * k + rows.end]
+                &grams.0[i].as_slice()[c * k + rows.start..c * k + rows.end]
             });
             let g = g.map(|x| &x[..n]);
             let o = &mut out.as_mut_slice()[oc * n..(oc + 1) * n];
@@ -436,34 +481,48 @@ impl LandmarkBasis {
             }
         }
     }
+}
 
-    /// Subtracts landmark `i`'s contribution `scale·wᵢ·(R₂Bᵢ)ᵀ(R₂Bᵢ)[rows, cols]` from `out`:
-    /// used for the landmarks a frame does not see.
-    pub(crate) fn sub_point_block(
-        &self,
-        i: usize,
-        pose: &OrthoPose,
-        scale: Real,
-        rows: std::ops::Range<usize>,
-        cols: std::ops::Range<usize>,
-        out: &mut DMatrix,
-    ) {
-        let k = self.num_coefficients();
-        let mut a = [vec![0.0; k], vec![0.0; k]];
-        for (d, ad) in a.iter_mut().enumerate() {
-            for j in 0..3 {
-                let r = pose.r[(d, j)];
-                for (x, b) in ad.iter_mut().zip(self.row(i, j)) {
-                    *x += r * b;
-                }
-            }
+/// The entry sets whose [`GramBlocks`] were made last, newest at the end. A clone starts
+/// empty: the cache belongs to one basis value and is only a shortcut.
+#[derive(Default)]
+struct UsedGramCache(Mutex<Vec<(Vec<bool>, Arc<GramBlocks>)>>);
+
+/// Entry sets kept: a clip uses two or three; frames missing points at random use more, and
+/// for those the oldest set is dropped.
+const USED_GRAM_SETS: usize = 8;
+
+impl UsedGramCache {
+    fn sets(&self) -> std::sync::MutexGuard<'_, Vec<(Vec<bool>, Arc<GramBlocks>)>> {
+        // A panic elsewhere while the lock was held leaves whole entries: still usable.
+        self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    fn find(&self, used: &[bool]) -> Option<Arc<GramBlocks>> {
+        self.sets().iter().find(|(u, _)| u == used).map(|(_, g)| Arc::clone(g))
+    }
+
+    fn keep(&self, used: &[bool], grams: Arc<GramBlocks>) {
+        let mut sets = self.sets();
+        if sets.iter().any(|(u, _)| u == used) {
+            return;
         }
-        let f = scale * self.weights[i];
-        for (oc, c) in cols.clone().enumerate() {
-            for (or, r) in rows.clone().enumerate() {
-                out[(or, oc)] -= f * (a[0][r] * a[0][c] + a[1][r] * a[1][c]);
-            }
+        if sets.len() == USED_GRAM_SETS {
+            sets.remove(0);
         }
+        sets.push((used.to_vec(), grams));
+    }
+}
+
+impl Clone for UsedGramCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for UsedGramCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "UsedGramCache({} sets)", self.sets().len())
     }
 }
 
@@ -474,14 +533,14 @@ vectorised! {
 }
 
 vectorised! {
-    /// [`LandmarkBasis::add_gram_block`] with the six factors made, vectorised.
+    /// [`GramBlocks::add`] with the six factors made, vectorised.
     fn add_gram<'a>(
-        basis: &'a LandmarkBasis,
+        grams: &'a GramBlocks,
         f: [Real; 6],
         rows: std::ops::Range<usize>,
         cols: std::ops::Range<usize>,
         out: &'a mut DMatrix,
-    ) -> () = LandmarkBasis::add_gram_kernel
+    ) -> () = GramBlocks::add_kernel
 }
 
 /// Dot product with four independent partial sums: a single running sum is a serial chain
@@ -592,12 +651,7 @@ pub(crate) fn normal_matrix(
 ) -> DMatrix {
     let scale = pose.s * pose.s / sigma2;
     let mut n = DMatrix::zeros(rows.len(), cols.len());
-    basis.add_gram_block(&projector(pose), scale, rows.clone(), cols.clone(), &mut n);
-    for (i, &a) in obs.active.iter().enumerate() {
-        if !a {
-            basis.sub_point_block(i, pose, scale, rows.clone(), cols.clone(), &mut n);
-        }
-    }
+    basis.used_grams(&obs.active).add(&projector(pose), scale, rows, cols, &mut n);
     n
 }
 

@@ -82,7 +82,7 @@ fn transfers_the_demo_and_refuses_bad_heads() {
     std::fs::write(&few, "[landmark_mappings]\n31 = 10\n37 = 20\n46 = 30\n").unwrap();
     assert_one_line_error(
         &transfer(&session, &head, &few, &out),
-        &["head.obj", "landmarks are labelled on both"],
+        &["head.obj", "too few landmarks are labelled on both"],
     );
     // A map for another mesh.
     let other = dir.path().join("other.toml");

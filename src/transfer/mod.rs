@@ -32,7 +32,7 @@ pub use surface::Surface;
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TransferError {
     #[error(
-        "only {found} landmarks are labelled on both source and target; at least {needed} are needed"
+        "too few landmarks are labelled on both source and target: {found}, at least {needed} needed"
     )]
     TooFewLandmarks { found: usize, needed: usize },
     #[error(

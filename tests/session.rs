@@ -402,6 +402,40 @@ fn a_clips_data_is_read_when_used_and_a_missing_file_is_named() {
 }
 
 #[test]
+fn a_missing_fit_cache_empties_the_clips_cache_and_the_session_still_opens() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("sessions").join("cached.lipmap.json");
+    let mut s = session_with_frames(&file, 5);
+    let settings = FitSettings::default();
+    s.store_fits(0, &settings, (0..5).map(fit_of).collect()).unwrap();
+    s.save(&file).unwrap();
+    let data = dir.path().join("sessions").join("cached.lipmap.d");
+    let fits = std::fs::read_dir(&data)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "fits"))
+        .expect("a fits file");
+    std::fs::remove_file(&fits).unwrap();
+    // The fits are lost (they can be made again), the tracked frames are not.
+    let back = Session::load(&file).unwrap();
+    assert_eq!(back.lost_fit_caches, vec![("clip1".to_string(), fits.clone())]);
+    assert!(back.cached_fits(0, &settings).unwrap().is_empty());
+    assert_eq!(back.stale_frames(0).unwrap().len(), 5, "every frame to be fitted again");
+    assert_eq!(back.effective_track(0).unwrap().frames.len(), 5);
+    let read = lipmap::workflow::session::read_session(&file).unwrap();
+    let said: Vec<&str> = read.notices.iter().map(|w| w.0.as_str()).collect();
+    assert!(
+        said.len() == 1
+            && said[0].contains(fits.to_str().unwrap())
+            && said[0].contains("lipmap fit"),
+        "{said:?}"
+    );
+    // Saved again, the session no longer refers to the lost file.
+    back.save(&file).unwrap();
+    assert!(Session::load(&file).unwrap().lost_fit_caches.is_empty());
+}
+
+#[test]
 fn a_session_saved_under_another_name_takes_its_data_along() {
     let dir = tempfile::tempdir().unwrap();
     let a = dir.path().join("a").join("s.lipmap.json");

@@ -240,18 +240,22 @@ impl Session {
         }
     }
 
-    /// Every data file the session refers to exists (a missing one is named at once rather
-    /// than when its clip is reached).
-    fn check_data_files(&self) -> Result<(), String> {
-        for c in &self.clips {
-            for (what, file) in
-                [("tracked", c.tracked_data().file()), ("fit_cache", c.fit_cache.file())]
+    /// Every track file the session refers to exists (a missing one is named at once rather
+    /// than when its clip is reached). A missing fit cache file loses nothing that cannot be
+    /// made again: the clip's cache starts empty and the file is listed in
+    /// `lost_fit_caches`, so that the session stays usable.
+    fn check_data_files(&mut self) -> Result<(), String> {
+        for c in &mut self.clips {
+            if let Some(f) = c.tracked_data().file()
+                && let Err(e) = std::fs::metadata(&f)
             {
-                if let Some(f) = file
-                    && let Err(e) = std::fs::metadata(&f)
-                {
-                    return Err(format!("clip {:?}: {what}: {}: {e}", c.name, f.display()));
-                }
+                return Err(format!("clip {:?}: tracked: {}: {e}", c.name, f.display()));
+            }
+            if let Some(f) = c.fit_cache.file()
+                && std::fs::metadata(&f).is_err()
+            {
+                c.fit_cache = clip_data::ClipData::default();
+                self.lost_fit_caches.push((c.name.clone(), f));
             }
         }
         Ok(())

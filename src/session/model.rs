@@ -65,6 +65,10 @@ pub struct Session {
     /// Where new per-frame data goes before the save, for a session this process will save.
     #[serde(skip)]
     pub(crate) spill: super::Spill,
+    /// Clips whose fit cache file was missing on load (clip name, file): their cache is
+    /// empty, so their frames are fitted again.
+    #[serde(skip)]
+    pub lost_fit_caches: Vec<(String, PathBuf)>,
 }
 
 /// A schema-2 cache entry: the clip it belongs to, then the entry.
@@ -256,6 +260,7 @@ impl Session {
             legacy_fit_cache: Vec::new(),
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
             spill: super::Spill::default(),
+            lost_fit_caches: Vec::new(),
         }
     }
 

@@ -102,7 +102,7 @@ pub fn open_for_edit_at(path: &Path) -> Result<EditSession> {
     // This process will save it: data made on the way (fits of a corpus) need not wait in
     // memory for the save.
     session.write_data_early(path);
-    let mut notices = Vec::new();
+    let mut notices = lost_fit_cache_notices(&session, path);
     let restored = match journal::replay(&mut session, path) {
         Ok(r) => r,
         Err(e) => {
@@ -124,6 +124,23 @@ pub fn open_for_edit_at(path: &Path) -> Result<EditSession> {
         )));
     }
     Ok(EditSession { path: path.to_path_buf(), lock, session, journal, restored, notices })
+}
+
+/// One warning per clip whose fit cache file was missing when `session` (read from `path`)
+/// was loaded: its fits are gone, nothing else, and `lipmap fit` makes them again.
+fn lost_fit_cache_notices(session: &Session, path: &Path) -> Vec<Warning> {
+    session
+        .lost_fit_caches
+        .iter()
+        .map(|(clip, file)| {
+            Warning(format!(
+                "lipmap: warning: clip {clip:?}: its cached fits {} are missing; \
+                 `lipmap fit {}` fits the clip again",
+                file.display(),
+                path.display()
+            ))
+        })
+        .collect()
 }
 
 fn edits(n: usize) -> String {
@@ -197,17 +214,17 @@ pub fn read_session(path: &Path) -> Result<ReadSession> {
         }
     };
     let journal = journal::journal_path(&crate::session::absolute(path));
-    let notices = match replayed {
-        Ok(r) if r.is_empty() => Vec::new(),
-        Ok(r) => vec![Warning(format!(
+    let mut notices = lost_fit_cache_notices(&session, path);
+    match replayed {
+        Ok(r) if r.is_empty() => {}
+        Ok(r) => notices.push(Warning(format!(
             "lipmap: note: {} holds {} not saved in the session yet; read with them",
             journal.display(),
             edits(r.edits)
-        ))],
-        Err(e) => {
-            vec![Warning(format!("lipmap: warning: journal not applied: {}", error_chain(&e)))]
-        }
-    };
+        ))),
+        Err(e) => notices
+            .push(Warning(format!("lipmap: warning: journal not applied: {}", error_chain(&e)))),
+    }
     Ok(ReadSession { path: path.to_path_buf(), session, notices, editing: None })
 }
 

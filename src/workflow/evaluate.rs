@@ -424,19 +424,19 @@ impl EvalReport {
     }
 
     /// Names what was compared in every table's title: the W/H/P tables get the whole of
-    /// `conditions` (and the pose comparison in their W and H columns), the reprojection
-    /// table the landmark set alone.
+    /// `conditions` (and the pose comparison in their W and H columns), the sealed-lips table
+    /// the same but its scale as it is computed (the ratios before any normalisation: its
+    /// figure is a share of the head's own widest opening), the reprojection table the
+    /// landmark set alone.
     pub fn name_conditions(&mut self, conditions: &EvalConditions) {
         let label = conditions.label();
-        for t in [
-            &mut self.sentences,
-            &mut self.phonemes,
-            &mut self.visemes,
-            &mut self.worst_frames,
-            &mut self.seals,
-        ] {
+        for t in
+            [&mut self.sentences, &mut self.phonemes, &mut self.visemes, &mut self.worst_frames]
+        {
             t.name_conditions(&label, Some(conditions.pose));
         }
+        let unscaled = EvalConditions { normalisation: Normalisation::None, ..*conditions };
+        self.seals.name_conditions(&unscaled.label(), Some(conditions.pose));
         let set = conditions.set.map_or(String::new(), set_label);
         self.worst_fits.name_conditions(&set, None);
     }
@@ -891,6 +891,24 @@ mod tests {
             FitTally::default().require_some_fit().unwrap_err().to_string(),
             "no frame has landmarks to fit"
         );
+    }
+
+    #[test]
+    fn the_sealed_lips_title_names_the_scale_it_is_computed_on() {
+        let mut report = evaluate(&[], &[], Normalisation::MinMax, 1);
+        report.name_conditions(&EvalConditions {
+            set: None,
+            normalisation: Normalisation::MinMax,
+            pose: PoseComparison::ImagePlane,
+        });
+        assert!(
+            report.sentences.title.contains("min–max scaled per sentence"),
+            "{}",
+            report.sentences.title
+        );
+        let seals = &report.seals.title;
+        assert!(seals.contains("ratios unscaled · W/H image plane"), "{seals}");
+        assert!(!seals.contains("min–max"), "{seals}");
     }
 
     #[test]

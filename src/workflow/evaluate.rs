@@ -122,12 +122,36 @@ pub fn utterance_of(
             }
         )));
     }
+    warnings.extend(head_opening_limit(model, input.name, &u));
     warnings.extend(lip_seal_limit(model, map, input, &u));
     if let Some(p) = input.side_p {
         u.video.p = p.to_vec();
         u.video.p.resize(u.head.p.len(), None);
     }
     (u, warnings)
+}
+
+/// When the head does not open (its widest H below
+/// [`crate::eval::seal::LEAST_OPENING_RATIO`] of the video's), a warning saying so and why
+/// when the model says it (no expression blendshapes): its sealed-lips share is then a ratio
+/// of two gaps it keeps closed, not a measure of sealing.
+fn head_opening_limit(model: &MorphableModel, clip: &str, u: &Utterance) -> Option<Warning> {
+    let seal = lip_seal(u).filter(|s| !s.head_opens())?;
+    let why = if model.expressions.as_ref().is_none_or(|e| e.names.is_empty()) {
+        "the model has no expression blendshapes and its identity components hardly part the \
+         lips (give it expressions: `--blendshapes`)"
+    } else {
+        "the model's components hardly part its lips"
+    };
+    Some(Warning(format!(
+        "lipmap: clip `{clip}`: the head does not open: its widest H is {:.3} against the \
+         video's {:.3} ({:.0} %): {why}; its sealed-lips share ({:.0} % of its own widest \
+         opening) measures no sealing",
+        seal.head_widest,
+        seal.video_widest,
+        100.0 * seal.opening_ratio(),
+        100.0 * seal.share(),
+    )))
 }
 
 /// Share of the clip's widest fitted opening above which a head that cannot close further

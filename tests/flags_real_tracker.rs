@@ -56,8 +56,10 @@ const LIP_ON_TONGUE: [usize; 14] = [56, 57, 58, 59, 60, 61, 62, 107, 108, 109, 1
 const LIP_AT_EDGE: [usize; 11] = [54, 63, 64, 75, 76, 77, 85, 86, 102, 103, 117];
 
 #[test]
-#[ignore = "the image check finds 3 of the 14 on-the-tongue frames (57, 114, 115), short of 80 %; \
-            run with --ignored to see it"]
+#[ignore = "the image check finds 3 of the 14 hand-judged frames (57, 114, 115) as lipmap reads the \
+            .pts files, 6 in dlib's own positions, 12 in the coordinates they were judged in \
+            (1 px lower): the reference is not an oracle for it (docs/flags.md); run with \
+            --ignored to see it"]
 fn carphone_image_flags_find_the_lip_on_the_tongue_and_stay_few() {
     let (Some(pts), Some(frames)) = (
         lipmap::testdata::shared("data/carphone/dlib68_pts"),

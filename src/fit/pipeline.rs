@@ -419,7 +419,14 @@ mod tests {
                     assert!(open.active[i] && meet.seen[i]);
                     assert_eq!(meet.active[i], !paired, "landmark {}", contact.landmarks[i]);
                 }
-                Some(_) => assert!(!open.active[i] && meet.active[i] && !meet.seen[i]),
+                Some(c) => {
+                    assert!(!open.active[i] && meet.active[i] && !meet.seen[i]);
+                    // Lips in contact have no gap: both sides are observed at the tracked
+                    // pair's midpoint, however far apart the tracker put the pair.
+                    let (u, l) = (lm.points[c.upper].pos(), lm.points[c.lower].pos());
+                    assert!((u - l).norm() > 1.0);
+                    assert!((meet.points[i] - nalgebra::center(&u, &l)).norm() < 1e-9);
+                }
             }
         }
         assert_eq!(open.num_active, meet.num_active);

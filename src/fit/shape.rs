@@ -99,12 +99,13 @@ struct Entry {
 
 /// One side of an inner-lip pair (upper u, lower l) seen as a contact: on a frame whose inner
 /// lips meet, the pair's two landmarks are replaced by two entries at the affine combinations
-/// `mid ± γ·d/2` of their vertices (mid = (v_u + v_l)/2, d = v_u − v_l), observed at
-/// `m ± γ·δ/2` (m, δ the same of the tracked points). Their squared residuals sum to
-/// `2|mid − m|² + γ²/2·|d − δ|²`: the midpoint keeps the weight the two points gave it, and
-/// the gap gets γ² times theirs, i.e. the variance the contact's precision says
-/// (`docs/closure.md`). Affine combinations keep the translation, so every solver takes the
-/// entries as landmarks.
+/// `mid ± γ·d/2` of their vertices (mid = (v_u + v_l)/2, d = v_u − v_l), both observed at the
+/// tracked pair's midpoint m: lips in contact have no gap, whatever gap the tracker's noise
+/// leaves between its two points. Their squared residuals sum to `2|mid − m|² + γ²/2·|d|²`:
+/// the midpoint keeps the weight the two points gave it, and the gap is held at 0 with γ²
+/// times their weight, i.e. the variance the contact's precision says (`docs/closure.md`).
+/// Affine combinations keep the translation, so every solver takes the entries as
+/// landmarks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LipContact {
     /// 0-based iBUG ids of the pair.
@@ -624,10 +625,13 @@ impl FrameObservations {
                     Some(p) => (p, !replaced(l), true),
                     None => (Point2::origin(), false, false),
                 },
+                // Both sides at the pair's midpoint: the gap observed is 0. Observing the
+                // tracked gap instead held a fitted head open by the mean length of the
+                // tracker's noise (a length is never negative) wherever the tracker closes
+                // the lips itself.
                 Some(c) if contact_pair(c.upper, c.lower) => {
                     let (u, d) = (seen_point(c.upper).unwrap(), seen_point(c.lower).unwrap());
-                    let mid = nalgebra::center(&u, &d);
-                    (mid + (u - d) * (0.5 * c.side * basis.gain), true, false)
+                    (nalgebra::center(&u, &d), true, false)
                 }
                 Some(_) => (Point2::origin(), false, false),
             };

@@ -122,12 +122,36 @@ pub fn utterance_of(
             }
         )));
     }
+    warnings.extend(head_opening_limit(model, input.name, &u));
     warnings.extend(lip_seal_limit(model, map, input, &u));
     if let Some(p) = input.side_p {
         u.video.p = p.to_vec();
         u.video.p.resize(u.head.p.len(), None);
     }
     (u, warnings)
+}
+
+/// When the head does not open (its widest H below
+/// [`crate::eval::seal::LEAST_OPENING_RATIO`] of the video's), a warning saying so and why
+/// when the model says it (no expression blendshapes): its sealed-lips share is then a ratio
+/// of two gaps it keeps closed, not a measure of sealing.
+fn head_opening_limit(model: &MorphableModel, clip: &str, u: &Utterance) -> Option<Warning> {
+    let seal = lip_seal(u).filter(|s| !s.head_opens())?;
+    let why = if model.expressions.as_ref().is_none_or(|e| e.names.is_empty()) {
+        "the model has no expression blendshapes and its identity components hardly part the \
+         lips (give it expressions: `--blendshapes`)"
+    } else {
+        "the model's components hardly part its lips"
+    };
+    Some(Warning(format!(
+        "lipmap: clip `{clip}`: the head does not open: its widest H is {:.3} against the \
+         video's {:.3} ({:.0} %): {why}; its sealed-lips share ({:.0} % of its own widest \
+         opening) measures no sealing",
+        seal.head_widest,
+        seal.video_widest,
+        100.0 * seal.opening_ratio(),
+        100.0 * seal.share(),
+    )))
 }
 
 /// Share of the clip's widest fitted opening above which a head that cannot close further
@@ -424,19 +448,19 @@ impl EvalReport {
     }
 
     /// Names what was compared in every table's title: the W/H/P tables get the whole of
-    /// `conditions` (and the pose comparison in their W and H columns), the reprojection
-    /// table the landmark set alone.
+    /// `conditions` (and the pose comparison in their W and H columns), the sealed-lips table
+    /// the same but its scale as it is computed (the ratios before any normalisation: its
+    /// figure is a share of the head's own widest opening), the reprojection table the
+    /// landmark set alone.
     pub fn name_conditions(&mut self, conditions: &EvalConditions) {
         let label = conditions.label();
-        for t in [
-            &mut self.sentences,
-            &mut self.phonemes,
-            &mut self.visemes,
-            &mut self.worst_frames,
-            &mut self.seals,
-        ] {
+        for t in
+            [&mut self.sentences, &mut self.phonemes, &mut self.visemes, &mut self.worst_frames]
+        {
             t.name_conditions(&label, Some(conditions.pose));
         }
+        let unscaled = EvalConditions { normalisation: Normalisation::None, ..*conditions };
+        self.seals.name_conditions(&unscaled.label(), Some(conditions.pose));
         let set = conditions.set.map_or(String::new(), set_label);
         self.worst_fits.name_conditions(&set, None);
     }
@@ -891,6 +915,24 @@ mod tests {
             FitTally::default().require_some_fit().unwrap_err().to_string(),
             "no frame has landmarks to fit"
         );
+    }
+
+    #[test]
+    fn the_sealed_lips_title_names_the_scale_it_is_computed_on() {
+        let mut report = evaluate(&[], &[], Normalisation::MinMax, 1);
+        report.name_conditions(&EvalConditions {
+            set: None,
+            normalisation: Normalisation::MinMax,
+            pose: PoseComparison::ImagePlane,
+        });
+        assert!(
+            report.sentences.title.contains("min–max scaled per sentence"),
+            "{}",
+            report.sentences.title
+        );
+        let seals = &report.seals.title;
+        assert!(seals.contains("ratios unscaled · W/H image plane"), "{seals}");
+        assert!(!seals.contains("min–max"), "{seals}");
     }
 
     #[test]

@@ -6,7 +6,7 @@
 
 use super::camera::{OrthoPose, rotation_from_yaw_pitch_roll_deg};
 use super::clip::{FrameState, SolverParams, fit_group, identity_points, landmark_point};
-use super::result::{FitSettings, FrameFit};
+use super::result::{FitSettings, FrameFit, Solver};
 use super::shape::{EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis};
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{DVector, Point2, Point3, Real, Vector3};
@@ -60,7 +60,7 @@ impl<'m> Fitter<'m> {
 
     /// Fits one frame on its own (its own identity).
     pub fn fit_frame(&self, lm: &FrameLandmarks, image_height: Real) -> FrameFit {
-        let contact = self.contact_basis(std::slice::from_ref(lm));
+        let contact = self.contact_basis(std::slice::from_ref(lm), image_height);
         self.fit_alone(contact.as_ref().unwrap_or(&self.basis), lm, image_height)
     }
 
@@ -78,22 +78,59 @@ impl<'m> Fitter<'m> {
     }
 
     /// The basis with lip-contact entries when some of `frames` have their inner lips
-    /// meeting: gain γ = √(2σ²/σ_c²) (at least 1), σ² the data term's per-coordinate variance
-    /// and σ_c the contact precision the frames carry (their median), so that the gap of a
-    /// pair in contact weighs as that precision says (`docs/closure.md`).
-    fn contact_basis(&self, frames: &[FrameLandmarks]) -> Option<LandmarkBasis> {
-        let mut sd: Vec<Real> = frames
+    /// meeting and the contact says more than their points: gain γ = √(2σ²/σ_c²), σ² the
+    /// data term's per-coordinate variance ([`Fitter::data_variance`]) and σ_c the contact
+    /// precision the frames carry (their median), so that the gap of a pair in contact
+    /// weighs as that precision says (`docs/closure.md`). `None` when γ ≤ 1: a gap no more
+    /// precise than two independent points (σ_c² ≥ 2σ²) is weighed as those points are.
+    fn contact_basis(
+        &self,
+        frames: &[FrameLandmarks],
+        image_height: Real,
+    ) -> Option<LandmarkBasis> {
+        let meeting: Vec<&FrameLandmarks> = frames
             .iter()
-            .filter_map(|f| f.lip_contact_px)
-            .filter(|v| v.is_finite() && *v >= 0.0)
+            .filter(|f| f.lip_contact_px.is_some_and(|v| v.is_finite() && v >= 0.0))
             .collect();
+        let mut sd: Vec<Real> = meeting.iter().filter_map(|f| f.lip_contact_px).collect();
         if sd.is_empty() {
             return None;
         }
         sd.sort_by(Real::total_cmp);
         let sigma_c = sd[sd.len() / 2].max(MIN_CONTACT_SD_PX);
-        let gain = (2.0 * EOS_SIGMA_SQUARED / (sigma_c * sigma_c)).sqrt();
-        Some(self.basis.with_lip_contact(self.model, gain))
+        let gain = (2.0 * self.data_variance(&meeting, image_height) / (sigma_c * sigma_c)).sqrt();
+        (gain > 1.0).then(|| self.basis.with_lip_contact(self.model, gain))
+    }
+
+    /// The data term's per-coordinate variance (px²) a lip contact is weighed against. When
+    /// the solver estimates the landmark noise (empirical Bayes, the default), the data term
+    /// is the tracker's own noise, not the assumed [`EOS_SIGMA_SQUARED`]: the median over
+    /// `frames` of the noise a plain fit of each leaves, SSE/(2L − p) over its L landmarks
+    /// and p unknowns. Against the assumed 3 px² a tracker much more precise than that (the
+    /// demo's) has its meeting gaps weighed several times its points even where the gap is no
+    /// more precise than they are, and the fits follow its noise there (`docs/speech.md`).
+    /// Otherwise, and when no frame has a plain fit with residual freedom,
+    /// `EOS_SIGMA_SQUARED`.
+    fn data_variance(&self, frames: &[&FrameLandmarks], image_height: Real) -> Real {
+        if !matches!(self.settings.solver, Solver::Joint { estimate_noise: true, .. }) {
+            return EOS_SIGMA_SQUARED;
+        }
+        let mut variances: Vec<Real> = frames
+            .par_iter()
+            .filter_map(|lm| {
+                let fit = self.fit_alone(&self.basis, lm, image_height);
+                let coordinates = 2.0 * fit.residuals.iter().flatten().count() as Real;
+                let unknowns = 6.0 + (fit.identity.len() + fit.expression.len()) as Real;
+                let sse = fit.reproj_rms_px.powi(2) * coordinates / 2.0;
+                (fit.failed.is_none() && coordinates > unknowns)
+                    .then(|| sse / (coordinates - unknowns))
+            })
+            .collect();
+        if variances.is_empty() {
+            return EOS_SIGMA_SQUARED;
+        }
+        variances.sort_by(Real::total_cmp);
+        variances[variances.len() / 2]
     }
 
     /// Fits frames as `settings.clip` says: one identity for all (clip) or each frame alone
@@ -109,7 +146,7 @@ impl<'m> Fitter<'m> {
                 p(n)
             }
         };
-        let contact = self.contact_basis(frames);
+        let contact = self.contact_basis(frames, image_height);
         let basis = contact.as_ref().unwrap_or(&self.basis);
         if !self.settings.clip {
             let mut out = Vec::with_capacity(frames.len());

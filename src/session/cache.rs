@@ -70,9 +70,11 @@ fn feed_frame(h: &mut Fnv64, frame: &FrameLandmarks, set: LandmarkSet) {
         }
     }
     // Only when set, so that the hash of a frame whose lips do not meet is what it was before
-    // the fit took contacts into account (its cached fit stays valid).
+    // the fit took contacts into account (its cached fit stays valid). The tag names the
+    // rule the contact is weighed by (against the tracker's own noise), so fits cached under
+    // the earlier rule (against the assumed noise) go stale.
     if let Some(c) = frame.lip_contact_px {
-        h.str("lip contact").u64(c.to_bits());
+        h.str("lip contact against the tracker's noise").u64(c.to_bits());
     }
 }
 

@@ -271,8 +271,10 @@ impl Session {
         // The data first: the session file that refers to it is written only once it is all
         // on disk.
         self.store_data(&data_dir::data_dir_of(&target))?;
-        let bytes = self.to_json(&abs)?;
+        // The old file's text is read and let go before the new one is made, so a corpus's
+        // save holds one session text at a time.
         let before = data_dir::names_referenced_by_file(&target);
+        let bytes = self.to_json(&abs)?;
         store::write_atomically(&target, &bytes)?;
         data_dir::tidy(&target, &self.data_file_names(), &before);
         Ok(())

@@ -13,8 +13,16 @@
 //!   mono and at 48 kHz stereo, animated by a model trained with default settings on those
 //!   130 sentences: bounded by 300 MB and 60 s, whatever the hour's size.
 //!
+//! - a corpus of 600 demo sentences (~36k frames, every fit cached): `validate` ≤ 150 MB
+//!   and `eval` ≤ 300 MB; then the same clips repeated under other names (`LIPMAP_BENCH_COPIES`
+//!   times, 4 unless set; 72 makes ~2.6 M frames, a whole GRID corpus, which must evaluate
+//!   within 1 GB), so memory beyond the largest clip is seen flat in the number of clips and
+//!   CPU time linear;
+//! - `speech train` on 150 and 600 sentences: memory and CPU time linear in frames.
+//!
 //! Each command's peak resident memory is read from `wait4`'s rusage; prints MB and the
-//! ratio to the bound. Run: `cargo bench --bench hostile`.
+//! ratio to the bound. Run: `cargo bench --bench hostile` (`LIPMAP_BENCH_COPIES=72` for the
+//! whole-corpus figure: ~1 GB of disk besides the demo's 0.45 GB, data files hard-linked).
 
 #[path = "support/child.rs"]
 mod child;
@@ -196,4 +204,141 @@ fn main() {
         None => println!("hostile: ../shared/data absent; the MakeHuman animation is skipped"),
     }
     hour_of_audio(tmp.path());
+    corpus_scale(tmp.path());
+}
+
+/// Targets on a 600-sentence corpus, and for a whole GRID corpus.
+const VALIDATE_600_MB: f64 = 150.0;
+const EVAL_600_MB: f64 = 300.0;
+const GRID_FRAMES: usize = 2_600_000;
+
+/// One command on a corpus: peak and CPU time, against `bound_mb` when it has one.
+fn corpus_run(what: &str, args: &[&str], bound_mb: Option<f64>) -> child::ChildUsage {
+    let u = child::run_lipmap(args);
+    let bound = bound_mb
+        .map_or(String::new(), |b| format!(" (target {b:.0} MB, ratio {:.3})", u.peak_mb / b));
+    println!(
+        "hostile/{what} (exit {}): peak {:.0} MB{bound}, {:.1} s CPU",
+        u.code, u.peak_mb, u.cpu_s
+    );
+    u
+}
+
+/// The clips and tracked frames of the session at `path`.
+fn clips_and_frames(path: &Path) -> (usize, usize) {
+    let s = lipmap::session::Session::load(path).expect("corpus session");
+    (s.clips.len(), s.clips.iter().map(|c| c.tracked_summary().frames).sum())
+}
+
+/// The session at `from` with its clips repeated `copies` times in all, under other names,
+/// every copy referring to the same data (hard-linked into the new session's folder);
+/// returns (clips, frames).
+fn repeated(from: &Path, to: &Path, copies: usize) -> (usize, usize) {
+    let mut s = lipmap::session::Session::load(from).expect("corpus session");
+    let clips = s.clips.clone();
+    for k in 1..copies {
+        for c in &clips {
+            let mut copy = c.clone();
+            copy.name = format!("copy{k}_{}", c.name);
+            s.clips.push(copy);
+        }
+    }
+    s.save(to).expect("repeated corpus");
+    clips_and_frames(to)
+}
+
+/// `validate`, `eval` and `fit` (all cached) on a 600-sentence corpus and on its clips
+/// repeated; `speech train` on 150 and 600 sentences.
+fn corpus_scale(tmp: &Path) {
+    let copies: usize =
+        std::env::var("LIPMAP_BENCH_COPIES").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
+    let dir = tmp.join("corpus600");
+    let made = child::run_lipmap(&[
+        "demo",
+        "--no-tui",
+        "--no-frames",
+        "--sentences",
+        "600",
+        "--seed",
+        "7",
+        "--out",
+        s(&dir),
+    ]);
+    assert_eq!(made.code, 0, "demo of 600 sentences");
+    let session = dir.join("demo.lipmap.json");
+    let (clips, frames) = clips_and_frames(&session);
+    println!("hostile/corpus: 600 sentences, {clips} clips, {frames} frames, fits cached");
+    let validate =
+        corpus_run("corpus 600: validate", &["validate", s(&session)], Some(VALIDATE_600_MB));
+    let eval = corpus_run("corpus 600: eval", &["eval", s(&session)], Some(EVAL_600_MB));
+    corpus_run("corpus 600: fit (all cached)", &["fit", s(&session)], None);
+
+    let big = dir.join(format!("copies{copies}.lipmap.json"));
+    let (big_clips, big_frames) = repeated(&session, &big, copies);
+    let grid = big_frames >= GRID_FRAMES;
+    println!("hostile/corpus ×{copies}: {big_clips} clips, {big_frames} frames");
+    let bound = grid.then_some(BOUND_MB);
+    let big_validate =
+        corpus_run(&format!("corpus ×{copies}: validate"), &["validate", s(&big)], bound);
+    let big_eval = corpus_run(&format!("corpus ×{copies}: eval"), &["eval", s(&big)], bound);
+    let big_fit =
+        corpus_run(&format!("corpus ×{copies}: fit (all cached)"), &["fit", s(&big)], bound);
+    let added = (big_clips - clips).max(1) as f64;
+    for (what, small, large) in [("validate", &validate, &big_validate), ("eval", &eval, &big_eval)]
+    {
+        println!(
+            "hostile/corpus ×{copies} against ×1, {what}: peak +{:.2} KB per added clip; CPU ×{:.2} for frames ×{:.2}",
+            (large.peak_mb - small.peak_mb) * 1024.0 / added,
+            large.cpu_s / small.cpu_s.max(1e-9),
+            big_frames as f64 / frames as f64
+        );
+    }
+    println!("hostile/corpus ×{copies}, fit: peak {:.0} MB", big_fit.peak_mb);
+    if !grid {
+        println!(
+            "hostile/corpus: {big_frames} frames is short of a whole GRID corpus ({GRID_FRAMES}); LIPMAP_BENCH_COPIES=72 measures that"
+        );
+    }
+    let _ = std::fs::remove_file(&big);
+    let _ = std::fs::remove_dir_all(dir.join(format!("copies{copies}.lipmap.d")));
+    speech_train_scale(tmp, &session, frames);
+}
+
+/// `speech train` on 150 and 600 sentences: peak and CPU time per frame.
+fn speech_train_scale(tmp: &Path, session600: &Path, frames600: usize) {
+    let dir = tmp.join("corpus150");
+    let made = child::run_lipmap(&[
+        "demo",
+        "--no-tui",
+        "--no-frames",
+        "--sentences",
+        "150",
+        "--seed",
+        "7",
+        "--out",
+        s(&dir),
+    ]);
+    assert_eq!(made.code, 0, "demo of 150 sentences");
+    let session150 = dir.join("demo.lipmap.json");
+    let (_, frames150) = clips_and_frames(&session150);
+    let mut runs = Vec::new();
+    for (session, frames) in [(&session150, frames150), (&session600.to_path_buf(), frames600)] {
+        let model = tmp.join(format!("speech{frames}.json"));
+        let u = child::run_lipmap(&["speech", "train", s(session), "--out", s(&model)]);
+        assert_eq!(u.code, 0, "speech train on {frames} frames");
+        println!(
+            "hostile/speech train, {frames} frames: peak {:.0} MB, {:.1} s CPU ({:.2} ms per frame)",
+            u.peak_mb,
+            u.cpu_s,
+            1e3 * u.cpu_s / frames as f64
+        );
+        runs.push((frames, u));
+    }
+    let ((f0, a), (f1, b)) = (&runs[0], &runs[1]);
+    println!(
+        "hostile/speech train, linear in frames: frames ×{:.2}, CPU ×{:.2}, peak ×{:.2}",
+        *f1 as f64 / *f0 as f64,
+        b.cpu_s / a.cpu_s.max(1e-9),
+        b.peak_mb / a.peak_mb
+    );
 }

@@ -247,25 +247,32 @@ fn repeated(from: &Path, to: &Path, copies: usize) -> (usize, usize) {
     clips_and_frames(to)
 }
 
+/// A demo corpus of `sentences` (no frames) made with another seed than the documented
+/// demo's, in `dir`; its session file.
+fn held_out_demo(dir: &Path, sentences: usize) -> PathBuf {
+    let n = sentences.to_string();
+    let made = child::run_lipmap(&[
+        "demo",
+        "--no-tui",
+        "--no-frames",
+        "--sentences",
+        &n,
+        "--seed",
+        "7",
+        "--out",
+        s(dir),
+    ]);
+    assert_eq!(made.code, 0, "demo of {sentences} sentences");
+    dir.join("demo.lipmap.json")
+}
+
 /// `validate`, `eval` and `fit` (all cached) on a 600-sentence corpus and on its clips
 /// repeated; `speech train` on 150 and 600 sentences.
 fn corpus_scale(tmp: &Path) {
     let copies: usize =
         std::env::var("LIPMAP_BENCH_COPIES").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
     let dir = tmp.join("corpus600");
-    let made = child::run_lipmap(&[
-        "demo",
-        "--no-tui",
-        "--no-frames",
-        "--sentences",
-        "600",
-        "--seed",
-        "7",
-        "--out",
-        s(&dir),
-    ]);
-    assert_eq!(made.code, 0, "demo of 600 sentences");
-    let session = dir.join("demo.lipmap.json");
+    let session = held_out_demo(&dir, 600);
     let (clips, frames) = clips_and_frames(&session);
     println!("hostile/corpus: 600 sentences, {clips} clips, {frames} frames, fits cached");
     let validate =
@@ -306,20 +313,7 @@ fn corpus_scale(tmp: &Path) {
 
 /// `speech train` on 150 and 600 sentences: peak and CPU time per frame.
 fn speech_train_scale(tmp: &Path, session600: &Path, frames600: usize) {
-    let dir = tmp.join("corpus150");
-    let made = child::run_lipmap(&[
-        "demo",
-        "--no-tui",
-        "--no-frames",
-        "--sentences",
-        "150",
-        "--seed",
-        "7",
-        "--out",
-        s(&dir),
-    ]);
-    assert_eq!(made.code, 0, "demo of 150 sentences");
-    let session150 = dir.join("demo.lipmap.json");
+    let session150 = held_out_demo(&tmp.join("corpus150"), 150);
     let (_, frames150) = clips_and_frames(&session150);
     let mut runs = Vec::new();
     for (session, frames) in [(&session150, frames150), (&session600.to_path_buf(), frames600)] {

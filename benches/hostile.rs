@@ -70,6 +70,36 @@ fn write_hour(path: &Path, voice: &[f32], rate: u32, channels: u16) {
     w.finalize().expect("finish hour WAV");
 }
 
+/// Writes an hour of the voices of `session`'s clips at `rate` with `channels`, as
+/// [`write_hour`] does.
+fn hour_wav(session: &Path, rate: u32, channels: u16, out: &Path) {
+    let loaded = lipmap::session::Session::load(session).expect("demo session");
+    let mut voice = Vec::new();
+    for c in &loaded.clips {
+        let a =
+            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
+        voice.extend(a.samples);
+    }
+    if rate != 16_000 {
+        voice =
+            lipmap::speech::resample(&voice, 16_000.0, f64::from(rate)).expect("upsampled voice");
+    }
+    write_hour(out, &voice, rate, channels);
+}
+
+/// Runs this benchmark's own binary in a helper mode (`main`): what the helper reads or
+/// makes stays out of this process, whose peak memory every child's figure would otherwise
+/// include (`wait4` reports the larger of the child's peak and its parent's at the spawn);
+/// returns its standard output.
+fn in_helper(args: &[&str]) -> String {
+    let out = std::process::Command::new(std::env::current_exe().expect("bench binary"))
+        .args(args)
+        .output()
+        .expect("helper runs");
+    assert!(out.status.success(), "helper {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("UTF-8 helper output")
+}
+
 /// `speech animate` on an hour of speech at 16 kHz mono and 48 kHz stereo.
 fn hour_of_audio(tmp: &Path) {
     let corpus = tmp.join("corpus");
@@ -84,22 +114,10 @@ fn hour_of_audio(tmp: &Path) {
         "hostile/speech train, 130 sentences (for the hour): {:.1} s CPU, {:.1} s wall",
         train.cpu_s, train.wall_s
     );
-    let loaded = lipmap::session::Session::load(&session).expect("demo session");
-    let mut voice = Vec::new();
-    for c in &loaded.clips {
-        let a =
-            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
-        voice.extend(a.samples);
-    }
     let anim = tmp.join("anim_hour");
     for (rate, channels) in [(16_000u32, 1u16), (48_000, 2)] {
-        let source = if rate == 16_000 {
-            voice.clone()
-        } else {
-            lipmap::speech::resample(&voice, 16_000.0, f64::from(rate)).expect("upsampled voice")
-        };
         let wav = tmp.join(format!("hour_{rate}_{channels}.wav"));
-        write_hour(&wav, &source, rate, channels);
+        in_helper(&["hour-wav", s(&session), &rate.to_string(), &channels.to_string(), s(&wav)]);
         let bytes = size(&wav);
         let (code, mb, secs) =
             run(&["speech", "animate", s(&model), "--audio", s(&wav), "--out", s(&anim)]);
@@ -138,6 +156,21 @@ fn edited(from: &Path, to: &Path, clips: &[usize], frame: usize) -> PathBuf {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+        ["hour-wav", session, rate, channels, out] => {
+            let (rate, channels) =
+                (rate.parse().expect("rate"), channels.parse().expect("channels"));
+            return hour_wav(Path::new(session), rate, channels, Path::new(out));
+        }
+        ["repeat", from, to, copies] => {
+            let (from, to) = (Path::new(from), Path::new(to));
+            let (clips, frames) = clips_and_frames(from);
+            let (big_clips, big_frames) = repeated(from, to, copies.parse().expect("copies"));
+            return println!("{clips} {frames} {big_clips} {big_frames}");
+        }
+        _ => {}
+    }
     let tmp = tempfile::tempdir().expect("temporary folder");
     let demo = tmp.path().join("demo");
     let (code, _, _) =
@@ -203,8 +236,8 @@ fn main() {
         ),
         None => println!("hostile: ../shared/data absent; the MakeHuman animation is skipped"),
     }
-    hour_of_audio(tmp.path());
     corpus_scale(tmp.path());
+    hour_of_audio(tmp.path());
 }
 
 /// Targets on a 600-sentence corpus, and for a whole GRID corpus.
@@ -273,15 +306,18 @@ fn corpus_scale(tmp: &Path) {
         std::env::var("LIPMAP_BENCH_COPIES").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
     let dir = tmp.join("corpus600");
     let session = held_out_demo(&dir, 600);
-    let (clips, frames) = clips_and_frames(&session);
+    let big = dir.join(format!("copies{copies}.lipmap.json"));
+    let counts: Vec<usize> = in_helper(&["repeat", s(&session), s(&big), &copies.to_string()])
+        .split_whitespace()
+        .map(|n| n.parse().expect("a count"))
+        .collect();
+    let [clips, frames, big_clips, big_frames] = counts[..] else { panic!("four counts") };
     println!("hostile/corpus: 600 sentences, {clips} clips, {frames} frames, fits cached");
     let validate =
         corpus_run("corpus 600: validate", &["validate", s(&session)], Some(VALIDATE_600_MB));
     let eval = corpus_run("corpus 600: eval", &["eval", s(&session)], Some(EVAL_600_MB));
     corpus_run("corpus 600: fit (all cached)", &["fit", s(&session)], None);
 
-    let big = dir.join(format!("copies{copies}.lipmap.json"));
-    let (big_clips, big_frames) = repeated(&session, &big, copies);
     let grid = big_frames >= GRID_FRAMES;
     println!("hostile/corpus ×{copies}: {big_clips} clips, {big_frames} frames");
     let bound = grid.then_some(BOUND_MB);

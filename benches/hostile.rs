@@ -13,8 +13,16 @@
 //!   mono and at 48 kHz stereo, animated by a model trained with default settings on those
 //!   130 sentences: bounded by 300 MB and 60 s, whatever the hour's size.
 //!
+//! - a corpus of 600 demo sentences (~36k frames, every fit cached): `validate` ≤ 150 MB
+//!   and `eval` ≤ 300 MB; then the same clips repeated under other names (`LIPMAP_BENCH_COPIES`
+//!   times, 4 unless set; 72 makes ~2.6 M frames, a whole GRID corpus, which must evaluate
+//!   within 1 GB), so memory beyond the largest clip is seen flat in the number of clips and
+//!   CPU time linear;
+//! - `speech train` on 150 and 600 sentences: memory and CPU time linear in frames.
+//!
 //! Each command's peak resident memory is read from `wait4`'s rusage; prints MB and the
-//! ratio to the bound. Run: `cargo bench --bench hostile`.
+//! ratio to the bound. Run: `cargo bench --bench hostile` (`LIPMAP_BENCH_COPIES=72` for the
+//! whole-corpus figure: ~1 GB of disk besides the demo's 0.45 GB, data files hard-linked).
 
 #[path = "support/child.rs"]
 mod child;
@@ -62,6 +70,36 @@ fn write_hour(path: &Path, voice: &[f32], rate: u32, channels: u16) {
     w.finalize().expect("finish hour WAV");
 }
 
+/// Writes an hour of the voices of `session`'s clips at `rate` with `channels`, as
+/// [`write_hour`] does.
+fn hour_wav(session: &Path, rate: u32, channels: u16, out: &Path) {
+    let loaded = lipmap::session::Session::load(session).expect("demo session");
+    let mut voice = Vec::new();
+    for c in &loaded.clips {
+        let a =
+            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
+        voice.extend(a.samples);
+    }
+    if rate != 16_000 {
+        voice =
+            lipmap::speech::resample(&voice, 16_000.0, f64::from(rate)).expect("upsampled voice");
+    }
+    write_hour(out, &voice, rate, channels);
+}
+
+/// Runs this benchmark's own binary in a helper mode (`main`): what the helper reads or
+/// makes stays out of this process, whose peak memory every child's figure would otherwise
+/// include (`wait4` reports the larger of the child's peak and its parent's at the spawn);
+/// returns its standard output.
+fn in_helper(args: &[&str]) -> String {
+    let out = std::process::Command::new(std::env::current_exe().expect("bench binary"))
+        .args(args)
+        .output()
+        .expect("helper runs");
+    assert!(out.status.success(), "helper {args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).expect("UTF-8 helper output")
+}
+
 /// `speech animate` on an hour of speech at 16 kHz mono and 48 kHz stereo.
 fn hour_of_audio(tmp: &Path) {
     let corpus = tmp.join("corpus");
@@ -76,22 +114,10 @@ fn hour_of_audio(tmp: &Path) {
         "hostile/speech train, 130 sentences (for the hour): {:.1} s CPU, {:.1} s wall",
         train.cpu_s, train.wall_s
     );
-    let loaded = lipmap::session::Session::load(&session).expect("demo session");
-    let mut voice = Vec::new();
-    for c in &loaded.clips {
-        let a =
-            lipmap::io::wav::read_wav(&c.audio.as_ref().expect("demo audio").file).expect("voice");
-        voice.extend(a.samples);
-    }
     let anim = tmp.join("anim_hour");
     for (rate, channels) in [(16_000u32, 1u16), (48_000, 2)] {
-        let source = if rate == 16_000 {
-            voice.clone()
-        } else {
-            lipmap::speech::resample(&voice, 16_000.0, f64::from(rate)).expect("upsampled voice")
-        };
         let wav = tmp.join(format!("hour_{rate}_{channels}.wav"));
-        write_hour(&wav, &source, rate, channels);
+        in_helper(&["hour-wav", s(&session), &rate.to_string(), &channels.to_string(), s(&wav)]);
         let bytes = size(&wav);
         let (code, mb, secs) =
             run(&["speech", "animate", s(&model), "--audio", s(&wav), "--out", s(&anim)]);
@@ -130,6 +156,21 @@ fn edited(from: &Path, to: &Path, clips: &[usize], frame: usize) -> PathBuf {
 }
 
 fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+        ["hour-wav", session, rate, channels, out] => {
+            let (rate, channels) =
+                (rate.parse().expect("rate"), channels.parse().expect("channels"));
+            return hour_wav(Path::new(session), rate, channels, Path::new(out));
+        }
+        ["repeat", from, to, copies] => {
+            let (from, to) = (Path::new(from), Path::new(to));
+            let (clips, frames) = clips_and_frames(from);
+            let (big_clips, big_frames) = repeated(from, to, copies.parse().expect("copies"));
+            return println!("{clips} {frames} {big_clips} {big_frames}");
+        }
+        _ => {}
+    }
     let tmp = tempfile::tempdir().expect("temporary folder");
     let demo = tmp.path().join("demo");
     let (code, _, _) =
@@ -195,5 +236,139 @@ fn main() {
         ),
         None => println!("hostile: ../shared/data absent; the MakeHuman animation is skipped"),
     }
+    corpus_scale(tmp.path());
     hour_of_audio(tmp.path());
+}
+
+/// Targets on a 600-sentence corpus, and for a whole GRID corpus.
+const VALIDATE_600_MB: f64 = 150.0;
+const EVAL_600_MB: f64 = 300.0;
+const GRID_FRAMES: usize = 2_600_000;
+
+/// One command on a corpus: peak and CPU time, against `bound_mb` when it has one.
+fn corpus_run(what: &str, args: &[&str], bound_mb: Option<f64>) -> child::ChildUsage {
+    let u = child::run_lipmap(args);
+    let bound = bound_mb
+        .map_or(String::new(), |b| format!(" (target {b:.0} MB, ratio {:.3})", u.peak_mb / b));
+    println!(
+        "hostile/{what} (exit {}): peak {:.0} MB{bound}, {:.1} s CPU",
+        u.code, u.peak_mb, u.cpu_s
+    );
+    u
+}
+
+/// The clips and tracked frames of the session at `path`.
+fn clips_and_frames(path: &Path) -> (usize, usize) {
+    let s = lipmap::session::Session::load(path).expect("corpus session");
+    (s.clips.len(), s.clips.iter().map(|c| c.tracked_summary().frames).sum())
+}
+
+/// The session at `from` with its clips repeated `copies` times in all, under other names,
+/// every copy referring to the same data (hard-linked into the new session's folder);
+/// returns (clips, frames).
+fn repeated(from: &Path, to: &Path, copies: usize) -> (usize, usize) {
+    let mut s = lipmap::session::Session::load(from).expect("corpus session");
+    let clips = s.clips.clone();
+    for k in 1..copies {
+        for c in &clips {
+            let mut copy = c.clone();
+            copy.name = format!("copy{k}_{}", c.name);
+            s.clips.push(copy);
+        }
+    }
+    s.save(to).expect("repeated corpus");
+    clips_and_frames(to)
+}
+
+/// A demo corpus of `sentences` (no frames) made with another seed than the documented
+/// demo's, in `dir`; its session file.
+fn held_out_demo(dir: &Path, sentences: usize) -> PathBuf {
+    let n = sentences.to_string();
+    let made = child::run_lipmap(&[
+        "demo",
+        "--no-tui",
+        "--no-frames",
+        "--sentences",
+        &n,
+        "--seed",
+        "7",
+        "--out",
+        s(dir),
+    ]);
+    assert_eq!(made.code, 0, "demo of {sentences} sentences");
+    dir.join("demo.lipmap.json")
+}
+
+/// `validate`, `eval` and `fit` (all cached) on a 600-sentence corpus and on its clips
+/// repeated; `speech train` on 150 and 600 sentences.
+fn corpus_scale(tmp: &Path) {
+    let copies: usize =
+        std::env::var("LIPMAP_BENCH_COPIES").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
+    let dir = tmp.join("corpus600");
+    let session = held_out_demo(&dir, 600);
+    let big = dir.join(format!("copies{copies}.lipmap.json"));
+    let counts: Vec<usize> = in_helper(&["repeat", s(&session), s(&big), &copies.to_string()])
+        .split_whitespace()
+        .map(|n| n.parse().expect("a count"))
+        .collect();
+    let [clips, frames, big_clips, big_frames] = counts[..] else { panic!("four counts") };
+    println!("hostile/corpus: 600 sentences, {clips} clips, {frames} frames, fits cached");
+    let validate =
+        corpus_run("corpus 600: validate", &["validate", s(&session)], Some(VALIDATE_600_MB));
+    let eval = corpus_run("corpus 600: eval", &["eval", s(&session)], Some(EVAL_600_MB));
+    corpus_run("corpus 600: fit (all cached)", &["fit", s(&session)], None);
+
+    let grid = big_frames >= GRID_FRAMES;
+    println!("hostile/corpus ×{copies}: {big_clips} clips, {big_frames} frames");
+    let bound = grid.then_some(BOUND_MB);
+    let big_validate =
+        corpus_run(&format!("corpus ×{copies}: validate"), &["validate", s(&big)], bound);
+    let big_eval = corpus_run(&format!("corpus ×{copies}: eval"), &["eval", s(&big)], bound);
+    let big_fit =
+        corpus_run(&format!("corpus ×{copies}: fit (all cached)"), &["fit", s(&big)], bound);
+    let added = (big_clips - clips).max(1) as f64;
+    for (what, small, large) in [("validate", &validate, &big_validate), ("eval", &eval, &big_eval)]
+    {
+        println!(
+            "hostile/corpus ×{copies} against ×1, {what}: peak +{:.2} KB per added clip; CPU ×{:.2} for frames ×{:.2}",
+            (large.peak_mb - small.peak_mb) * 1024.0 / added,
+            large.cpu_s / small.cpu_s.max(1e-9),
+            big_frames as f64 / frames as f64
+        );
+    }
+    println!("hostile/corpus ×{copies}, fit: peak {:.0} MB", big_fit.peak_mb);
+    if !grid {
+        println!(
+            "hostile/corpus: {big_frames} frames is short of a whole GRID corpus ({GRID_FRAMES}); LIPMAP_BENCH_COPIES=72 measures that"
+        );
+    }
+    let _ = std::fs::remove_file(&big);
+    let _ = std::fs::remove_dir_all(dir.join(format!("copies{copies}.lipmap.d")));
+    speech_train_scale(tmp, &session, frames);
+}
+
+/// `speech train` on 150 and 600 sentences: peak and CPU time per frame.
+fn speech_train_scale(tmp: &Path, session600: &Path, frames600: usize) {
+    let session150 = held_out_demo(&tmp.join("corpus150"), 150);
+    let (_, frames150) = clips_and_frames(&session150);
+    let mut runs = Vec::new();
+    for (session, frames) in [(&session150, frames150), (&session600.to_path_buf(), frames600)] {
+        let model = tmp.join(format!("speech{frames}.json"));
+        let u = child::run_lipmap(&["speech", "train", s(session), "--out", s(&model)]);
+        assert_eq!(u.code, 0, "speech train on {frames} frames");
+        println!(
+            "hostile/speech train, {frames} frames: peak {:.0} MB, {:.1} s CPU ({:.2} ms per frame)",
+            u.peak_mb,
+            u.cpu_s,
+            1e3 * u.cpu_s / frames as f64
+        );
+        runs.push((frames, u));
+    }
+    let ((f0, a), (f1, b)) = (&runs[0], &runs[1]);
+    println!(
+        "hostile/speech train, linear in frames: frames ×{:.2}, CPU ×{:.2}, peak ×{:.2}",
+        *f1 as f64 / *f0 as f64,
+        b.cpu_s / a.cpu_s.max(1e-9),
+        b.peak_mb / a.peak_mb
+    );
 }

@@ -73,8 +73,13 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
         crate::cli::progress::print_warnings(&opened.notices);
         let req = EvalRequest { normalisation: a.normalise.into(), ..EvalRequest::default() };
         let bar = crate::cli::progress::frames_bar(0, "fitting");
-        let evaluated =
-            workflow::evaluate_session(&mut opened, &req, &crate::cli::progress::show_on(&bar))?;
+        // The demo prints its tables; each clip's flags are for `lipmap eval`.
+        let evaluated = workflow::evaluate_session(
+            &mut opened,
+            &req,
+            &crate::cli::progress::show_on(&bar),
+            &mut |_| {},
+        )?;
         crate::cli::progress::print_warnings(&evaluated.warnings);
         any_failed |= evaluated.any_failed();
         let report = &evaluated.report;

@@ -158,11 +158,16 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         print_warnings(&warnings);
         return write_tables(&[&comparison.to_table()], a.output.format(), out);
     }
-    let evaluated = workflow::evaluate_session(&mut opened, &req, &progress)?;
+    // Each clip's flags are printed as it is measured (above the bar), not kept to the end.
+    let mut flags = |lines: &[String]| {
+        bar.suspend(|| {
+            for line in lines {
+                eprintln!("{}", crate::cli::output::terminal_safe(line));
+            }
+        })
+    };
+    let evaluated = workflow::evaluate_session(&mut opened, &req, &progress, &mut flags)?;
     print_warnings(&evaluated.warnings);
-    for line in evaluated.flag_lines.iter().flatten() {
-        eprintln!("{}", crate::cli::output::terminal_safe(line));
-    }
     write_tables(&evaluated.tables(), a.output.format(), out)
 }
 

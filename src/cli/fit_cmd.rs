@@ -175,12 +175,26 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
     print_warnings(&opened.notices);
     let settings = a.settings.apply(&opened.session.fit_settings)?;
     let bar = frames_bar(0, "fitting");
+    // Each clip is printed as it is fitted (above the bar): nothing of a corpus's fits is
+    // kept for the end.
+    let mut print = |step: workflow::FitStep| -> workflow::Result<()> {
+        bar.suspend(|| match step {
+            workflow::FitStep::Warning(w) => {
+                print_warnings(std::slice::from_ref(&w));
+                Ok(())
+            }
+            workflow::FitStep::Clip(clip) => {
+                print_clip_fitted(&clip, out).map_err(|e| workflow::Error::io("standard output", e))
+            }
+        })
+    };
     let fitted = workflow::fit::fit_session(
         &mut opened,
         &settings,
         a.only.as_deref(),
         a.accept_map_warnings,
         &show_on(&bar),
+        &mut print,
     )
     .inspect_err(|e| {
         // The whole list, as `map check` prints it; the error line sums it up.
@@ -191,27 +205,30 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
             }
         }
     })?;
-    print_warnings(&fitted.warnings);
-    for clip in &fitted.clips {
-        let (name, fits) = (&clip.name, &clip.fits);
-        let median = rms_text(median_reprojection(&fits.fits));
-        writeln!(
-            out,
-            "{name}: {} ({} refitted, {} from cache), {} failed, median reprojection RMS {median}",
-            plural(fits.fits.len(), "frame"),
-            fits.refitted,
-            fits.fits.len() - fits.refitted,
-            fits.failed()
-        )?;
-        for line in failure_lines(name, &fits.fits) {
-            eprintln!("{}", terminal_safe(&line));
-        }
-        if let Some((count, frames)) = clip.flag_lines.split_first() {
-            writeln!(out, "{}", terminal_safe(count))?;
-            for line in frames {
-                eprintln!("{}", terminal_safe(line));
-            }
+    Ok(if fitted.any_failed() { Outcome::Partial } else { Outcome::Ok })
+}
+
+/// One fitted clip's summary line and flag count (stdout), its failures and flagged frames
+/// (stderr).
+fn print_clip_fitted(clip: &workflow::ClipFitted, out: &mut dyn Write) -> std::io::Result<()> {
+    let (name, fits) = (&clip.name, &clip.fits);
+    let median = rms_text(median_reprojection(&fits.fits));
+    writeln!(
+        out,
+        "{name}: {} ({} refitted, {} from cache), {} failed, median reprojection RMS {median}",
+        plural(fits.fits.len(), "frame"),
+        fits.refitted,
+        fits.fits.len() - fits.refitted,
+        fits.failed()
+    )?;
+    for line in failure_lines(name, &fits.fits) {
+        eprintln!("{}", terminal_safe(&line));
+    }
+    if let Some((count, frames)) = clip.flag_lines.split_first() {
+        writeln!(out, "{}", terminal_safe(count))?;
+        for line in frames {
+            eprintln!("{}", terminal_safe(line));
         }
     }
-    Ok(if fitted.any_failed() { Outcome::Partial } else { Outcome::Ok })
+    Ok(())
 }

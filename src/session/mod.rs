@@ -275,9 +275,10 @@ impl Session {
         // The data first: the session file that refers to it is written only once it is all
         // on disk.
         self.store_data(&data_dir::data_dir_of(&target))?;
-        let bytes = self.to_json(&abs)?;
+        // The old file's text is read and let go before the new one is made, so a corpus's
+        // save holds one session text at a time.
         let before = data_dir::names_referenced_by_file(&target);
-        store::write_atomically(&target, &bytes)?;
+        store::write_atomically_with(&target, |file| self.write_json(&abs, file))?;
         data_dir::tidy(&target, &self.data_file_names(), &before);
         Ok(())
     }
@@ -338,13 +339,30 @@ impl Session {
         let abs = absolute(path);
         self.validate().map_err(|message| SessionError::Invalid { path: abs.clone(), message })?;
         let mut out = Vec::with_capacity(1 << 16);
+        self.write_json(&abs, &mut out)?;
+        Ok(out)
+    }
+
+    /// Writes the session file's text for `path` to `out` as it is made (what
+    /// [`Session::to_json`] returns).
+    ///
+    /// # Errors
+    /// `Invalid` when the session breaks a rule; `Io` naming `path` when `out` fails.
+    fn write_json(&self, path: &Path, out: &mut dyn std::io::Write) -> Result<(), SessionError> {
+        let abs = absolute(path);
         let base = parent_dir(&abs);
         let mut ser =
-            serde_json::Serializer::with_formatter(&mut out, store::ShallowPretty::new(5));
-        store::with_base_dir(&base, || serde::Serialize::serialize(self, &mut ser))
-            .map_err(|e| SessionError::Invalid { path: abs.clone(), message: e.to_string() })?;
-        out.push(b'\n');
-        Ok(out)
+            serde_json::Serializer::with_formatter(&mut *out, store::ShallowPretty::new(5));
+        store::with_base_dir(&base, || serde::Serialize::serialize(self, &mut ser)).map_err(
+            |e| {
+                if e.is_io() {
+                    SessionError::Io { path: abs.clone(), source: e.into() }
+                } else {
+                    SessionError::Invalid { path: abs.clone(), message: e.to_string() }
+                }
+            },
+        )?;
+        out.write_all(b"\n").map_err(|source| SessionError::Io { path: abs, source })
     }
 
     /// Checks the rules serde cannot: unique clip names, values within what the data can

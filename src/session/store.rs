@@ -252,6 +252,21 @@ pub fn backup_path(target: &Path, k: usize) -> PathBuf {
 /// `SessionError::Io` naming the file that could not be written, linked or renamed; the
 /// target is untouched in every error case.
 pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<(), SessionError> {
+    write_atomically_with(target, |file| {
+        file.write_all(bytes)
+            .map_err(|source| SessionError::Io { path: target.to_path_buf(), source })
+    })
+}
+
+/// As [`write_atomically`], the contents written by `write` as they are made (a corpus's
+/// session text is never held whole in memory); when `write` fails nothing is replaced.
+///
+/// # Errors
+/// `write`'s error; as [`write_atomically`].
+pub fn write_atomically_with(
+    target: &Path,
+    write: impl FnOnce(&mut dyn Write) -> Result<(), SessionError>,
+) -> Result<(), SessionError> {
     let io_err = |path: &Path| {
         let path = path.to_path_buf();
         move |source| SessionError::Io { path, source }
@@ -260,7 +275,7 @@ pub fn write_atomically(target: &Path, bytes: &[u8]) -> Result<(), SessionError>
         fs::create_dir_all(dir).map_err(io_err(dir))?;
     }
     let mut file = AtomicFile::create(target).map_err(io_err(target))?;
-    file.write_all(bytes).map_err(io_err(target))?;
+    write(&mut file)?;
     file.commit_after(|t| if t.exists() { rotate_backups(t) } else { Ok(()) })
         .map_err(io_err(target))?;
     // Saves are few and the folder small: every save clears what crashed saves left.

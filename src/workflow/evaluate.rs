@@ -640,8 +640,6 @@ pub struct SessionEvaluation {
     pub transferred: Vec<Table>,
     /// What fitting the clips found: frames, failures, frames fitted now.
     pub fits: FitTally,
-    /// Per clip, its flags as lines: a count, then one line per flagged frame.
-    pub flag_lines: Vec<Vec<String>>,
     /// What was worked around, one line each.
     pub warnings: Vec<Warning>,
 }
@@ -708,8 +706,9 @@ impl FitTally {
 
 /// Evaluates a session opened for reading: loads its resources, fits what the cache lacks
 /// (kept when the session is locked by this process), measures every selected clip and
-/// tabulates them, with the clips' flags and the tables of the heads the motion was
-/// transferred onto. Progress: one stage per clip.
+/// tabulates them, with the tables of the heads the motion was transferred onto. Each
+/// clip's flags go to `flags` as soon as the clip is measured (a count, then one line per
+/// flagged frame), not kept. Progress: one stage per clip.
 ///
 /// # Errors
 /// As [`load_resources`], [`select_clips`] and [`utterances_with`]; the save's error;
@@ -718,6 +717,7 @@ pub fn evaluate_session(
     opened: &mut ReadSession,
     req: &EvalRequest,
     progress: ProgressFn<'_>,
+    flags: &mut dyn FnMut(&[String]),
 ) -> Result<SessionEvaluation> {
     let (res, mut warnings) = load_resources(&opened.session, &opened.path)?;
     let clips = select_clips(&opened.session, req.clip.as_deref())?;
@@ -737,7 +737,6 @@ pub fn evaluate_session(
     warnings.extend(more);
     let mut tally = EvalTally::new(req.normalisation, req.worst);
     let mut fits = FitTally::default();
-    let mut flag_lines = Vec::new();
     let clip_req = ClipRequest { settings: &settings, head_p: req.head_p, pose: req.pose };
     let (more, refitted) = for_each_clip_evaluated(
         &mut opened.session,
@@ -746,7 +745,7 @@ pub fn evaluate_session(
         &clip_req,
         progress,
         &mut |session, clip| {
-            flag_lines.push(clip_flag_lines(session, clip.index, &clip.fits)?);
+            flags(&clip_flag_lines(session, clip.index, &clip.fits)?);
             tally.add(&clip.utterance, &clip.name, &clip.fits);
             fits.add(&clip.name, &clip.fits);
             heads.add(&res, &clip);
@@ -766,7 +765,7 @@ pub fn evaluate_session(
     report.name_conditions(&conditions);
     let (transferred, more) = heads.tables(&conditions);
     warnings.extend(more);
-    Ok(SessionEvaluation { report, transferred, fits, flag_lines, warnings })
+    Ok(SessionEvaluation { report, transferred, fits, warnings })
 }
 
 /// The tallies of the heads the motion was transferred onto, one per head that could be set

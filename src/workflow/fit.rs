@@ -82,53 +82,71 @@ pub struct ClipFitted {
     pub flag_lines: Vec<String>,
 }
 
-/// What fitting a session did.
-#[derive(Clone, Debug, Default)]
+/// What [`fit_session`] hands its caller as it goes: what was worked around (before any
+/// clip is fitted), then each clip as soon as it is fitted.
+#[derive(Debug)]
+pub enum FitStep {
+    Warning(Warning),
+    Clip(ClipFitted),
+}
+
+/// What fitting a session came to, counted clip by clip.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SessionFitted {
-    pub clips: Vec<ClipFitted>,
-    pub warnings: Vec<Warning>,
+    pub clips: usize,
+    pub frames: usize,
+    /// Frames whose fit failed.
+    pub failed: usize,
 }
 
 impl SessionFitted {
     /// Whether any frame of any clip failed.
     pub fn any_failed(&self) -> bool {
-        self.clips.iter().any(|c| c.fits.failed() > 0)
+        self.failed > 0
     }
 }
 
 /// Fits the clips of an opened session (the one called `only`, or all) with `settings`,
 /// which become the session's fit settings, then saves the session with the new fits.
-/// Progress: a stage per clip, then its frames.
+/// Each clip goes to `each` as soon as it is fitted, and is not kept: a corpus's fit needs
+/// in memory one clip at a time. Progress: a stage per clip, then its frames.
 ///
 /// # Errors
-/// As [`load_resources`], [`select_clips`] and [`fit_clip_cached`]; the save's error.
+/// As [`load_resources`], [`select_clips`] and [`fit_clip_cached`]; `each`'s error; the
+/// save's error.
 pub fn fit_session(
     opened: &mut EditSession,
     settings: &FitSettings,
     only: Option<&str>,
     accept_map_warnings: bool,
     progress: ProgressFn<'_>,
+    each: &mut dyn FnMut(FitStep) -> Result<()>,
 ) -> Result<SessionFitted> {
     let session = &mut opened.session;
     session.fit_settings = settings.clone();
-    let (mut res, mut warnings) = load_resources(session, &opened.path)?;
+    let (mut res, warnings) = load_resources(session, &opened.path)?;
     res.accept_map_warnings = accept_map_warnings;
+    for w in warnings {
+        each(FitStep::Warning(w))?;
+    }
     // Said once, before the fits, rather than refused (the user accepted them).
     if let Ok(accepted) = check_before_fit(&res.model, &res.map, settings, accept_map_warnings) {
-        warnings.extend(
-            accepted.iter().map(|p| {
-                Warning(format!("lipmap: warning: fitting with a model map problem: {p}"))
-            }),
-        );
+        for p in accepted {
+            let w = Warning(format!("lipmap: warning: fitting with a model map problem: {p}"));
+            each(FitStep::Warning(w))?;
+        }
     }
-    let mut out = SessionFitted { clips: Vec::new(), warnings };
+    let mut out = SessionFitted::default();
     for c in select_clips(session, only)? {
         let name = session.clip(c)?.name.clone();
         progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip_cached(session, &res, c, settings, Some(&steps))?;
         let flag_lines = clip_flag_lines(session, c, &fits.fits)?;
-        out.clips.push(ClipFitted { name, fits, flag_lines });
+        out.clips += 1;
+        out.frames += fits.fits.len();
+        out.failed += fits.failed();
+        each(FitStep::Clip(ClipFitted { name, fits, flag_lines }))?;
     }
     progress(Progress::Finished);
     opened.save()?;
@@ -223,15 +241,30 @@ mod tests {
         let mut opened = open_for_edit_at(&path).unwrap();
         let settings = opened.session.fit_settings.clone();
         let quiet = |_: Progress| {};
-        let e = fit_session(&mut opened, &settings, None, false, &quiet).unwrap_err();
+        let mut steps = Vec::new();
+        let mut keep = |step: FitStep| {
+            steps.push(step);
+            Ok(())
+        };
+        let e = fit_session(&mut opened, &settings, None, false, &quiet, &mut keep).unwrap_err();
         let Error::FitRefused(FitRefusal::Implausible { problems }) = &e else {
             panic!("expected the map refused, got {e}")
         };
         assert!(problems.iter().any(|p| p.contains("swapped left/right")), "{problems:?}");
         assert!(e.to_string().contains("--accept-map-warnings"), "{e}");
         assert!(!opened.session.has_cached_fits(), "nothing fitted");
-        let fitted = fit_session(&mut opened, &settings, None, true, &quiet).unwrap();
-        assert_eq!(fitted.clips[0].fits.fits.len(), 120);
-        assert!(fitted.warnings.iter().any(|w| w.0.contains("swapped left/right")));
+        let fitted = fit_session(&mut opened, &settings, None, true, &quiet, &mut keep).unwrap();
+        assert_eq!((fitted.clips, fitted.frames), (1, 120));
+        let clips: Vec<&ClipFitted> = steps
+            .iter()
+            .filter_map(|s| if let FitStep::Clip(c) = s { Some(c) } else { None })
+            .collect();
+        assert_eq!(clips.len(), 1);
+        assert_eq!(clips[0].fits.fits.len(), 120);
+        assert_eq!(fitted.failed, clips[0].fits.failed());
+        let warned =
+            |s: &FitStep| matches!(s, FitStep::Warning(w) if w.0.contains("swapped left/right"));
+        let first_clip = steps.iter().position(|s| matches!(s, FitStep::Clip(_))).unwrap();
+        assert!(steps[..first_clip].iter().any(warned), "the map warning comes before the fits");
     }
 }

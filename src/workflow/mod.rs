@@ -44,7 +44,9 @@ pub use evaluate::{
     for_each_clip_evaluated, utterance_from_parts, utterance_of, utterance_of_clip,
     utterances_with,
 };
-pub use fit::{ClipFits, ClipFitted, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame};
+pub use fit::{
+    ClipFits, ClipFitted, FitStep, SessionFitted, fit_clip_cached, fit_session, shapes_by_frame,
+};
 pub use resources::{
     FitRefusal, MIN_FIT_LANDMARKS, MapCheckError, MapRangeError, Resources, check_before_fit,
     check_map_for_fit, check_map_vertices, load_resources, shadowed_map_file,

@@ -62,7 +62,8 @@ fn solve_identity_jointly(
     params: &SolverParams,
 ) -> Option<DVector> {
     let (kid, k) = (basis.k_id, basis.num_coefficients());
-    let mut s = identity_normal_matrix(basis, observations, states, params);
+    let grams: Vec<_> = observations.iter().map(|o| basis.used_grams(&o.active)).collect();
+    let mut s = identity_normal_matrix(kid, &grams, states, params);
     let per_frame =
         |(obs, st): (&FrameObservations, &FrameState)| -> (Option<DMatrix>, DVector, Vec<Vector3>) {
             let pose = &st.pose;

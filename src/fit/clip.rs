@@ -64,28 +64,27 @@ pub(crate) fn frame_points(
 }
 
 /// The identity block of a group's normal equations at its frames' poses,
-/// `λ_id·I + Σ_f s_f²/σ²·Σⱼₖ Q_f,jk·Mⱼₖ(f)` with `Mⱼₖ(f)` the Gram blocks of the entries
-/// frame f uses: frames using the same entries share one combination, their projectors
-/// summed first, so the cost is per entry set, not per frame. Failed frames are left out.
+/// `λ_id·I + Σ_f s_f²/σ²·Σⱼₖ Q_f,jk·Mⱼₖ(f)` with `Mⱼₖ(f)` = `grams[f]`, the Gram blocks of
+/// the entries frame f uses ([`LandmarkBasis::used_grams`]): frames using the same entries
+/// share one combination, their projectors summed first, so the cost is per entry set, not
+/// per frame. Failed frames are left out.
 pub(crate) fn identity_normal_matrix(
-    basis: &LandmarkBasis,
-    observations: &[FrameObservations],
+    kid: usize,
+    grams: &[Arc<GramBlocks>],
     states: &[FrameState],
     params: &SolverParams,
 ) -> DMatrix {
-    let kid = basis.k_id;
-    let mut sets: Vec<(Arc<GramBlocks>, Matrix3)> = Vec::new();
-    for (obs, st) in observations.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
+    let mut sets: Vec<(&Arc<GramBlocks>, Matrix3)> = Vec::new();
+    for (g, st) in grams.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
         let q = projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
-        let grams = basis.used_grams(&obs.active);
-        match sets.iter_mut().find(|(g, _)| Arc::ptr_eq(g, &grams)) {
+        match sets.iter_mut().find(|(h, _)| Arc::ptr_eq(h, g)) {
             Some((_, sum)) => *sum += q,
-            None => sets.push((grams, q)),
+            None => sets.push((g, q)),
         }
     }
     let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    for (grams, q) in &sets {
-        grams.add(q, 1.0, 0..kid, 0..kid, &mut s);
+    for (g, q) in &sets {
+        g.add(q, 1.0, 0..kid, 0..kid, &mut s);
     }
     s
 }

@@ -531,7 +531,7 @@ impl Linearisation {
                 frame_blocks(&sh, obs, &states[f], &grams[f], m.as_slice(), scr, out)
             },
         );
-        self.s = identity_normal_matrix(basis, group.observations, states, params);
+        self.s = identity_normal_matrix(kid, &grams, states, params);
         self.g = alpha * params.lambda_identity;
         for g_alpha in g_frames.chunks(kid.max(1)) {
             axpy(1.0, g_alpha, self.g.as_mut_slice());

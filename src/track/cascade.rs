@@ -11,11 +11,14 @@
 //!
 //! Two departures, both opt-in through [`CascadeStart`]: the cascade may start from any shape
 //! (tracking from the previous frame, re-aligning a corrected frame) rather than the mean
-//! shape, and points may be *held*: reset to given positions after every stage, so the
-//! trees see a face whose held points are where the user put them and move the others to
-//! agree (`realign`).
+//! shape, and points may be *held*: put on given positions before the first stage and after
+//! every stage, so the trees see a face whose held points are where the user put them. With
+//! a [`HeldCarry`] the other points are moved too, each time by the conditional mean of their
+//! residual given the held points' (the predictor's own shape prior, `shape_prior`): the
+//! user's correction at the start, then whatever each stage's trees undo of it (`realign`).
 
 use super::predictor_file::{Forest, ShapePredictor, Stage};
+use super::shape_prior::HeldCarry;
 use super::similarity::{FaceBox, similarity_scaled_rotation};
 use nalgebra::Vector2;
 
@@ -71,8 +74,11 @@ pub fn gray_from_rgb(rgb: &[u8]) -> Vec<u8> {
 pub struct CascadeStart<'a> {
     /// The start shape in pixels (`None`: the mean shape placed in the box, as dlib does).
     pub shape: Option<&'a [Vector2<f64>]>,
-    /// Points reset to these pixel positions after every stage (and before the first).
+    /// Points put on these pixel positions before the first stage and after every stage.
     pub held: &'a [(usize, Vector2<f64>)],
+    /// How the other points move with the held ones (`None`: they do not). Used only when
+    /// it was made for exactly the held points, in their order.
+    pub carry: Option<&'a HeldCarry>,
 }
 
 /// Runs the whole cascade on `image` in `face`, from `start`, and returns the shape in
@@ -95,24 +101,25 @@ pub fn run_cascade(
             .collect(),
         _ => predictor.mean_shape.iter().flat_map(|p| [p.x, p.y]).collect(),
     };
-    let held: Vec<(usize, Vector2<f32>)> = start
-        .held
-        .iter()
-        .filter(|(i, _)| *i < n)
-        .map(|&(i, p)| (i, face.to_normalised(p)))
-        .collect();
-    let hold = |shape: &mut [f32]| {
-        for &(i, p) in &held {
-            shape[2 * i] = p.x;
-            shape[2 * i + 1] = p.y;
+    let (indices, targets): (Vec<usize>, Vec<Vector2<f32>>) =
+        start.held.iter().filter(|(i, _)| *i < n).map(|&(i, p)| (i, face.to_normalised(p))).unzip();
+    let carry = start.carry.filter(|c| c.held() == indices.as_slice());
+    // `after`: the stage whose trees just ran (`None` before the first).
+    let hold = |shape: &mut [f32], after: Option<usize>| match carry {
+        Some(c) => c.carry(after, shape, &targets),
+        None => {
+            for (&i, p) in indices.iter().zip(&targets) {
+                shape[2 * i] = p.x;
+                shape[2 * i + 1] = p.y;
+            }
         }
     };
-    hold(&mut shape);
+    hold(&mut shape, None);
     let mut scratch = Scratch::default();
-    for stage in &predictor.stages {
+    for (t, stage) in predictor.stages.iter().enumerate() {
         feature_pixels(predictor, stage, image, face, &shape, &mut scratch);
         add_forest(&stage.trees, &scratch.features, &mut shape, &mut scratch.leaf_at);
-        hold(&mut shape);
+        hold(&mut shape, Some(t));
     }
     shape.chunks_exact(2).map(|p| face.to_image(Vector2::new(p[0], p[1]))).collect()
 }
@@ -236,7 +243,7 @@ mod tests {
         // From x = 50: 50+20 = 70 is bright, so each of 3 stages moves it right by 10 px.
         assert!((out[0].x - 80.0).abs() < 1e-4, "{:?}", out[0]);
         let held = [(0, Vector2::new(42.0, 25.0))];
-        let start = CascadeStart { shape: None, held: &held };
+        let start = CascadeStart { shape: None, held: &held, carry: None };
         let out = run_cascade(&seeker(), img, &face, &start);
         assert!((out[0] - held[0].1).norm() < 1e-4);
     }

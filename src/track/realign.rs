@@ -1,25 +1,34 @@
 //! Re-aligning a frame from the points a user corrected: the cascade is run again from the
-//! frame's current shape, in the box of that shape, with the corrected points *held* (reset
-//! to the user's positions after every stage). Each stage's trees then read their feature
-//! pixels around a face whose held points are right, and move the other points to agree
-//! with them and with the image: fixing two points of a lower lip that rides on the tongue
-//! brings the rest of that lip down with them.
+//! frame's current shape, in the box of that shape, with the corrected points *held*, and the
+//! other points carried with them by the predictor's own shape prior (`shape_prior`).
+//!
+//! Holding alone cannot move the others: the trees read the same pixels that made the
+//! tracker's mistake and put the uncorrected points back where the tracker had them. The
+//! only new information is at the held points, so it is spread to the rest by how the
+//! predictor's training residuals go together: before the first stage, the user's
+//! correction (held − current) moves every point by its conditional mean; after each stage,
+//! what that stage's trees moved the held points away from the user's positions is taken
+//! back at every point the same way, so the next stage reads its pixels around a face that
+//! agrees with the user's fix. `docs/tracking.md` gives the reasons and the figures.
 //!
 //! [`propagate_realignment`] carries a correction forward: each next frame is re-run from
 //! the re-aligned frame before it, until the result agrees with what the tracker had there.
 
 use super::cascade::{CascadeStart, GrayImage, GrayView, run_cascade};
 use super::predictor_file::ShapePredictor;
+use super::shape_prior::{HeldCarry, ShapePrior};
 use super::similarity::box_from_shape;
 use super::tracker::shape_disagreement;
 use nalgebra::Vector2;
 
 /// The shape of a frame re-aligned to the `held` points (pixel positions, by point index):
-/// `current` with the held points moved, run through the cascade from its own box. The held
-/// points come back exactly as given. `None` when `current` is not a shape of the
-/// predictor's size or has no extent.
+/// the cascade run from `current`, in the box of `current` with the held points moved, the
+/// held points put where given and the others carried with them by `prior`
+/// ([`HeldCarry`]). The held points come back exactly as given; indices past the shape are
+/// ignored. `None` when `current` is not a shape of the predictor's size or has no extent.
 pub fn realign_shape(
     predictor: &ShapePredictor,
+    prior: &ShapePrior,
     image: GrayView<'_>,
     current: &[Vector2<f64>],
     held: &[(usize, Vector2<f64>)],
@@ -27,57 +36,29 @@ pub fn realign_shape(
     if current.len() != predictor.num_parts() {
         return None;
     }
-    let mut start = current.to_vec();
-    let n = start.len();
-    let held: Vec<(usize, Vector2<f64>)> = held.iter().copied().filter(|(i, _)| *i < n).collect();
-    let held = held.as_slice();
-    carry_corrections(&mut start, held, DRAG_RADIUS_EYE_DISTANCES);
-    let face = box_from_shape(&predictor.mean_shape, &start)?;
-    let mut out = run_cascade(predictor, image, &face, &CascadeStart { shape: Some(&start), held });
+    let n = current.len();
+    let mut held: Vec<(usize, Vector2<f64>)> =
+        held.iter().copied().filter(|(i, _)| *i < n).collect();
+    // A point given twice is held where it was given last.
+    held.reverse();
+    let mut seen = vec![false; n];
+    held.retain(|(i, _)| !std::mem::replace(&mut seen[*i], true));
+    held.reverse();
+    let mut moved = current.to_vec();
+    for &(i, p) in &held {
+        moved[i] = p;
+    }
+    let face = box_from_shape(&predictor.mean_shape, &moved)?;
+    let indices: Vec<usize> = held.iter().map(|h| h.0).collect();
+    let carry = HeldCarry::new(prior, &indices);
+    let start = CascadeStart { shape: Some(current), held: &held, carry: carry.as_ref() };
+    let mut out = run_cascade(predictor, image, &face, &start);
     // The box round trip (pixels → normalised f32 → pixels) moves a held point by ~1e-5 px;
     // give the user's values back exactly.
-    for &(i, p) in held.iter().filter(|(i, _)| *i < n) {
+    for &(i, p) in &held {
         out[i] = p;
     }
     Some(out)
-}
-
-/// Radius of the neighbourhood a corrected point drags along before the cascade runs, in
-/// outer eye-corner distances: a quarter reaches a lip's own points from its midline (half a
-/// mouth width is ≈ 0.3) and leaves the eyes and the jaw's sides alone.
-pub const DRAG_RADIUS_EYE_DISTANCES: f64 = 0.25;
-
-/// Moves every point not held by the held points' displacements, each weighted by a
-/// Gaussian of its distance to the held point (σ = `radius` eye-corner distances; the sum
-/// of weights capped at 1): a lip point next to the corrected ones moves almost as they did,
-/// a point far away stays. This is the cascade's start; its stages then fit the points to
-/// the image. A departure from dlib, whose cascade always starts from the mean shape: the
-/// trees were trained from starts near the truth, and a start that keeps the tracker's
-/// error in the uncorrected points (a whole lip on the tongue) is far from it.
-pub fn carry_corrections(shape: &mut [Vector2<f64>], held: &[(usize, Vector2<f64>)], radius: f64) {
-    let scale = if shape.len() == 68 { (shape[36] - shape[45]).norm() } else { 0.0 };
-    if held.is_empty() || scale <= 0.0 || !scale.is_finite() {
-        for &(i, p) in held {
-            shape[i] = p;
-        }
-        return;
-    }
-    let sigma2 = (radius * scale).powi(2);
-    let moves: Vec<(Vector2<f64>, Vector2<f64>)> =
-        held.iter().map(|&(i, p)| (shape[i], p - shape[i])).collect();
-    for (i, q) in shape.iter_mut().enumerate() {
-        if let Some(&(_, p)) = held.iter().find(|(h, _)| *h == i) {
-            *q = p;
-            continue;
-        }
-        let (mut w_sum, mut m) = (0.0, Vector2::zeros());
-        for (from, d) in &moves {
-            let w = (-(*q - from).norm_squared() / (2.0 * sigma2)).exp();
-            w_sum += w;
-            m += w * d;
-        }
-        *q += m / w_sum.max(1.0);
-    }
 }
 
 /// When a propagated frame is close enough to the tracker's to stop.
@@ -119,7 +100,7 @@ where
             predictor,
             image.view(),
             &face,
-            &CascadeStart { shape: Some(&previous), held: &[] },
+            &CascadeStart { shape: Some(&previous), held: &[], carry: None },
         );
         if shape_disagreement(&tracked, &shape) <= opts.agree_disagreement {
             break;

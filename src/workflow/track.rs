@@ -18,10 +18,11 @@ use crate::track::tracker::{
 };
 use crate::track::{
     DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, FaceBox, GrayImage, GrayView, HaarCascade,
-    ShapePredictor, read_haar_cascade, read_shape_predictor,
+    ShapePredictor, ShapePrior, read_haar_cascade, read_shape_predictor,
 };
 use nalgebra::Vector2;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 /// The files the tracker reads (`None`: Debian's install paths).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -37,6 +38,22 @@ pub struct Tracker {
     pub predictor: ShapePredictor,
     pub detector: HaarCascade,
     pub options: TrackOptions,
+    /// The predictor's shape prior, made on the first re-alignment (tracking never needs it).
+    prior: OnceLock<ShapePrior>,
+}
+
+impl Tracker {
+    /// A tracker of these files' contents.
+    pub fn new(predictor: ShapePredictor, detector: HaarCascade, options: TrackOptions) -> Self {
+        Self { predictor, detector, options, prior: OnceLock::new() }
+    }
+
+    /// The predictor's shape prior, which carries a re-aligned frame's points with the ones
+    /// held: made from the predictor's leaves on the first call (≈ 0.2 s of CPU for dlib's
+    /// 68-point model), then kept.
+    pub fn shape_prior(&self) -> &ShapePrior {
+        self.prior.get_or_init(|| ShapePrior::of_predictor(&self.predictor))
+    }
 }
 
 impl std::fmt::Debug for Tracker {
@@ -89,7 +106,7 @@ pub fn load_tracker(files: &TrackerFiles) -> Result<Tracker> {
         )));
     }
     let detector = read_haar_cascade(&detector_path)?;
-    Ok(Tracker { predictor, detector, options: TrackOptions::default() })
+    Ok(Tracker::new(predictor, detector, TrackOptions::default()))
 }
 
 /// A clip tracked: its landmarks and what happened on the way.
@@ -205,11 +222,15 @@ fn points_of(f: &FrameLandmarks) -> Vec<Vector2<f64>> {
     f.points.iter().map(|p| Vector2::new(p.x, p.y)).collect()
 }
 
-/// Re-aligns one frame to its corrected points: the cascade runs from the frame's points
-/// with the `held` points (indices) fixed, and the other points follow. Returns the frame's
-/// new points: held ones unchanged, the others marked `Interpolated` (derived by lipmap from
-/// the user's corrections, not placed by hand, so a later re-alignment holds only the
-/// user's own points).
+/// Re-aligns one frame to its corrected points: the cascade runs from the tracker's points
+/// of the frame ([`realign_start`]) with the `held` points (indices) put where `frame` has
+/// them, and the others are carried with them by the predictor's shape prior
+/// ([`realign_shape`]). Returns the frame's new points: held ones unchanged, the others
+/// marked `Interpolated` (derived by lipmap from the user's corrections, not placed by hand,
+/// so a later re-alignment holds only the user's own points).
+///
+/// `tracked` is the tracker's own landmarks of the frame (the clip's track before any
+/// correction): what the held points are corrected *from*, which is what is carried.
 ///
 /// # Errors
 /// A held index out of range, or a frame that is not a 68-point shape with an extent.
@@ -217,6 +238,7 @@ pub fn realign_frame(
     tracker: &Tracker,
     image: GrayView<'_>,
     frame: &FrameLandmarks,
+    tracked: Option<&FrameLandmarks>,
     held: &[usize],
 ) -> Result<FrameLandmarks> {
     let n = tracker.predictor.num_parts();
@@ -228,10 +250,33 @@ pub fn realign_frame(
     }
     let current = points_of(frame);
     let held_pts: Vec<(usize, Vector2<f64>)> = held.iter().map(|&i| (i, current[i])).collect();
-    let shape = realign_shape(&tracker.predictor, image, &current, &held_pts).ok_or_else(|| {
-        Error::Invalid(format!("frame {}: not a shape of {n} points with an extent", frame.frame))
-    })?;
+    let start = realign_start(frame, tracked);
+    let prior = tracker.shape_prior();
+    let shape =
+        realign_shape(&tracker.predictor, prior, image, &start, &held_pts).ok_or_else(|| {
+            Error::Invalid(format!(
+                "frame {}: not a shape of {n} points with an extent",
+                frame.frame
+            ))
+        })?;
     Ok(with_derived_points(frame, &shape, held))
+}
+
+/// The shape a re-alignment of `frame` starts from: the tracker's own points there
+/// (`tracked`) when the tracker found the face on that frame, else the frame's current
+/// points. The held points' corrections are measured from it, so the user's fix is carried
+/// from where the tracker was wrong; and a frame re-aligned before (its other points already
+/// carried) is re-derived from the tracker's points and all the user's, not carried twice.
+/// A frame the tracker lost (tracked since from a face box) starts from its current points:
+/// its held points are held, but there is no tracker's position to carry a correction from.
+pub fn realign_start(
+    frame: &FrameLandmarks,
+    tracked: Option<&FrameLandmarks>,
+) -> Vec<Vector2<f64>> {
+    match tracked {
+        Some(t) if t.success && t.points.len() == frame.points.len() => points_of(t),
+        _ => points_of(frame),
+    }
 }
 
 /// `frame` with every point not in `keep` moved to `shape` and marked `Interpolated`.
@@ -357,7 +402,9 @@ pub fn realign_session_frame(
     let frames = session.open_frames(index, 16)?;
     let effective = session.effective_track(index)?;
     let current = corrected_frame(session, index, &effective, frame)?;
-    realign_frame(tracker, gray_of(&frames, frame)?.view(), current, &corrected_points(current))
+    let tracked = session.clip(index)?.tracked()?;
+    let held = corrected_points(current);
+    realign_frame(tracker, gray_of(&frames, frame)?.view(), current, tracked.get(frame), &held)
 }
 
 /// The frame's effective landmarks, when it has at least one corrected point.
@@ -397,7 +444,9 @@ pub fn propagate_correction(
     let corrected = corrected_frame(session, index, &effective, frame)?;
     let frames = session.open_frames(index, 64)?;
     let held = corrected_points(corrected);
-    let realigned = realign_frame(tracker, gray_of(&frames, frame)?.view(), corrected, &held)?;
+    let tracked = session.clip(index)?.tracked()?;
+    let image = gray_of(&frames, frame)?;
+    let realigned = realign_frame(tracker, image.view(), corrected, tracked.get(frame), &held)?;
     let following: Vec<usize> = (frame + 1..frames.len())
         .take(opts.max_frames)
         .take_while(|f| effective.get(*f).is_some())

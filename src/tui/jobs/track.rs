@@ -20,9 +20,14 @@ pub const MAX_BOX_FRAMES: usize = 1000;
 /// What the tracker's job is asked, copied from the `App` so the job does not share it.
 #[derive(Clone, Debug)]
 pub enum TrackJob {
-    /// Re-align this frame's landmarks to their corrected points; the image when the frames
+    /// Re-align this frame's landmarks to their corrected points, from the tracker's own
+    /// landmarks of the frame (`tracked`, when the clip has them); the image when the frames
     /// screen has it decoded (else the job decodes it).
-    Realign { landmarks: FrameLandmarks, image: Option<Arc<FrameImage>> },
+    Realign {
+        landmarks: FrameLandmarks,
+        tracked: Option<FrameLandmarks>,
+        image: Option<Arc<FrameImage>>,
+    },
     /// Track from `face` on the first of `frames` (the clip's landmarks from that frame on).
     FromBox { face: FaceBox, frames: Track },
 }
@@ -31,8 +36,9 @@ impl TrackJob {
     /// Re-aligning frame `frame` of the app's track; `None` when it has no such frame.
     pub fn realign(app: &App, frame: usize) -> Option<Self> {
         let landmarks = app.track.get(frame)?.clone();
+        let tracked = app.tracked.get(frame).cloned();
         let image = app.frames.cache.images.get(&frame).cloned();
-        Some(Self::Realign { landmarks, image })
+        Some(Self::Realign { landmarks, tracked, image })
     }
 
     /// Tracking from the box `[left, top, side]` on frame `frame`: the app's landmarks of
@@ -111,13 +117,16 @@ pub fn track_for_tui(
             .map_err(|e| crate::workflow::Error::Invalid(format!("frame {frame}: {e:#}")))
     };
     match job {
-        TrackJob::Realign { landmarks, image } => {
+        TrackJob::Realign { landmarks, tracked, image } => {
             let image = match image {
                 Some(img) => Ok(gray(&img)),
                 None => decode(landmarks.frame),
             };
             let held = corrected_points(&landmarks);
-            match image.and_then(|img| realign_frame(&tracker, img.view(), &landmarks, &held)) {
+            let realigned = image.and_then(|img| {
+                realign_frame(&tracker, img.view(), &landmarks, tracked.as_ref(), &held)
+            });
+            match realigned {
                 Ok(after) => {
                     Action::Realigned { before: Box::new(landmarks), after: Box::new(after) }
                 }

@@ -2,17 +2,18 @@
 //! runs: grey conversion, detection on the first frame, two cascade runs per frame) on the
 //! demo's 720×480 front frames, decoded beforehand (decoding is excluded; ffmpeg or the PNG
 //! decoder does it in `lipmap track`). Prints frames per second against the ≥ 100 target,
-//! and the cascade alone, both from the CPU time of the timing thread (`getrusage`
-//! `RUSAGE_THREAD`: user + system) and from the wall clock. On a machine shared by other
-//! builds the wall clock counts the time the thread waited for a core, so the CPU figure is
-//! the one the target is read on. Skips with a notice without Debian's predictor and
-//! detector. Run: `cargo bench --bench track`.
+//! the cascade alone and a re-alignment (with the shape prior it needs), all from the CPU
+//! time of the timing thread (`getrusage` `RUSAGE_THREAD`: user + system) and from the wall
+//! clock. On a machine shared by other builds the wall clock counts the time the thread
+//! waited for a core, so the CPU figure is the one the target is read on. Skips with a notice
+//! without Debian's predictor and detector. Run: `cargo bench --bench track`.
 
 use lipmap::demo::{DemoOptions, generate};
 use lipmap::io::frames::{FrameOptions, FrameSource};
+use lipmap::track::realign::realign_shape;
 use lipmap::track::{
-    CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, box_from_shape,
-    run_cascade,
+    CascadeStart, DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH, GrayImage, ShapePrior,
+    box_from_shape, run_cascade,
 };
 use lipmap::workflow::no_progress;
 use lipmap::workflow::track::{Tracked, Tracker, TrackerFiles, load_tracker, track_images};
@@ -141,6 +142,33 @@ fn main() {
     });
     println!(
         "track: one cascade run (15 stages × 500 trees): CPU {:.3} ms, wall {:.3} ms",
+        cpu * 1e3 / reps as f64,
+        wall * 1e3 / reps as f64
+    );
+    // A re-alignment (the TUI's `a`): the shape prior made once, then one run with the lower
+    // lip's midline held and the other points carried.
+    let (prior, cpu, wall) = timed(|| ShapePrior::of_predictor(&tracker.predictor));
+    println!(
+        "track: the shape prior for re-alignment (once per session): CPU {:.0} ms, wall {:.0} ms",
+        cpu * 1e3,
+        wall * 1e3
+    );
+    let held: Vec<_> =
+        [57, 66].iter().map(|&i| (i, shape[i] + nalgebra::Vector2::new(0.0, 3.0))).collect();
+    let ((), cpu, wall) = timed(|| {
+        for _ in 0..reps {
+            std::hint::black_box(realign_shape(
+                &tracker.predictor,
+                &prior,
+                frames[0].view(),
+                &shape,
+                &held,
+            ));
+        }
+    });
+    println!(
+        "track: one re-alignment (2 points held, the gains and the cascade): CPU {:.3} ms, wall \
+         {:.3} ms",
         cpu * 1e3 / reps as f64,
         wall * 1e3 / reps as f64
     );

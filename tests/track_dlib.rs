@@ -445,7 +445,7 @@ fn realigning_the_photos_from_two_human_points() {
     for photo in &photos {
         let name = photo.file_name().unwrap().to_string_lossy();
         let human = points(&read_track(&photo.with_extension("pts")).unwrap(), 0);
-        let gray = image(&photo);
+        let gray = image(photo);
         let ft = FaceTracker {
             predictor: &t.predictor,
             detector: Some(&t.detector),

@@ -6,6 +6,7 @@ use crate::cli::convert::landmark_output_format;
 use crate::cli::output::plural;
 use crate::cli::progress::{frames_bar, show_on};
 use crate::io::landmark_format::{self, LandmarkFormat};
+use crate::landmarks::PointNo;
 use crate::track::realign::PropagateOptions;
 use crate::workflow::track::{
     TrackerFiles, load_tracker, propagate_session_correction, track_path,
@@ -132,7 +133,7 @@ pub fn run_propagate(args: &PropagateArgs, out: &mut impl Write) -> Result<()> {
         p.clip,
         args.frame,
         plural(p.held.len(), "corrected point"),
-        p.held.iter().map(ToString::to_string).collect::<Vec<_>>().join(","),
+        p.held.iter().map(|&i| PointNo(i).to_string()).collect::<Vec<_>>().join(","),
         plural(p.frames.len() - 1, "frame"),
     )?;
     Ok(())

@@ -7,13 +7,18 @@
 //! leaves (500 trees × 16 for dlib's 68-point model) these increments are samples of the
 //! residuals that stage was trained to remove, so their second moment
 //! `Σ_t = (1/L) Σ_l v_l v_lᵀ` is a covariance of those residuals: the lower-lip midline
-//! wrong by 1 means its neighbours wrong by ≈ 1, the chin by ≈ 0.8, the eyes by ≈ 0.2–0.4
-//! (on dlib's model; `docs/tracking.md`).
+//! wrong by 1 means its neighbours wrong by ≈ 1 and the chin by ≈ 0.8 (on dlib's model).
+//! The directions that only move, turn or scale the face (the similarity at the mean shape)
+//! are projected out, `P Σ_t P`, as an active shape model takes its covariance after
+//! Procrustes alignment (Cootes et al., "Active Shape Models", 1995): the face's place is set
+//! by all its points and its box, so a correction of a few points is read as a change of the
+//! face's shape. This is a departure from dlib, which has no prior; `docs/tracking.md` says
+//! why and what it was chosen on.
 //!
 //! A residual known at the held points h carries to the others by the conditional mean of a
 //! zero-mean Gaussian, `E[d_o | d_h] = Σ_oh (Σ_hh + ε I)⁻¹ d_h` (Bishop, *Pattern Recognition
 //! and Machine Learning*, 2006, eq. 2.81), with a small ridge ε (a thousandth of the mean
-//! variance) that keeps `Σ_hh` invertible when many points are held. [`HeldCarry`] holds
+//! variance, [`HELD_RIDGE`]) that keeps `Σ_hh` invertible when many points are held. [`HeldCarry`] holds
 //! these gains for one set of held points: the last stage's for the residual a finished
 //! cascade leaves (where a tracked frame is wrong), and each stage's own for what that stage's
 //! trees get wrong at the held points. `cascade::run_cascade` applies them; `realign` is the
@@ -23,9 +28,12 @@ use super::predictor_file::ShapePredictor;
 use nalgebra::{DMatrix, DVector, Vector2};
 
 /// The ridge added to `Σ_hh`, as a fraction of the mean variance of `Σ` (its trace over its
-/// size). It stands for nothing measured: it keeps the solve well-posed when held points
-/// are many or nearly coincide, and at a thousandth it moves the carry by less than 1 % when
-/// two points are held (`docs/tracking.md`).
+/// size): the user's placement taken as exact up to an independent error of that variance.
+/// It keeps the solve well-posed when held points are many or move together, and it is not
+/// negligible there: a lip's outer and inner midline points are so alike in the prior that a
+/// difference between their corrections lies where `Σ_hh` has almost no variance; the ridge
+/// changes the carry of the two moved together by up to 5 % over the stages, of one moved
+/// alone by up to 60 % (`docs/tracking.md`; 0.03 and 0.1 carried less, measured there).
 pub const HELD_RIDGE: f64 = 1e-3;
 
 /// Per stage, the second moment of the stage's leaf increments (`2·parts` square, x and y
@@ -36,9 +44,11 @@ pub struct ShapePrior {
 }
 
 impl ShapePrior {
-    /// The prior of `predictor`: one covariance per stage from its leaves. About 2·10⁹
-    /// multiply-adds for dlib's 68-point model (15 stages × 8,000 leaves × 136²/2 in the
-    /// symmetric product), so it is made when a re-alignment first needs it, not on reading.
+    /// The prior of `predictor`: one covariance per stage from its leaves, the similarity
+    /// directions at the mean shape projected out (a correction is read as a change of the
+    /// face's shape, not of where it is). About 2·10⁹ multiply-adds for dlib's 68-point model
+    /// (15 stages × 8,000 leaves × 136²; ≈ 0.2 s of CPU), so it is made when a re-alignment
+    /// first needs it, not on reading.
     pub fn of_predictor(predictor: &ShapePredictor) -> Self {
         let len = 2 * predictor.num_parts();
         let shape_only = residual_projector(&predictor.mean_shape);
@@ -47,7 +57,7 @@ impl ShapePrior {
             .iter()
             .map(|stage| {
                 let leaves = stage.trees.all_leaves();
-                let count = if len == 0 { 0 } else { leaves.len() / len };
+                let count = leaves.len().checked_div(len).unwrap_or(0);
                 if count == 0 {
                     return DMatrix::zeros(len, len);
                 }

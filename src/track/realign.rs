@@ -1,6 +1,7 @@
 //! Re-aligning a frame from the points a user corrected: the cascade is run again from the
-//! frame's current shape, in the box of that shape, with the corrected points *held*, and the
-//! other points carried with them by the predictor's own shape prior (`shape_prior`).
+//! tracker's shape of the frame, in the box of that shape, with the corrected points *held*,
+//! and the other points carried with them by the predictor's own shape prior
+//! (`shape_prior`).
 //!
 //! Holding alone cannot move the others: the trees read the same pixels that made the
 //! tracker's mistake and put the uncorrected points back where the tracker had them. The
@@ -22,8 +23,9 @@ use super::tracker::shape_disagreement;
 use nalgebra::Vector2;
 
 /// The shape of a frame re-aligned to the `held` points (pixel positions, by point index):
-/// the cascade run from `current`, in the box of `current` with the held points moved, the
-/// held points put where given and the others carried with them by `prior`
+/// the cascade run from `current` (the tracker's shape of the frame: the held points'
+/// corrections are their moves away from it), in the box of `current` with the held points
+/// moved, the held points put where given and the others carried with them by `prior`
 /// ([`HeldCarry`]). The held points come back exactly as given; indices past the shape are
 /// ignored. `None` when `current` is not a shape of the predictor's size or has no extent.
 pub fn realign_shape(

@@ -14,6 +14,7 @@
 
 pub mod cascade;
 pub mod haar_file;
+pub mod lucas_kanade;
 pub mod predictor_file;
 pub mod realign;
 pub mod shape_prior;

@@ -1,7 +1,7 @@
 //! The flags and the sealed-lip estimate on a real tracker's clip: carphone's 120 frames of
 //! dlib landmarks, whose frames were inspected by eye (mouth crops with the points drawn
-//! over them) and labelled, and whose lower lip a stronger tracker (MediaPipe's face mesh,
-//! `tests/fixtures/carphone_mediapipe_lower_lip.csv`) placed too; `docs/flags.md` and
+//! over them) and labelled, and whose lower lip a stronger tracker (MediaPipe's face mesh, a
+//! CSV named by `LIPMAP_REFERENCE_LOWER_LIP`) placed too; `docs/flags.md` and
 //! `docs/closure.md` say what was seen.
 
 use lipmap::io::landmark_format::read_track;
@@ -48,21 +48,35 @@ fn carphone_flags_few_frames_and_every_labelled_tracker_error() {
     assert!(discredited.contains(&118), "frame 118's broken lip shape is not discredited");
 }
 
+/// A tracker's lower lip per frame: frame → (point number 1–68, position).
+type Reference = BTreeMap<usize, Vec<(usize, Point2)>>;
+
+/// The environment variable naming the stronger tracker's lower lip on carphone: a CSV that
+/// `scripts/mediapipe_lower_lip.py` writes (`docs/flags.md` gives the command). It is data
+/// derived from `../shared`'s clip, so it lives outside the repository.
+const REFERENCE_ENV: &str = "LIPMAP_REFERENCE_LOWER_LIP";
+
 /// A stronger tracker's lower lip on carphone: MediaPipe 0.10.14's face mesh with refined
 /// lips, each frame on its own, at the iBUG points 56–60 (outer) and 66–68 (inner), in the
-/// original frame's pixels (`scripts/mediapipe_lower_lip.py` wrote it; `docs/flags.md` says
-/// how the mesh's points were matched to dlib's). Frame → (point number 1–68, position).
-fn mediapipe_lower_lip() -> BTreeMap<usize, Vec<(usize, Point2)>> {
-    let path =
-        concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/carphone_mediapipe_lower_lip.csv");
-    let mut lips: BTreeMap<usize, Vec<(usize, Point2)>> = BTreeMap::new();
-    for line in
-        std::fs::read_to_string(path).unwrap().lines().skip_while(|l| l.starts_with('#')).skip(1)
-    {
+/// original frame's pixels (`docs/flags.md` says how the mesh's points were matched to
+/// dlib's). Frame → (point number 1–68, position); `None`, with a printed notice, when
+/// [`REFERENCE_ENV`] is unset or names no file.
+fn mediapipe_lower_lip() -> Option<Reference> {
+    let Some(path) = std::env::var_os(REFERENCE_ENV).filter(|p| std::path::Path::new(p).is_file())
+    else {
+        println!(
+            "skipped: {REFERENCE_ENV} names no file (the stronger tracker's lower lip on \
+             carphone; docs/flags.md gives the command that writes it)"
+        );
+        return None;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lips = Reference::new();
+    for line in text.lines().skip_while(|l| l.starts_with('#')).skip(1) {
         let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
         lips.entry(v[0] as usize).or_default().push((v[1] as usize, Point2::new(v[2], v[3])));
     }
-    lips
+    Some(lips)
 }
 
 /// Pixels dlib's own positions lie right and below the points lipmap reads from carphone's
@@ -129,8 +143,7 @@ fn catch_line(what: &str, disputed: &BTreeSet<usize>, flagged: &BTreeSet<usize>)
 
 /// The disputed frames of carphone against MediaPipe's lower lip, dlib's points in their
 /// own positions (or as lipmap reads them with `shift` 0).
-fn disputed_frames(track: &Track, shift: f64) -> BTreeSet<usize> {
-    let reference = mediapipe_lower_lip();
+fn disputed_frames(track: &Track, reference: &Reference, shift: f64) -> BTreeSet<usize> {
     track
         .frames
         .iter()
@@ -151,8 +164,8 @@ fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dli
     ) else {
         return;
     };
+    let Some(reference) = mediapipe_lower_lip() else { return };
     let track = read_track(&pts).unwrap();
-    let reference = mediapipe_lower_lip();
     assert_eq!(reference.len(), track.len(), "the reference has every frame");
     // Both trackers in one frame of coordinates: the median vertical offset of the outer
     // lower lip (points 56–60, where the two agree best) is well under a pixel in dlib's
@@ -179,11 +192,15 @@ fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dli
     );
     assert!(offset(DLIB_POSITION_PX).abs() < 0.4);
     let flagged = carphone_flags(&track, &frames, 0.0);
-    let disputed = disputed_frames(&track, DLIB_POSITION_PX);
+    let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
     println!("{}", catch_line("carphone, dlib's positions", &disputed, &flagged));
     println!(
         "{}",
-        catch_line("carphone, as lipmap reads the files", &disputed_frames(&track, 0.0), &flagged)
+        catch_line(
+            "carphone, as lipmap reads the files",
+            &disputed_frames(&track, &reference, 0.0),
+            &flagged
+        )
     );
     // Held-out half: nothing was tuned on any of these frames; the second half holds most
     // of the disputed ones.
@@ -215,9 +232,10 @@ fn carphone_flags_catch_most_frames_where_a_stronger_tracker_disputes_the_lower_
     ) else {
         return;
     };
+    let Some(reference) = mediapipe_lower_lip() else { return };
     let track = read_track(&pts).unwrap();
     let flagged = carphone_flags(&track, &frames, 0.0);
-    let disputed = disputed_frames(&track, DLIB_POSITION_PX);
+    let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
     println!("{}", catch_line("carphone", &disputed, &flagged));
     let caught = disputed.intersection(&flagged).count();
     assert!(2 * caught > disputed.len(), "{caught} of {} caught", disputed.len());

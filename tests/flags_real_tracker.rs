@@ -1,12 +1,16 @@
 //! The flags and the sealed-lip estimate on a real tracker's clip: carphone's 120 frames of
 //! dlib landmarks, whose frames were inspected by eye (mouth crops with the points drawn
-//! over them) and labelled; `docs/flags.md` and `docs/closure.md` say what was seen.
+//! over them) and labelled, and whose lower lip a stronger tracker (MediaPipe's face mesh, a
+//! CSV named by `LIPMAP_REFERENCE_LOWER_LIP`) placed too; `docs/flags.md` and
+//! `docs/closure.md` say what was seen.
 
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::closure::{Closure, inner_lip_gap, seal_inner_lips};
-use lipmap::landmarks::flags::{FlagReason, FlagThresholds, add_reasons, image_flags};
+use lipmap::landmarks::flags::{FlagThresholds, add_reasons, image_flags};
+use lipmap::landmarks::{FrameLandmarks, Track};
+use lipmap::math::Point2;
 use lipmap::workflow::flags::{clip_flags, flag_lines};
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// Frames where dlib is wrong, judged by eye, each with what is wrong.
 const TRACKER_ERRORS: [(usize, &str); 2] = [
@@ -44,61 +48,197 @@ fn carphone_flags_few_frames_and_every_labelled_tracker_error() {
     assert!(discredited.contains(&118), "frame 118's broken lip shape is not discredited");
 }
 
-/// Open frames judged by eye on mouth crops (×12, dlib's inner and outer lip points drawn
-/// over them, a pixel grid): the lower inner lip (65–67) sits under a band of tongue wider
-/// than 8 % of the eye distance (≈ 2.5 px) below the dark of the open mouth, i.e. on the tongue.
-const LIP_ON_TONGUE: [usize; 14] = [56, 57, 58, 59, 60, 61, 62, 107, 108, 109, 113, 114, 115, 116];
+/// A tracker's lower lip per frame: frame → (point number 1–68, position).
+type Reference = BTreeMap<usize, Vec<(usize, Point2)>>;
 
-/// Open frames judged by eye where the lower inner lip lies at the opening's edge (teeth or
-/// the dark interior directly above it); 63 and 117 are fast real closings. The frames
-/// between the two lists (55, 104–106, 110–112: a band of about 2.5–3 px) were left
-/// unjudged.
-const LIP_AT_EDGE: [usize; 11] = [54, 63, 64, 75, 76, 77, 85, 86, 102, 103, 117];
+/// The environment variable naming the stronger tracker's lower lip on carphone: a CSV that
+/// `scripts/mediapipe_lower_lip.py` writes (`docs/flags.md` gives the command). It is data
+/// derived from `../shared`'s clip, so it lives outside the repository.
+const REFERENCE_ENV: &str = "LIPMAP_REFERENCE_LOWER_LIP";
+
+/// A stronger tracker's lower lip on carphone: MediaPipe 0.10.14's face mesh with refined
+/// lips, each frame on its own, at the iBUG points 56–60 (outer) and 66–68 (inner), in the
+/// original frame's pixels (`docs/flags.md` says how the mesh's points were matched to
+/// dlib's). Frame → (point number 1–68, position); `None`, with a printed notice, when
+/// [`REFERENCE_ENV`] is unset or names no file.
+fn mediapipe_lower_lip() -> Option<Reference> {
+    let Some(path) = std::env::var_os(REFERENCE_ENV).filter(|p| std::path::Path::new(p).is_file())
+    else {
+        println!(
+            "skipped: {REFERENCE_ENV} names no file (the stronger tracker's lower lip on \
+             carphone; docs/flags.md gives the command that writes it)"
+        );
+        return None;
+    };
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut lips = Reference::new();
+    for line in text.lines().skip_while(|l| l.starts_with('#')).skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        lips.entry(v[0] as usize).or_default().push((v[1] as usize, Point2::new(v[2], v[3])));
+    }
+    Some(lips)
+}
+
+/// Pixels dlib's own positions lie right and below the points lipmap reads from carphone's
+/// `.pts` files: the files hold dlib's points without the format's 1-based shift, which the
+/// reader takes off, and 1/3 px off from their 3× enlargement (`docs/tracking.md`).
+const DLIB_POSITION_PX: f64 = 2.0 / 3.0;
+
+/// How far the tracker's lower lip in `frame` lies from the reference's, in eye distances
+/// (outer eye corners, points 37 and 46): per lip contour (outer 56–60, inner 66–68) the mean
+/// distance between the two trackers' points of one number, the larger of the two contours.
+/// The tracker's points are taken `shift` px right and down of where lipmap read them.
+fn lower_lip_disagreement(
+    frame: &FrameLandmarks,
+    reference: &[(usize, Point2)],
+    shift: f64,
+) -> f64 {
+    let at = |n: usize| {
+        let p = frame.points[n - 1].pos();
+        Point2::new(p.x + shift, p.y + shift)
+    };
+    let eye = (at(46) - at(37)).norm();
+    let contour = |range: std::ops::RangeInclusive<usize>| {
+        let d: Vec<f64> = reference
+            .iter()
+            .filter(|(n, _)| range.contains(n))
+            .map(|(n, p)| (at(*n) - p).norm() / eye)
+            .collect();
+        d.iter().sum::<f64>() / d.len() as f64
+    };
+    contour(56..=60).max(contour(66..=68))
+}
+
+/// Eye distances above which the two trackers disagree on the lower lip (the issue's test).
+const DISAGREEMENT: f64 = 0.08;
+
+/// The flags `lipmap fit` and `eval` give carphone (the track's checks and the image
+/// evidence, no fits), on the points lipmap reads moved `shift` px right and down.
+fn carphone_flags(track: &Track, frames: &std::path::Path, shift: f64) -> BTreeSet<usize> {
+    let mut track = track.clone();
+    for f in &mut track.frames {
+        for p in &mut f.points {
+            p.x += shift;
+            p.y += shift;
+        }
+    }
+    let th = FlagThresholds::default();
+    let read =
+        |f: usize| image::open(frames.join(format!("frame_{f:04}.png"))).ok().map(|i| i.to_rgb8());
+    let mut flags = clip_flags(&track, &[], &[], &th);
+    add_reasons(&mut flags, image_flags(&track, read, &th));
+    flags.iter().map(|f| f.frame).collect()
+}
+
+/// Frames above [`DISAGREEMENT`], flagged, and caught, as a line.
+fn catch_line(what: &str, disputed: &BTreeSet<usize>, flagged: &BTreeSet<usize>) -> String {
+    let caught: Vec<&usize> = disputed.intersection(flagged).collect();
+    format!(
+        "{what}: disputed {} {disputed:?}; flagged {} {flagged:?}; caught {} {caught:?}",
+        disputed.len(),
+        flagged.len(),
+        caught.len()
+    )
+}
+
+/// The disputed frames of carphone against MediaPipe's lower lip, dlib's points in their
+/// own positions (or as lipmap reads them with `shift` 0).
+fn disputed_frames(track: &Track, reference: &Reference, shift: f64) -> BTreeSet<usize> {
+    track
+        .frames
+        .iter()
+        .filter(|f| {
+            reference
+                .get(&f.frame)
+                .is_some_and(|r| lower_lip_disagreement(f, r, shift) > DISAGREEMENT)
+        })
+        .map(|f| f.frame)
+        .collect()
+}
 
 #[test]
-#[ignore = "the image check finds 3 of the 14 hand-judged frames (57, 114, 115) as lipmap reads the \
-            .pts files, 6 in dlib's own positions, 12 in the coordinates they were judged in \
-            (1 px lower): the reference is not an oracle for it (docs/flags.md); run with \
-            --ignored to see it"]
-fn carphone_image_flags_find_the_lip_on_the_tongue_and_stay_few() {
+fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dlibs() {
     let (Some(pts), Some(frames)) = (
         lipmap::testdata::shared("data/carphone/dlib68_pts"),
         lipmap::testdata::shared("data/carphone/frames"),
     ) else {
         return;
     };
+    let Some(reference) = mediapipe_lower_lip() else { return };
     let track = read_track(&pts).unwrap();
-    let th = FlagThresholds::default();
-    let read =
-        |f: usize| image::open(frames.join(format!("frame_{f:04}.png"))).ok().map(|i| i.to_rgb8());
-    let found = image_flags(&track, read, &th);
-    let on_image: BTreeSet<usize> = found.iter().map(|(f, _)| *f).collect();
-    for (f, r) in &found {
-        println!("carphone: frame {f}: {r}");
-        assert!(matches!(r, FlagReason::LowerLipOffOpening { point: 65..=67, .. }), "{r:?}");
-    }
-    let hit = LIP_ON_TONGUE.iter().filter(|f| on_image.contains(f)).count();
-    let false_alarms: Vec<usize> =
-        LIP_AT_EDGE.iter().copied().filter(|f| on_image.contains(f)).collect();
-    let mut flags = clip_flags(&track, &[], &[], &th);
-    add_reasons(&mut flags, found);
-    let share = flags.len() as f64 / track.len() as f64;
+    assert_eq!(reference.len(), track.len(), "the reference has every frame");
+    // Both trackers in one frame of coordinates: the median vertical offset of the outer
+    // lower lip (points 56–60, where the two agree best) is well under a pixel in dlib's
+    // positions and not as lipmap reads the files.
+    let offset = |shift: f64| {
+        let mut dy: Vec<f64> = track
+            .frames
+            .iter()
+            .flat_map(|f| {
+                reference[&f.frame]
+                    .iter()
+                    .filter(|(n, _)| (56..=60).contains(n))
+                    .map(move |(n, p)| f.points[n - 1].y + shift - p.y)
+            })
+            .collect();
+        dy.sort_by(f64::total_cmp);
+        dy[dy.len() / 2]
+    };
     println!(
-        "carphone image flags: {} frames; lip on the tongue {hit} of {} found; at the edge \
-         flagged {false_alarms:?}; all flags {} of {} frames ({:.1} %)",
-        on_image.len(),
-        LIP_ON_TONGUE.len(),
-        flags.len(),
-        track.len(),
-        100.0 * share
+        "carphone: median vertical offset of dlib's outer lower lip from MediaPipe's: {:+.2} px \
+         in dlib's positions, {:+.2} px as lipmap reads the files",
+        offset(DLIB_POSITION_PX),
+        offset(0.0)
     );
-    assert!(
-        hit as f64 >= 0.8 * LIP_ON_TONGUE.len() as f64,
-        "{hit} of {} found",
-        LIP_ON_TONGUE.len()
+    assert!(offset(DLIB_POSITION_PX).abs() < 0.4);
+    let flagged = carphone_flags(&track, &frames, 0.0);
+    let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
+    println!("{}", catch_line("carphone, dlib's positions", &disputed, &flagged));
+    println!(
+        "{}",
+        catch_line(
+            "carphone, as lipmap reads the files",
+            &disputed_frames(&track, &reference, 0.0),
+            &flagged
+        )
     );
-    assert!(false_alarms.is_empty(), "frames at the edge flagged: {false_alarms:?}");
+    // Held-out half: nothing was tuned on any of these frames; the second half holds most
+    // of the disputed ones.
+    let second: BTreeSet<usize> = disputed.iter().copied().filter(|f| *f >= 60).collect();
+    println!("{}", catch_line("carphone frames 60-119", &second, &flagged));
+    // The image check read on points moved to dlib's positions and to the files' values
+    // (the registration the hand-judged reference assumed).
+    for shift in [DLIB_POSITION_PX, 1.0] {
+        let moved = carphone_flags(&track, &frames, shift);
+        println!(
+            "{}",
+            catch_line(&format!("carphone, points read {shift:.2} px lower"), &disputed, &moved)
+        );
+    }
+    let share = flagged.len() as f64 / track.len() as f64;
     assert!(share <= 0.2, "{:.1} % of carphone flagged", 100.0 * share);
+}
+
+#[test]
+#[ignore = "not met: the flags catch 2 of the 13 frames where MediaPipe's lower lip and dlib's \
+            disagree by more than 8 % of the eye distance (115, 118); the others are strongly \
+            rolled closed lips where the two place their points differently along the lip, and \
+            openings where MediaPipe's own inner lip ring is wider than the dark of the open \
+            mouth (docs/flags.md); run with --ignored to see it"]
+fn carphone_flags_catch_most_frames_where_a_stronger_tracker_disputes_the_lower_lip() {
+    let (Some(pts), Some(frames)) = (
+        lipmap::testdata::shared("data/carphone/dlib68_pts"),
+        lipmap::testdata::shared("data/carphone/frames"),
+    ) else {
+        return;
+    };
+    let Some(reference) = mediapipe_lower_lip() else { return };
+    let track = read_track(&pts).unwrap();
+    let flagged = carphone_flags(&track, &frames, 0.0);
+    let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
+    println!("{}", catch_line("carphone", &disputed, &flagged));
+    let caught = disputed.intersection(&flagged).count();
+    assert!(2 * caught > disputed.len(), "{caught} of {} caught", disputed.len());
 }
 
 #[test]

@@ -118,6 +118,7 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
             "cumulative_variance_of_kept": cumulative,
             "inner_lip_gap_mean_identity": reach.as_ref().map(|r| r.neutral),
             "smallest_inner_lip_gap": reach.as_ref().map(|r| r.smallest),
+            "smallest_inner_lip_gap_plausible_identity": reach.as_ref().map(|r| r.plausible),
         });
         serde_json::to_writer_pretty(&mut *out, &v)?;
         writeln!(out)?;
@@ -137,8 +138,8 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
         writeln!(
             out,
             "inner lips   gap {:.3} model units at rest (mean identity), smallest reachable {:.3} \
-             (expressions β ≥ 0; frontal)",
-            r.neutral, r.smallest,
+             (expressions β ≥ 0; frontal), {:.3} with any identity within 99 % of its prior",
+            r.neutral, r.smallest, r.plausible,
         )?;
     }
     if !cumulative.is_empty() {
@@ -152,11 +153,13 @@ fn info(a: &InfoArgs, out: &mut dyn Write) -> Result<()> {
     Ok(())
 }
 
-/// The frontal inner-lip gap of the mean identity with no expression, and the smallest its
-/// expressions reach, in model units.
+/// The frontal inner-lip gap of the mean identity with no expression, the smallest its
+/// expressions reach, and the smallest any plausible identity reaches with them (what a frame
+/// fitted alone can do), in model units.
 struct LipReach {
     neutral: f64,
     smallest: f64,
+    plausible: f64,
 }
 
 fn lip_reach(
@@ -164,5 +167,9 @@ fn lip_reach(
     map: &crate::model::LandmarkMap,
 ) -> Option<LipReach> {
     let gap = InnerLipGap::of(model, map)?;
-    Some(LipReach { neutral: gap.length(&[], &[]), smallest: gap.smallest(&[])?.0 })
+    Some(LipReach {
+        neutral: gap.length(&[], &[]),
+        smallest: gap.smallest(&[])?.0,
+        plausible: gap.smallest_plausible()?,
+    })
 }

@@ -215,17 +215,14 @@ pub fn lips_meet(track: &Track) -> Vec<bool> {
     meeting(&track.frames.iter().map(inner_lip_gap).collect::<Vec<_>>())
 }
 
-/// Marks the frames whose inner lips meet ([`lips_meet`]) on a clip whose tracker closes the
-/// lips itself: `lip_contact_px` is how precisely this tracker places the gap where the lips
-/// touch, [`meeting_gap_spread`] of those frames' gaps. Fewer than three such frames, or
-/// gaps that show no precision of their own, mark nothing. Returns how many frames were
-/// marked.
-pub fn mark_meeting_lips(track: &mut Track) -> usize {
+/// The meeting frames of `track` as the contact precision reads them: for each frame whose
+/// inner lips meet ([`lips_meet`]), its gap and the limit it was chosen under, both in that
+/// frame's pixels.
+pub fn meeting_gap_samples(track: &Track) -> Vec<(f64, f64)> {
     let gaps: Vec<Option<f64>> = track.frames.iter().map(inner_lip_gap).collect();
     let meet = meeting(&gaps);
     let widest = gaps.iter().flatten().copied().filter(|g| g.is_finite()).fold(0.0, f64::max);
-    // (gap, the meeting limit it was chosen under), both in pixels of its frame.
-    let chosen: Vec<(f64, f64)> = track
+    track
         .frames
         .iter()
         .zip(&gaps)
@@ -235,17 +232,54 @@ pub fn mark_meeting_lips(track: &mut Track) -> usize {
             let r = reference_length(f)?;
             Some((g.as_ref()? * r, MEET_SHARE * widest * r))
         })
-        .collect();
-    if chosen.len() < 3 {
-        return 0;
+        .collect()
+}
+
+/// How precisely a tracker places the inner-lip gap where the lips touch (px per
+/// coordinate), from the meeting frames of all the clips it tracked: [`meeting_gap_spread`]
+/// of their [`meeting_gap_samples`] pooled. The precision is the tracker's, not a clip's,
+/// and a clip has few meeting frames (a demo sentence 7–17): clip by clip the bound is
+/// loose or absent (on held-out demo speaker 1, 30 of 40 sentences showed none), pooled it
+/// is what the tracker shows (`docs/closure.md`). `None` below three meeting frames or when
+/// they show no precision.
+pub fn contact_precision<T: std::borrow::Borrow<Track>>(
+    tracks: impl IntoIterator<Item = T>,
+) -> Option<f64> {
+    let samples: Vec<(f64, f64)> =
+        tracks.into_iter().flat_map(|t| meeting_gap_samples(t.borrow())).collect();
+    if samples.len() < 3 {
+        return None;
     }
-    let Some(spread) = meeting_gap_spread(&chosen) else {
-        return 0;
+    meeting_gap_spread(&samples)
+}
+
+/// Marks the frames whose inner lips meet ([`lips_meet`]) on a clip whose tracker closes the
+/// lips itself: `lip_contact_px` is how precisely this tracker places the gap where the lips
+/// touch: `pooled` when the tracker's clips show it ([`contact_precision`]), otherwise
+/// [`meeting_gap_spread`] of this clip's own meeting frames. Without `pooled`, fewer than
+/// three such frames, or gaps that show no precision of their own, mark nothing. Returns how
+/// many frames were marked.
+pub fn mark_meeting_lips(track: &mut Track, pooled: Option<f64>) -> usize {
+    let meet = lips_meet(track);
+    let spread = match pooled {
+        Some(p) => p,
+        None => {
+            let chosen = meeting_gap_samples(track);
+            if chosen.len() < 3 {
+                return 0;
+            }
+            let Some(spread) = meeting_gap_spread(&chosen) else {
+                return 0;
+            };
+            spread
+        }
     };
+    let mut marked = 0;
     for (frame, _) in track.frames.iter_mut().zip(&meet).filter(|(_, m)| **m) {
         frame.lip_contact_px = Some(spread);
+        marked += 1;
     }
-    chosen.len()
+    marked
 }
 
 /// The tracker's per-coordinate spread σ (px) of the inner-lip gap where the lips meet, as
@@ -322,11 +356,23 @@ const CHI2_1_95: f64 = 3.841_458_820_694_124;
 /// lowest gaps are no separate mode (the tracker closes the lips itself) the frames whose
 /// lips meet are marked instead ([`mark_meeting_lips`]); otherwise (too few frames, a gap
 /// that never varies; the measures report the last, `workflow::utterance_of_clip`) `track`
-/// unchanged. Under [`Closure::Off`], `track` as tracked.
-pub fn with_sealed_lips(mut track: Track, closure: Closure) -> Track {
-    // On error the track is left as it was.
-    if let Err(ClosureError::NoSealedMode(_)) = seal_inner_lips(&mut track, closure) {
-        mark_meeting_lips(&mut track);
+/// unchanged. `pooled` is the tracker's contact precision over all its clips
+/// ([`contact_precision`]): when given, every contact (sealed or meeting) carries it instead
+/// of the clip's own estimate. Under [`Closure::Off`], `track` as tracked.
+pub fn with_sealed_lips(mut track: Track, closure: Closure, pooled: Option<f64>) -> Track {
+    match seal_inner_lips(&mut track, closure) {
+        Ok(Some(_)) => {
+            if let Some(p) = pooled {
+                for f in track.frames.iter_mut().filter(|f| f.lip_contact_px.is_some()) {
+                    f.lip_contact_px = Some(p);
+                }
+            }
+        }
+        Err(ClosureError::NoSealedMode(_)) => {
+            mark_meeting_lips(&mut track, pooled);
+        }
+        // Off, or no estimate (too few frames, no spread): the track as it was.
+        Ok(None) | Err(_) => {}
     }
     track
 }
@@ -402,7 +448,7 @@ mod tests {
                 None => assert_eq!(f.frame % 4, 0, "an open frame is not a contact"),
             }
         }
-        let off = with_sealed_lips(track.clone(), Closure::Off);
+        let off = with_sealed_lips(track.clone(), Closure::Off, None);
         assert_eq!(off, track, "off leaves the track as given");
     }
 
@@ -416,7 +462,7 @@ mod tests {
             estimate_closed_lips(&gaps.iter().map(|g| Some(*g)).collect::<Vec<_>>()),
             Err(ClosureError::NoSealedMode(_))
         ));
-        let marked = with_sealed_lips(track.clone(), Closure::Seal);
+        let marked = with_sealed_lips(track.clone(), Closure::Seal, None);
         // 5 % of the widest gap (3.9) is 0.195: frames 0–3 (and 0.0 … 0.03 ≤ it), nothing else.
         let meet: Vec<usize> =
             marked.frames.iter().filter(|f| f.lip_contact_px.is_some()).map(|f| f.frame).collect();
@@ -481,6 +527,52 @@ mod tests {
             (0..50).map(|i| (2.0 * ((i as f64 + 0.5) / 50.0).powf(0.25), 2.0)).collect();
         assert_eq!(meeting_gap_spread(&disc), None);
         assert_eq!(meeting_gap_spread(&[(0.0, 1.0), (0.0, 2.0), (0.0, 1.0)]), Some(0.0));
+    }
+
+    /// A clip of a tracker erring `sigma` px per coordinate on the gap: 9 frames whose lips
+    /// meet (gaps drawn as [`truncated_gaps`] under 1.7 px) and 31 open ones spread evenly
+    /// up to 34 px, so that 1.7 px is 5 % of its widest gap and no sealed mode stands apart.
+    fn clip_meeting_nine_times(sigma: f64, seed: u64) -> Track {
+        let (meet, _) = truncated_gaps(sigma, 1.7, 9, seed);
+        let open = (0..31).map(|k| 3.0 + k as f64 * 31.0 / 30.0);
+        let gaps = meet.iter().map(|m| m.0).chain(open);
+        Track::new(gaps.enumerate().map(|(f, g)| frame(f, g)).collect())
+    }
+
+    #[test]
+    fn clips_too_short_to_show_the_trackers_contact_precision_show_it_pooled() {
+        let clips: Vec<Track> = (0..40).map(|seed| clip_meeting_nine_times(1.0, seed)).collect();
+        let own: Vec<Option<f64>> =
+            clips.iter().map(|t| meeting_gap_spread(&meeting_gap_samples(t))).collect();
+        let silent = own.iter().filter(|o| o.is_none()).count();
+        assert!(silent >= 10, "{silent} of 40 clips show no precision of their own: {own:?}");
+        let pooled = contact_precision(&clips).unwrap();
+        assert!((0.95..1.3).contains(&pooled), "{pooled}");
+        // Every meeting frame carries the pooled precision, in the clips that show none too;
+        // the open frames carry none.
+        for (t, own) in clips.iter().zip(&own) {
+            let fitted = with_sealed_lips(t.clone(), Closure::Seal, Some(pooled));
+            let marked: Vec<usize> = fitted
+                .frames
+                .iter()
+                .filter(|f| f.lip_contact_px == Some(pooled))
+                .map(|f| f.frame)
+                .collect();
+            assert_eq!(marked, (0..9).collect::<Vec<_>>(), "own {own:?}");
+            let alone = with_sealed_lips(t.clone(), Closure::Seal, None);
+            let marked_alone = alone.frames.iter().filter(|f| f.lip_contact_px.is_some()).count();
+            assert_eq!(marked_alone, if own.is_some() { 9 } else { 0 });
+            assert_eq!(with_sealed_lips(t.clone(), Closure::Off, Some(pooled)), *t);
+        }
+        // A clip with a sealed mode of its own: its sealed frames carry the pooled precision.
+        let sealed = Track::new(
+            gaps().iter().enumerate().map(|(f, g)| frame(f, 10.0 * g.unwrap())).collect(),
+        );
+        let fitted = with_sealed_lips(sealed, Closure::Seal, Some(pooled));
+        let carried: Vec<Option<f64>> =
+            fitted.frames.iter().filter_map(|f| f.lip_contact_px.map(Some)).collect();
+        assert_eq!(carried, vec![Some(pooled); 30]);
+        assert_eq!(contact_precision(&clips[..0]), None);
     }
 
     #[test]

@@ -8,6 +8,11 @@
 //! however well it is fitted, and the gap it keeps is a property of the model, not a fitting
 //! error. With the identity fixed, the gap is linear in β, `g(β) = g₀ + D·β` (2-vectors), and
 //! its smallest length is a small non-negative least-squares problem.
+//!
+//! A fit that chooses its identity too (each frame alone) is held by nothing but the prior,
+//! so there the model's limit is the smallest gap over every plausible identity: α within
+//! the ball holding 99 % of the unit-variance prior's mass, `|α|² ≤ χ²_K(0.99)`, and β ≥ 0
+//! ([`InnerLipGap::smallest_plausible`]).
 
 use crate::landmarks::ibug::point::{STOMION_LOWER, STOMION_UPPER};
 use crate::math::{DMatrix, DVector};
@@ -72,6 +77,76 @@ impl InnerLipGap {
     }
 }
 
+impl InnerLipGap {
+    /// The smallest gap (model units) reachable with an identity α anywhere in the prior's
+    /// 99 % ball (`|α|² ≤ χ²_K(0.99)`, K identity components, [`plausible_radius`]) and any
+    /// β ≥ 0; `None` on a numerical failure.
+    ///
+    /// The convex problem min |g₀ + Aα + Dβ|² subject to |α| ≤ R, β ≥ 0 is solved through
+    /// its Lagrangian: for a multiplier μ > 0 the best α given β is
+    /// `−Aᵀ(AAᵀ + μI)⁻¹(g₀ + Dβ)` (A has two rows, so the inverse is 2×2) and the gap left
+    /// is `μ(AAᵀ + μI)⁻¹(g₀ + Dβ)`, whose squared length weighed by the same matrix is a
+    /// quadratic in β solved by NNLS; |α| falls as μ grows, and μ is bisected (on its
+    /// logarithm) to the smallest value with |α| ≤ R.
+    pub fn smallest_plausible(&self) -> Option<f64> {
+        let k = self.identity.ncols();
+        if k == 0 {
+            return self.smallest(&[]).map(|s| s.0);
+        }
+        let radius = plausible_radius(k);
+        let a = &self.identity;
+        let aat = a * a.transpose();
+        let scale = 1.0 + aat.trace();
+        // The gap and |α| at multiplier μ.
+        let at = |mu: f64| -> Option<(f64, f64)> {
+            let inv = (&aat + DMatrix::identity(2, 2) * mu).try_inverse()?;
+            let m = &inv * mu;
+            let d = &self.expressions;
+            let beta = if d.ncols() == 0 {
+                DVector::zeros(0)
+            } else {
+                let mut n = d.transpose() * &m * d;
+                let ridge = 1e-12 * (1.0 + n.trace());
+                for j in 0..n.ncols() {
+                    n[(j, j)] += ridge;
+                }
+                let g = -(d.transpose() * &m * &self.mean);
+                let mut free = vec![false; g.len()];
+                crate::fit::shape::nonnegative_quadratic(&n, &g, &mut free)?
+            };
+            let target = &self.mean + d * &beta;
+            let alpha = -(a.transpose() * &inv * &target);
+            Some(((&m * &target).norm(), alpha.norm()))
+        };
+        // μ from a vanishing fraction of AAᵀ's scale (α nearly free) up to where α is tiny.
+        let (mut lo, mut hi) = ((1e-12 * scale).ln(), (1e12 * scale).ln());
+        let (gap, norm) = at(lo.exp())?;
+        if norm <= radius {
+            return Some(gap);
+        }
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if at(mid.exp())?.1 > radius {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        at(hi.exp()).map(|r| r.0)
+    }
+}
+
+/// 99 % of a K-dimensional unit-variance Gaussian prior lies within this radius of its
+/// mean: √χ²_K(0.99), by Wilson and Hilferty's approximation (1931, "The distribution of
+/// chi-square", PNAS 17: χ²_K(p) ≈ K(1 − 2/(9K) + z_p·√(2/(9K)))³, z_0.99 = 2.3263; within
+/// 1 % of the exact quantile from K = 2 up).
+pub fn plausible_radius(k: usize) -> f64 {
+    const Z_99: f64 = 2.326_347_874;
+    let k = k as f64;
+    let c = 2.0 / (9.0 * k);
+    (k * (1.0 - c + Z_99 * c.sqrt()).powi(3)).sqrt()
+}
+
 /// `g += m·c` over the first columns of `m` that `c` has values for.
 fn add_columns(g: &mut DVector, m: &DMatrix, c: &[f64]) {
     let k = c.len().min(m.ncols());
@@ -115,6 +190,26 @@ mod tests {
         };
         let map = LandmarkMap { to_vertex: [(STOMION_UPPER, 0), (STOMION_LOWER, 1)].into() };
         (model, map)
+    }
+
+    #[test]
+    fn a_plausible_identity_closes_only_as_far_as_the_prior_allows() {
+        // One identity mode moving the upper vertex by 2σ·α (eigenvalue 4): the gap at α is
+        // 10 + 2α, so within the 99 % radius of one dimension (√6.63 = 2.58) it reaches
+        // 10 − 5.15; with a blendshape closing by 5 per unit β it reaches 0.
+        let (opening, _) = model(&[3.0]);
+        let map = LandmarkMap { to_vertex: [(STOMION_UPPER, 0), (STOMION_LOWER, 1)].into() };
+        let gap = InnerLipGap::of(&opening, &map).unwrap();
+        let r = plausible_radius(1);
+        assert!((r * r - 6.635).abs() < 0.1, "{r}");
+        let reach = gap.smallest_plausible().unwrap();
+        assert!((reach - (10.0 - 2.0 * r)).abs() < 1e-6, "{reach}");
+        let (closing, _) = model(&[-5.0]);
+        let reach = InnerLipGap::of(&closing, &map).unwrap().smallest_plausible().unwrap();
+        assert!(reach < 1e-6, "{reach}");
+        // Wilson–Hilferty against exact χ² quantiles (K = 2: −2 ln 0.01 = 9.210; K = 63: 92.010).
+        assert!((plausible_radius(2).powi(2) - 9.210).abs() < 0.1);
+        assert!((plausible_radius(63).powi(2) - 92.01).abs() < 0.3);
     }
 
     #[test]

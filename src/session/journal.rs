@@ -231,6 +231,8 @@ pub fn replay(session: &mut Session, session_path: &Path) -> Result<Replayed, Se
         }
     }
     next.validate().map_err(|message| SessionError::Invalid { path: path.clone(), message })?;
+    // The corrections were set on the clips themselves.
+    next.forget_derived();
     *session = next;
     Ok(replayed)
 }

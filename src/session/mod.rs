@@ -56,6 +56,44 @@ impl PartialEq for Spill {
     }
 }
 
+/// A value derived from a session's clips, made on first use and kept until
+/// [`DerivedOnce::forget`]. Not part of the session's value: two sessions equal in content
+/// are equal.
+#[derive(Debug)]
+pub(crate) struct DerivedOnce<T>(std::sync::OnceLock<T>);
+
+impl<T> Default for DerivedOnce<T> {
+    fn default() -> Self {
+        Self(std::sync::OnceLock::new())
+    }
+}
+
+impl<T: Clone> Clone for DerivedOnce<T> {
+    fn clone(&self) -> Self {
+        let cell = std::sync::OnceLock::new();
+        if let Some(v) = self.0.get() {
+            let _ = cell.set(v.clone());
+        }
+        Self(cell)
+    }
+}
+
+impl<T> PartialEq for DerivedOnce<T> {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl<T> DerivedOnce<T> {
+    fn get_or_init(&self, make: impl FnOnce() -> T) -> &T {
+        self.0.get_or_init(make)
+    }
+
+    fn forget(&mut self) {
+        self.0 = std::sync::OnceLock::new();
+    }
+}
+
 /// The default folder of session files, relative to the working directory.
 pub const SESSIONS_DIR: &str = "sessions";
 
@@ -425,6 +463,7 @@ impl Session {
             });
         }
         let bytes = clip.tracked_data().unsaved().map_or(0, |t| t.approx_bytes());
+        self.forget_derived();
         self.clips.push(clip);
         self.note_new_data(bytes)?;
         Ok(self.clips.len() - 1)
@@ -453,9 +492,32 @@ impl Session {
         self.clips.get(index).ok_or(SessionError::NoClip { index, count: self.clips.len() })
     }
 
-    fn clip_mut(&mut self, index: usize) -> Result<&mut Clip, SessionError> {
+    /// Clip `index` to change: what is derived from the clips is made again on next use.
+    ///
+    /// # Errors
+    /// `NoClip` when out of range.
+    pub(crate) fn clip_mut(&mut self, index: usize) -> Result<&mut Clip, SessionError> {
+        self.forget_derived();
         let count = self.clips.len();
         self.clips.get_mut(index).ok_or(SessionError::NoClip { index, count })
+    }
+
+    /// Forgets what was derived from the clips (a clip's landmarks or corrections changed).
+    pub(crate) fn forget_derived(&mut self) {
+        self.contact_precision.forget();
+    }
+
+    /// How precisely the tracker places the inner-lip gap where the lips touch (px per
+    /// coordinate), over the meeting frames of every clip (`landmarks::closure::
+    /// contact_precision`); `None` when they show none. Clips whose track cannot be read are
+    /// left out (their own fits report it). Made once and kept until a clip changes.
+    pub fn lip_contact_precision(&self) -> Option<f64> {
+        // One track in memory at a time: a corpus is read clip by clip.
+        *self.contact_precision.get_or_init(|| {
+            crate::landmarks::closure::contact_precision(
+                (0..self.clips.len()).filter_map(|c| self.effective_track(c).ok()),
+            )
+        })
     }
 
     /// Opens the front view's frames of clip `index` (fps and size from the session).
@@ -522,7 +584,19 @@ impl Session {
         clip: usize,
         settings: &FitSettings,
     ) -> Result<Track, SessionError> {
-        fit_input_of(self.clip(clip)?, settings)
+        let c = self.clip(clip)?;
+        Ok(self.fit_input_of(c.corrections.effective_track(&*c.tracked()?), settings))
+    }
+
+    /// `track`, a clip's effective landmarks, as a fit under `settings` takes it (see
+    /// [`Session::fit_input_track`]): sealed lips carry the session's contact precision
+    /// ([`Session::lip_contact_precision`]).
+    fn fit_input_of(&self, track: Track, settings: &FitSettings) -> Track {
+        let pooled = match settings.closure {
+            crate::landmarks::closure::Closure::Seal => self.lip_contact_precision(),
+            crate::landmarks::closure::Closure::Off => None,
+        };
+        crate::landmarks::closure::with_sealed_lips(track, settings.closure, pooled)
     }
 
     /// Records a corrected (or interpolated) point; the tracked value stays as it was.
@@ -663,7 +737,7 @@ impl Session {
     ) -> Result<(), SessionError> {
         let c = self.clip(clip)?;
         let context = self.context_hash();
-        let input = fit_input_of(c, settings)?;
+        let input = self.fit_input_of(c.corrections.effective_track(&*c.tracked()?), settings);
         let mut new = Vec::with_capacity(fits.len());
         for fit in fits {
             let Some(frame) = input.get(fit.frame) else {
@@ -731,10 +805,7 @@ impl Session {
             });
         };
         let entry = &entries[index];
-        let input = crate::landmarks::closure::with_sealed_lips(
-            c.corrections.effective_track(&tracked),
-            settings.closure,
-        );
+        let input = self.fit_input_of(c.corrections.effective_track(&tracked), settings);
         let valid = entry.context == self.context_hash()
             && (!settings.clip
                 || entry.clip_input.as_deref()
@@ -817,13 +888,6 @@ struct CacheState {
     stale: Vec<usize>,
 }
 
-/// The landmarks a fit of clip `c` under `settings` is made from (see
-/// [`Session::fit_input_track`]).
-fn fit_input_of(c: &Clip, settings: &FitSettings) -> Result<Track, SessionError> {
-    let track = c.corrections.effective_track(&*c.tracked()?);
-    Ok(crate::landmarks::closure::with_sealed_lips(track, settings.closure))
-}
-
 /// Opens one view's frames with the fps and size the session knows.
 ///
 /// # Errors
@@ -855,5 +919,69 @@ mod tests {
         s.save(&link).unwrap();
         assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
         assert_eq!(Session::load(&real).unwrap().name, "renamed");
+    }
+
+    /// A frame whose reference length is 10 px and whose inner lips are `gap` px apart
+    /// (vertically at the midline, `tilt` px sideways at the other two pairs).
+    fn lips(f: usize, gap: f64, tilt: f64) -> FrameLandmarks {
+        let mut pts = vec![LandmarkPoint::tracked(0.0, 0.0); 68];
+        pts[39] = LandmarkPoint::tracked(-5.0, 0.0);
+        pts[42] = LandmarkPoint::tracked(5.0, 0.0);
+        pts[30] = LandmarkPoint::tracked(0.0, 10.0);
+        for (k, (u, l)) in crate::landmarks::closure::INNER_LIP_PAIRS.into_iter().enumerate() {
+            let x = k as f64 - 1.0;
+            pts[u] = LandmarkPoint::tracked(x, 20.0);
+            pts[l] = LandmarkPoint::tracked(x + tilt, 20.0 + gap);
+        }
+        FrameLandmarks::new(f, pts)
+    }
+
+    #[test]
+    fn the_contact_precision_is_pooled_over_the_clips_and_made_again_after_an_edit() {
+        use crate::landmarks::closure::contact_precision;
+        let dir = tempfile::tempdir().unwrap();
+        let mut s = Session::new(&dir.path().join("s.lipmap.json"));
+        // Three clips, three meeting frames each (gaps 0.2–1.2 px under a 1.7 px limit) and
+        // open frames spread evenly up to 34 px: alone each shows little.
+        let mut tracks = Vec::new();
+        for c in 0..3 {
+            let meet = [0.2 + 0.1 * c as f64, 0.7, 1.2 - 0.1 * c as f64];
+            let open = (0..31).map(|k| 3.0 + k as f64 * 31.0 / 30.0);
+            let gaps: Vec<f64> = meet.into_iter().chain(open).collect();
+            let track =
+                Track::new(gaps.iter().enumerate().map(|(f, g)| lips(f, *g, 0.0)).collect());
+            tracks.push(track.clone());
+            let mut clip = Clip::new(
+                format!("c{c}"),
+                View::new(FramesRef::Images { dir: dir.path().into() }, 25.0),
+            );
+            clip.set_tracked(track);
+            s.add_clip(clip).unwrap();
+        }
+        let pooled = s.lip_contact_precision().unwrap();
+        assert_eq!(Some(pooled), contact_precision(&tracks));
+        let settings = FitSettings::default();
+        let input = s.fit_input_track(1, &settings).unwrap();
+        let carried: Vec<usize> = input
+            .frames
+            .iter()
+            .filter(|f| f.lip_contact_px == Some(pooled))
+            .map(|f| f.frame)
+            .collect();
+        assert_eq!(carried, vec![0, 1, 2]);
+        let off = FitSettings { closure: crate::landmarks::closure::Closure::Off, ..settings };
+        assert!(
+            s.fit_input_track(1, &off).unwrap().frames.iter().all(|f| f.lip_contact_px.is_none())
+        );
+        // A correction moving a meeting frame's lower lip 1.5 px sideways changes what the
+        // clips show; the session says so without being reloaded.
+        let moved = lips(0, 0.2, 1.5);
+        for (_, l) in crate::landmarks::closure::INNER_LIP_PAIRS {
+            s.set_correction(0, 0, l, moved.points[l]).unwrap();
+        }
+        tracks[0] = s.effective_track(0).unwrap();
+        let again = s.lip_contact_precision();
+        assert_eq!(again, contact_precision(&tracks));
+        assert_ne!(again, Some(pooled));
     }
 }

@@ -69,6 +69,10 @@ pub struct Session {
     /// empty, so their frames are fitted again.
     #[serde(skip)]
     pub lost_fit_caches: Vec<(String, PathBuf)>,
+    /// The tracker's lip-contact precision over the clips, made on first use and forgotten
+    /// when a clip changes (`Session::lip_contact_precision`).
+    #[serde(skip)]
+    pub(crate) contact_precision: super::DerivedOnce<Option<f64>>,
 }
 
 /// A schema-2 cache entry: the clip it belongs to, then the entry.
@@ -261,6 +265,7 @@ impl Session {
             base_dir: abs.parent().map(PathBuf::from).unwrap_or_default(),
             spill: super::Spill::default(),
             lost_fit_caches: Vec::new(),
+            contact_precision: Default::default(),
         }
     }
 

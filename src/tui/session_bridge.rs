@@ -113,6 +113,7 @@ impl SessionBridge {
         app.fps = c.front.fps;
         app.frames.cache.size = c.front.size.map(|[w, h]| (w, h));
         app.fit_settings = session.fit_settings.clone();
+        app.lip_contact_px = session.lip_contact_precision();
         if restored {
             // Not on disk in the session file yet: autosave writes them.
             app.save.edit_made();
@@ -223,7 +224,7 @@ impl SessionBridge {
     /// When a correction is rejected by the session (non-finite, bad index).
     pub fn write_back(&mut self, app: &App) -> anyhow::Result<()> {
         let layer = self.edit_layer(app)?;
-        let c = self.edit.session.clips.get_mut(self.clip).context("the clip disappeared")?;
+        let c = self.edit.session.clip_mut(self.clip).context("the clip disappeared")?;
         c.corrections = layer.corrections;
         if app.side.view().is_some() {
             c.profile_corrections = layer.profile_corrections;

@@ -159,11 +159,11 @@ fn head_opening_limit(model: &MorphableModel, clip: &str, u: &Utterance) -> Opti
 const SEAL_SHARE: f64 = 0.1;
 
 /// When the video's lips meet but the model cannot bring its inner lips within
-/// [`SEAL_SHARE`] of the clip's widest fitted opening (its smallest frontal gap reachable with
-/// the clip's fitted identity and β ≥ 0), a warning naming that limit: the head's H error on
-/// those frames is the model's, not the fit's. Only for fits that share one identity (clip
-/// mode): a frame fitted alone chooses its identity too, and through it any model with a
-/// few components can close.
+/// [`SEAL_SHARE`] of the clip's widest fitted opening, a warning naming that limit: the
+/// head's H error on those frames is the model's, not the fit's. The smallest frontal gap is
+/// taken with the clip's fitted identity and β ≥ 0 when its fits share one identity (clip
+/// mode); when each frame chose its own, with any plausible identity (within 99 % of the
+/// model's prior, `measure::lip_reach`), since nothing else holds a frame's identity.
 fn lip_seal_limit(
     model: &MorphableModel,
     map: &LandmarkMap,
@@ -174,16 +174,17 @@ fn lip_seal_limit(
     let usable: Vec<&FrameFit> =
         input.fits.iter().filter(|f| f.is_usable_within(u.video.h.len())).collect();
     let identity = &usable.first()?.identity;
-    if usable.iter().any(|f| &f.identity != identity) {
-        return None;
-    }
     let widest = usable.iter().map(|f| gap.length(&f.identity, &f.expression)).fold(0.0, f64::max);
     let meet = crate::landmarks::closure::meeting(&u.video.h);
     let sealed: Vec<&&FrameFit> = usable.iter().filter(|f| meet[f.frame]).collect();
     if sealed.is_empty() || widest <= 0.0 {
         return None;
     }
-    let reach = gap.smallest(identity)?.0;
+    let (reach, with) = if usable.iter().all(|f| &f.identity == identity) {
+        (gap.smallest(identity)?.0, "the fitted identity")
+    } else {
+        (gap.smallest_plausible()?, "any identity within 99 % of the model's prior")
+    };
     if reach <= SEAL_SHARE * widest {
         return None;
     }
@@ -192,10 +193,10 @@ fn lip_seal_limit(
     kept.sort_by(f64::total_cmp);
     Some(Warning(format!(
         "lipmap: clip `{}`: the model cannot seal its lips: its smallest reachable inner-lip \
-         gap with the fitted identity is {reach:.3} ({:.0} % of the clip's widest fitted \
-         opening {widest:.3}, model units, frontal); on the {} frames where the video's lips \
-         meet the head keeps a median {:.3}, of which {reach:.3} is the model's limit, not \
-         fitting error",
+         gap with {with} is {reach:.3} ({:.0} % of the clip's widest fitted opening \
+         {widest:.3}, model units, frontal); on the {} frames where the video's lips meet the \
+         head keeps a median {:.3}, of which {reach:.3} is the model's limit, not fitting \
+         error",
         input.name,
         100.0 * reach / widest,
         sealed.len(),
@@ -914,6 +915,66 @@ mod tests {
             FitTally::default().require_some_fit().unwrap_err().to_string(),
             "no frame has landmarks to fit"
         );
+    }
+
+    /// Two vertices, the upper (62) and lower (66) stomion 10 apart, and one identity mode
+    /// of standard deviation `sd` moving the upper one: the gap is 10 + sd·α.
+    fn stomion_model(sd: f64) -> (MorphableModel, LandmarkMap) {
+        use crate::landmarks::ibug::point::{STOMION_LOWER, STOMION_UPPER};
+        use crate::math::{DMatrix, DVector};
+        let model = MorphableModel {
+            shape: crate::model::PcaModel {
+                mean: DVector::from_vec(vec![0.0, 10.0, 0.0, 0.0, 0.0, 0.0]),
+                basis: DMatrix::from_column_slice(6, 1, &[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]),
+                eigenvalues: DVector::from_element(1, sd * sd),
+            },
+            expressions: None,
+            triangles: Vec::new(),
+        };
+        (model, LandmarkMap { to_vertex: [(STOMION_UPPER, 0), (STOMION_LOWER, 1)].into() })
+    }
+
+    #[test]
+    fn frames_fitted_alone_name_the_limit_of_every_plausible_identity() {
+        let (track, alignment) = (crate::landmarks::Track::default(), Default::default());
+        // Each frame its own identity; the video's lips meet on the first three frames.
+        let alphas = [0.2, 0.0, -0.3, 1.5, 3.0];
+        let fits: Vec<FrameFit> = alphas
+            .iter()
+            .enumerate()
+            .map(|(f, &a)| FrameFit { identity: vec![a], ..FrameFit::unposed(f) })
+            .collect();
+        let mut u = Utterance { name: "c".into(), fps: 25.0, ..Default::default() };
+        u.video.h = [0.0, 0.0, 0.0, 1.0, 2.0].iter().map(|h| Some(*h)).collect();
+        let input = ClipInput {
+            name: "c",
+            alignment: &alignment,
+            fps: 25.0,
+            track: &track,
+            fits: &fits,
+            side_view: false,
+            side_p: None,
+            pose: PoseComparison::ImagePlane,
+            set: None,
+        };
+        // sd 2: the widest fitted gap is 16, and no identity within the prior's 99 % radius
+        // (2.57) brings it below 10 − 2·2.57 ≈ 4.87, 30 % of it.
+        let (model, map) = stomion_model(2.0);
+        let w = lip_seal_limit(&model, &map, &input, &u).expect("a limit");
+        let reach = 10.0 - 2.0 * crate::measure::lip_reach::plausible_radius(1);
+        let named = format!("any identity within 99 % of the model's prior is {reach:.3} (30 %");
+        assert!(w.0.contains(&named), "{}", w.0);
+        // sd 10: an identity 1 sd out closes the lips: no limit, whatever the fits kept.
+        let (model, map) = stomion_model(10.0);
+        assert!(lip_seal_limit(&model, &map, &input, &u).is_none());
+        // One identity for the clip (clip mode): the limit is that identity's own.
+        let (model, map) = stomion_model(2.0);
+        let shared: Vec<FrameFit> =
+            fits.iter().map(|f| FrameFit { identity: vec![0.2], ..f.clone() }).collect();
+        let input = ClipInput { fits: &shared, ..input };
+        u.video.h = [0.0, 0.0, 0.0, 1.0, 2.0].iter().map(|h| Some(*h)).collect();
+        let w = lip_seal_limit(&model, &map, &input, &u).expect("a limit");
+        assert!(w.0.contains("the fitted identity is 10.400"), "{}", w.0);
     }
 
     #[test]

@@ -61,7 +61,9 @@ pub fn fit_files(input: &FitFilesInput, progress: ProgressFn<'_>) -> Result<FitF
     if track.is_empty() {
         return Err(FormatError::whole(&input.landmarks, "no frames").into());
     }
-    let track = crate::landmarks::closure::with_sealed_lips(track, settings.closure);
+    // The files are one clip of one tracker: its own meeting frames give the precision.
+    let pooled = crate::landmarks::closure::contact_precision([&track]);
+    let track = crate::landmarks::closure::with_sealed_lips(track, settings.closure, pooled);
     std::fs::create_dir_all(&input.out).map_err(|e| Error::io(&input.out, e))?;
     super::check_map_for_fit(&map, model.num_vertices(), settings)
         .map_err(|e| Error::from(e).context(input.mapping.display().to_string()))?;

@@ -482,11 +482,10 @@ pub fn apply_realigned(
     frames: &[FrameLandmarks],
 ) -> Result<()> {
     session.clip(index)?;
-    let corrections = &mut session.clips[index].corrections;
     for fl in frames {
         for (i, p) in fl.points.iter().enumerate() {
             if p.source == PointSource::Interpolated {
-                corrections.set(fl.frame, i, *p).map_err(Error::Invalid)?;
+                session.set_correction(index, fl.frame, i, *p)?;
             }
         }
     }

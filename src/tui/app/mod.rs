@@ -160,6 +160,9 @@ pub struct App {
     pub model_map: Option<LandmarkMap>,
     pub mesh: Option<Arc<Mesh>>,
     pub fit_settings: FitSettings,
+    /// The session's lip-contact precision over its clips (px), which sealed lips carry in
+    /// the fit's landmarks (`Session::lip_contact_precision`); `None` when they show none.
+    pub lip_contact_px: Option<f64>,
     pub fits: Fits,
 
     // ---- editing, saving, playing ----
@@ -213,6 +216,7 @@ impl App {
             model_map: None,
             mesh: None,
             fit_settings: FitSettings::default(),
+            lip_contact_px: None,
             fits: Fits::default(),
             undo: Vec::new(),
             redo: Vec::new(),
@@ -353,7 +357,13 @@ impl App {
     /// The landmarks fits are made from and the video is measured on: the edited track with
     /// sealed lips closed as the fit settings say (`Session::fit_input_track`'s rule).
     pub fn fit_input_track(&self) -> Track {
-        crate::landmarks::closure::with_sealed_lips(self.track.clone(), self.fit_settings.closure)
+        let seal = self.fit_settings.closure == crate::landmarks::closure::Closure::Seal;
+        let pooled = self.lip_contact_px.filter(|_| seal);
+        crate::landmarks::closure::with_sealed_lips(
+            self.track.clone(),
+            self.fit_settings.closure,
+            pooled,
+        )
     }
 
     /// The decoded image of the current frame, when cached.

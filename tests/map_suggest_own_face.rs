@@ -48,11 +48,7 @@ fn six_labels_on_the_heads_own_face_give_a_unique_sane_map_invariant_to_placemen
     let proposal = suggest_map_on_own_face(&head, &labels, &predictor).unwrap();
     let map = proposal.applied_to(&labels);
     eprintln!("{}", proposal.summary());
-    let mut used: Vec<usize> = map.to_vertex.values().copied().collect();
-    let n = used.len();
-    used.sort_unstable();
-    used.dedup();
-    assert_eq!(used.len(), n, "no vertex is used twice");
+    assert_eq!(common::vertices_used_twice(&map), 0, "no vertex is used twice");
     assert!(proposal.accepted.len() >= 55, "{}", proposal.summary());
     assert!(map.to_vertex.values().all(|&v| skin[v]), "only skin vertices");
     let check = check_map(&map, &mesh.vertices);

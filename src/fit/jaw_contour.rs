@@ -37,11 +37,6 @@ pub const SILHOUETTE_SLOPE: Real = 6.0;
 /// in front of it around the chin, where the jaw turns under.
 pub const BEHIND_SILHOUETTE: Real = 0.2;
 
-/// Where the walk out to the silhouette starts at the least, as a fraction of the chin's
-/// distance from the nose tip: on MakeHuman heads a walk from half the tracked point's
-/// distance stopped on the lower lip's edge (jaw points 30–60 mm off, on the mouth).
-pub const START_OF_WALK: Real = 0.7;
-
 /// One jaw landmark placed on the contour.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct JawPlacement {
@@ -188,10 +183,6 @@ pub fn place_jaw(
         (Some(e), Some(t)) if t > 0.0 => e / t,
         _ => 1.0,
     };
-    // The walk outward starts past the mouth and the labiomental fold (a lower lip seen
-    // from the front ends in a drop as steep as the jaw's): at least [`START_OF_WALK`] of
-    // the chin's distance from the nose tip.
-    let past_mouth = at(8).map_or(0.0, |p| START_OF_WALK * (frame.local(&p).xy() - centre).norm());
     let mut used = taken.clone();
     let mut placed = Vec::new();
     for &(l, q) in &offsets {
@@ -199,8 +190,7 @@ pub fn place_jaw(
         let theta = stretch * symmetric(l, own);
         let dir = Vector2::new(theta.sin(), -theta.cos());
         let reach = q.norm();
-        let Some((r, z)) = view.silhouette(centre, dir, (0.5 * reach).max(past_mouth), 2.0 * span)
-        else {
+        let Some((r, z)) = view.silhouette(centre, dir, 0.5 * reach, 2.0 * span) else {
             continue;
         };
         let local = centre + r * dir;

@@ -4,6 +4,8 @@
 //! the anatomy check, and fit carphone about as well as the fixture map. Skips when
 //! `../shared/data` is absent.
 
+mod common;
+
 use lipmap::fit::map_suggest::suggest_map;
 use lipmap::fit::suggest::{SuggestHead, surface_triangles};
 use lipmap::fit::{FitSettings, fit_frame};
@@ -45,12 +47,13 @@ fn six_labels_suggest_a_unique_sane_map_that_fits_carphone_like_the_fixture() {
     let map = proposal.applied_to(&labels);
     eprintln!("{}", proposal.summary());
 
-    let mut used: Vec<usize> = map.to_vertex.values().copied().collect();
-    let n = used.len();
-    used.sort_unstable();
-    used.dedup();
-    assert_eq!(used.len(), n, "no vertex is used twice");
-    assert!(n >= 40, "most landmarks are suggested: {n} ({})", proposal.summary());
+    assert_eq!(common::vertices_used_twice(&map), 0, "no vertex is used twice");
+    assert!(
+        map.len() >= 40,
+        "most landmarks are suggested: {} ({})",
+        map.len(),
+        proposal.summary()
+    );
     let check = check_map(&map, &mesh.vertices);
     assert!(check.is_plausible(), "{}", check.summary());
     // Every suggestion that passed is a labelable (skin) vertex.

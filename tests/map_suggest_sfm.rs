@@ -68,11 +68,7 @@ fn six_labels_on_the_sfm_mean_put_the_jaw_on_its_frontal_contour() {
     for (l, why) in &proposal.left {
         eprintln!("left {}: {why}", l + 1);
     }
-    let mut used: Vec<usize> = map.to_vertex.values().copied().collect();
-    let n = used.len();
-    used.sort_unstable();
-    used.dedup();
-    assert_eq!(used.len(), n, "no vertex is used twice");
+    assert_eq!(common::vertices_used_twice(&map), 0, "no vertex is used twice");
     assert!(proposal.accepted.len() >= 50, "{}", proposal.summary());
 
     // The fixed landmarks eos maps, in mm (the model's units).

@@ -27,10 +27,15 @@ pub enum MapCommand {
 pub struct SuggestArgs {
     /// Session (`NAME` for sessions/NAME.lipmap.json, or a `.lipmap.json` path).
     pub session: String,
-    /// Frame whose tracked landmarks the head is matched to (default: the first frame with
-    /// the most visible landmarks).
+    /// Match the head to this frame's tracked landmarks (the speaker's face) instead of the
+    /// head's own face drawn from the front (the default when dlib's shape predictor is
+    /// installed; without it, the first frame with the most visible landmarks).
     #[arg(long)]
     pub frame: Option<usize>,
+    /// dlib's shape predictor, read on the head's own face (default:
+    /// /usr/share/dlib/shape_predictor_68_face_landmarks.dat, Debian `libdlib-data`).
+    #[arg(long, value_name = "FILE")]
+    pub predictor: Option<PathBuf>,
     /// Session clip (default: the first).
     #[arg(long)]
     pub clip: Option<String>,
@@ -52,14 +57,15 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
             let read = read_session(&session_path(&a.session))?;
             print_warnings(&read.notices);
             let role = label_role(&read.session);
-            let s = suggest_session_map(&read.session, role, a.clip.as_deref(), a.frame)?;
-            writeln!(
-                out,
-                "frame {}: {} labels; {}",
-                s.frame,
-                s.labels.len(),
-                s.proposal.summary()
+            let s = suggest_session_map(
+                &read.session,
+                role,
+                a.clip.as_deref(),
+                a.frame,
+                a.predictor.as_deref(),
             )?;
+            writeln!(out, "matched to {}", s.from)?;
+            writeln!(out, "{} labels; {}", s.labels.len(), s.proposal.summary())?;
             writeln!(out, "landmark  vertex  px off  confidence")?;
             for x in &s.proposal.accepted {
                 writeln!(

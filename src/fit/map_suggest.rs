@@ -20,6 +20,7 @@
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
 use super::jaw_contour::{far_from_neighbours, place_jaw};
+use super::own_face::own_face_landmarks;
 use super::suggest::{
     SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head,
 };
@@ -28,6 +29,7 @@ use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
 use crate::model::LandmarkMap;
 use crate::model::map_check::{MapProblem, check_layout, face_axes};
+use crate::track::ShapePredictor;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 
@@ -172,6 +174,21 @@ pub fn suggest_map(
         }
     }
     Ok(proposal)
+}
+
+/// Suggests the rest of `map` on the head's own face ([`own_face_landmarks`]: the head
+/// drawn from the front, `predictor` run on the drawing with the labels held) instead of a
+/// video frame: every landmark where this head has it, not where the speaker has it.
+///
+/// # Errors
+/// As [`own_face_landmarks`].
+pub fn suggest_map_on_own_face(
+    head: &SuggestHead,
+    map: &LandmarkMap,
+    predictor: &ShapePredictor,
+) -> Result<MapProposal, SuggestError> {
+    let own = own_face_landmarks(head, map, predictor)?;
+    suggest_map(head, map, &own.landmarks, own.image_height, Some(own.pose))
 }
 
 fn propose_once(

@@ -14,6 +14,7 @@ pub mod gaps;
 pub mod jaw_contour;
 mod joint;
 pub mod map_suggest;
+pub mod own_face;
 pub mod pipeline;
 pub mod result;
 pub mod shape;

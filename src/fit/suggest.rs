@@ -57,6 +57,8 @@ pub enum SuggestError {
     NotVisible(usize),
     #[error("the head has no vertices")]
     NoVertices,
+    #[error("the head has no faces to draw (a bare point set)")]
+    NoSurface,
 }
 
 /// The triangles whose corners are all `kept` (when given): the head's surface for drawing

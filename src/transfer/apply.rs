@@ -115,4 +115,19 @@ impl Transfer {
     pub fn rest_controls(&self) -> Vec<Point3> {
         self.target_controls.iter().map(|&v| self.rest[v]).collect()
     }
+
+    /// A target shape (flat, as [`Transfer::apply`] returns it) taken into the source model's
+    /// space by undoing the placement (`T⁻¹`, the inverse similarity): the head then stands
+    /// where the source stands, faces where it faces and is seen by the source's fitted
+    /// cameras as the source is, so it can be measured exactly as the source is, whatever
+    /// the head's own axes (y-up, z-up, facing −z) or size.
+    pub fn in_source_space(&self, shape: &DVector) -> DVector {
+        let t = &self.placement.similarity;
+        let mut out = shape.clone();
+        for c in out.as_mut_slice().chunks_exact_mut(3) {
+            let p = t.apply_inverse(&Point3::new(c[0], c[1], c[2]));
+            c.copy_from_slice(&[p.x, p.y, p.z]);
+        }
+        out
+    }
 }

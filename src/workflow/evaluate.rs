@@ -773,6 +773,8 @@ pub fn evaluate_session(
 /// up, each clip's head side measured on the transferred head as it comes.
 struct TransferredTallies {
     heads: Vec<TransferredTally>,
+    /// How W and H are compared, as for the fitted model.
+    pose: PoseComparison,
     warnings: Vec<Warning>,
 }
 
@@ -798,7 +800,7 @@ impl TransferredTallies {
                 Err(e) => warnings.push(skipped_head(entry, &e)),
             }
         }
-        (Self { heads, warnings: Vec::new() }, warnings)
+        (Self { heads, pose: req.pose, warnings: Vec::new() }, warnings)
     }
 
     /// Adds one clip to every head's tally; a head whose transfer fails is dropped with a
@@ -812,6 +814,7 @@ impl TransferredTallies {
                 &h.head.map,
                 &clip.utterance,
                 &clip.fits,
+                self.pose,
             ) {
                 Ok(u) => h.tally.add(&u, &clip.name, &clip.fits),
                 Err(e) => {

@@ -27,7 +27,7 @@ use crate::io::{landmark_map_toml, obj};
 use crate::measure::indices::shape_indices_partial;
 use crate::measure::{
     FacialIndex, FacialIndices, IndexClass, MatchVerdict, Measure, MeshMeasureOptions,
-    match_speaker_head,
+    PoseComparison, match_speaker_head,
 };
 use crate::session::Session;
 use crate::transfer::{Interpolation, Transfer};
@@ -260,12 +260,12 @@ impl<'a> Driver<'a> {
     }
 
     /// The clip measured on the driven head: the fitted model's own measures, or those of
-    /// the transferred head.
-    fn measure(&self, u: Utterance, fits: &[FrameFit]) -> Result<Utterance> {
+    /// the transferred head compared as `pose` says (as the model's were).
+    fn measure(&self, u: Utterance, fits: &[FrameFit], pose: PoseComparison) -> Result<Utterance> {
         match self {
             Self::Fitted(_) => Ok(u),
             Self::Transferred { source, transfer, target } => {
-                transferred_utterance(source, transfer, &target.map, &u, fits)
+                transferred_utterance(source, transfer, &target.map, &u, fits, pose)
             }
         }
     }
@@ -286,6 +286,7 @@ pub fn head_utterances(
     progress: ProgressFn<'_>,
 ) -> Result<(Vec<Utterance>, Vec<Warning>)> {
     let settings = &session.fit_settings;
+    let pose = PoseComparison::default();
     let res = driver.fitted();
     let mut utterances = Vec::new();
     let mut warnings = Vec::new();
@@ -297,15 +298,9 @@ pub fn head_utterances(
         progress(Progress::Stage { what, total });
         let report = |done: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip(&res.model, &res.map, &track.frames, height, settings, Some(&report));
-        let (u, w) = utterance_of_clip(
-            session,
-            res,
-            c,
-            &fits,
-            &MeshMeasureOptions::default(),
-            crate::measure::PoseComparison::default(),
-        )?;
-        utterances.push(driver.measure(u, &fits)?);
+        let (u, w) =
+            utterance_of_clip(session, res, c, &fits, &MeshMeasureOptions::default(), pose)?;
+        utterances.push(driver.measure(u, &fits, pose)?);
         warnings.extend(w);
     }
     progress(Progress::Finished);

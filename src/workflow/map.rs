@@ -7,7 +7,7 @@
 
 use super::error::{Error, Result};
 use super::session::{clip_or_first, image_height};
-use crate::fit::map_suggest::{MapProposal, suggest_map};
+use crate::fit::map_suggest::{MapProposal, suggest_map, suggest_map_on_own_face};
 use crate::fit::suggest::{SuggestHead, surface_triangles};
 use crate::io::{model_source, obj};
 use crate::landmarks::FrameLandmarks;
@@ -152,11 +152,33 @@ pub fn check_map_to_use(
         .collect())
 }
 
+/// What the suggestions were matched to.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SuggestedFrom {
+    /// The head's own face, drawn from the front and read by the shape predictor.
+    OwnFace,
+    /// A frame of the clip (its number), the speaker's tracked landmarks; with why the
+    /// head's own face was not used when it was not asked for.
+    Frame(usize, Option<String>),
+}
+
+impl std::fmt::Display for SuggestedFrom {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::OwnFace => {
+                write!(f, "the head's own face (drawn from the front, shape predictor)")
+            }
+            Self::Frame(n, None) => write!(f, "frame {n}"),
+            Self::Frame(n, Some(why)) => write!(f, "frame {n} ({why})"),
+        }
+    }
+}
+
 /// What [`suggest_session_map`] made.
 #[derive(Clone, Debug)]
 pub struct SuggestedMap {
-    /// The frame (its number in the clip) the suggestions were made on.
-    pub frame: usize,
+    /// What the suggestions were matched to.
+    pub from: SuggestedFrom,
     /// The labels they were made from.
     pub labels: LandmarkMap,
     pub proposal: MapProposal,
@@ -165,21 +187,46 @@ pub struct SuggestedMap {
     pub check: MapCheck,
 }
 
-/// Suggests the rest of the map of `role` from its labels on `frame` of `clip` (default:
-/// the clip's first frame with the most visible landmarks), with the pose estimated from the
-/// labels.
+/// Suggests the rest of the map of `role` from its labels: on the head's own face
+/// ([`crate::fit::own_face`]) when `frame` is `None` and dlib's shape predictor can be read
+/// (`predictor`, else Debian's path), else on `frame` of `clip` (default: the clip's first
+/// frame with the most visible landmarks) with the pose estimated from the labels. The
+/// speaker in a frame is another face than the head; the head's own face is the head.
 ///
 /// # Errors
 /// No map or too few labels for a pose; an unknown clip or a frame without landmarks; a head
-/// or model file that does not parse.
+/// or model file that does not parse; a `predictor` given that cannot be read.
 pub fn suggest_session_map(
     session: &Session,
     role: MapRole,
     clip: Option<&str>,
     frame: Option<usize>,
+    predictor: Option<&Path>,
 ) -> Result<SuggestedMap> {
-    let c = clip_or_first(session, clip)?;
     let labels = session.map_of(role).resolve()?.unwrap_or_default();
+    let head = label_mesh(session, role)?;
+    let why_not_own = match (frame, predictor) {
+        (Some(_), _) => None,
+        (None, Some(p)) => {
+            let predictor = crate::track::read_shape_predictor(p)?;
+            return suggest_on_own_face(&head, labels, &predictor);
+        }
+        (None, None) if head.triangles.is_empty() => {
+            Some("the head has no faces to draw: matched to the speaker".into())
+        }
+        (None, None) => {
+            let p = Path::new(crate::track::DEBIAN_PREDICTOR_PATH);
+            match crate::track::read_shape_predictor(p) {
+                Ok(predictor) => return suggest_on_own_face(&head, labels, &predictor),
+                Err(_) => Some(format!(
+                    "no shape predictor at {} (Debian `libdlib-data`, or `--predictor`): \
+                     matched to the speaker instead of the head's own face",
+                    p.display()
+                )),
+            }
+        }
+    };
+    let c = clip_or_first(session, clip)?;
     let landmarks = match frame {
         Some(n) => session
             .effective_frame(c, n)?
@@ -187,22 +234,38 @@ pub fn suggest_session_map(
         None => best_frame(session, c)?
             .ok_or_else(|| Error::Invalid("the clip has no frame with landmarks".into()))?,
     };
-    let head = label_mesh(session, role)?;
     let h = image_height(session, c)?;
-    let proposal =
-        suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None).map_err(|e| {
-            // Name where labels are made: the command line has no way to.
-            let r#where = match e {
-                crate::fit::suggest::SuggestError::TooFewLabels(_) => {
-                    " (in the terminal UI: `lipmap tui SESSION`, key 2 for the head view)"
-                }
-                _ => "",
-            };
-            Error::Invalid(format!("frame {}: {e}{where}", landmarks.frame))
-        })?;
+    let proposal = suggest_map(&head.as_suggest_head(), &labels, &landmarks, h, None)
+        .map_err(|e| suggest_error(&format!("frame {}", landmarks.frame), &e))?;
     let map = proposal.applied_to(&labels);
     let check = check_map(&map, &head.vertices);
-    Ok(SuggestedMap { frame: landmarks.frame, labels, proposal, map, check })
+    let from = SuggestedFrom::Frame(landmarks.frame, why_not_own);
+    Ok(SuggestedMap { from, labels, proposal, map, check })
+}
+
+/// The suggestions on the head's own face.
+fn suggest_on_own_face(
+    head: &LabelHead,
+    labels: LandmarkMap,
+    predictor: &crate::track::ShapePredictor,
+) -> Result<SuggestedMap> {
+    let proposal = suggest_map_on_own_face(&head.as_suggest_head(), &labels, predictor)
+        .map_err(|e| suggest_error("the head's own face", &e))?;
+    let map = proposal.applied_to(&labels);
+    let check = check_map(&map, &head.vertices);
+    Ok(SuggestedMap { from: SuggestedFrom::OwnFace, labels, proposal, map, check })
+}
+
+/// A suggestion's failure in one line, naming what it was matched to and, for too few
+/// labels, where labels are made (the command line has no way to).
+fn suggest_error(on: &str, e: &crate::fit::suggest::SuggestError) -> Error {
+    let r#where = match e {
+        crate::fit::suggest::SuggestError::TooFewLabels(_) => {
+            " (in the terminal UI: `lipmap tui SESSION`, key 2 for the head view)"
+        }
+        _ => "",
+    };
+    Error::Invalid(format!("{on}: {e}{where}"))
 }
 
 /// The first frame with the most visible landmarks.

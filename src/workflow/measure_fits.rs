@@ -97,8 +97,9 @@ impl MeasuredVertices {
 
 /// W, H, P of a fitted shape: P always on the mesh (the side view is compared with the
 /// head's own profile), W and H on the mesh or, for [`PoseComparison::ImagePlane`], on the
-/// landmark vertices as the frame's fitted camera projects them.
-fn measure_posed(
+/// landmark vertices as the frame's fitted camera projects them. `shape` is in the fitted
+/// model's space (a transferred head taken there: `Transfer::in_source_space`).
+pub(super) fn measure_posed(
     shape: &DVector,
     map: &LandmarkMap,
     options: &MeshMeasureOptions,

@@ -68,6 +68,12 @@ pub fn to_polyline(p: &lipmap::math::Point3, points: &[lipmap::math::Point3]) ->
         .fold(f64::INFINITY, f64::min)
 }
 
+/// How many of `map`'s landmarks share a vertex with an earlier one (0: each its own).
+pub fn vertices_used_twice(map: &lipmap::model::LandmarkMap) -> usize {
+    let used: std::collections::BTreeSet<usize> = map.to_vertex.values().copied().collect();
+    map.to_vertex.len() - used.len()
+}
+
 /// The rotation by `deg` degrees about `axis` (any length).
 pub fn rotation_deg(axis: lipmap::math::Vector3, deg: f64) -> lipmap::math::Matrix3 {
     *nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(axis), deg.to_radians())

@@ -67,13 +67,29 @@ pub(crate) fn frame_points(
 /// `λ_id·I + Σ_f s_f²/σ²·Σⱼₖ Q_f,jk·Mⱼₖ(f)` with `Mⱼₖ(f)` = `grams[f]`, the Gram blocks of
 /// the entries frame f uses ([`LandmarkBasis::used_grams`]): frames using the same entries
 /// share one combination, their projectors summed first, so the cost is per entry set, not
-/// per frame. Failed frames are left out.
+/// per frame. Failed frames are left out. Only the lower triangle (row ≥ column) is made,
+/// the part [`super::shape::cholesky_solve_in_place`] reads of the symmetric matrix; the
+/// rest is zero.
 pub(crate) fn identity_normal_matrix(
     kid: usize,
     grams: &[Arc<GramBlocks>],
     states: &[FrameState],
     params: &SolverParams,
 ) -> DMatrix {
+    let mut s = DMatrix::zeros(kid, kid);
+    identity_normal_matrix_into(&mut s, grams, states, params);
+    s
+}
+
+/// [`identity_normal_matrix`] written over the lower triangle of `s` (k_id × k_id, reused
+/// from one linearisation to the next); its strictly upper part is left as it was.
+pub(crate) fn identity_normal_matrix_into(
+    s: &mut DMatrix,
+    grams: &[Arc<GramBlocks>],
+    states: &[FrameState],
+    params: &SolverParams,
+) {
+    let kid = s.nrows();
     let mut sets: Vec<(&Arc<GramBlocks>, Matrix3)> = Vec::new();
     for (g, st) in grams.iter().zip(states).filter(|(_, s)| s.failed.is_none()) {
         let q = projector(&st.pose) * (st.pose.s * st.pose.s / params.sigma2);
@@ -82,11 +98,13 @@ pub(crate) fn identity_normal_matrix(
             None => sets.push((g, q)),
         }
     }
-    let mut s = DMatrix::identity(kid, kid) * params.lambda_identity;
-    for (g, q) in &sets {
-        g.add(q, 1.0, 0..kid, 0..kid, &mut s);
+    for c in 0..kid {
+        s.view_mut((c, c), (kid - c, 1)).fill(0.0);
+        s[(c, c)] = params.lambda_identity;
     }
-    s
+    for (g, q) in &sets {
+        g.add_lower(q, 1.0, kid, s);
+    }
 }
 
 /// Identity part `mean + B_id·α` of every landmark point.

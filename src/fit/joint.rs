@@ -16,7 +16,7 @@
 
 use super::camera::{OrthoPose, PoseResidual, PoseSums};
 use super::clip::{
-    FrameState, Group, ResidualSums, SolverParams, identity_normal_matrix, identity_points,
+    FrameState, Group, ResidualSums, SolverParams, identity_normal_matrix_into, identity_points,
     in_parallel, landmark_point,
 };
 use super::shape::{
@@ -171,23 +171,24 @@ fn observation_moments(
 }
 
 vectorised! {
-    /// `Σᵢ wᵢ·Xᵢ[a]·Bᵢ[b,:]` (row 3a + b) over all landmarks for the points `pts`: the part
-    /// of the pose–coefficient coupling that the frames share (their identity part).
-    fn point_moments<'a>(basis: &'a LandmarkBasis, pts: &'a [Vector3]) -> Vec<Real>
-        = point_moments_kernel
+    /// `Σᵢ wᵢ·Xᵢ[a]·Bᵢ[b,:]` (row 3a + b) over all landmarks for the points `pts`, written
+    /// over `m` (9K): the part of the pose–coefficient coupling that the frames share (their
+    /// identity part).
+    fn point_moments<'a>(basis: &'a LandmarkBasis, pts: &'a [Vector3], m: &'a mut Vec<Real>)
+        -> () = point_moments_kernel
 }
 
 #[inline(always)]
-fn point_moments_kernel(basis: &LandmarkBasis, pts: &[Vector3]) -> Vec<Real> {
+fn point_moments_kernel(basis: &LandmarkBasis, pts: &[Vector3], m: &mut Vec<Real>) {
     let k = basis.num_coefficients();
-    let mut m = vec![0.0; 9 * k];
+    m.clear();
+    m.resize(9 * k, 0.0);
     for (i, p) in pts.iter().enumerate() {
         let w = basis.weights[i];
         for (ab, row) in m.chunks_exact_mut(k.max(1)).enumerate() {
             axpy(w * p[ab / 3], basis.row(i, ab % 3), row);
         }
     }
-    m
 }
 
 /// `out = c₀·x₀ + c₁·x₁ + c₂·x₂` (rows of equal length).
@@ -223,6 +224,20 @@ pub(crate) struct Linearisation {
     g: DVector,
     /// Each frame's `g_α,f`, summed into `g` in frame order.
     g_frames: Vec<Real>,
+    /// Kept from one linearisation to the next: the identity points' moments, the Gram blocks
+    /// of each frame's entries, and the rows [`frame_blocks`] works in when frames are
+    /// linearised one after the other.
+    id_moments: Vec<Real>,
+    grams: Vec<Arc<GramBlocks>>,
+    scratch: Option<BlockScratch>,
+}
+
+/// `m` made n×n if it is not (new entries 0); a reused matrix of that size is left as it is
+/// (nalgebra's `resize_mut` copies the matrix even when the size does not change).
+fn square(m: &mut DMatrix, n: usize) {
+    if m.shape() != (n, n) {
+        *m = DMatrix::zeros(n, n);
+    }
 }
 
 /// Frame offsets for unknown counts `n_f`: rows (Σ n) and blocks (Σ n²).
@@ -258,9 +273,15 @@ fn split_at_offsets<'a>(
         .collect()
 }
 
-/// Runs `f` on every frame's item with a scratch buffer, in parallel (one scratch per worker)
-/// when [`in_parallel`]; results in order.
-fn each_frame_with<I, R, S, F>(items: Vec<I>, scratch: impl Fn() -> S + Sync + Send, f: F) -> Vec<R>
+/// Runs `f` on every frame's item with a scratch buffer, in parallel (one scratch per worker,
+/// made by `scratch`) when [`in_parallel`], else in order with `local`, which the caller
+/// keeps from one call to the next; results in order.
+fn each_frame_with<I, R, S, F>(
+    items: Vec<I>,
+    local: &mut S,
+    scratch: impl Fn() -> S + Sync + Send,
+    f: F,
+) -> Vec<R>
 where
     I: Send,
     R: Send,
@@ -269,8 +290,7 @@ where
     if in_parallel(items.len()) {
         items.into_par_iter().map_init(scratch, f).collect()
     } else {
-        let mut s = scratch();
-        items.into_iter().map(|i| f(&mut s, i)).collect()
+        items.into_iter().map(|i| f(local, i)).collect()
     }
 }
 
@@ -503,11 +523,11 @@ impl Linearisation {
         self.b.resize(total_rows, 0.0);
         let g_frames = &mut self.g_frames;
         g_frames.resize(states.len() * kid, 0.0);
-        let id_moments = point_moments(basis, id_pts);
+        point_moments(basis, id_pts, &mut self.id_moments);
         let sh = Shared {
             basis,
             id_pts,
-            id_moments: &id_moments,
+            id_moments: &self.id_moments,
             image_height: group.image_height,
             params,
         };
@@ -520,10 +540,13 @@ impl Linearisation {
             .enumerate()
             .filter(|(f, _)| states[*f].failed.is_none())
             .collect();
-        let grams: Vec<Arc<GramBlocks>> =
-            group.observations.iter().map(|o| basis.used_grams(&o.active)).collect();
+        let grams = &mut self.grams;
+        grams.clear();
+        grams.extend(group.observations.iter().map(|o| basis.used_grams(&o.active)));
+        let local = self.scratch.get_or_insert_with(|| BlockScratch::new(k, k_exp));
         each_frame_with(
             items,
+            local,
             || BlockScratch::new(k, k_exp),
             |scr, (f, out)| {
                 let m = moments.column(f);
@@ -531,7 +554,8 @@ impl Linearisation {
                 frame_blocks(&sh, obs, &states[f], &grams[f], m.as_slice(), scr, out)
             },
         );
-        self.s = identity_normal_matrix(kid, &grams, states, params);
+        square(&mut self.s, kid);
+        identity_normal_matrix_into(&mut self.s, grams, states, params);
         self.g = alpha * params.lambda_identity;
         for g_alpha in g_frames.chunks(kid.max(1)) {
             axpy(1.0, g_alpha, self.g.as_mut_slice());
@@ -541,12 +565,17 @@ impl Linearisation {
 
 /// The buffers of a step's elimination, reused by every try: per frame the Cholesky factor
 /// L of the damped `A_f` and `z_f = L⁻¹b_f`, stacked as in [`Linearisation`], and the
-/// back-substitution's `−δy`.
+/// back-substitution's `−δy`; each chunk's Schur terms and the stacked `W` of a chunk when
+/// chunks run one after the other; the damped identity system and its right-hand side.
 #[derive(Default)]
 pub(crate) struct StepBuffers {
     l: Vec<Real>,
     z: Vec<Real>,
     v: Vec<Real>,
+    parts: Vec<(DMatrix, DVector)>,
+    w: Vec<Real>,
+    s: DMatrix,
+    r: DVector,
 }
 
 /// Frames whose Schur terms are made in one product: their `W` (6 + free rows of k_id per
@@ -554,8 +583,9 @@ pub(crate) struct StepBuffers {
 /// chunk order, give the same total whatever the number of threads.
 const SCHUR_CHUNK: usize = 32;
 
-/// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))`, `w = L⁻¹C`, `z = L⁻¹b`
-/// (row-major, n rows). False when the damped block is not positive definite.
+/// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))` (as [`cholesky_in_place`]
+/// stores it), `w = L⁻¹C`, `z = L⁻¹b` (row-major, n rows). False when the damped block is
+/// not positive definite.
 fn eliminate(
     a: &[Real],
     c: &[Real],
@@ -593,27 +623,31 @@ fn eliminate(
     z.iter().all(|v| v.is_finite())
 }
 
-/// A chunk's Schur terms `(WᵀW, Wᵀz)` for its stacked row-major W (k_id per row). The
-/// identity solve reads one triangle of S (the upper one, S being column-major), so only the
-/// blocks on and above the diagonal of a 2×2 split are made: ¾ of the product.
-fn schur_terms(w: &[Real], z: &[Real], kid: usize) -> (DMatrix, DVector) {
+/// A chunk's Schur terms `(WᵀW, Wᵀz)` for its stacked row-major W (k_id per row), written
+/// over `(s, r)` (resized to k_id). The identity solve reads one triangle of S (the lower
+/// one, S being column-major), so only the blocks on and below the diagonal of a 2×2 split
+/// are made, ¾ of the product; the block above is left as it was.
+fn schur_terms(w: &[Real], z: &[Real], kid: usize, (s, r): &mut (DMatrix, DVector)) {
     let nrows = z.len();
-    let mut s = DMatrix::zeros(kid, kid);
-    let mut r = DVector::zeros(kid);
+    square(s, kid);
+    if r.len() != kid {
+        *r = DVector::zeros(kid);
+    }
+    r.fill(0.0);
     if nrows == 0 {
-        return (s, r);
+        s.fill(0.0);
+        return;
     }
     // Wᵀ is W read column-major; W itself has row stride k_id.
     let wt = DMatrixView::from_slice(w, kid, nrows);
     let wv = DMatrixView::from_slice_with_strides(w, nrows, kid, kid, 1);
     let h = kid / 2;
-    for (r0, c0, nr, nc) in [(0, 0, h, h), (0, h, h, kid - h), (h, h, kid - h, kid - h)] {
+    for (r0, c0, nr, nc) in [(0, 0, h, h), (h, 0, kid - h, h), (h, h, kid - h, kid - h)] {
         s.view_mut((r0, c0), (nr, nc)).gemm(1.0, &wt.rows(r0, nr), &wv.columns(c0, nc), 0.0);
     }
     for (wr, &zr) in w.chunks_exact(kid).zip(z) {
         axpy(zr, wr, r.as_mut_slice());
     }
-    (s, r)
 }
 
 /// Solves the damped system and applies the step to `out` (the current states on entry):
@@ -641,44 +675,70 @@ pub(crate) fn step(
     // their stacked W.
     let bounds: Vec<usize> = (0..frames).step_by(SCHUR_CHUNK).chain([frames]).collect();
     let at = |offsets: &[usize]| bounds.iter().map(|&f| offsets[f]).collect::<Vec<_>>();
+    let n_chunks = bounds.len() - 1;
+    if buf.parts.len() < n_chunks {
+        buf.parts.resize_with(n_chunks, || (DMatrix::zeros(0, 0), DVector::zeros(0)));
+    }
     let chunks: Vec<_> = split_at_offsets(&mut buf.l, &at(blocks), 1)
         .into_iter()
         .zip(split_at_offsets(&mut buf.z, &at(rows), 1))
         .zip(bounds.windows(2).map(|w| (w[0], w[1])))
+        .zip(buf.parts.iter_mut())
         .collect();
-    let parts = each_frame_with(chunks, Vec::new, |w: &mut Vec<Real>, ((l, z), (f0, f1))| {
-        let (b0, r0) = (blocks[f0], rows[f0]);
-        w.resize((rows[f1] - r0) * kid, 0.0);
-        for f in f0..f1 {
-            let (a, b) = (&lin.a[blocks[f]..blocks[f + 1]], &lin.b[rows[f]..rows[f + 1]]);
-            let c = &lin.c[rows[f] * kid..rows[f + 1] * kid];
-            let wf = &mut w[(rows[f] - r0) * kid..(rows[f + 1] - r0) * kid];
-            let lf = &mut l[blocks[f] - b0..blocks[f + 1] - b0];
-            let zf = &mut z[rows[f] - r0..rows[f + 1] - r0];
-            if !eliminate(a, c, b, mu, lf, wf, zf) {
-                return None;
+    let fine = each_frame_with(
+        chunks,
+        &mut buf.w,
+        Vec::new,
+        |w: &mut Vec<Real>, (((l, z), (f0, f1)), part)| {
+            let (b0, r0) = (blocks[f0], rows[f0]);
+            w.resize((rows[f1] - r0) * kid, 0.0);
+            for f in f0..f1 {
+                let (a, b) = (&lin.a[blocks[f]..blocks[f + 1]], &lin.b[rows[f]..rows[f + 1]]);
+                let c = &lin.c[rows[f] * kid..rows[f + 1] * kid];
+                let wf = &mut w[(rows[f] - r0) * kid..(rows[f + 1] - r0) * kid];
+                let lf = &mut l[blocks[f] - b0..blocks[f + 1] - b0];
+                let zf = &mut z[rows[f] - r0..rows[f + 1] - r0];
+                if !eliminate(a, c, b, mu, lf, wf, zf) {
+                    return false;
+                }
             }
-        }
-        Some(need_identity.then(|| schur_terms(w, z, kid)))
-    });
+            if need_identity {
+                schur_terms(w, z, kid, part);
+            }
+            true
+        },
+    );
+    if !fine.iter().all(|&ok| ok) {
+        return None;
+    }
     let mut dalpha = DVector::zeros(kid);
     if need_identity {
-        let mut s = lin.s.clone();
-        for d in 0..kid {
-            s[(d, d)] *= 1.0 + mu;
+        // The lower triangle of S·(1 + μ on the diagonal) − Σ WᵀW (the part the Cholesky
+        // factorisation reads), the chunks subtracted in chunk order.
+        let (s, r) = (&mut buf.s, &mut buf.r);
+        square(s, kid);
+        let (sv, lv) = (s.as_mut_slice(), lin.s.as_slice());
+        for c in 0..kid {
+            let col = c * kid + c..(c + 1) * kid;
+            sv[col.clone()].copy_from_slice(&lv[col]);
+            sv[c * kid + c] *= 1.0 + mu;
         }
-        let mut r = lin.g.clone();
-        for part in parts {
-            let (ps, pr) = part??;
-            s -= ps;
-            r -= pr;
+        r.clone_from(&lin.g);
+        for (ps, pr) in &buf.parts[..n_chunks] {
+            let pv = ps.as_slice();
+            for c in 0..kid {
+                let col = c * kid + c..(c + 1) * kid;
+                for (o, &v) in sv[col.clone()].iter_mut().zip(&pv[col]) {
+                    *o -= v;
+                }
+            }
+            *r -= pr;
         }
         if !cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()) {
             return None;
         }
-        dalpha = -r;
-    } else if parts.iter().any(Option::is_none) {
-        return None;
+        dalpha.copy_from(r);
+        dalpha.neg_mut();
     }
     let (l, z) = (&buf.l, &buf.z);
     buf.v.resize(nrows, 0.0);
@@ -966,8 +1026,12 @@ mod tests {
             assert!(relative(b, &rhs.as_slice()[off..off + n]) < 1e-10, "frame {f} b");
             off += n;
         }
-        let want_s: Vec<Real> = (0..kid * kid).map(|x| m[(a0 + x % kid, a0 + x / kid)]).collect();
-        assert!(relative(lin.s.as_slice(), &want_s) < 1e-10, "S");
+        // S is kept as its lower triangle (what the Cholesky factorisation reads).
+        let lower = |s: &dyn Fn(usize, usize) -> Real| -> Vec<Real> {
+            (0..kid).flat_map(|c| (c..kid).map(move |r| (r, c))).map(|(r, c)| s(r, c)).collect()
+        };
+        let (got_s, want_s) = (lower(&|r, c| lin.s[(r, c)]), lower(&|r, c| m[(a0 + r, a0 + c)]));
+        assert!(relative(&got_s, &want_s) < 1e-10, "S");
         assert!(relative(lin.g.as_slice(), &rhs.as_slice()[a0..]) < 1e-10, "g");
     }
 

@@ -453,7 +453,21 @@ impl GramBlocks {
         cols: std::ops::Range<usize>,
         out: &mut DMatrix,
     ) {
-        add_gram(self, GRAM_PAIRS.map(|(a, b)| scale * q[(a, b)]), rows, cols, out);
+        let f = GRAM_PAIRS.map(|(a, b)| scale * q[(a, b)]);
+        add_gram(self, f, rows, cols, false, out);
+    }
+
+    /// [`GramBlocks::add`] over the square block `0..n`, its lower triangle only (row ≥
+    /// column; the rest of `out` is left as it was): what [`cholesky_in_place`] reads of a
+    /// column-major symmetric matrix, at half the multiply-adds.
+    pub(crate) fn add_lower(
+        &self,
+        q: &crate::math::Matrix3,
+        scale: Real,
+        n: usize,
+        out: &mut DMatrix,
+    ) {
+        add_gram(self, GRAM_PAIRS.map(|(a, b)| scale * q[(a, b)]), 0..n, 0..n, true, out);
     }
 
     #[inline(always)]
@@ -462,16 +476,21 @@ impl GramBlocks {
         f: [Real; 6],
         rows: std::ops::Range<usize>,
         cols: std::ops::Range<usize>,
+        lower: bool,
         out: &mut DMatrix,
     ) {
         let (k, n) = (grams.0[0].nrows(), rows.len());
         for (oc, c) in cols.enumerate() {
+            // Rows of this column: all, or those on and below the diagonal.
+            let first = if lower { oc.min(n) } else { 0 };
             let g: [&[Real]; 6] = std::array::from_fn(|i| {
-                &grams.0[i].as_slice()[c * k + rows.start..c * k + rows.end]
+                &grams.0[i].as_slice()[c * k + rows.start + first..c * k + rows.end]
             });
-            let g = g.map(|x| &x[..n]);
-            let o = &mut out.as_mut_slice()[oc * n..(oc + 1) * n];
-            for r in 0..n {
+            let o = &mut out.as_mut_slice()[oc * n + first..(oc + 1) * n];
+            // Equal lengths the compiler can see, so that the loop has no bounds checks and
+            // vectorises.
+            let g = g.map(|x| &x[..o.len()]);
+            for r in 0..o.len() {
                 o[r] = o[r]
                     + f[0] * g[0][r]
                     + f[1] * g[1][r]
@@ -540,6 +559,7 @@ vectorised! {
         f: [Real; 6],
         rows: std::ops::Range<usize>,
         cols: std::ops::Range<usize>,
+        lower: bool,
         out: &'a mut DMatrix,
     ) -> () = GramBlocks::add_kernel
 }
@@ -753,29 +773,34 @@ pub fn fit_coefficients_linear(
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
-/// Solves `A·x = b` in place for a symmetric positive definite `A` (n×n, either storage order,
-/// only the lower triangle read and overwritten by its Cholesky factor). Returns false when a
+/// Solves `A·x = b` in place for a symmetric positive definite `A` (n×n; the triangle
+/// [`cholesky_in_place`] reads is overwritten by the Cholesky factor). Returns false when a
 /// pivot is not positive. Written out because the fit's 63–69-wide systems are solved many
 /// times per frame (see [`cholesky_in_place`] for the loop order).
 pub(crate) fn cholesky_solve_in_place(a: &mut [Real], n: usize, b: &mut [Real]) -> bool {
     cholesky_in_place(a, n) && cholesky_substitute(a, n, b)
 }
 
-/// Columns of L factored before their update of the rows below (see [`cholesky_in_place`]).
+/// Columns of L factored before their update of the columns after them (see
+/// [`cholesky_in_place`]).
 const PANEL: usize = 4;
 
-/// The Cholesky factor L (A = LLᵀ) of a symmetric positive definite n×n `a`, written over
-/// its lower triangle in row-major order (row j of L in row j); the upper triangle is left
-/// as it was. False when a pivot is not positive or not finite.
+/// The Cholesky factor L (A = LLᵀ) of a symmetric positive definite n×n `a`, read from the
+/// entries `a[c·n + i]` with i ≥ c (the lower triangle of a column-major matrix such as
+/// nalgebra's `DMatrix`, the upper one of a row-major matrix) and written over both
+/// triangles: column c of L is the contiguous run `a[c·n + c..c·n + n]`, and row j of L the
+/// contiguous run `a[j·n..j·n + j + 1]`, which the substitutions read
+/// ([`forward_substitute_rows`], [`back_substitute_rows`]). False when a pivot is not
+/// positive or not finite.
 ///
 /// The outer-product form (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2): column k
-/// of L is scaled by its pivot and subtracted as a rank-1 update from every later row; each
-/// row's update is a contiguous multiply-add independent of the others, which vectorises
-/// (an entry made as a dot product of two rows waits for the entry before it and its
-/// division). The columns are taken [`PANEL`] at a time: a panel is factored, then each later
-/// row gets the panel's [`PANEL`] updates in one pass, in the same order as one at a time, so
-/// the factor is the same to the bit; one pass per row and panel instead of per column
-/// matters at the fit's sizes (~63), where a row's update is only a few vectors long.
+/// of L is scaled by its pivot and subtracted as a rank-1 update from every later column.
+/// Columns are contiguous, so scaling a column, the updates inside a panel and the updates of
+/// the later columns are all contiguous multiply-adds, which vectorise. The columns are taken
+/// [`PANEL`] at a time: a panel is factored, then each later column gets the panel's
+/// [`PANEL`] updates in one pass (two columns per pass, sharing the panel's loads), in the
+/// same order as one at a time, so every entry sees the same operations in the same order
+/// as in the plain column-by-column form and the factor is the same to the bit.
 pub(crate) fn cholesky_in_place(a: &mut [Real], n: usize) -> bool {
     debug_assert!(a.len() >= n * n);
     cholesky_vectorised(a, n)
@@ -787,53 +812,92 @@ vectorised! {
 
 #[inline(always)]
 fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
-    // The panel's columns of L below the panel, column by column, read contiguously.
-    let mut below = vec![0.0; PANEL * n];
     let mut k = 0;
     while k < n {
         let end = (k + PANEL).min(n);
+        // The panel: each column scaled by its pivot, then subtracted from the panel's later
+        // columns.
         for c in k..end {
-            let d = a[c * n + c];
+            let (done, rest) = a.split_at_mut((c + 1) * n);
+            let col = &mut done[c * n..];
+            let d = col[c];
             if !d.is_finite() || d <= 0.0 {
                 return false;
             }
             let d = d.sqrt();
-            a[c * n + c] = d;
+            col[c] = d;
             let inv = 1.0 / d;
-            for i in c + 1..n {
-                let l = a[i * n + c] * inv;
-                a[i * n + c] = l;
-                // The rest of the panel's columns in this row.
-                for m in c + 1..end.min(i + 1) {
-                    a[i * n + m] -= l * a[m * n + c];
+            for v in &mut col[c + 1..n] {
+                *v *= inv;
+            }
+            for m in c + 1..end {
+                let lmc = col[m];
+                let cm = &mut rest[(m - c - 1) * n..(m - c) * n];
+                for (x, &l) in cm[m..n].iter_mut().zip(&col[m..n]) {
+                    *x -= l * lmc;
                 }
             }
         }
-        for (c, col) in below.chunks_exact_mut(n).take(end - k).enumerate() {
-            for i in end..n {
-                col[i] = a[i * n + k + c];
-            }
-        }
-        for i in end..n {
-            let row = &mut a[i * n + k..i * n + i + 1];
-            let (l, row) = row.split_at_mut(end - k);
-            let len = row.len();
-            let run = |c: usize| &below[c * n + end..c * n + end + len];
-            if let [l0, l1, l2, l3] = *l {
-                let (b0, b1, b2, b3) = (run(0), run(1), run(2), run(3));
-                for ((((r, &x0), &x1), &x2), &x3) in row.iter_mut().zip(b0).zip(b1).zip(b2).zip(b3)
-                {
-                    *r = *r - l0 * x0 - l1 * x1 - l2 * x2 - l3 * x3;
-                }
-            } else {
-                for (c, &lc) in l.iter().enumerate() {
-                    axpy(-lc, run(c), row);
+        let (panel, later) = a.split_at_mut(end * n);
+        let panel = &panel[k * n..];
+        if end - k == PANEL {
+            update_later_columns(panel, later, n, end);
+        } else {
+            for (j, col) in (end..n).zip(later.chunks_exact_mut(n)) {
+                for pc in panel.chunks_exact(n) {
+                    let l = pc[j];
+                    for (x, &y) in col[j..].iter_mut().zip(&pc[j..]) {
+                        *x -= y * l;
+                    }
                 }
             }
         }
         k = end;
     }
+    // The rows of L as well, over the other triangle.
+    for j in 0..n {
+        for q in 0..j {
+            a[j * n + q] = a[q * n + j];
+        }
+    }
     true
+}
+
+/// Column j ≥ `first` of `later` (n-long columns from column `first` on) less the four
+/// panel columns' rank-1 terms, `col_j[i] −= Σ_c L[i][c]·L[j][c]` for i ≥ j, c in panel
+/// order; two columns per pass.
+#[inline(always)]
+fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usize) {
+    let (p0, rest) = panel.split_at(n);
+    let (p1, rest) = rest.split_at(n);
+    let (p2, p3) = rest.split_at(n);
+    let mut cols = later.chunks_exact_mut(n);
+    let mut j = first;
+    while let Some(ca) = cols.next() {
+        let la = [p0[j], p1[j], p2[j], p3[j]];
+        ca[j] = ca[j] - p0[j] * la[0] - p1[j] * la[1] - p2[j] * la[2] - p3[j] * la[3];
+        let s = j + 1;
+        let (x0, x1, x2, x3) = (&p0[s..], &p1[s..], &p2[s..], &p3[s..]);
+        match cols.next() {
+            Some(cb) => {
+                let lb = [p0[s], p1[s], p2[s], p3[s]];
+                let rows = ca[s..].iter_mut().zip(cb[s..].iter_mut());
+                for (((((x, y), &a0), &a1), &a2), &a3) in rows.zip(x0).zip(x1).zip(x2).zip(x3) {
+                    *x = *x - a0 * la[0] - a1 * la[1] - a2 * la[2] - a3 * la[3];
+                    *y = *y - a0 * lb[0] - a1 * lb[1] - a2 * lb[2] - a3 * lb[3];
+                }
+                j += 2;
+            }
+            None => {
+                for ((((x, &a0), &a1), &a2), &a3) in
+                    ca[s..].iter_mut().zip(x0).zip(x1).zip(x2).zip(x3)
+                {
+                    *x = *x - a0 * la[0] - a1 * la[1] - a2 * la[2] - a3 * la[3];
+                }
+                j += 1;
+            }
+        }
+    }
 }
 
 /// Solves `LLᵀx = b` in place for the factor [`cholesky_in_place`] wrote; false when the
@@ -844,7 +908,7 @@ pub(crate) fn cholesky_substitute(l: &[Real], n: usize, b: &mut [Real]) -> bool 
     b[..n].iter().all(|v| v.is_finite())
 }
 
-/// `b ← L⁻¹b` for the row-major lower-triangular factor of [`cholesky_in_place`].
+/// `b ← L⁻¹b` for the factor of [`cholesky_in_place`], read by rows.
 #[inline]
 pub(crate) fn forward_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
     for j in 0..n {
@@ -853,7 +917,7 @@ pub(crate) fn forward_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
     }
 }
 
-/// `b ← L⁻ᵀb` for the row-major lower-triangular factor of [`cholesky_in_place`].
+/// `b ← L⁻ᵀb` for the factor of [`cholesky_in_place`], read by rows.
 #[inline]
 pub(crate) fn back_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
     for j in (0..n).rev() {
@@ -960,9 +1024,11 @@ mod tests {
             assert!(cholesky_solve_in_place(&mut a, n, &mut x), "n = {n}");
             assert!((DVector::from_vec(x) - want).amax() < 1e-12, "n = {n}");
             let l = chol.l();
+            // L's column j is the run from a[j·n + j], its row i the run from a[i·n].
             for i in 0..n {
                 for j in 0..=i {
-                    assert!((a[i * n + j] - l[(i, j)]).abs() < 1e-12, "n = {n}, L[{i}][{j}]");
+                    assert!((a[j * n + i] - l[(i, j)]).abs() < 1e-12, "n = {n}, L[{i}][{j}]");
+                    assert_eq!(a[i * n + j].to_bits(), a[j * n + i].to_bits(), "n = {n}");
                 }
             }
         }

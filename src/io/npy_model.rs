@@ -466,20 +466,23 @@ impl NpyF32Writer {
                 format!("more than the {} values its shape holds", self.expected),
             ));
         }
+        // The check and the conversion as two plain passes, which the compiler vectorises
+        // (an early return inside the conversion kept it to one value at a time).
+        let finite = values.iter().fold(true, |ok, &v| ok & (v.into() as f32).is_finite());
+        if !finite {
+            let k = values.iter().position(|&v| !(v.into() as f32).is_finite()).unwrap_or(0);
+            return Err(FormatError::whole(
+                &self.path,
+                format!(
+                    "value {} is {}, not a number lipmap writes (nothing written)",
+                    first + k as u64,
+                    crate::math::short_number(values[k].into())
+                ),
+            ));
+        }
         self.bytes.resize(4 * values.len(), 0);
-        for (k, (out, &v)) in self.bytes.chunks_exact_mut(4).zip(values).enumerate() {
-            let x = v.into() as f32;
-            if !x.is_finite() {
-                return Err(FormatError::whole(
-                    &self.path,
-                    format!(
-                        "value {} is {}, not a number lipmap writes (nothing written)",
-                        first + k as u64,
-                        crate::math::short_number(v.into())
-                    ),
-                ));
-            }
-            out.copy_from_slice(&x.to_le_bytes());
+        for (out, &v) in self.bytes.chunks_exact_mut(4).zip(values) {
+            out.copy_from_slice(&(v.into() as f32).to_le_bytes());
         }
         std::io::Write::write_all(&mut self.file, &self.bytes)
             .map_err(|e| FormatError::io(&self.path, e))

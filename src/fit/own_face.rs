@@ -147,7 +147,7 @@ pub fn own_face_landmarks(
         predictor,
         gray.view(),
         &face,
-        &CascadeStart { shape: Some(&start), held: &held },
+        &CascadeStart { shape: Some(&start), held: &held, carry: None },
     );
     for &(l, p) in &held {
         shape[l] = p;

@@ -12,7 +12,8 @@
 
 use super::PointNo;
 pub use super::flags_image::{
-    FrameRgb, RgbPixels, frame_image_flag, image_flags, lower_lip_off_opening,
+    FrameRgb, LipEdgeOffset, RgbPixels, flags_of_lip_edges, image_flags, lip_edge_offsets,
+    lip_edge_registration, lower_lip_edge_offset, lower_lip_off_opening,
 };
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
@@ -58,8 +59,8 @@ pub enum FlagReason {
     /// (5th to 95th percentile), a robust z-score `z` of such breaks.
     MeasureOutlier { measure: String, z: f64, range_fraction: f64 },
     /// Image evidence: inner lower lip point `point` sits `px` pixels (`face_fraction` of the
-    /// face size) below the edge of the open mouth, on something neither dark nor teeth
-    /// between them — the tongue (`flags_image`).
+    /// face size) above the lower lip's edge in the image, on the tongue between the lip and
+    /// the open mouth's dark (`flags_image`).
     LowerLipOffOpening { point: usize, px: f64, face_fraction: f64 },
 }
 
@@ -94,7 +95,7 @@ impl fmt::Display for FlagReason {
             Self::LowerLipOffOpening { point, px, face_fraction } => write!(
                 f,
                 "point {} lower lip on the tongue: {px:.1} px ({face_fraction:.3} of eye \
-                 distance) below the open mouth's edge in the image",
+                 distance) above the lower lip's edge in the image",
                 PointNo(*point)
             ),
         }
@@ -178,11 +179,14 @@ pub struct FlagThresholds {
     /// clip: a fast real opening is a large z on a mostly still clip, but a small part of
     /// the speaker's range.
     pub measure_range_fraction: f64,
-    /// An inner lower lip point further below the open mouth's edge than this fraction of
-    /// the face size...
+    /// The image evidence on the lower lip reads only frames whose inner lips are further
+    /// apart than this fraction of the face size...
     pub lower_lip_opening_face_fraction: f64,
-    /// ...plus this many pixels, the blur of the edge itself, is flagged (image evidence).
+    /// ...plus this many pixels, the blur of the open mouth's edge.
     pub lower_lip_edge_px: f64,
+    /// An inner lower lip point more than this fraction of the face size above the lower
+    /// lip's edge in the image (on the tongue) is flagged.
+    pub lower_lip_edge_face_fraction: f64,
 }
 
 impl Default for FlagThresholds {
@@ -204,6 +208,7 @@ impl Default for FlagThresholds {
             measure_range_fraction: 0.5,
             lower_lip_opening_face_fraction: 0.08,
             lower_lip_edge_px: 1.0,
+            lower_lip_edge_face_fraction: 0.025,
         }
     }
 }

@@ -118,17 +118,71 @@ fn interior_above(
         .map(|k| k as f64 * STEP_PX)
 }
 
-/// The flag of one frame whose inner lower lip sits below the open mouth's edge by more than
-/// `lower_lip_opening_face_fraction` of `face_size` plus the edge's blur
-/// (`lower_lip_edge_px`): the median over the three inner lower points must exceed it (one
-/// point astray is the shape checks' business), and the point furthest from the edge is
-/// named. Frames whose lips are closed, or whose opening shows no dark interior, give none.
-pub fn lower_lip_off_opening(
+/// Redness, (R − G) / R: the lip is redder than the tongue and the mouth's dark interior
+/// at any brightness.
+fn redness(c: [f64; 3]) -> f64 {
+    if c[0] <= 0.0 { 0.0 } else { (c[0] - c[1]) / c[0] }
+}
+
+/// Standard deviation (px) of the Gaussian that smooths the redness before its edge is
+/// sought: a video frame's lip edge is a pixel or two wide, and a single pixel's colour is
+/// noise at that scale.
+const REDNESS_SIGMA_PX: f64 = 0.7;
+
+/// [`redness`] at `p`, Gaussian-weighted (σ [`REDNESS_SIGMA_PX`]) over a 5×5 grid of
+/// bilinear samples half a pixel apart; `None` off the image.
+fn smoothed_redness(img: &FrameRgb<'_>, p: Point2) -> Option<f64> {
+    let (mut sum, mut weights) = (0.0, 0.0);
+    for i in -2..=2_i32 {
+        for j in -2..=2_i32 {
+            let (dx, dy) = (0.5 * f64::from(i), 0.5 * f64::from(j));
+            let w = (-(dx * dx + dy * dy) / (2.0 * REDNESS_SIGMA_PX * REDNESS_SIGMA_PX)).exp();
+            sum += w * redness(img.sample(Point2::new(p.x + dx, p.y + dy))?);
+            weights += w;
+        }
+    }
+    Some(sum / weights)
+}
+
+/// Where (px along `up` from inner lower lip point `q`; negative below it) the lower lip's
+/// own edge lies in the image: the steepest rise of [`smoothed_redness`] going down, between
+/// a pixel under the mouth's interior (`interior` px above `q`; the interior's own edge,
+/// dark to red, is blurred that far by the smoothing) and half a pixel inside the outer lip
+/// (`below` px under `q`). `None` when that span holds fewer than three samples.
+fn lip_edge(img: &FrameRgb<'_>, q: Point2, up: Vector2, interior: f64, below: f64) -> Option<f64> {
+    let (from, to) = (-below + 0.5, interior - 1.0);
+    if to - from < 2.0 * STEP_PX {
+        return None;
+    }
+    let steps = ((to - from) / STEP_PX).floor() as usize;
+    let t = |k: usize| from + k as f64 * STEP_PX;
+    let r: Vec<f64> =
+        (0..=steps).map(|k| smoothed_redness(img, q + up * t(k))).collect::<Option<_>>()?;
+    let k = (0..steps).max_by(|&a, &b| (r[a] - r[a + 1]).total_cmp(&(r[b] - r[b + 1])))?;
+    Some(0.5 * (t(k) + t(k + 1)))
+}
+
+/// How far one open frame's inner lower lip sits above the lower lip's edge in the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LipEdgeOffset {
+    /// The median over the inner lower points (px; negative below the edge).
+    pub median_px: f64,
+    /// The point (0-based iBUG id) furthest above the edge, and its distance (px).
+    pub furthest: (usize, f64),
+}
+
+/// Along the mouth's vertical through each inner lower point of `frame`, the distance from
+/// the lower lip's edge in the image up to the point: the lip's edge is the steepest rise
+/// of redness going down from just under the dark interior to the outer lip
+/// ([`lip_edge`]). `None` for lips too close to hold more than the edge of the interior
+/// (`lower_lip_opening_face_fraction` of `face_size` plus `lower_lip_edge_px`), an opening
+/// with no dark interior, or fewer than two points measured.
+pub fn lower_lip_edge_offset(
     frame: &FrameLandmarks,
     img: &FrameRgb<'_>,
     face_size: f64,
     th: &FlagThresholds,
-) -> Option<FlagReason> {
+) -> Option<LipEdgeOffset> {
     let pos = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
     let across = pos(54)? - pos(48)?;
     if across.norm() <= 1e-9 || face_size <= 0.0 {
@@ -136,17 +190,19 @@ pub fn lower_lip_off_opening(
     }
     // Image y points down: the corner line turned by −90° points up the face.
     let up = Vector2::new(across.y, -across.x).normalize();
-    let limit = th.lower_lip_opening_face_fraction * face_size + th.lower_lip_edge_px;
+    let open = th.lower_lip_opening_face_fraction * face_size + th.lower_lip_edge_px;
     let mut offsets: Vec<(usize, f64)> = Vec::new();
     for (lower, upper, outer) in LOWER_LIP_COLUMNS {
         let (Some(q), Some(u), Some(o)) = (pos(lower), pos(upper), pos(outer)) else { continue };
         let (reach, below) = ((u - q).dot(&up), (q - o).dot(&up));
         // An opening too narrow to hold more than the edge itself cannot show the mistake.
-        if reach <= limit || below <= 0.0 {
+        if reach <= open || below <= 0.0 {
             continue;
         }
-        if let Some(d) = interior_above(img, q, up, reach, below) {
-            offsets.push((lower, d));
+        let edge = interior_above(img, q, up, reach, below)
+            .and_then(|interior| lip_edge(img, q, up, interior, below));
+        if let Some(edge) = edge {
+            offsets.push((lower, -edge));
         }
     }
     if offsets.len() < 2 {
@@ -154,12 +210,50 @@ pub fn lower_lip_off_opening(
     }
     let mut d: Vec<f64> = offsets.iter().map(|o| o.1).collect();
     d.sort_by(f64::total_cmp);
-    let median =
-        if d.len() % 2 == 1 { d[d.len() / 2] } else { 0.5 * (d[d.len() / 2 - 1] + d[d.len() / 2]) };
-    if median <= limit {
+    let furthest = offsets.into_iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(LipEdgeOffset { median_px: median_of_sorted(&d), furthest })
+}
+
+fn median_of_sorted(d: &[f64]) -> f64 {
+    let n = d.len();
+    if n % 2 == 1 { d[n / 2] } else { 0.5 * (d[n / 2 - 1] + d[n / 2]) }
+}
+
+/// Fewest measured frames from which a clip's registration is estimated; below it none is
+/// taken off.
+const MIN_REGISTRATION_FRAMES: usize = 5;
+
+/// The clip's registration between its points and its frames, in face sizes: the median of
+/// the frames' [`LipEdgeOffset::median_px`] over their face sizes. A tracker's points can
+/// sit a fraction of a pixel off the image (a file convention, a resize, the tracker's own
+/// bias), which shifts every frame's distance from the lip's edge alike; the median frame is
+/// taken as placed right. 0 for fewer than [`MIN_REGISTRATION_FRAMES`] frames.
+pub fn lip_edge_registration(offsets: &[(usize, f64, LipEdgeOffset)]) -> f64 {
+    if offsets.len() < MIN_REGISTRATION_FRAMES {
+        return 0.0;
+    }
+    let mut d: Vec<f64> = offsets.iter().map(|(_, size, o)| o.median_px / size).collect();
+    d.sort_by(f64::total_cmp);
+    median_of_sorted(&d)
+}
+
+/// The flag of one open frame whose inner lower lip sits above the lower lip's edge in the
+/// image by more than `lower_lip_edge_face_fraction` of `face_size` beyond the clip's
+/// `registration` (face sizes; [`lip_edge_registration`]): the points ride on the tongue
+/// (the band between the open mouth's dark and the lip proper). The median over the points
+/// must exceed the limit (one point astray is the shape checks' business); the point
+/// furthest above the edge is named, with its distance beyond the registration.
+pub fn lower_lip_off_opening(
+    offset: &LipEdgeOffset,
+    face_size: f64,
+    registration: f64,
+    th: &FlagThresholds,
+) -> Option<FlagReason> {
+    let excess = |px: f64| px - registration * face_size;
+    if excess(offset.median_px) <= th.lower_lip_edge_face_fraction * face_size {
         return None;
     }
-    let (point, px) = offsets.into_iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (point, px) = (offset.furthest.0, excess(offset.furthest.1));
     Some(FlagReason::LowerLipOffOpening { point, px, face_fraction: px / face_size })
 }
 
@@ -180,15 +274,15 @@ impl<T: RgbPixels + ?Sized> RgbPixels for std::sync::Arc<T> {
     }
 }
 
-/// The image flags of a clip: [`lower_lip_off_opening`] on every frame whose mouth is open
-/// enough to be checked ([`mouth_open_enough`]) and that `image_of` gives an image for
+/// The lip-edge offsets of a clip: [`lower_lip_edge_offset`] on every frame whose mouth is
+/// open enough to be checked ([`mouth_open_enough`]) and that `image_of` gives an image for
 /// (frame number → its pixels; frames it has none for are skipped, and frames too closed to
-/// check are never asked for).
-pub fn image_flags<T: RgbPixels>(
+/// check are never asked for), each as (frame number, face size, offset).
+pub fn lip_edge_offsets<T: RgbPixels>(
     track: &Track,
     image_of: impl Fn(usize) -> Option<T>,
     th: &FlagThresholds,
-) -> Vec<(usize, FlagReason)> {
+) -> Vec<(usize, f64, LipEdgeOffset)> {
     let sizes = face_sizes(track);
     track
         .frames
@@ -200,25 +294,34 @@ pub fn image_flags<T: RgbPixels>(
                 return None;
             }
             let img = image_of(f.frame)?;
-            lower_lip_off_opening(f, &img.frame_rgb(), size, th).map(|r| (f.frame, r))
+            lower_lip_edge_offset(f, &img.frame_rgb(), size, th).map(|o| (f.frame, size, o))
         })
         .collect()
 }
 
-/// The image flag of the frame at position `pos` of `track`, read from its pixels `img`
-/// (one frame re-checked after an edit); `None` when it has none or `pos` is out of range.
-pub fn frame_image_flag(
+/// The image flags of a clip: [`lower_lip_off_opening`] on each of its
+/// [`lip_edge_offsets`], beyond the registration they give ([`lip_edge_registration`]).
+pub fn image_flags<T: RgbPixels>(
     track: &Track,
-    pos: usize,
-    img: &FrameRgb<'_>,
+    image_of: impl Fn(usize) -> Option<T>,
     th: &FlagThresholds,
-) -> Option<FlagReason> {
-    let frame = track.frames.get(pos)?;
-    let size = face_sizes(track).get(pos).copied().flatten()?;
-    if !mouth_open_enough(frame, size, th) {
-        return None;
-    }
-    lower_lip_off_opening(frame, img, size, th)
+) -> Vec<(usize, FlagReason)> {
+    flags_of_lip_edges(&lip_edge_offsets(track, image_of, th), th)
+}
+
+/// The flags of a clip's lip-edge offsets (frame number, face size, offset), each judged
+/// beyond the registration of them all.
+pub fn flags_of_lip_edges(
+    offsets: &[(usize, f64, LipEdgeOffset)],
+    th: &FlagThresholds,
+) -> Vec<(usize, FlagReason)> {
+    let registration = lip_edge_registration(offsets);
+    offsets
+        .iter()
+        .filter_map(|(frame, size, o)| {
+            lower_lip_off_opening(o, *size, registration, th).map(|r| (*frame, r))
+        })
+        .collect()
 }
 
 /// Whether the tracked inner lips of `frame` are far enough apart for the check to mean
@@ -268,26 +371,59 @@ mod tests {
         FrameLandmarks::new(0, pts)
     }
 
+    /// The one frame's flag against no registration.
+    fn flag_of(f: &FrameLandmarks, img: &image::RgbImage) -> Option<FlagReason> {
+        let th = FlagThresholds::default();
+        let offset = lower_lip_edge_offset(f, &FrameRgb::of(img), 50.0, &th)?;
+        lower_lip_off_opening(&offset, 50.0, 0.0, &th)
+    }
+
     #[test]
     fn a_lower_lip_on_the_tongue_is_flagged_and_one_on_the_lip_edge_is_not() {
-        let th = FlagThresholds::default();
-        // The point at row 30, the lip's edge: right under the interior, or under 8 px of
-        // tongue when the interior ends at row 22.
-        let on_edge = image(30);
-        let f = frame(30.0);
-        assert_eq!(lower_lip_off_opening(&f, &FrameRgb::of(&on_edge), 50.0, &th), None);
-        let tongue = image(22);
-        let flag = lower_lip_off_opening(&f, &FrameRgb::of(&tongue), 50.0, &th).unwrap();
+        // The tongue from the interior's end (row 22) to the lip's edge (row 30).
+        let img = image(22);
+        let on_edge = frame(30.0);
+        let offset =
+            lower_lip_edge_offset(&on_edge, &FrameRgb::of(&img), 50.0, &FlagThresholds::default())
+                .unwrap();
+        assert!(offset.median_px.abs() < 1.0, "{offset:?}");
+        assert_eq!(flag_of(&on_edge, &img), None);
+        // Points 5 px up the tongue.
+        let flag = flag_of(&frame(25.0), &img).unwrap();
         match flag {
             FlagReason::LowerLipOffOpening { point, px, face_fraction } => {
                 assert!(LOWER_LIP_COLUMNS.iter().any(|c| c.0 == point));
-                assert!((px - 8.5).abs() < 1.0, "{px}");
+                assert!((px - 5.0).abs() < 1.0, "{px}");
                 assert!((face_fraction - px / 50.0).abs() < 1e-12);
             }
             other => panic!("{other:?}"),
         }
-        // A tongue band no wider than the limit (0.08·50 + 1 = 5 px) is not flagged.
-        assert_eq!(lower_lip_off_opening(&f, &FrameRgb::of(&image(26)), 50.0, &th), None);
+        // A point no further up than the limit (0.025 · 50 = 1.25 px) is not flagged.
+        assert_eq!(flag_of(&frame(29.0), &img), None);
+    }
+
+    #[test]
+    fn the_clips_registration_is_taken_off_every_frame() {
+        let th = FlagThresholds::default();
+        let img = std::sync::Arc::new(image(22));
+        // Every frame's points 2 px up the tongue, as a tracker whose points sit 2 px off
+        // the image places them: the clip's registration takes it off, and nothing is
+        // flagged; one frame 7 px up is.
+        let mut frames: Vec<FrameLandmarks> = (0..6).map(|_| frame(28.0)).collect();
+        frames.push(frame(23.0));
+        for (k, f) in frames.iter_mut().enumerate() {
+            f.frame = k;
+        }
+        let track = Track::new(frames);
+        let offsets = lip_edge_offsets(&track, |_| Some(img.clone()), &th);
+        assert_eq!(offsets.len(), 7);
+        let registration = lip_edge_registration(&offsets);
+        assert!((registration * 50.0 - 2.0).abs() < 0.5, "{registration}");
+        let flagged: Vec<usize> =
+            image_flags(&track, |_| Some(img.clone()), &th).into_iter().map(|f| f.0).collect();
+        assert_eq!(flagged, vec![6]);
+        // Too few frames to estimate it: none is taken off.
+        assert_eq!(lip_edge_registration(&offsets[..MIN_REGISTRATION_FRAMES - 1]), 0.0);
     }
 
     #[test]
@@ -295,19 +431,16 @@ mod tests {
         let th = FlagThresholds::default();
         let closed = frame(9.0);
         assert!(!mouth_open_enough(&closed, 50.0, &th));
-        let track = Track::new(vec![closed, frame(30.0)]);
+        let track = Track::new(vec![closed, frame(25.0)]);
         let tongue = std::sync::Arc::new(image(22));
         let all = |_: usize| Some(tongue.clone());
         // Only the open frame is looked at; both frames are number 0 here, so the one flag
         // comes from the open one.
         assert_eq!(image_flags(&track, all, &th).len(), 1);
-        assert!(frame_image_flag(&track, 1, &FrameRgb::of(&tongue), &th).is_some());
-        assert_eq!(frame_image_flag(&track, 0, &FrameRgb::of(&tongue), &th), None);
-        assert_eq!(frame_image_flag(&track, 2, &FrameRgb::of(&tongue), &th), None);
         let none = |_: usize| None::<image::RgbImage>;
         assert!(image_flags(&track, none, &th).is_empty());
         // Off the image: no evidence either way.
         let tiny = image::RgbImage::new(4, 4);
-        assert_eq!(lower_lip_off_opening(&frame(30.0), &FrameRgb::of(&tiny), 50.0, &th), None);
+        assert_eq!(lower_lip_edge_offset(&frame(30.0), &FrameRgb::of(&tiny), 50.0, &th), None);
     }
 }

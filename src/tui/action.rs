@@ -332,8 +332,9 @@ actions! {
         SideFailed { error: String } => side::side_failed;
         SideFrameLoaded { frame: usize, image: Arc<FrameImage> } => side::side_frame_loaded;
         SideFrameFailed { frame: usize, error: String } => side::side_frame_failed;
-        /// The image checks of the whole clip, made on a job over the frames at start.
-        ImagesChecked { flags: Vec<(usize, crate::landmarks::flags::FlagReason)> }
+        /// The image evidence of the whole clip (frame, face size, lip-edge offset), measured
+        /// on a job over the frames at start.
+        ImagesChecked { offsets: Vec<(usize, f64, crate::landmarks::flags::LipEdgeOffset)> }
             => frames::images_checked;
         /// A map read from `path` by `LoadMap`.
         MapLoaded { map: crate::model::LandmarkMap, path: String } => head::map_loaded;

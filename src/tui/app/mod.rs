@@ -22,8 +22,8 @@ use super::screens::side::SideState;
 use crate::alignment::Alignment;
 use crate::fit::{FitSettings, FrameFit};
 use crate::landmarks::flags::{
-    FlagReason, FlagThresholds, FrameFlags, FrameRgb, MeasureSeries, RgbPixels, add_reasons,
-    image_flags,
+    FlagThresholds, FrameFlags, FrameRgb, LipEdgeOffset, MeasureSeries, RgbPixels, add_reasons,
+    flags_of_lip_edges, lip_edge_offsets,
 };
 use crate::landmarks::{N_LANDMARKS, Track};
 use crate::model::{LandmarkMap, Mesh, MorphableModel};
@@ -138,9 +138,11 @@ pub struct App {
     /// Position in `track.frames` of the current frame.
     pub frame_pos: usize,
     pub flags: Vec<FrameFlags>,
-    /// The image checks' findings by frame (`landmarks::flags::image_flags`): the whole
-    /// clip's from a job at start, each decoded frame's re-checked as flags are recomputed.
-    pub image_flags: BTreeMap<usize, FlagReason>,
+    /// The image evidence by frame, (face size, lip-edge offset)
+    /// (`landmarks::flags::lip_edge_offsets`): the whole clip's from a job at start, each
+    /// decoded frame's re-measured as flags are recomputed; the flags judge each against the
+    /// registration of them all.
+    pub lip_edges: BTreeMap<usize, (f64, LipEdgeOffset)>,
     pub flag_thresholds: FlagThresholds,
     pub measures: Vec<MeasureSeries>,
     /// The session's clips by name, which one this is, and the one to open next when the
@@ -204,7 +206,7 @@ impl App {
             fps: 25.0,
             frame_pos: 0,
             flags: Vec::new(),
-            image_flags: BTreeMap::new(),
+            lip_edges: BTreeMap::new(),
             flag_thresholds: FlagThresholds::default(),
             measures: Vec::new(),
             clip_names: Vec::new(),
@@ -347,11 +349,14 @@ impl App {
         );
         let images = &self.frames.cache.images;
         for f in images.keys() {
-            self.image_flags.remove(f);
+            self.lip_edges.remove(f);
         }
-        let found = image_flags(&self.track, |f| images.get(&f).cloned(), &self.flag_thresholds);
-        self.image_flags.extend(found);
-        add_reasons(&mut self.flags, self.image_flags.iter().map(|(f, r)| (*f, r.clone())));
+        let found =
+            lip_edge_offsets(&self.track, |f| images.get(&f).cloned(), &self.flag_thresholds);
+        self.lip_edges.extend(found.into_iter().map(|(f, size, o)| (f, (size, o))));
+        let all: Vec<(usize, f64, LipEdgeOffset)> =
+            self.lip_edges.iter().map(|(f, (size, o))| (*f, *size, *o)).collect();
+        add_reasons(&mut self.flags, flags_of_lip_edges(&all, &self.flag_thresholds));
     }
 
     /// The landmarks fits are made from and the video is measured on: the edited track with

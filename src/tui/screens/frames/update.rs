@@ -3,7 +3,7 @@
 //! arriving from their job.
 
 use crate::landmarks::edit;
-use crate::landmarks::flags::FlagReason;
+use crate::landmarks::flags::LipEdgeOffset;
 use crate::landmarks::{LandmarkPoint, N_LANDMARKS};
 use crate::tui::app::history::{apply_reviewed, commit, mark_changed, push_edit};
 use crate::tui::app::{App, Edit, FrameImage};
@@ -120,10 +120,10 @@ pub fn frame_loaded(app: &mut App, frame: usize, image: Arc<FrameImage>) {
     app.cache_image(frame, image);
 }
 
-/// The whole clip's image checks from the job: they replace the findings, then the decoded
-/// frames are re-checked (edits made meanwhile are on them).
-pub fn images_checked(app: &mut App, flags: Vec<(usize, FlagReason)>) {
-    app.image_flags = flags.into_iter().collect();
+/// The whole clip's image evidence from the job: it replaces the findings, then the decoded
+/// frames are re-measured (edits made meanwhile are on them).
+pub fn images_checked(app: &mut App, offsets: Vec<(usize, f64, LipEdgeOffset)>) {
+    app.lip_edges = offsets.into_iter().map(|(f, size, o)| (f, (size, o))).collect();
     app.recompute_flags();
 }
 

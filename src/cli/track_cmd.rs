@@ -7,7 +7,7 @@ use crate::cli::output::plural;
 use crate::cli::progress::{frames_bar, show_on};
 use crate::io::landmark_format::{self, LandmarkFormat};
 use crate::landmarks::PointNo;
-use crate::track::realign::PropagateOptions;
+use crate::track::realign::{PropagateOptions, PropagationEnd};
 use crate::workflow::track::{
     TrackerFiles, load_tracker, propagate_session_correction, track_path,
 };
@@ -136,5 +136,22 @@ pub fn run_propagate(args: &PropagateArgs, out: &mut impl Write) -> Result<()> {
         p.held.iter().map(|&i| PointNo(i).to_string()).collect::<Vec<_>>().join(","),
         plural(p.frames.len() - 1, "frame"),
     )?;
+    let why = match p.end {
+        PropagationEnd::Agreed { frame } => format!("frame {frame}: the tracker agrees again"),
+        PropagationEnd::Lost { frame, point } => {
+            format!(
+                "frame {frame}: point {}'s patch was lost (correct it there and propagate again)",
+                PointNo(point)
+            )
+        }
+        PropagationEnd::Parted { frame, point } => format!(
+            "frame {frame}: point {} parts from the tracker's by more than your correction (check it there)",
+            PointNo(point)
+        ),
+        PropagationEnd::NoFace { frame } => format!("frame {frame}: the tracker has no face there"),
+        PropagationEnd::MaxFrames => format!("--max-frames {} reached", args.max_frames),
+        PropagationEnd::ClipEnd => "the clip's end".to_string(),
+    };
+    writeln!(out, "stopped: {why}")?;
     Ok(())
 }

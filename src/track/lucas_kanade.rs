@@ -14,11 +14,14 @@
 //! from `g^{L−1} = 2 (g^L + d^L)` (eq. 33), and `d = g^0 + d^0`.
 //!
 //! Departures: the guess at the coarsest level is the caller's (Bouguet starts from 0), so
-//! a caller that knows roughly where the point went (the tracker's own motion of it) needs
-//! the pyramid only for the rest; and a window whose `G` has a smallest eigenvalue below
-//! [`FlowOptions::min_eigenvalue`] per window pixel (no texture to follow, Shi & Tomasi's
-//! criterion, "Good Features to Track", CVPR 1994) is not followed. A window partly outside
-//! the image is not followed either (its pixels would be made up).
+//! a caller that knows roughly where the point went (the face's motion by the tracker) needs
+//! the pyramid only for the rest. `G` is inverted only on its eigen-directions whose
+//! eigenvalue is at least [`FlowOptions::min_eigenvalue`] per window pixel (Shi & Tomasi's
+//! texture measure, "Good Features to Track", CVPR 1994): a window on an edge (a lip's line,
+//! the points a user corrects) is followed across the edge and keeps the guess's motion along
+//! it, where Bouguet's full inverse would take noise for motion; a window with no texture in
+//! any direction is not followed. A window partly outside the image is not followed either
+//! (its pixels would be made up).
 //!
 //! Start at [`Pyramid::new`], then [`follow_point_checked`].
 
@@ -131,9 +134,9 @@ pub struct FlowOptions {
     pub max_steps: usize,
     /// A step shorter than this (pixels of the level) ends the level's iteration (ε).
     pub min_step: f64,
-    /// The smallest eigenvalue of `G` per window pixel below which the window has no texture
-    /// to follow (grey levels² per pixel², gradients by central differences). 1.0 is a
-    /// gradient of one grey level per pixel across the window in its weakest direction.
+    /// The eigenvalue of `G` per window pixel below which the window has no texture to follow
+    /// in that eigen-direction (grey levels² per pixel², gradients by central differences).
+    /// 1.0 is a gradient of one grey level per pixel across the window in that direction.
     pub min_eigenvalue: f64,
 }
 
@@ -196,13 +199,20 @@ fn level_displacement(
             grad.push(Vector2::new(ix, iy));
         }
     }
-    let area = (side * side) as f64;
-    let (tr, det) = (gm.trace(), gm.determinant());
-    let smallest = 0.5 * (tr - (tr * tr - 4.0 * det).max(0.0).sqrt());
-    if smallest < opts.min_eigenvalue * area {
+    // G's inverse on the directions with texture only: an edge (a lip's line) fixes the
+    // motion across it, not along it, which stays the guess's (the aperture problem).
+    let floor = opts.min_eigenvalue * (side * side) as f64;
+    let eigen = gm.symmetric_eigen();
+    let mut g_inv = Matrix2::zeros();
+    for (k, &lambda) in eigen.eigenvalues.iter().enumerate() {
+        if lambda >= floor {
+            let v = eigen.eigenvectors.column(k);
+            g_inv += v * v.transpose() / lambda;
+        }
+    }
+    if g_inv == Matrix2::zeros() {
         return None;
     }
-    let g_inv = gm.try_inverse()?;
     let mut nu = Vector2::zeros();
     for _ in 0..opts.max_steps {
         let at = u + g + nu;
@@ -317,6 +327,27 @@ mod tests {
     }
 
     #[test]
+    fn an_edge_is_followed_across_and_keeps_the_guess_along_it() {
+        // Texture in x only (vertical stripes): the motion across them is found, the motion
+        // along them cannot be and is the guess's.
+        let (w, h) = (96, 80);
+        let stripes = |sx: f64| -> Vec<u8> {
+            (0..w * h)
+                .map(|k| {
+                    let x = (k % w) as f64 - sx;
+                    (128.0 + 60.0 * (0.23 * x).sin() + 30.0 * (0.07 * x).cos()).round() as u8
+                })
+                .collect()
+        };
+        let (a, b) = (stripes(0.0), stripes(3.4));
+        let opts = FlowOptions { half_window: 5, ..FlowOptions::default() };
+        let (pa, pb) = (Pyramid::new(view(&a, w, h), 2), Pyramid::new(view(&b, w, h), 2));
+        let p = Vector2::new(47.0, 38.0);
+        let got = follow_point(&pa, &pb, p, Vector2::new(0.0, 1.5), &opts).unwrap() - p;
+        assert!((got - Vector2::new(3.4, 1.5)).norm() < 0.1, "{got:?}");
+    }
+
+    #[test]
     fn a_patch_that_changed_does_not_come_back_to_itself() {
         // The next frame is another texture: whatever the forward pass lands on, the way back
         // does not return to the start.
@@ -326,10 +357,12 @@ mod tests {
         let b: Vec<u8> = (0..w * h).map(|k| b[(k * 7919) % (w * h)] / 2 + a[k] / 2).collect();
         let opts = FlowOptions { half_window: 5, ..FlowOptions::default() };
         let (pa, pb) = (Pyramid::new(view(&a, w, h), 2), Pyramid::new(view(&b, w, h), 2));
-        let same = follow_point_checked(&pa, &pa, Vector2::new(47.0, 38.0), Vector2::zeros(), &opts)
-            .unwrap();
+        let same =
+            follow_point_checked(&pa, &pa, Vector2::new(47.0, 38.0), Vector2::zeros(), &opts)
+                .unwrap();
         assert!(same.round_trip < 0.05 && (same.position - Vector2::new(47.0, 38.0)).norm() < 0.05);
-        let lost = follow_point_checked(&pa, &pb, Vector2::new(47.0, 38.0), Vector2::zeros(), &opts);
+        let lost =
+            follow_point_checked(&pa, &pb, Vector2::new(47.0, 38.0), Vector2::zeros(), &opts);
         assert!(lost.is_none_or(|f| f.round_trip > 0.5), "{lost:?}");
     }
 

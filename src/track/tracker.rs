@@ -119,18 +119,24 @@ pub fn shape_disagreement(a: &[Vector2<f64>], b: &[Vector2<f64>]) -> f64 {
     if a.is_empty() || a.len() != b.len() {
         return f64::INFINITY;
     }
-    let scale = if a.len() == 68 {
-        (a[36] - a[45]).norm()
-    } else {
-        let (mut lo, mut hi) = (a[0], a[0]);
-        for p in a {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
-        (hi - lo).norm()
-    };
+    let scale = shape_scale(a);
     let mean = a.iter().zip(b).map(|(p, q)| (p - q).norm()).sum::<f64>() / a.len() as f64;
     if scale > 1e-9 { mean / scale } else { f64::INFINITY }
+}
+
+/// The scale [`shape_disagreement`] is measured in: the outer eye-corner distance (points
+/// 36–45) of a 68-point shape, else the diagonal of its extent (0 for an empty shape).
+pub fn shape_scale(a: &[Vector2<f64>]) -> f64 {
+    if a.len() == 68 {
+        return (a[36] - a[45]).norm();
+    }
+    let Some(&first) = a.first() else { return 0.0 };
+    let (mut lo, mut hi) = (first, first);
+    for p in a {
+        lo = lo.inf(p);
+        hi = hi.sup(p);
+    }
+    (hi - lo).norm()
 }
 
 /// Times the cascade is re-run from the box of its own result after starting from a

@@ -12,7 +12,10 @@ use super::session::{clip_or_first, open_for_edit};
 use crate::io::frames::{FrameOptions, FrameSource};
 use crate::landmarks::{FrameLandmarks, LandmarkPoint, PointSource, Track};
 use crate::session::Session;
-use crate::track::realign::{PropagateOptions, propagate_realignment, realign_shape};
+use crate::track::realign::{
+    CorrectedFrame, NextFrame, PropagateOptions, PropagationEnd, propagate_realignment,
+    realign_shape,
+};
 use crate::track::tracker::{
     FaceTracker, StartKind, TrackOptions, TrackedFrame, shape_disagreement,
 };
@@ -384,6 +387,8 @@ pub struct Propagated {
     pub frames: Vec<usize>,
     /// The points held on the corrected frame (its corrected ones).
     pub held: Vec<usize>,
+    /// Why the walk stopped.
+    pub end: PropagationEnd,
 }
 
 /// A frame of a session's clip re-aligned from its corrected points, without changing the
@@ -426,10 +431,13 @@ fn corrected_frame<'t>(
     Ok(current)
 }
 
-/// Re-aligns frame `frame` of a session's clip from its corrected points, then the
-/// following frames, each from the one before, until the cascade agrees with the tracker
-/// again. Returns the changed frames (the corrected one first), their derived points marked
-/// `Interpolated`; the session is not changed ([`apply_realigned`] stores them).
+/// Re-aligns frame `frame` of a session's clip from its corrected points, then carries the
+/// correction through the following frames ([`propagate_realignment`]: the corrected points
+/// followed by their image patches, each frame re-aligned to them from the tracker's points)
+/// until the tracker agrees again, a patch is lost, or `opts.max_frames`. Returns the changed
+/// frames (the corrected one first), their derived points marked `Interpolated` (points a
+/// person corrected on a following frame are kept), and why the walk stopped; the session is
+/// not changed ([`apply_realigned`] stores them).
 ///
 /// # Errors
 /// As [`realign_session_frame`]; a following frame that cannot be read.
@@ -439,7 +447,7 @@ pub fn propagate_correction(
     frame: usize,
     tracker: &Tracker,
     opts: &PropagateOptions,
-) -> Result<Vec<FrameLandmarks>> {
+) -> Result<(Vec<FrameLandmarks>, PropagationEnd)> {
     let effective = session.effective_track(index)?;
     let corrected = corrected_frame(session, index, &effective, frame)?;
     let frames = session.open_frames(index, 64)?;
@@ -447,29 +455,40 @@ pub fn propagate_correction(
     let tracked = session.clip(index)?.tracked()?;
     let image = gray_of(&frames, frame)?;
     let realigned = realign_frame(tracker, image.view(), corrected, tracked.get(frame), &held)?;
-    let following: Vec<usize> = (frame + 1..frames.len())
-        .take(opts.max_frames)
-        .take_while(|f| effective.get(*f).is_some())
+    let start_points = realign_start(corrected, tracked.get(frame));
+    let held_points: Vec<(usize, Vector2<f64>)> = held
+        .iter()
+        .map(|&i| (i, Vector2::new(corrected.points[i].x, corrected.points[i].y)))
         .collect();
-    // Frames are decoded as the walk reaches them; a frame that cannot be decoded ends it.
+    let start = CorrectedFrame { image: image.view(), tracked: &start_points, held: &held_points };
+    // Frames are decoded as the walk reaches them; a frame that cannot be decoded ends it. The
+    // tracker's own points of a frame are what a correction is measured from (as on the
+    // corrected frame); a frame the tracker lost has none.
     let mut decode_error = None;
-    let walk = following.iter().map_while(|&f| match gray_of(&frames, f) {
-        Ok(img) => Some((img, points_of(effective.get(f).expect("frames with landmarks")))),
+    let walk = (frame + 1..frames.len()).map_while(|f| match gray_of(&frames, f) {
+        Ok(image) => {
+            let tracked = effective
+                .get(f)
+                .filter(|fl| fl.success)
+                .map(|fl| realign_start(fl, tracked.get(f)));
+            Some(NextFrame { frame: f, image, tracked })
+        }
         Err(e) => {
             decode_error = Some(e);
             None
         }
     });
-    let shapes = propagate_realignment(&tracker.predictor, &points_of(&realigned), walk, opts);
+    let propagation =
+        propagate_realignment(&tracker.predictor, tracker.shape_prior(), &start, walk, opts);
     if let Some(e) = decode_error {
         return Err(e);
     }
     let mut changed = vec![realigned];
-    for (&f, shape) in following.iter().zip(&shapes) {
-        let tracked = effective.get(f).expect("frames with landmarks");
-        changed.push(with_derived_points(tracked, shape, &corrected_points(tracked)));
+    for (f, shape) in (frame + 1..).zip(&propagation.shapes) {
+        let own = effective.get(f).expect("a frame the walk re-aligned has landmarks");
+        changed.push(with_derived_points(own, shape, &corrected_points(own)));
     }
-    Ok(changed)
+    Ok((changed, propagation.end))
 }
 
 /// Stores the `Interpolated` points of re-aligned frames as corrections of clip `index`.
@@ -505,7 +524,7 @@ pub fn propagate_session_correction(
 ) -> Result<Propagated> {
     let mut edit = open_for_edit(session)?;
     let index = clip_or_first(&edit.session, clip)?;
-    let changed = propagate_correction(&edit.session, index, frame, tracker, opts)?;
+    let (changed, end) = propagate_correction(&edit.session, index, frame, tracker, opts)?;
     let held = changed.first().map(corrected_points).unwrap_or_default();
     apply_realigned(&mut edit.session, index, &changed)?;
     edit.session.save(&edit.path)?;
@@ -513,5 +532,6 @@ pub fn propagate_session_correction(
         clip: edit.session.clip(index)?.name.clone(),
         frames: changed.iter().map(|f| f.frame).collect(),
         held,
+        end,
     })
 }

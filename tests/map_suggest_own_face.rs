@@ -82,3 +82,101 @@ fn six_labels_on_the_heads_own_face_give_a_unique_sane_map_invariant_to_placemen
         .count();
     assert!(same + 2 >= proposal.accepted.len(), "{same} of {} the same", proposal.accepted.len());
 }
+
+/// Both fronts take one path: the TUI's `O` (its effect handed to the suggestions' job, the
+/// job's reply applied by `update`) labels the same map as `lipmap map suggest` writes, on
+/// the same session (carphone with MakeHuman as model and head, six hand labels).
+#[test]
+fn the_tui_and_the_command_line_suggest_the_same_map() {
+    use lipmap::tui::app::Effect;
+    use lipmap::tui::jobs::{TrackerSource, suggest_for_tui};
+    use lipmap::tui::session_bridge::SessionBridge;
+    use lipmap::tui::{Action, update};
+    let Some((dir, _, _, fixture)) = common::makehuman() else { return };
+    let Some(cp) = common::carphone(12) else { return };
+    if read_shape_predictor(Path::new(DEBIAN_PREDICTOR_PATH)).is_err() {
+        eprintln!("skipped: no shape predictor at {DEBIAN_PREDICTOR_PATH} (libdlib-data)");
+        return;
+    }
+    let mut labels = LandmarkMap::default();
+    for l in LABELS {
+        labels.to_vertex.insert(l, fixture.vertex(l).unwrap());
+    }
+    let six = cp.root.join("six.toml");
+    lipmap::io::landmark_map_toml::write_landmark_map(
+        &six,
+        &labels,
+        &lipmap::reference::current().names,
+    )
+    .unwrap();
+    let head = dir.join("base.obj");
+    let session = cp.root.join("s.lipmap.json");
+    let new = common::lipmap(&[
+        "new",
+        common::s(&session),
+        "--frames",
+        common::s(&cp.frames),
+        "--landmarks",
+        common::s(&cp.landmarks),
+        "--model",
+        common::s(&head),
+        "--head",
+        common::s(&head),
+        "--mapping",
+        common::s(&six),
+    ]);
+    assert!(new.status.success(), "{}", common::text(&new.stderr));
+    let out = cp.root.join("cli.toml");
+    let cli = common::lipmap(&["map", "suggest", common::s(&session), "--out", common::s(&out)]);
+    assert!(cli.status.success(), "{}", common::text(&cli.stderr));
+    assert!(
+        common::text(&cli.stdout).contains("the head's own face"),
+        "{}",
+        common::text(&cli.stdout)
+    );
+    let written = lipmap::io::landmark_map_toml::read_landmark_map(&out).unwrap();
+
+    let (mut app, bridge, _) = SessionBridge::open(&session, 0).unwrap();
+    let mut next = Some(Action::ShowHead);
+    while let Some(a) = next.take() {
+        next = update(&mut app, a);
+    }
+    next = update(&mut app, Action::SuggestAllLabels);
+    assert!(next.is_none());
+    let effects = app.take_effects();
+    let Some(Effect::SuggestMap { labels: asked, landmark: None }) = effects.last().cloned() else {
+        panic!("no suggestion asked: {effects:?}");
+    };
+    assert_eq!(asked, labels);
+    let reply =
+        suggest_for_tui(&TrackerSource::default(), bridge.suggest_job(asked, None), &|_| {});
+    let Action::MapSuggested { suggested: Ok(s), .. } = reply.clone() else { panic!("{reply:?}") };
+    assert!(s.proposal.accepted.len() >= 55, "{}", s.proposal.summary());
+    let mut next = Some(reply);
+    while let Some(a) = next.take() {
+        next = update(&mut app, a);
+    }
+    assert!(app.status.contains("matched to the head's own face"), "{}", app.status);
+    assert_eq!(app.map.as_ref(), Some(&written), "the TUI's map is the command line's");
+    // `o` on one of them puts the cursor on a vertex no other landmark holds (with 61
+    // labels held rather than 6, the drawing's match may move it).
+    let l = s.proposal.accepted[0].landmark;
+    app.head.view.label = l;
+    next = update(&mut app, Action::SuggestLabel);
+    assert!(next.is_none());
+    let Some(Effect::SuggestMap { labels: asked, landmark: Some(one) }) =
+        app.take_effects().last().cloned()
+    else {
+        panic!("no suggestion asked for {l}");
+    };
+    assert_eq!((one, asked.vertex(l)), (l, None));
+    let reply =
+        suggest_for_tui(&TrackerSource::default(), bridge.suggest_job(asked, Some(l)), &|_| {});
+    next = Some(reply);
+    while let Some(a) = next.take() {
+        next = update(&mut app, a);
+    }
+    let Some((at, v)) = app.head.view.suggested else { panic!("{}", app.status) };
+    assert_eq!(at, l, "{}", app.status);
+    assert!(written.pairs().all(|(k, w)| k == l || w != v), "{}", app.status);
+}

@@ -355,62 +355,82 @@ fn head_labelling_assigns_and_undoes() {
     assert!(a.mesh.as_ref().unwrap().vertices[back].z < 0.0, "turned around, the back is in front");
 }
 
+/// The suggestions' reply as the job sends it: `accepted` suggested, `left` left out.
+fn suggested(
+    labels: &lipmap::model::LandmarkMap,
+    accepted: &[(usize, usize)],
+    left: &[usize],
+) -> Result<Box<lipmap::workflow::map::SuggestedMap>, String> {
+    use lipmap::fit::map_suggest::{LeftOut, MapProposal, MapSuggestion};
+    let proposal = MapProposal {
+        accepted: accepted
+            .iter()
+            .map(|&(landmark, vertex)| MapSuggestion {
+                landmark,
+                vertex,
+                distance_px: 1.0,
+                confidence: 0.9,
+            })
+            .collect(),
+        left: left.iter().map(|&l| (l, LeftOut::NoVertex)).collect(),
+    };
+    let map = proposal.applied_to(labels);
+    Ok(Box::new(lipmap::workflow::map::SuggestedMap {
+        from: lipmap::workflow::map::SuggestedFrom::OwnFace,
+        labels: labels.clone(),
+        check: lipmap::model::check_map(&map, &[]),
+        proposal,
+        map,
+    }))
+}
+
 #[test]
-fn suggestions_label_the_head_from_a_few_labels_and_undo_as_one_step() {
-    use lipmap::fit::OrthoPose;
-    use lipmap::landmarks::LandmarkPoint;
+fn suggestions_are_asked_of_the_job_and_label_the_head_as_one_undo_step() {
     let mut a = app();
     a.map = None;
-    let mesh = a.mesh.clone().unwrap();
-    // The frame sees the head turned a little: 12 landmarks on distinct front vertices,
-    // every other landmark not visible.
-    let r = lipmap::fit::camera::rotation_from_yaw_pitch_roll_deg(15.0, 5.0, 0.0);
-    let pose = OrthoPose { r, s: 0.4, tx: 200.0, ty: 150.0 };
-    let front: Vec<usize> =
-        (0..mesh.vertices.len()).filter(|&v| (r * mesh.vertices[v].coords).z > 60.0).collect();
-    assert!(front.len() >= 12, "{} front vertices", front.len());
-    let truth: Vec<(usize, usize)> =
-        (0..12).map(|k| (30 + k, front[k * front.len() / 12])).collect();
-    let h = f64::from(a.frame_dims().1);
-    let f = a.frame();
-    let pts = &mut a.track.frames[a.frame_pos].points;
-    for p in pts.iter_mut() {
-        p.visible = false;
-    }
-    for &(l, v) in &truth {
-        let q = pose.project(&mesh.vertices[v], h);
-        pts[l] = LandmarkPoint::tracked(q.x, q.y);
-    }
-    a.tracked = a.track.clone();
-    run(&mut a, [Action::ShowHead, Action::SuggestLabel]);
-    assert!(a.status.contains("label at least 4"), "{}", a.status);
-    // Four labels by hand (the first four), then the rest from suggestions.
+    let truth: Vec<(usize, usize)> = (0..12).map(|k| (30 + k, 100 + 7 * k)).collect();
+    // `O` asks the job (the use case of `lipmap map suggest`) with the labels held.
     for &(l, v) in &truth[..4] {
         a.map.get_or_insert_with(Default::default).to_vertex.insert(l, v);
     }
-    a.head.view.label = truth[5].0;
-    run(&mut a, [Action::SuggestLabel]);
-    assert_eq!(a.head.view.suggested, Some(truth[5]), "{}", a.status);
-    run(&mut a, [Action::ConfirmLabel]);
-    assert_eq!(a.map.as_ref().unwrap().vertex(truth[5].0), Some(truth[5].1));
+    let held = a.map.clone().unwrap();
+    run(&mut a, [Action::ShowHead]);
+    a.take_effects();
     run(&mut a, [Action::SuggestAllLabels]);
+    assert_eq!(a.take_effects(), vec![Effect::SuggestMap { labels: held.clone(), landmark: None }]);
+    // A label set while the job worked stays as the user set it.
+    a.map.as_mut().unwrap().to_vertex.insert(truth[6].0, 9999);
+    let reply = suggested(&held, &truth[4..], &[60]);
+    run(&mut a, [Action::MapSuggested { landmark: None, suggested: reply }]);
     let map = a.map.clone().unwrap();
-    // The truth here is arbitrary front vertices, not a face: what the anatomy check refuses
-    // is left (and said in the status line); what is suggested is the truth.
-    for &(l, v) in &truth {
-        assert!(map.vertex(l).is_none_or(|x| x == v), "landmark {l}");
-    }
-    assert!(map.len() >= 5, "{}", a.status);
-    assert!(map.len() > 5 || a.status.contains("anatomy"), "{}", a.status);
-    assert!(
-        map.pairs().all(|(l, _)| truth.iter().any(|t| t.0 == l)),
-        "invisible landmarks are not guessed"
+    assert_eq!(map.len(), 12, "{}", a.status);
+    assert_eq!(map.vertex(truth[6].0), Some(9999));
+    assert!(a.status.contains("matched to the head's own face"), "{}", a.status);
+    assert!(a.status.contains("e.g. 61"), "{}", a.status);
+    run(&mut a, [Action::Undo]);
+    assert_eq!(a.map.as_ref().unwrap().len(), 5, "one undo removes every suggestion");
+
+    // `o` asks for the landmark being labelled without its own label; the reply puts the
+    // cursor on it and Enter assigns it.
+    a.head.view.label = truth[0].0;
+    run(&mut a, [Action::SuggestLabel]);
+    let mut without = a.map.clone().unwrap();
+    without.to_vertex.remove(&truth[0].0);
+    assert_eq!(
+        a.take_effects(),
+        vec![Effect::SuggestMap { labels: without.clone(), landmark: Some(truth[0].0) }]
     );
-    if map.len() > 5 {
-        run(&mut a, [Action::Undo]);
-        assert_eq!(a.map.as_ref().unwrap().len(), 5, "one undo removes every suggestion");
-    }
-    assert_eq!(a.frame(), f);
+    let reply = suggested(&without, &[(truth[0].0, 4242)], &[]);
+    run(&mut a, [Action::MapSuggested { landmark: Some(truth[0].0), suggested: reply }]);
+    assert_eq!(a.head.view.suggested, Some((truth[0].0, 4242)), "{}", a.status);
+    run(&mut a, [Action::ConfirmLabel]);
+    assert_eq!(a.map.as_ref().unwrap().vertex(truth[0].0), Some(4242));
+    // Why there is none, in the job's one line.
+    run(
+        &mut a,
+        [Action::MapSuggested { landmark: None, suggested: Err("frame 0: too few".into()) }],
+    );
+    assert_eq!(a.status, "no suggestions: frame 0: too few");
 }
 
 #[test]

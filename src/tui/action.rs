@@ -224,10 +224,12 @@ actions! {
         ConfirmLabel => head::confirm_label, "assign the vertex under the cursor";
         /// Remove the landmark's vertex from the map.
         ClearLabel => head::clear_label, "remove this landmark's vertex";
-        /// Put the 3D cursor on the vertex the current frame suggests for this landmark (its
-        /// fitted pose, or a pose from the labels so far); Enter then assigns it.
-        SuggestLabel => head::suggest_label, "suggest a vertex from the current frame";
-        /// Assign every unmapped landmark its suggested vertex (one undo step).
+        /// Put the 3D cursor on the vertex suggested for this landmark from the other labels
+        /// (as `lipmap map suggest`: on the head's own face, else the clip's frame); Enter
+        /// then assigns it.
+        SuggestLabel => head::suggest_label, "suggest a vertex for this landmark";
+        /// Assign every unmapped landmark its suggested vertex (one undo step), as `lipmap
+        /// map suggest` would.
         SuggestAllLabels => head::suggest_all_labels,
             "label all unmapped landmarks from suggestions";
         /// Switch the head view between shaded and wireframe.
@@ -336,6 +338,11 @@ actions! {
         /// on a job over the frames at start.
         ImagesChecked { offsets: Vec<(usize, f64, crate::landmarks::flags::LipEdgeOffset)> }
             => frames::images_checked;
+        /// Map suggestions made on a job (`landmark`: the one `o` asked for), or why none.
+        MapSuggested {
+            landmark: Option<usize>,
+            suggested: Result<Box<crate::workflow::map::SuggestedMap>, String>,
+        } => head::map_suggested;
         /// A map read from `path` by `LoadMap`.
         MapLoaded { map: crate::model::LandmarkMap, path: String } => head::map_loaded;
         /// Transferred head `index` set up on a job, or why not.

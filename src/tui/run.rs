@@ -101,7 +101,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
     if app.status.is_empty() && !gfx.note.is_empty() {
         apply(&mut app, Action::Status(gfx.note.clone()));
     }
-    // Read on the first re-alignment or face box, then kept for every clip.
+    // Read on the first re-alignment, face box or suggestion, then kept for every clip.
     let tracker = Arc::new(TrackerSource::new(options.tracker.clone()));
     loop {
         // A channel and jobs per clip: replies of the previous clip's jobs go nowhere.
@@ -113,6 +113,7 @@ pub fn run_with(session_path: &Path, options: &RunOptions) -> anyhow::Result<()>
         bridge.start_saver(tx.clone());
         let jobs = Jobs::start(provider.clone(), tx.clone());
         jobs.start_tracker(provider.clone(), tracker.clone());
+        jobs.start_suggestions(tracker.clone());
         let checks = check_images_for_tui(provider, app.track.clone(), app.flag_thresholds.clone());
         jobs.run_once("the image checks", checks);
         jobs.run_once("the speech-driven head", bridge.speech_job());
@@ -451,6 +452,9 @@ fn run_effects(app: &mut App, bridge: &mut SessionBridge, jobs: &Jobs) {
                 if let Some(job) = HeadFrameJob::of(app, head, frame) {
                     jobs.request_head_frame(job);
                 }
+            }
+            Effect::SuggestMap { labels, landmark } => {
+                jobs.request_suggestion(bridge.suggest_job(labels, landmark));
             }
             Effect::Realign { frame } => {
                 if let Some(job) = TrackJob::realign(app, frame) {

@@ -318,6 +318,22 @@ impl SessionBridge {
         move || super::jobs::speech_for_tui(&mut session, clip)
     }
 
+    /// Map suggestions from `labels` for the suggestions' job, on the session as last
+    /// written back (its meshes and clip), for the mesh this bridge labels.
+    pub fn suggest_job(
+        &self,
+        labels: LandmarkMap,
+        landmark: Option<usize>,
+    ) -> super::jobs::SuggestJob {
+        super::jobs::SuggestJob {
+            session: self.edit.session.clone(),
+            role: self.role,
+            clip: self.clip_name(),
+            labels,
+            landmark,
+        }
+    }
+
     /// The quality cross-validation over this session's sentences for a job's thread (it
     /// may fit what the cache lacks): replies `QualityReady` or `QualityFailed`.
     pub fn quality_job(&self) -> impl FnOnce() -> Action + Send + 'static {

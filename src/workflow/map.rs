@@ -175,7 +175,7 @@ impl std::fmt::Display for SuggestedFrom {
 }
 
 /// What [`suggest_session_map`] made.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SuggestedMap {
     /// What the suggestions were matched to.
     pub from: SuggestedFrom,
@@ -185,6 +185,37 @@ pub struct SuggestedMap {
     /// The labels with the accepted suggestions.
     pub map: LandmarkMap,
     pub check: MapCheck,
+}
+
+/// What suggestions are matched to, as a front asks: the head's own face read by dlib's
+/// shape predictor, or a frame of the clip (`None`: its first frame with the most visible
+/// landmarks) with why the head's own face was not used when it was wanted.
+#[derive(Clone, Copy, Debug)]
+pub enum MatchTo<'a> {
+    OwnFace(&'a crate::track::ShapePredictor),
+    Frame(Option<usize>, Option<&'a str>),
+}
+
+/// dlib's shape predictor for suggestions on the head's own face: `given` (an error when it
+/// cannot be read), else Debian's file; when that cannot be read either, `Ok(Err(why))`,
+/// the one line both fronts show when they match to the speaker instead.
+///
+/// # Errors
+/// A `given` predictor that cannot be read.
+pub fn read_suggestion_predictor(
+    given: Option<&Path>,
+) -> Result<std::result::Result<crate::track::ShapePredictor, String>> {
+    if let Some(p) = given {
+        return Ok(Ok(crate::track::read_shape_predictor(p)?));
+    }
+    let p = Path::new(crate::track::DEBIAN_PREDICTOR_PATH);
+    Ok(crate::track::read_shape_predictor(p).map_err(|_| {
+        format!(
+            "no shape predictor at {} (Debian `libdlib-data`, or `--predictor`): matched to \
+             the speaker instead of the head's own face",
+            p.display()
+        )
+    }))
 }
 
 /// Suggests the rest of the map of `role` from its labels: on the head's own face
@@ -204,27 +235,38 @@ pub fn suggest_session_map(
     predictor: Option<&Path>,
 ) -> Result<SuggestedMap> {
     let labels = session.map_of(role).resolve()?.unwrap_or_default();
+    let read = match frame {
+        Some(_) => None,
+        None => Some(read_suggestion_predictor(predictor)?),
+    };
+    let to = match &read {
+        None => MatchTo::Frame(frame, None),
+        Some(Ok(p)) => MatchTo::OwnFace(p),
+        Some(Err(why)) => MatchTo::Frame(None, Some(why)),
+    };
+    suggest_map_from_labels(session, role, labels, clip, to)
+}
+
+/// The use case both fronts call (`lipmap map suggest` through [`suggest_session_map`], the
+/// TUI's `o` and `O` with the labels it holds): the rest of the map of `role` suggested from
+/// `labels`, matched as `to` says; a head with no faces to draw is matched to the speaker.
+///
+/// # Errors
+/// As [`suggest_session_map`].
+pub fn suggest_map_from_labels(
+    session: &Session,
+    role: MapRole,
+    labels: LandmarkMap,
+    clip: Option<&str>,
+    to: MatchTo<'_>,
+) -> Result<SuggestedMap> {
     let head = label_mesh(session, role)?;
-    let why_not_own = match (frame, predictor) {
-        (Some(_), _) => None,
-        (None, Some(p)) => {
-            let predictor = crate::track::read_shape_predictor(p)?;
-            return suggest_on_own_face(&head, labels, &predictor);
+    let (frame, why_not_own) = match to {
+        MatchTo::OwnFace(_) if head.triangles.is_empty() => {
+            (None, Some("the head has no faces to draw: matched to the speaker".to_string()))
         }
-        (None, None) if head.triangles.is_empty() => {
-            Some("the head has no faces to draw: matched to the speaker".into())
-        }
-        (None, None) => {
-            let p = Path::new(crate::track::DEBIAN_PREDICTOR_PATH);
-            match crate::track::read_shape_predictor(p) {
-                Ok(predictor) => return suggest_on_own_face(&head, labels, &predictor),
-                Err(_) => Some(format!(
-                    "no shape predictor at {} (Debian `libdlib-data`, or `--predictor`): \
-                     matched to the speaker instead of the head's own face",
-                    p.display()
-                )),
-            }
-        }
+        MatchTo::OwnFace(predictor) => return suggest_on_own_face(&head, labels, predictor),
+        MatchTo::Frame(frame, why) => (frame, why.map(str::to_string)),
     };
     let c = clip_or_first(session, clip)?;
     let landmarks = match frame {

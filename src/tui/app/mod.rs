@@ -103,6 +103,12 @@ pub enum Effect {
         head: usize,
         frame: usize,
     },
+    /// Suggest the map from `labels` on a job (`lipmap map suggest`'s use case); `landmark`:
+    /// the one landmark `o` asked for, `None` for every unlabelled one (`O`).
+    SuggestMap {
+        labels: crate::model::LandmarkMap,
+        landmark: Option<usize>,
+    },
     /// Re-align frame `frame` to its corrected points with lipmap's tracker.
     Realign {
         frame: usize,

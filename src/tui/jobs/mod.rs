@@ -1,11 +1,12 @@
 //! Jobs: the slow work (frame decoding, fitting, the analysis, the speech-driven head, the
-//! quality cross-validation, transferred heads, the tracker) on threads of their own, replying with
-//! `Action`s over a channel so the UI thread never blocks.
+//! quality cross-validation, transferred heads, the tracker, the map suggestions) on threads
+//! of their own, replying with `Action`s over a channel so the UI thread never blocks.
 //!
 //! Each long-lived job has a one-request `Slot`: a new request replaces the pending one.
 //! Replies carry the frame number or generation they answer; `update` drops stale ones.
 //! One-off jobs (a head's set-up, the speech-driven head, the quality cross-validation, the
-//! clip's image checks) run with `Jobs::run_once`. What each job computes is in its file; this file owns the threads.
+//! clip's image checks) run with `Jobs::run_once`. What each job computes is in its file;
+//! this file owns the threads.
 
 mod analysis;
 mod fit;
@@ -13,6 +14,7 @@ mod heads;
 mod images;
 mod session;
 mod slot;
+mod suggest;
 mod track;
 
 pub use analysis::{AnalysisJob, analyse_for_tui};
@@ -20,6 +22,7 @@ pub use fit::{FitJob, fit_for_tui};
 pub use heads::{HeadFrameJob, prepare_head_for_tui, transfer_frame_for_tui};
 pub use images::check_images_for_tui;
 pub use session::{quality_for_tui, speech_for_tui};
+pub use suggest::{SuggestJob, suggest_for_tui};
 pub use track::{MAX_BOX_FRAMES, TrackJob, TrackerSource, track_for_tui};
 
 use crate::tui::action::Action;
@@ -36,6 +39,7 @@ pub struct Jobs {
     side_frames: Arc<Slot<usize>>,
     head_frames: Arc<Slot<HeadFrameJob>>,
     tracks: Arc<Slot<TrackJob>>,
+    suggestions: Arc<Slot<SuggestJob>>,
     tx: Sender<Action>,
 }
 
@@ -139,6 +143,7 @@ impl Jobs {
             side_frames: Arc::new(Slot::new()),
             head_frames,
             tracks: Arc::new(Slot::new()),
+            suggestions: Arc::new(Slot::new()),
             tx: own_tx,
         }
     }
@@ -197,6 +202,35 @@ impl Jobs {
         });
     }
 
+    /// Starts the map suggestions' thread: the shape predictor read once from `source`
+    /// (shared with the tracker's job and across clips).
+    pub fn start_suggestions(&self, source: Arc<TrackerSource>) {
+        let (slot, tx) = (self.suggestions.clone(), self.tx.clone());
+        std::thread::spawn(move || {
+            while let Some(job) = slot.take() {
+                let say = |text: String| {
+                    let _ = tx.send(Action::Status(text));
+                };
+                let landmark = job.landmark;
+                let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                    suggest_for_tui(&source, job, &say)
+                }));
+                let reply = result.unwrap_or_else(|_| Action::MapSuggested {
+                    landmark,
+                    suggested: Err("the suggestion panicked".into()),
+                });
+                if tx.send(reply).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+
+    /// Asks for map suggestions, replacing any pending request.
+    pub fn request_suggestion(&self, job: SuggestJob) {
+        self.suggestions.put(job);
+    }
+
     /// Asks the tracker for a re-alignment or a track from a face box, replacing any
     /// pending request.
     pub fn request_track(&self, job: TrackJob) {
@@ -233,6 +267,7 @@ impl Drop for Jobs {
         self.side_frames.close();
         self.head_frames.close();
         self.tracks.close();
+        self.suggestions.close();
     }
 }
 

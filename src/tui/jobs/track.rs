@@ -1,13 +1,14 @@
 //! The tracker's job: re-aligns a frame to its corrected points, or tracks from a face box
 //! the user drew, with lipmap's tracker (`workflow::track`). The predictor (100 MB) is read
 //! from its files on the first request and kept for the rest of the TUI session, every clip
-//! included ([`TrackerSource`]).
+//! included ([`TrackerSource`], which also keeps the predictor map suggestions read).
 
 use crate::landmarks::{FrameLandmarks, Track};
 use crate::track::realign::PropagateOptions;
-use crate::track::{FaceBox, GrayImage};
+use crate::track::{FaceBox, GrayImage, ShapePredictor};
 use crate::tui::action::Action;
 use crate::tui::app::{App, FrameImage, FrameProvider};
+use crate::workflow::map::read_suggestion_predictor;
 use crate::workflow::track::{
     Tracker, TrackerFiles, corrected_points, load_tracker, realign_frame, track_from_box,
 };
@@ -54,16 +55,42 @@ impl TrackJob {
     }
 }
 
-/// The tracker's files and, once read, the tracker; shared by every clip's job.
+/// The tracker's files and, once read, the tracker and the predictor alone (map suggestions
+/// need no face detector); shared by every clip's job.
 #[derive(Default)]
 pub struct TrackerSource {
     files: TrackerFiles,
     loaded: Mutex<Option<Arc<Tracker>>>,
+    predictor: Mutex<Option<Arc<ShapePredictor>>>,
 }
 
 impl TrackerSource {
     pub fn new(files: TrackerFiles) -> Self {
-        Self { files, loaded: Mutex::new(None) }
+        Self { files, loaded: Mutex::new(None), predictor: Mutex::new(None) }
+    }
+
+    /// The shape predictor for suggestions on the head's own face, read on first use as
+    /// `lipmap map suggest` reads it (`--predictor`, else Debian's file); `Ok(Err(why))` when
+    /// there is none, the line both fronts say as they match to the speaker instead. Not
+    /// kept when missing: the next request tries again.
+    ///
+    /// # Errors
+    /// A predictor named by `--predictor` that cannot be read.
+    pub fn suggestion_predictor(
+        &self,
+        say: &dyn Fn(String),
+    ) -> crate::workflow::Result<Result<Arc<ShapePredictor>, String>> {
+        let broken = || crate::workflow::Error::Invalid("the predictor's lock broke".into());
+        let mut slot = self.predictor.lock().map_err(|_| broken())?;
+        if let Some(p) = slot.as_ref() {
+            return Ok(Ok(p.clone()));
+        }
+        say("reading the shape predictor (once per session)…".into());
+        let read = read_suggestion_predictor(self.files.predictor.as_deref())?.map(Arc::new);
+        if let Ok(p) = &read {
+            *slot = Some(p.clone());
+        }
+        Ok(read)
     }
 
     /// The tracker, read on first use (`say` hears that it is being read). A file that is

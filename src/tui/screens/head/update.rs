@@ -1,9 +1,8 @@
 //! The head view: turning and zooming the head, and labelling landmarks on its mesh (by the
-//! 3D cursor, or from suggestions the current frame makes), loading and saving the map.
+//! 3D cursor, or from suggestions made as `lipmap map suggest` makes them), loading and
+//! saving the map.
 
-use crate::fit::OrthoPose;
 use crate::fit::map_suggest::LeftOut;
-use crate::fit::suggest::SuggestHead;
 use crate::landmarks::{N_LANDMARKS, PointNo};
 use crate::model::LandmarkMap;
 use crate::tui::action::Action;
@@ -154,124 +153,96 @@ pub fn confirm_label(app: &mut App) {
     }
 }
 
-/// The head's vertices and the camera to see them through for suggestions: the current
-/// frame's fitted shape and pose when it has a fit, else the mesh (or the model's mean)
-/// with the pose left to be estimated from the labels.
-type SuggestionBasis = (Vec<crate::math::Point3>, Vec<[u32; 3]>, Option<OrthoPose>);
-
-fn suggestion_basis(app: &App) -> Option<SuggestionBasis> {
-    // The head's skin, eyes and teeth hide what is behind them; helper shells do not.
-    let occluders = app.head.occluders.as_deref().map(Vec::as_slice);
-    let faces = |mesh: &crate::model::Mesh| -> Vec<[u32; 3]> {
-        crate::fit::suggest::surface_triangles(&mesh.triangles(), occluders)
-    };
-    // A fit is of the model: its shape is the labelled mesh only while the model is labelled.
-    let fit = app
-        .fits
-        .by_frame
-        .get(&app.frame())
-        .filter(|f| f.is_usable() && app.head.label_role == crate::session::MapRole::Model);
-    if let (Some(model), Some(fit)) = (&app.model, fit) {
-        let shape = crate::fit::fitted_shape(model, fit);
-        let tris = match &app.mesh {
-            Some(m) if model.triangles.is_empty() => faces(m),
-            _ => model.triangles.clone(),
-        };
-        return Some((model.to_mesh(&shape).vertices, tris, Some(crate::fit::pose_of(fit))));
-    }
-    match (&app.mesh, &app.model) {
-        (Some(mesh), _) => Some((mesh.vertices.clone(), faces(mesh), None)),
-        (None, Some(model)) => Some((model.mean_mesh().vertices, model.triangles.clone(), None)),
-        (None, None) => None,
-    }
-}
-
-/// What a suggestion is made from: the head and camera of [`suggestion_basis`], the current
-/// frame's landmarks, the labels so far and the frame's height in pixels.
-struct SuggestionInputs {
-    vertices: Vec<crate::math::Point3>,
-    triangles: Vec<[u32; 3]>,
-    pose: Option<OrthoPose>,
-    frame: crate::landmarks::FrameLandmarks,
-    map: LandmarkMap,
-    image_height: f64,
-}
-
-/// [`SuggestionInputs`] for the current frame; None (the status saying why) while labels
-/// cannot be set, or when there is no head or no frame.
-fn suggestion_inputs(app: &mut App) -> Option<SuggestionInputs> {
-    if !labelling(app) {
-        return None;
-    }
-    let Some((vertices, triangles, pose)) = suggestion_basis(app) else {
-        app.status = "no head to label".into();
-        return None;
-    };
-    let frame = app.track.frames.get(app.frame_pos)?.clone();
-    let map = app.map.clone().unwrap_or_default();
-    let image_height = f64::from(app.frame_dims().1);
-    Some(SuggestionInputs { vertices, triangles, pose, frame, map, image_height })
-}
-
-/// Puts the cursor on the vertex the current frame suggests for the landmark.
+/// Asks the suggestions' job (the use case of `lipmap map suggest`) for a vertex for the
+/// landmark being labelled, from the other labels; the reply puts the cursor on it.
 pub fn suggest_label(app: &mut App) {
-    let Some(s) = suggestion_inputs(app) else { return };
+    if !labelling(app) {
+        return;
+    }
     let l = app.head.view.label;
-    let how = if s.pose.is_some() { "fitted pose" } else { "pose from the labels" };
-    // A vertex another landmark holds is not offered again: one vertex per landmark.
-    let mut eligible = match app.head.label_candidates.as_deref() {
-        Some(e) => e.clone(),
-        None => vec![true; s.vertices.len()],
-    };
-    for (_, v) in s.map.pairs().filter(|(other, _)| *other != l) {
-        if let Some(e) = eligible.get_mut(v) {
-            *e = false;
-        }
-    }
-    let head =
-        SuggestHead { vertices: &s.vertices, triangles: &s.triangles, eligible: Some(&eligible) };
-    match crate::fit::suggest::suggest_label(&head, &s.map, &s.frame, s.image_height, s.pose, l) {
-        Ok(s) => {
-            if let Some(mesh) = &app.mesh {
-                let rot = head::view_rotation(&app.head.view, &app.head.framing);
-                let pts = head::project(mesh, &rot, &app.head.framing);
-                if let Some(p) = pts.get(s.vertex) {
-                    app.head.view.cursor = (p.0, -p.1);
-                }
-            }
-            app.head.view.suggested = Some((l, s.vertex));
-            app.status = format!(
-                "suggested vertex {} for {} ({:.1} px off the tracked point, {how}): \
-                 Enter assigns",
-                s.vertex,
-                PointNo(l),
-                s.distance_px
-            );
-        }
-        Err(e) => app.status = format!("no suggestion: {e}"),
-    }
+    let mut labels = app.map.clone().unwrap_or_default();
+    labels.to_vertex.remove(&l);
+    app.status = format!("suggesting a vertex for {}…", PointNo(l));
+    app.effects.push(Effect::SuggestMap { labels, landmark: Some(l) });
 }
 
-/// Labels every unmapped landmark with its suggested vertex, as one undoable edit.
+/// Asks the suggestions' job for every unlabelled landmark; the reply labels them as one
+/// undoable edit.
 pub fn suggest_all_labels(app: &mut App) {
-    let Some(s) = suggestion_inputs(app) else { return };
-    let head = SuggestHead {
-        vertices: &s.vertices,
-        triangles: &s.triangles,
-        eligible: app.head.label_candidates.as_deref().map(Vec::as_slice),
+    if !labelling(app) {
+        return;
+    }
+    let labels = app.map.clone().unwrap_or_default();
+    app.status = "suggesting the unlabelled landmarks…".into();
+    app.effects.push(Effect::SuggestMap { labels, landmark: None });
+}
+
+/// The suggestions' reply: for `o` the cursor on the landmark's suggested vertex (Enter
+/// assigns it), for `O` every suggested landmark still unlabelled labelled as one edit; the
+/// status says what they were matched to, or the one line why there are none.
+pub fn map_suggested(
+    app: &mut App,
+    landmark: Option<usize>,
+    suggested: Result<Box<crate::workflow::map::SuggestedMap>, String>,
+) {
+    let s = match suggested {
+        Ok(s) => s,
+        Err(e) => {
+            app.status = format!("no suggestions: {e}");
+            return;
+        }
     };
-    match crate::fit::map_suggest::suggest_map(&head, &s.map, &s.frame, s.image_height, s.pose) {
-        Ok(proposal) => {
-            let list: Vec<(usize, Option<usize>)> =
-                proposal.accepted.iter().map(|s| (s.landmark, Some(s.vertex))).collect();
+    if !labelling(app) {
+        return;
+    }
+    let from = &s.from;
+    match landmark {
+        Some(l) => match s.proposal.accepted.iter().find(|x| x.landmark == l) {
+            Some(x) => {
+                if let Some(mesh) = &app.mesh {
+                    let rot = head::view_rotation(&app.head.view, &app.head.framing);
+                    let pts = head::project(mesh, &rot, &app.head.framing);
+                    if let Some(p) = pts.get(x.vertex) {
+                        app.head.view.cursor = (p.0, -p.1);
+                    }
+                }
+                app.head.view.label = l;
+                app.head.view.suggested = Some((l, x.vertex));
+                app.status = format!(
+                    "suggested vertex {} for {} (confidence {:.2}, matched to {from}): Enter \
+                     assigns",
+                    x.vertex,
+                    PointNo(l),
+                    x.confidence
+                );
+            }
+            None => {
+                let why = s.proposal.left.iter().find(|(k, _)| *k == l);
+                app.status = match why {
+                    Some((_, why)) => format!("no suggestion for {}: {why}", PointNo(l)),
+                    None => format!("no suggestion for {}", PointNo(l)),
+                };
+            }
+        },
+        None => {
+            // Labels set while the job worked stay as the user set them.
+            let labelled = |l: usize| app.map.as_ref().is_some_and(|m| m.vertex(l).is_some());
+            let list: Vec<(usize, Option<usize>)> = s
+                .proposal
+                .accepted
+                .iter()
+                .filter(|x| !labelled(x.landmark))
+                .map(|x| (x.landmark, Some(x.vertex)))
+                .collect();
             relabel(app, list);
-            let first_left = proposal
+            let first_left = s
+                .proposal
                 .left
                 .iter()
                 .find(|(_, why)| !matches!(why, LeftOut::NotVisible))
                 .map_or(String::new(), |(l, why)| format!("; e.g. {} {why}", PointNo(*l)));
-            app.status = format!("{}{first_left}; u undoes", proposal.summary());
+            app.status =
+                format!("{}{first_left} (matched to {from}); u undoes", s.proposal.summary());
         }
-        Err(e) => app.status = format!("no suggestions: {e}"),
     }
 }

@@ -58,6 +58,15 @@ type Reference = BTreeMap<usize, Vec<(usize, Point2)>>;
 /// derived from `../shared`'s clip, so it lives outside the repository.
 const REFERENCE_ENV: &str = "LIPMAP_REFERENCE_LOWER_LIP";
 
+/// carphone's dlib track, its frames folder and the stronger tracker's lower lip, when all
+/// three are there (each absence says so).
+fn carphone_against_the_reference() -> Option<(Track, std::path::PathBuf, Reference)> {
+    let pts = lipmap::testdata::shared("data/carphone/dlib68_pts")?;
+    let frames = lipmap::testdata::shared("data/carphone/frames")?;
+    let reference = mediapipe_lower_lip()?;
+    Some((read_track(&pts).unwrap(), frames, reference))
+}
+
 /// A stronger tracker's lower lip on carphone: MediaPipe 0.10.14's face mesh with refined
 /// lips, each frame on its own, at the iBUG points 56–60 (outer) and 66–68 (inner), in the
 /// original frame's pixels (`docs/flags.md` says how the mesh's points were matched to
@@ -179,14 +188,7 @@ fn disputed_frames(track: &Track, reference: &Reference, shift: f64) -> BTreeSet
 
 #[test]
 fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dlibs() {
-    let (Some(pts), Some(frames)) = (
-        lipmap::testdata::shared("data/carphone/dlib68_pts"),
-        lipmap::testdata::shared("data/carphone/frames"),
-    ) else {
-        return;
-    };
-    let Some(reference) = mediapipe_lower_lip() else { return };
-    let track = read_track(&pts).unwrap();
+    let Some((track, frames, reference)) = carphone_against_the_reference() else { return };
     assert_eq!(reference.len(), track.len(), "the reference has every frame");
     // Both trackers in one frame of coordinates: the median vertical offset of the outer
     // lower lip (points 56–60, where the two agree best) is well under a pixel in dlib's
@@ -249,14 +251,7 @@ fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dli
             are strongly rolled closed lips where the two place their points differently along \
             the lip, which no check of an open mouth sees (docs/flags.md); run with --ignored"]
 fn carphone_flags_catch_most_frames_where_a_stronger_tracker_disputes_the_lower_lip() {
-    let (Some(pts), Some(frames)) = (
-        lipmap::testdata::shared("data/carphone/dlib68_pts"),
-        lipmap::testdata::shared("data/carphone/frames"),
-    ) else {
-        return;
-    };
-    let Some(reference) = mediapipe_lower_lip() else { return };
-    let track = read_track(&pts).unwrap();
+    let Some((track, frames, reference)) = carphone_against_the_reference() else { return };
     let flagged = carphone_flags(&track, &frames, 0.0);
     let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
     println!("{}", catch_line("carphone", &disputed, &flagged));

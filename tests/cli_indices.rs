@@ -316,6 +316,10 @@ fn eval_heads_compares_heads_with_paired_tests() {
     // Text output carries the same tables.
     let text = ok(&["eval", session.to_str().unwrap(), "--heads", &heads]);
     assert!(text.contains("RMSE by head") && text.contains("speaker-head match"), "{text}");
+    assert!(text.contains("W/H frontal ≤15°"), "the default comparison is named: {text}");
+    // `--pose` reaches the heads as it reaches the session's own head, and is named.
+    let text = ok(&["eval", session.to_str().unwrap(), "--heads", &heads, "--pose", "image-plane"]);
+    assert!(text.contains("RMSE by head · W/H image plane"), "{text}");
     // A folder without a model is refused with a reason.
     let empty = tmp.path().join("empty");
     std::fs::create_dir(&empty).unwrap();

@@ -136,7 +136,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
         let path = session_path(&a.session);
         let clip = a.clip.as_deref();
         let heads = workflow::heads::load_heads(&a.heads, &a.mapping, a.transfer_mode.into())?;
-        return run_heads(&path, &heads, clip, normalise, &a.output, out);
+        return run_heads(&path, &heads, clip, normalise, a.pose.comparison()?, &a.output, out);
     }
     // Evaluation fits what the cache lacks and stores it, under the lock; beside an open
     // editor it runs read-only (fits in memory, nothing saved).
@@ -178,6 +178,7 @@ fn run_heads(
     heads: &[workflow::heads::Head],
     clip: Option<&str>,
     normalise: workflow::Normalisation,
+    pose: PoseComparison,
     output: &FormatArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
@@ -186,13 +187,14 @@ fn run_heads(
     let session = read.session;
     let clips = workflow::select_clips(&session, clip)?;
     let bar = frames_bar(0, "fitting");
-    let report = workflow::heads::compare_heads(&session, heads, &clips, normalise, &show_on(&bar))
-        .map_err(|e| match e {
-            workflow::Error::NoClips => {
-                anyhow::Error::new(e).context(session_path.display().to_string())
-            }
-            e => e.into(),
-        })?;
+    let report =
+        workflow::heads::compare_heads(&session, heads, &clips, normalise, pose, &show_on(&bar))
+            .map_err(|e| match e {
+                workflow::Error::NoClips => {
+                    anyhow::Error::new(e).context(session_path.display().to_string())
+                }
+                e => e.into(),
+            })?;
     print_warnings(&report.warnings);
     let refs: Vec<&crate::eval::Table> = report.tables.iter().collect();
     write_tables(&refs, output.format(), out)

@@ -272,7 +272,8 @@ impl<'a> Driver<'a> {
 }
 
 /// The session's clips fitted with `driver`'s model and the session's fit settings and
-/// measured on the head it drives, and what was worked around. The fits are not cached: the
+/// measured on the head it drives, W/H compared with the video as `pose` says, and what was
+/// worked around. The fits are not cached: the
 /// session's cache is keyed to its own model and map. Progress: one stage per clip.
 ///
 /// # Errors
@@ -283,10 +284,10 @@ pub fn head_utterances(
     name: &str,
     driver: &Driver<'_>,
     clips: &[usize],
+    pose: PoseComparison,
     progress: ProgressFn<'_>,
 ) -> Result<(Vec<Utterance>, Vec<Warning>)> {
     let settings = &session.fit_settings;
-    let pose = PoseComparison::default();
     let res = driver.fitted();
     let mut utterances = Vec::new();
     let mut warnings = Vec::new();
@@ -472,9 +473,10 @@ pub struct HeadsReport {
     pub warnings: Vec<Warning>,
 }
 
-/// Fits the clips `clips` of `session` onto each head and compares them: the RMSE
-/// comparison against the first head, the speaker–head match per head and, when both kinds
-/// are present, corresponding vs non-corresponding heads.
+/// Fits the clips `clips` of `session` onto each head and compares them, W/H under `pose`
+/// (as `eval` compares the session's own head): the RMSE comparison against the first head,
+/// the speaker–head match per head and, when both kinds are present, corresponding vs
+/// non-corresponding heads.
 ///
 /// # Errors
 /// No clips; as [`head_utterances`]; a comparison that cannot be made.
@@ -483,6 +485,7 @@ pub fn compare_heads(
     heads: &[Head],
     clips: &[usize],
     normalise: Normalisation,
+    pose: PoseComparison,
     progress: ProgressFn<'_>,
 ) -> Result<HeadsReport> {
     if clips.is_empty() {
@@ -510,7 +513,7 @@ pub fn compare_heads(
     let mut matches = Vec::new();
     let mut notes = Vec::new();
     for (h, driver) in heads.iter().zip(&drivers) {
-        let (utterances, w) = head_utterances(session, &h.name, driver, clips, progress)?;
+        let (utterances, w) = head_utterances(session, &h.name, driver, clips, pose, progress)?;
         warnings.extend(w);
         configs
             .push(Configuration { name: h.name.clone(), utterances: normalise.apply(&utterances) });
@@ -532,7 +535,8 @@ pub fn compare_heads(
     }
     let comparison = compare_configurations(&configs, 0, RowKey::Sentence)?;
     let mut rmse = comparison.to_table().keyed("heads");
-    rmse.title = "RMSE by head".into();
+    rmse.title = format!("RMSE by head · W/H {}", pose.short_label());
+    rmse.notes.push(format!("W/H compared {pose}"));
     rmse.notes.extend(notes);
     let mut tables = vec![rmse, match_table(&matches, speaker.as_ref())];
     tables.extend(correspondence_table(&comparison, &matches));

@@ -13,6 +13,9 @@
 //! not one, and the held labels keep its points where the user put them while the trees move
 //! the others to agree with them and with the drawing (the re-alignment of
 //! [`crate::track::realign`], Kazemi & Sullivan 2014 with held points: our departure).
+//! Of its result only the nose and the lips are the trees' reading of the drawing; the eyes,
+//! brows and jaw, which bare geometry does not show, are its mean shape on the labels
+//! ([`FROM_MEAN_SHAPE`]).
 //!
 //! Start with [`own_face_landmarks`]; its result goes to [`super::map_suggest::suggest_map`]
 //! as the frame, with its pose.

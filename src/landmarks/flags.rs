@@ -14,7 +14,7 @@ use super::PointNo;
 pub use super::flags_image::{
     EdgeOffset, FrameRgb, LipEdgeOffset, RgbPixels, flags_of_lip_edges, image_flags,
     lip_edge_offsets, lip_edge_registration, lower_lip_edge_offset, lower_lip_off_opening,
-    outer_lower_lip_edge_offset, outer_lower_lip_off_edge,
+    outer_lower_lip_edge_offset,
 };
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;

@@ -350,20 +350,6 @@ pub fn lower_lip_off_opening(
     Some(FlagReason::LowerLipOffOpening { point, px, face_fraction: px / face_size })
 }
 
-/// The flag of one frame whose outer lower lip sits below the lip's lower edge in the image
-/// by more than `outer_lip_edge_face_fraction` of `face_size` beyond the clip's
-/// `registration`: the points have slid onto the chin. The point furthest below is named.
-pub fn outer_lower_lip_off_edge(
-    offset: &EdgeOffset,
-    face_size: f64,
-    registration: f64,
-    th: &FlagThresholds,
-) -> Option<FlagReason> {
-    let (point, px) =
-        beyond_registration(offset, face_size, registration, th.outer_lip_edge_face_fraction)?;
-    Some(FlagReason::OuterLowerLipOffEdge { point, px, face_fraction: px / face_size })
-}
-
 /// Pixels the image checks can read as a [`FrameRgb`]: a decoded frame of any owner.
 pub trait RgbPixels {
     fn frame_rgb(&self) -> FrameRgb<'_>;
@@ -413,9 +399,9 @@ pub fn lip_edge_offsets<T: RgbPixels>(
         .collect()
 }
 
-/// The image flags of a clip: [`lower_lip_off_opening`] and [`outer_lower_lip_off_edge`] on
-/// each of its [`lip_edge_offsets`], beyond the registrations they give
-/// ([`lip_edge_registration`]).
+/// The image flags of a clip: the lower lip on the tongue ([`lower_lip_off_opening`]) and
+/// on the chin (`outer_lip_edge_face_fraction`) on each of its [`lip_edge_offsets`], beyond
+/// the registrations they give ([`lip_edge_registration`]).
 pub fn image_flags<T: RgbPixels>(
     track: &Track,
     image_of: impl Fn(usize) -> Option<T>,
@@ -436,7 +422,17 @@ pub fn flags_of_lip_edges(
         .iter()
         .flat_map(|(frame, size, o)| {
             let on_tongue = o.inner.and_then(|e| lower_lip_off_opening(&e, *size, inner, th));
-            let on_chin = o.outer.and_then(|e| outer_lower_lip_off_edge(&e, *size, outer, th));
+            // Outer points slid below the lip's lower edge, onto the chin.
+            let on_chin = o
+                .outer
+                .and_then(|e| {
+                    beyond_registration(&e, *size, outer, th.outer_lip_edge_face_fraction)
+                })
+                .map(|(point, px)| FlagReason::OuterLowerLipOffEdge {
+                    point,
+                    px,
+                    face_fraction: px / size,
+                });
             on_tongue.into_iter().chain(on_chin).map(|r| (*frame, r))
         })
         .collect()

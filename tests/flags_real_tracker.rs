@@ -4,14 +4,19 @@
 //! CSV named by `LIPMAP_REFERENCE_LOWER_LIP`) placed too; `docs/flags.md` and
 //! `docs/closure.md` say what was seen.
 
+use lipmap::io::frames::{FrameOptions, FrameSource};
 use lipmap::io::landmark_format::read_track;
 use lipmap::landmarks::closure::{Closure, inner_lip_gap, seal_inner_lips};
 use lipmap::landmarks::flags::{
-    FlagThresholds, add_reasons, image_flags, lip_edge_offsets, lip_edge_registration,
+    EdgeOffset, FlagThresholds, FrameFlags, LipEdgeOffset, add_reasons, image_flags,
+    lip_edge_offsets, lip_edge_registration,
 };
 use lipmap::landmarks::{FrameLandmarks, Track};
 use lipmap::math::Point2;
+use lipmap::track::{DEBIAN_CASCADE_PATH, DEBIAN_PREDICTOR_PATH};
 use lipmap::workflow::flags::{clip_flags, flag_lines};
+use lipmap::workflow::no_progress;
+use lipmap::workflow::track::{TrackerFiles, load_tracker, track_frames};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// Frames where dlib is wrong, judged by eye, each with what is wrong.
@@ -65,6 +70,21 @@ fn carphone_against_the_reference() -> Option<(Track, std::path::PathBuf, Refere
     let frames = lipmap::testdata::shared("data/carphone/frames")?;
     let reference = mediapipe_lower_lip()?;
     Some((read_track(&pts).unwrap(), frames, reference))
+}
+
+/// carphone tracked by lipmap's own tracker (as `lipmap new --track` does), when Debian's
+/// predictor and detector are there (a notice says so when not). Its points are in the
+/// frame's pixels, so they meet the reference with no shift.
+fn carphone_tracked_by_lipmap(frames: &std::path::Path) -> Option<Track> {
+    for f in [DEBIAN_PREDICTOR_PATH, DEBIAN_CASCADE_PATH] {
+        if !std::path::Path::new(f).is_file() {
+            println!("skipped: {f} not found (apt-get install libdlib-data opencv-data)");
+            return None;
+        }
+    }
+    let tracker = load_tracker(&TrackerFiles::default()).unwrap();
+    let source = FrameSource::open(frames, &FrameOptions::default()).unwrap();
+    Some(track_frames(&tracker, &source, &no_progress).unwrap().track)
 }
 
 /// A stronger tracker's lower lip on carphone: MediaPipe 0.10.14's face mesh with refined
@@ -124,8 +144,14 @@ fn lower_lip_disagreement(
 const DISAGREEMENT: f64 = 0.08;
 
 /// The flags `lipmap fit` and `eval` give carphone (the track's checks and the image
-/// evidence, no fits), on the points lipmap reads moved `shift` px right and down.
-fn carphone_flags(track: &Track, frames: &std::path::Path, shift: f64) -> BTreeSet<usize> {
+/// evidence, no fits), on the points of `track` moved `shift` px right and down; `name`
+/// labels the printed registration and, with no shift, each frame's lip-edge offsets.
+fn carphone_frame_flags(
+    name: &str,
+    track: &Track,
+    frames: &std::path::Path,
+    shift: f64,
+) -> Vec<FrameFlags> {
     let mut track = track.clone();
     for f in &mut track.frames {
         for p in &mut f.points {
@@ -138,18 +164,29 @@ fn carphone_flags(track: &Track, frames: &std::path::Path, shift: f64) -> BTreeS
         |f: usize| image::open(frames.join(format!("frame_{f:04}.png"))).ok().map(|i| i.to_rgb8());
     let mut flags = clip_flags(&track, &[], &[], &th);
     let offsets = lip_edge_offsets(&track, read, &th);
-    let registration = lip_edge_registration(&offsets);
+    let inner = lip_edge_registration(&offsets, |o| o.inner);
+    let outer = lip_edge_registration(&offsets, |o| o.outer);
+    let measured = |edge: fn(&LipEdgeOffset) -> Option<EdgeOffset>| {
+        offsets.iter().filter(|(_, _, o)| edge(o).is_some()).count()
+    };
     println!(
-        "carphone, points {shift:.2} px lower: the lip-edge registration is {registration:+.4} \
-         face ({} open frames)",
-        offsets.len()
+        "{name}, points {shift:.2} px lower: the lip-edge registrations are {inner:+.4} face \
+         ({} open frames) and {outer:+.4} face for the outer lip's lower edge ({} frames)",
+        measured(|o| o.inner),
+        measured(|o| o.outer)
     );
     if shift == 0.0 {
+        let line = |e: Option<EdgeOffset>, size: f64, registration: f64| {
+            e.map_or("-".to_string(), |e| {
+                format!("{:+.2} px ({:+.3})", e.median_px, e.median_px / size - registration)
+            })
+        };
         for (frame, size, o) in &offsets {
             println!(
-                "carphone lip edge: frame {frame}: {:+.2} px ({:+.3} face beyond the registration)",
-                o.median_px,
-                o.median_px / size - registration
+                "{name} lip edges (beyond the registration, face): frame {frame}: on the tongue \
+                 {}, on the chin {}",
+                line(o.inner, *size, inner),
+                line(o.outer, *size, outer)
             );
         }
     }
@@ -157,7 +194,12 @@ fn carphone_flags(track: &Track, frames: &std::path::Path, shift: f64) -> BTreeS
         |f: usize| image::open(frames.join(format!("frame_{f:04}.png"))).ok().map(|i| i.to_rgb8());
     let image = image_flags(&track, read, &th);
     add_reasons(&mut flags, image);
-    flags.iter().map(|f| f.frame).collect()
+    flags
+}
+
+/// The frames [`carphone_frame_flags`] flags.
+fn carphone_flags(track: &Track, frames: &std::path::Path, shift: f64) -> BTreeSet<usize> {
+    carphone_frame_flags("carphone", track, frames, shift).iter().map(|f| f.frame).collect()
 }
 
 /// Frames above [`DISAGREEMENT`], flagged, and caught, as a line.
@@ -245,16 +287,44 @@ fn carphone_flags_stay_few_and_the_stronger_trackers_lower_lip_lines_up_with_dli
     }
 }
 
+/// The issue's target on dlib's track: most frames where MediaPipe's lower lip and dlib's
+/// disagree by more than 8 % of the eye distance are flagged. The image checks' limits were
+/// chosen on frames 0–99; the catches are all in the held-out frames 100–119 (docs/flags.md).
 #[test]
-#[ignore = "not met: the flags catch 5 of the 13 frames where MediaPipe's lower lip and dlib's \
-            disagree by more than 8 % of the eye distance (103, 105, 106, 115, 118); five others \
-            are strongly rolled closed lips where the two place their points differently along \
-            the lip, which no check of an open mouth sees (docs/flags.md); run with --ignored"]
 fn carphone_flags_catch_most_frames_where_a_stronger_tracker_disputes_the_lower_lip() {
     let Some((track, frames, reference)) = carphone_against_the_reference() else { return };
     let flagged = carphone_flags(&track, &frames, 0.0);
     let disputed = disputed_frames(&track, &reference, DLIB_POSITION_PX);
     println!("{}", catch_line("carphone", &disputed, &flagged));
+    let caught = disputed.intersection(&flagged).count();
+    assert!(2 * caught > disputed.len(), "{caught} of {} caught", disputed.len());
+}
+
+/// carphone tracked by lipmap itself (`lipmap new --track`): its flags, the frames where its
+/// lower lip and MediaPipe's disagree by more than 8 % of the eye distance, and how many of
+/// those are flagged, over the whole clip and over the held-out frames 100–119.
+#[test]
+fn carphone_tracked_by_lipmap_flags_stay_few() {
+    let Some((_, frames, reference)) = carphone_against_the_reference() else { return };
+    let Some(track) = carphone_tracked_by_lipmap(&frames) else { return };
+    let flags = carphone_frame_flags("carphone (lipmap's tracker)", &track, &frames, 0.0);
+    for l in flag_lines("carphone (lipmap's tracker)", &flags, track.len()) {
+        println!("{l}");
+    }
+    let flagged: BTreeSet<usize> = flags.iter().map(|f| f.frame).collect();
+    let disputed = disputed_frames(&track, &reference, 0.0);
+    println!("{}", catch_line("carphone (lipmap's tracker)", &disputed, &flagged));
+    let later = |s: &BTreeSet<usize>| s.iter().copied().filter(|f| *f >= 100).collect();
+    println!(
+        "{}",
+        catch_line(
+            "carphone (lipmap's tracker) frames 100-119 (held out)",
+            &later(&disputed),
+            &later(&flagged)
+        )
+    );
+    let share = flagged.len() as f64 / track.len() as f64;
+    assert!(share <= 0.2, "{:.1} % of carphone flagged on lipmap's track", 100.0 * share);
     let caught = disputed.intersection(&flagged).count();
     assert!(2 * caught > disputed.len(), "{caught} of {} caught", disputed.len());
 }

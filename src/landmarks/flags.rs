@@ -12,13 +12,14 @@
 
 use super::PointNo;
 pub use super::flags_image::{
-    FrameRgb, LipEdgeOffset, RgbPixels, flags_of_lip_edges, image_flags, lip_edge_offsets,
-    lip_edge_registration, lower_lip_edge_offset, lower_lip_off_opening,
+    EdgeOffset, FrameRgb, LipEdgeOffset, RgbPixels, flags_of_lip_edges, image_flags,
+    lip_edge_offsets, lip_edge_registration, lower_lip_edge_offset, lower_lip_off_opening,
+    outer_lower_lip_edge_offset,
 };
 pub use super::flags_lips::lip_order_flags;
 pub use super::flags_motion::jump_flags;
 pub use super::flags_procrustes::shape_flags;
-pub use super::flags_tracker::tracker_flags;
+pub use super::flags_tracker::{rerun_limit, tracker_doubts, tracker_flags};
 use super::track::Track;
 use std::fmt;
 
@@ -62,6 +63,10 @@ pub enum FlagReason {
     /// face size) above the lower lip's edge in the image, on the tongue between the lip and
     /// the open mouth's dark (`flags_image`).
     LowerLipOffOpening { point: usize, px: f64, face_fraction: f64 },
+    /// Image evidence: outer lower lip point `point` sits `px` pixels (`face_fraction` of
+    /// the face size) below the lower lip's lower edge in the image, on the chin
+    /// (`flags_image`).
+    OuterLowerLipOffEdge { point: usize, px: f64, face_fraction: f64 },
 }
 
 impl fmt::Display for FlagReason {
@@ -98,6 +103,12 @@ impl fmt::Display for FlagReason {
                  distance) above the lower lip's edge in the image",
                 PointNo(*point)
             ),
+            Self::OuterLowerLipOffEdge { point, px, face_fraction } => write!(
+                f,
+                "point {} lower lip on the chin: {px:.1} px ({face_fraction:.3} of eye \
+                 distance) below the lower lip's lower edge in the image",
+                PointNo(*point)
+            ),
         }
     }
 }
@@ -114,7 +125,9 @@ impl FlagReason {
     /// The point the reason is about (0-based), when it names one: what the TUI selects.
     pub fn point(&self) -> Option<usize> {
         match self {
-            Self::Jump { point, .. } | Self::LowerLipOffOpening { point, .. } => Some(*point),
+            Self::Jump { point, .. }
+            | Self::LowerLipOffOpening { point, .. }
+            | Self::OuterLowerLipOffEdge { point, .. } => Some(*point),
             Self::LipOrder { lower, .. } => Some(*lower),
             _ => None,
         }
@@ -164,8 +177,11 @@ pub struct FlagThresholds {
     /// Frame or point confidence below this is flagged (OpenFace suggests ~0.8 for frames).
     pub min_confidence: f32,
     /// lipmap's tracker's result and its re-run parting by more than this many eye-corner
-    /// distances is flagged (the confidence 0.8 it writes for other programs).
+    /// distances is a doubt (the confidence 0.8 it writes for other programs)...
     pub max_rerun_disagreement: f64,
+    /// ...flagged by itself when the parting is also above the clip's median by this many
+    /// robust sigmas, and otherwise a reason added to frames other checks flag.
+    pub rerun_sigmas: f64,
     /// A fit residual is high when above the clip's median by this many robust sigmas...
     pub residual_sigmas: f64,
     /// ...and above this multiple of the median (a tight clip's small spread must not flag
@@ -182,11 +198,15 @@ pub struct FlagThresholds {
     /// The image evidence on the lower lip reads only frames whose inner lips are further
     /// apart than this fraction of the face size...
     pub lower_lip_opening_face_fraction: f64,
-    /// ...plus this many pixels, the blur of the open mouth's edge.
+    /// ...plus this many pixels, the blur of the open mouth's two edges (a pixel each): an
+    /// opening narrower holds no interior the lip's edge could be read under.
     pub lower_lip_edge_px: f64,
     /// An inner lower lip point more than this fraction of the face size above the lower
     /// lip's edge in the image (on the tongue) is flagged.
     pub lower_lip_edge_face_fraction: f64,
+    /// Outer lower lip points more than this fraction of the face size below the lip's
+    /// lower edge in the image (on the chin) are flagged.
+    pub outer_lip_edge_face_fraction: f64,
 }
 
 impl Default for FlagThresholds {
@@ -201,14 +221,16 @@ impl Default for FlagThresholds {
             shape_min_face_fraction: 0.03,
             min_confidence: 0.8,
             max_rerun_disagreement: 0.02,
+            rerun_sigmas: 6.0,
             residual_sigmas: 4.0,
             residual_ratio: 2.0,
             residual_min_px: 1.0,
             measure_z: 6.0,
             measure_range_fraction: 0.5,
             lower_lip_opening_face_fraction: 0.08,
-            lower_lip_edge_px: 1.0,
+            lower_lip_edge_px: 2.0,
             lower_lip_edge_face_fraction: 0.025,
+            outer_lip_edge_face_fraction: 0.045,
         }
     }
 }
@@ -248,6 +270,11 @@ pub fn flag_frames<F: FitResidual>(
         .chain(measures.iter().flat_map(|m| measure_flags(m, th)))
     {
         by_frame.entry(frame).or_default().push(reason);
+    }
+    for (frame, doubt) in tracker_doubts(track, th) {
+        if let Some(reasons) = by_frame.get_mut(&frame) {
+            reasons.push(doubt);
+        }
     }
     by_frame.into_iter().map(|(frame, reasons)| FrameFlags { frame, reasons }).collect()
 }

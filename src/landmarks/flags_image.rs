@@ -1,14 +1,19 @@
 //! Image evidence for the flags: what the frame itself shows where the tracker put a point.
 //!
-//! An open mouth's inner lower lip borders the mouth's interior: directly above a correctly
-//! placed point (towards the upper lip) the image turns to the dark of the open mouth, or to
-//! teeth, within the blur of that edge. A tracker that rides the lower lip up onto the tongue
-//! (dlib on carphone's wide openings) leaves a band of tongue — neither dark nor teeth —
-//! between the point and the opening. [`lower_lip_off_opening`] measures that band along the
-//! mouth's vertical through each inner lower lip point and names the point when it is wider
-//! than `FlagThresholds::lower_lip_opening_face_fraction` of the face (the size of a real
-//! mistake) beyond the edge's blur. Start at [`image_flags`]; `docs/flags.md` has the
-//! calibration on carphone.
+//! Two edges of the lower lip are read along the mouth's own vertical (perpendicular to the
+//! corner line 49→55, so a rolled head is measured in its mouth's frame):
+//! - its **upper edge on an open mouth**. The inner lower lip borders the mouth's interior;
+//!   a tracker that rides the lower lip up onto the tongue (dlib on carphone's wide
+//!   openings) leaves the points above the steepest rise of redness that marks where the
+//!   lip proper begins ([`lower_lip_edge_offset`]);
+//! - its **lower edge, on every frame**, open or closed. The outer lower lip points belong
+//!   on the steepest fall of redness from the lip down to the chin's skin; a tracker whose
+//!   lower lip slides down onto the chin (rolled closed lips, a last frame after a slip)
+//!   leaves them below it ([`outer_lower_lip_edge_offset`]).
+//!
+//! Each is judged beyond the clip's own registration (the median offset of its frames: a
+//! tracker's sub-pixel convention moves every frame alike). Start at [`image_flags`];
+//! `docs/flags.md` has the calibration on carphone.
 
 use super::flags::{FlagReason, FlagThresholds, face_sizes};
 use super::track::{FrameLandmarks, Track};
@@ -162,13 +167,38 @@ fn lip_edge(img: &FrameRgb<'_>, q: Point2, up: Vector2, interior: f64, below: f6
     Some(0.5 * (t(k) + t(k + 1)))
 }
 
-/// How far one open frame's inner lower lip sits above the lower lip's edge in the image.
+/// How far a frame's lip points sit from a lip edge in the image, in the direction the
+/// check looks for a mistake (px; negative the other way).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgeOffset {
+    /// The median over the points.
+    pub median_px: f64,
+    /// The point (0-based iBUG id) furthest off, and its distance (px).
+    pub furthest: (usize, f64),
+}
+
+impl EdgeOffset {
+    /// The median and the furthest of `offsets` (point, px); `None` for fewer than two.
+    fn of(offsets: Vec<(usize, f64)>) -> Option<Self> {
+        if offsets.len() < 2 {
+            return None;
+        }
+        let mut d: Vec<f64> = offsets.iter().map(|o| o.1).collect();
+        d.sort_by(f64::total_cmp);
+        let furthest = offsets.into_iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
+        Some(Self { median_px: median_of_sorted(&d), furthest })
+    }
+}
+
+/// One frame's image evidence on its lower lip.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LipEdgeOffset {
-    /// The median over the inner lower points (px; negative below the edge).
-    pub median_px: f64,
-    /// The point (0-based iBUG id) furthest above the edge, and its distance (px).
-    pub furthest: (usize, f64),
+    /// How far the inner lower lip sits above the lip's upper edge (an open mouth only;
+    /// [`lower_lip_edge_offset`]).
+    pub inner: Option<EdgeOffset>,
+    /// How far the outer lower lip sits below the lip's lower edge
+    /// ([`outer_lower_lip_edge_offset`]).
+    pub outer: Option<EdgeOffset>,
 }
 
 /// Along the mouth's vertical through each inner lower point of `frame`, the distance from
@@ -182,14 +212,9 @@ pub fn lower_lip_edge_offset(
     img: &FrameRgb<'_>,
     face_size: f64,
     th: &FlagThresholds,
-) -> Option<LipEdgeOffset> {
+) -> Option<EdgeOffset> {
     let pos = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
-    let across = pos(54)? - pos(48)?;
-    if across.norm() <= 1e-9 || face_size <= 0.0 {
-        return None;
-    }
-    // Image y points down: the corner line turned by −90° points up the face.
-    let up = Vector2::new(across.y, -across.x).normalize();
+    let up = mouth_up(frame, face_size)?;
     let open = th.lower_lip_opening_face_fraction * face_size + th.lower_lip_edge_px;
     let mut offsets: Vec<(usize, f64)> = Vec::new();
     for (lower, upper, outer) in LOWER_LIP_COLUMNS {
@@ -205,13 +230,65 @@ pub fn lower_lip_edge_offset(
             offsets.push((lower, -edge));
         }
     }
-    if offsets.len() < 2 {
+    EdgeOffset::of(offsets)
+}
+
+/// The mouth's vertical in the image, towards the upper lip: the corner line 49→55 turned
+/// by −90° (image y points down), so a rolled head is read in its mouth's own frame; `None`
+/// without both corners or a face size.
+fn mouth_up(frame: &FrameLandmarks, face_size: f64) -> Option<Vector2> {
+    let pos = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
+    let across = pos(54)? - pos(48)?;
+    if across.norm() <= 1e-9 || face_size <= 0.0 {
         return None;
     }
-    let mut d: Vec<f64> = offsets.iter().map(|o| o.1).collect();
-    d.sort_by(f64::total_cmp);
-    let furthest = offsets.into_iter().max_by(|a, b| a.1.total_cmp(&b.1))?;
-    Some(LipEdgeOffset { median_px: median_of_sorted(&d), furthest })
+    Some(Vector2::new(across.y, -across.x).normalize())
+}
+
+/// Outer lower lip points whose lower edge is read, with the inner lower point above each
+/// (0-based iBUG ids): 58 ↔ 67, 57 ↔ 66, 56 ↔ 65.
+pub const OUTER_LOWER_LIP_COLUMNS: [(usize, usize); 3] = [(58, 67), (57, 66), (56, 65)];
+
+/// How far below the outer lower lip point the lip's lower edge is sought, in face sizes:
+/// 3 px on carphone's 31-px face, as far as a tracker's slide onto the chin goes.
+const OUTER_EDGE_REACH_FACE_FRACTION: f64 = 0.1;
+
+/// Along the mouth's vertical through each outer lower lip point of `frame` (56, 57, 58),
+/// how far the point sits below the lower lip's lower edge in the image: the steepest fall
+/// of [`smoothed_redness`] going down from the lip to the chin's skin, sought from half way
+/// up to the inner lower point (above that lies the gap between the lips, whose own edges
+/// are not the lip's) down to `OUTER_EDGE_REACH_FACE_FRACTION` of `face_size` below. Read
+/// on every frame, open or closed. `None` without the corners, or with fewer than two
+/// points measured.
+pub fn outer_lower_lip_edge_offset(
+    frame: &FrameLandmarks,
+    img: &FrameRgb<'_>,
+    face_size: f64,
+) -> Option<EdgeOffset> {
+    let pos = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
+    let up = mouth_up(frame, face_size)?;
+    let mut offsets: Vec<(usize, f64)> = Vec::new();
+    for (outer, inner) in OUTER_LOWER_LIP_COLUMNS {
+        let (Some(o), Some(q)) = (pos(outer), pos(inner)) else { continue };
+        let (from, to) = (-OUTER_EDGE_REACH_FACE_FRACTION * face_size, 0.5 * (q - o).dot(&up));
+        if to - from < 2.0 * STEP_PX {
+            continue;
+        }
+        let steps = ((to - from) / STEP_PX).floor() as usize;
+        let t = |k: usize| from + k as f64 * STEP_PX;
+        let Some(r) =
+            (0..=steps).map(|k| smoothed_redness(img, o + up * t(k))).collect::<Option<Vec<_>>>()
+        else {
+            continue;
+        };
+        // Going down is going to smaller t: the fall is r(t + step) − r(t).
+        let Some(k) = (0..steps).max_by(|&a, &b| (r[a + 1] - r[a]).total_cmp(&(r[b + 1] - r[b])))
+        else {
+            continue;
+        };
+        offsets.push((outer, 0.5 * (t(k) + t(k + 1))));
+    }
+    EdgeOffset::of(offsets)
 }
 
 fn median_of_sorted(d: &[f64]) -> f64 {
@@ -223,37 +300,53 @@ fn median_of_sorted(d: &[f64]) -> f64 {
 /// taken off.
 const MIN_REGISTRATION_FRAMES: usize = 5;
 
-/// The clip's registration between its points and its frames, in face sizes: the median of
-/// the frames' [`LipEdgeOffset::median_px`] over their face sizes. A tracker's points can
-/// sit a fraction of a pixel off the image (a file convention, a resize, the tracker's own
-/// bias), which shifts every frame's distance from the lip's edge alike; the median frame is
-/// taken as placed right. 0 for fewer than [`MIN_REGISTRATION_FRAMES`] frames.
-pub fn lip_edge_registration(offsets: &[(usize, f64, LipEdgeOffset)]) -> f64 {
-    if offsets.len() < MIN_REGISTRATION_FRAMES {
+/// The clip's registration between its points and its frames for one edge, in face sizes:
+/// the median of the frames' offsets from it ([`EdgeOffset::median_px`], `edge` picks which
+/// of a frame's offsets) over their face sizes. A tracker's points can sit a fraction of a
+/// pixel off the image (a file convention, a resize, the tracker's own bias), which shifts
+/// every frame's distance from a lip's edge alike; the median frame is taken as placed
+/// right. 0 for fewer than [`MIN_REGISTRATION_FRAMES`] frames measured.
+pub fn lip_edge_registration(
+    offsets: &[(usize, f64, LipEdgeOffset)],
+    edge: impl Fn(&LipEdgeOffset) -> Option<EdgeOffset>,
+) -> f64 {
+    let mut d: Vec<f64> =
+        offsets.iter().filter_map(|(_, size, o)| edge(o).map(|e| e.median_px / size)).collect();
+    if d.len() < MIN_REGISTRATION_FRAMES {
         return 0.0;
     }
-    let mut d: Vec<f64> = offsets.iter().map(|(_, size, o)| o.median_px / size).collect();
     d.sort_by(f64::total_cmp);
     median_of_sorted(&d)
+}
+
+/// How far `offset`'s points lie off their edge beyond the clip's `registration` (face
+/// sizes) when their median does by more than `limit` (face sizes) of `face_size`: the
+/// point furthest off and its distance (px) beyond the registration. One point astray is
+/// the shape checks' business, so the median over the points must pass the limit.
+fn beyond_registration(
+    offset: &EdgeOffset,
+    face_size: f64,
+    registration: f64,
+    limit: f64,
+) -> Option<(usize, f64)> {
+    let excess = |px: f64| px - registration * face_size;
+    (excess(offset.median_px) > limit * face_size)
+        .then(|| (offset.furthest.0, excess(offset.furthest.1)))
 }
 
 /// The flag of one open frame whose inner lower lip sits above the lower lip's edge in the
 /// image by more than `lower_lip_edge_face_fraction` of `face_size` beyond the clip's
 /// `registration` (face sizes; [`lip_edge_registration`]): the points ride on the tongue
-/// (the band between the open mouth's dark and the lip proper). The median over the points
-/// must exceed the limit (one point astray is the shape checks' business); the point
-/// furthest above the edge is named, with its distance beyond the registration.
+/// (the band between the open mouth's dark and the lip proper). The point furthest above
+/// the edge is named, with its distance beyond the registration.
 pub fn lower_lip_off_opening(
-    offset: &LipEdgeOffset,
+    offset: &EdgeOffset,
     face_size: f64,
     registration: f64,
     th: &FlagThresholds,
 ) -> Option<FlagReason> {
-    let excess = |px: f64| px - registration * face_size;
-    if excess(offset.median_px) <= th.lower_lip_edge_face_fraction * face_size {
-        return None;
-    }
-    let (point, px) = (offset.furthest.0, excess(offset.furthest.1));
+    let (point, px) =
+        beyond_registration(offset, face_size, registration, th.lower_lip_edge_face_fraction)?;
     Some(FlagReason::LowerLipOffOpening { point, px, face_fraction: px / face_size })
 }
 
@@ -274,10 +367,11 @@ impl<T: RgbPixels + ?Sized> RgbPixels for std::sync::Arc<T> {
     }
 }
 
-/// The lip-edge offsets of a clip: [`lower_lip_edge_offset`] on every frame whose mouth is
-/// open enough to be checked ([`mouth_open_enough`]) and that `image_of` gives an image for
-/// (frame number → its pixels; frames it has none for are skipped, and frames too closed to
-/// check are never asked for), each as (frame number, face size, offset).
+/// The lip-edge offsets of a clip, on every frame that `image_of` gives an image for (frame
+/// number → its pixels; frames it has none for are skipped): [`outer_lower_lip_edge_offset`]
+/// on each, [`lower_lip_edge_offset`] on those whose mouth is open enough to be checked
+/// ([`mouth_open_enough`]); each as (frame number, face size, offsets), frames with neither
+/// left out.
 pub fn lip_edge_offsets<T: RgbPixels>(
     track: &Track,
     image_of: impl Fn(usize) -> Option<T>,
@@ -290,17 +384,24 @@ pub fn lip_edge_offsets<T: RgbPixels>(
         .zip(sizes)
         .filter_map(|(f, size)| {
             let size = size?;
-            if !mouth_open_enough(f, size, th) {
-                return None;
-            }
             let img = image_of(f.frame)?;
-            lower_lip_edge_offset(f, &img.frame_rgb(), size, th).map(|o| (f.frame, size, o))
+            let img = img.frame_rgb();
+            let inner = mouth_open_enough(f, size, th)
+                .then(|| lower_lip_edge_offset(f, &img, size, th))
+                .flatten();
+            let outer = outer_lower_lip_edge_offset(f, &img, size);
+            (inner.is_some() || outer.is_some()).then_some((
+                f.frame,
+                size,
+                LipEdgeOffset { inner, outer },
+            ))
         })
         .collect()
 }
 
-/// The image flags of a clip: [`lower_lip_off_opening`] on each of its
-/// [`lip_edge_offsets`], beyond the registration they give ([`lip_edge_registration`]).
+/// The image flags of a clip: the lower lip on the tongue ([`lower_lip_off_opening`]) and
+/// on the chin (`outer_lip_edge_face_fraction`) on each of its [`lip_edge_offsets`], beyond
+/// the registrations they give ([`lip_edge_registration`]).
 pub fn image_flags<T: RgbPixels>(
     track: &Track,
     image_of: impl Fn(usize) -> Option<T>,
@@ -309,24 +410,36 @@ pub fn image_flags<T: RgbPixels>(
     flags_of_lip_edges(&lip_edge_offsets(track, image_of, th), th)
 }
 
-/// The flags of a clip's lip-edge offsets (frame number, face size, offset), each judged
-/// beyond the registration of them all.
+/// The flags of a clip's lip-edge offsets (frame number, face size, offsets), each edge
+/// judged beyond the registration of all the frames measured on it.
 pub fn flags_of_lip_edges(
     offsets: &[(usize, f64, LipEdgeOffset)],
     th: &FlagThresholds,
 ) -> Vec<(usize, FlagReason)> {
-    let registration = lip_edge_registration(offsets);
+    let inner = lip_edge_registration(offsets, |o| o.inner);
+    let outer = lip_edge_registration(offsets, |o| o.outer);
     offsets
         .iter()
-        .filter_map(|(frame, size, o)| {
-            lower_lip_off_opening(o, *size, registration, th).map(|r| (*frame, r))
+        .flat_map(|(frame, size, o)| {
+            let on_tongue = o.inner.and_then(|e| lower_lip_off_opening(&e, *size, inner, th));
+            // Outer points slid below the lip's lower edge, onto the chin.
+            let on_chin = o
+                .outer
+                .and_then(|e| {
+                    beyond_registration(&e, *size, outer, th.outer_lip_edge_face_fraction)
+                })
+                .map(|(point, px)| FlagReason::OuterLowerLipOffEdge {
+                    point,
+                    px,
+                    face_fraction: px / size,
+                });
+            on_tongue.into_iter().chain(on_chin).map(|r| (*frame, r))
         })
         .collect()
 }
 
-/// Whether the tracked inner lips of `frame` are far enough apart for the check to mean
-/// anything (the midline gap above the limit it tests): frames that cannot be flagged are
-/// not decoded.
+/// Whether the tracked inner lips of `frame` are far enough apart for the open-mouth check
+/// to mean anything (the midline gap above the limit it tests).
 pub fn mouth_open_enough(frame: &FrameLandmarks, face_size: f64, th: &FlagThresholds) -> bool {
     let pos = |i: usize| frame.points.get(i).filter(|p| p.visible).map(|p| p.pos());
     let (Some(u), Some(q)) = (pos(62), pos(66)) else { return false };
@@ -417,13 +530,52 @@ mod tests {
         let track = Track::new(frames);
         let offsets = lip_edge_offsets(&track, |_| Some(img.clone()), &th);
         assert_eq!(offsets.len(), 7);
-        let registration = lip_edge_registration(&offsets);
+        let registration = lip_edge_registration(&offsets, |o| o.inner);
         assert!((registration * 50.0 - 2.0).abs() < 0.5, "{registration}");
         let flagged: Vec<usize> =
             image_flags(&track, |_| Some(img.clone()), &th).into_iter().map(|f| f.0).collect();
         assert_eq!(flagged, vec![6]);
         // Too few frames to estimate it: none is taken off.
-        assert_eq!(lip_edge_registration(&offsets[..MIN_REGISTRATION_FRAMES - 1]), 0.0);
+        assert_eq!(
+            lip_edge_registration(&offsets[..MIN_REGISTRATION_FRAMES - 1], |o| o.inner),
+            0.0
+        );
+    }
+
+    #[test]
+    fn a_lower_lip_slid_onto_the_chin_is_flagged_open_or_closed() {
+        let th = FlagThresholds::default();
+        let img = std::sync::Arc::new(image(22));
+        // The lip's lower edge is between rows 40 and 41: outer points on it in six frames,
+        // closed lips in two of them; the seventh frame's lower lip slid 4 px onto the chin.
+        let mut frames: Vec<FrameLandmarks> =
+            (0..6).map(|k| frame(if k < 2 { 9.0 } else { 30.0 })).collect();
+        let mut slid = frame(30.0);
+        for (lower, _, outer) in LOWER_LIP_COLUMNS {
+            slid.points[outer].y += 4.0;
+            slid.points[lower].y += 4.0;
+        }
+        frames.push(slid);
+        for (k, f) in frames.iter_mut().enumerate() {
+            f.frame = k;
+        }
+        let track = Track::new(frames);
+        let offsets = lip_edge_offsets(&track, |_| Some(img.clone()), &th);
+        assert!(offsets.iter().all(|(_, _, o)| o.outer.is_some()));
+        assert!(offsets[0].2.inner.is_none(), "closed lips have no open-mouth evidence");
+        let flags = image_flags(&track, |_| Some(img.clone()), &th);
+        let on_chin: Vec<&(usize, FlagReason)> = flags
+            .iter()
+            .filter(|(_, r)| matches!(r, FlagReason::OuterLowerLipOffEdge { .. }))
+            .collect();
+        assert_eq!(on_chin.len(), 1, "{flags:?}");
+        match on_chin[0] {
+            (6, FlagReason::OuterLowerLipOffEdge { point, px, .. }) => {
+                assert!(LOWER_LIP_COLUMNS.iter().any(|c| c.2 == *point));
+                assert!((px - 4.0).abs() < 1.0, "{px}");
+            }
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

@@ -7,8 +7,9 @@ use crate::tui::action::Action;
 use crate::tui::app::FrameProvider;
 use std::sync::Arc;
 
-/// Measures every frame of `track` whose mouth is open enough, decoding it from `provider`
-/// (frames that do not decode give nothing), and replies `ImagesChecked`.
+/// Measures every frame of `track` (the lower lip's lower edge on all, its upper edge where
+/// the mouth is open enough), decoding it from `provider` (frames that do not decode give
+/// nothing), and replies `ImagesChecked`.
 pub fn check_images_for_tui(
     provider: Arc<dyn FrameProvider>,
     track: Track,

@@ -134,6 +134,14 @@ fn redness(c: [f64; 3]) -> f64 {
 /// noise at that scale.
 const REDNESS_SIGMA_PX: f64 = 0.7;
 
+/// The least change of [`smoothed_redness`] per pixel read as a lip's edge (the lower
+/// lip's rise under the open mouth, its fall onto the chin). On carphone the steepest fall
+/// under the outer lower lip is never under 0.038 per px and the rise under the open mouth
+/// is under 0.004 per px in fewer than one reading in twenty; a face drawn without red lips
+/// (the TUI's test fixture) changes by under 0.0004 per px, where the steepest change is
+/// noise and its place says nothing.
+const MIN_LIP_EDGE_STEP_PER_PX: f64 = 0.001;
+
 /// [`redness`] at `p`, Gaussian-weighted (σ [`REDNESS_SIGMA_PX`]) over a 5×5 grid of
 /// bilinear samples half a pixel apart; `None` off the image.
 fn smoothed_redness(img: &FrameRgb<'_>, p: Point2) -> Option<f64> {
@@ -164,7 +172,8 @@ fn lip_edge(img: &FrameRgb<'_>, q: Point2, up: Vector2, interior: f64, below: f6
     let r: Vec<f64> =
         (0..=steps).map(|k| smoothed_redness(img, q + up * t(k))).collect::<Option<_>>()?;
     let k = (0..steps).max_by(|&a, &b| (r[a] - r[a + 1]).total_cmp(&(r[b] - r[b + 1])))?;
-    Some(0.5 * (t(k) + t(k + 1)))
+    // A face whose lip is not redder than what lies above it shows no edge to read.
+    (r[k] - r[k + 1] >= MIN_LIP_EDGE_STEP_PER_PX * STEP_PX).then(|| 0.5 * (t(k) + t(k + 1)))
 }
 
 /// How far a frame's lip points sit from a lip edge in the image, in the direction the
@@ -286,6 +295,10 @@ pub fn outer_lower_lip_edge_offset(
         else {
             continue;
         };
+        // A face whose lip is not redder than its chin shows no edge to read.
+        if r[k + 1] - r[k] < MIN_LIP_EDGE_STEP_PER_PX * STEP_PX {
+            continue;
+        }
         offsets.push((outer, 0.5 * (t(k) + t(k + 1))));
     }
     EdgeOffset::of(offsets)
@@ -576,6 +589,17 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_face_without_red_lips_shows_no_lower_lip_edge() {
+        // Skin everywhere: the steepest fall of redness is the smoothing's noise, not an edge.
+        let skin = image::RgbImage::from_pixel(60, 60, image::Rgb([200, 160, 140]));
+        let rgb = FrameRgb::of(&skin);
+        assert_eq!(outer_lower_lip_edge_offset(&frame(30.0), &rgb, 50.0), None);
+        // The same points on a face with a red lip are read.
+        let lip = image(22);
+        assert!(outer_lower_lip_edge_offset(&frame(30.0), &FrameRgb::of(&lip), 50.0).is_some());
     }
 
     #[test]

@@ -162,7 +162,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let mut flags = |lines: &[String]| {
         bar.suspend(|| {
             for line in lines {
-                eprintln!("{}", crate::cli::output::terminal_safe(line));
+                crate::cli::output::eprint_line(crate::cli::output::terminal_safe(line));
             }
         })
     };

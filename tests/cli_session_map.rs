@@ -237,15 +237,15 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     // The same failure through the workflow, as the TUI's `o`/`O` show it: no command-line
     // hint in a view where labels are being made.
     let loaded = Session::load(&session).unwrap();
-    let e = lipmap::workflow::map::suggest_map_from_labels(
+    let Err(e) = lipmap::workflow::map::suggest_map_from_labels(
         &loaded,
         lipmap::session::MapRole::Head,
         lipmap::model::LandmarkMap::default(),
         None,
         lipmap::workflow::map::MatchTo::Frame(None, None),
-    )
-    .err()
-    .expect("no labels");
+    ) else {
+        panic!("suggestions from no labels")
+    };
     assert!(matches!(e, lipmap::workflow::Error::Suggest { .. }), "{e}");
     assert!(e.to_string().contains("label at least 4") && !e.to_string().contains("lipmap tui"));
 }

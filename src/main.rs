@@ -17,7 +17,7 @@ fn main() -> ExitCode {
         Ok(outcome) => outcome.into(),
         Err(err) if exit::is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("lipmap: {}", one_line(&err));
+            lipmap::cli::output::eprint_line(format_args!("lipmap: {}", one_line(&err)));
             ExitCode::from(exit::EXIT_FATAL)
         }
     }

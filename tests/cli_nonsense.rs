@@ -284,3 +284,27 @@ fn phone_files_with_empty_labels_or_phones_of_no_length_are_refused_with_the_lin
     let e = invalid(&lipmap(&["validate", s(&tg)]));
     assert!(e.contains("tier `phones`, interval 2: phone `AA` (0.1–0.1 s) lasts no time"), "{e}");
 }
+
+/// A closed stderr (`lipmap fit S 2>&1 | head -2`) is no more an error than a closed stdout:
+/// a command that fails keeps its exit code 2 and one that writes notes on stderr finishes
+/// its work with 0, where a panic on the write ended both with 101.
+#[test]
+fn a_closed_stderr_changes_no_exit_code() {
+    let run = |args: &[&str]| {
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
+        std::process::Command::new(env!("CARGO_BIN_EXE_lipmap"))
+            .args(args)
+            .stdout(std::process::Stdio::null())
+            .stderr(writer)
+            .status()
+            .unwrap()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("none.lipmap.json");
+    assert_eq!(run(&["fit", s(&missing)]).code(), Some(2));
+    let out = dir.path().join("demo");
+    let status = run(&["demo", "--no-tui", "--no-frames", "--sentences", "1", "--out", s(&out)]);
+    assert_eq!(status.code(), Some(0));
+    assert!(out.join("demo.lipmap.json").is_file());
+}

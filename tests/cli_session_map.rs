@@ -68,7 +68,7 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
     let stdout = text(&out.stdout);
     // Named after the clip (the folder above `frames/`), not the landmark folder.
     assert!(stdout.contains("clip `carphone` with 6 frames of landmarks"), "{stdout}");
-    assert!(stdout.contains("no landmark map yet"), "{stdout}");
+    assert!(stdout.contains("no model map yet (what `fit` uses)"), "{stdout}");
     // No --fps for an image folder: one notice, saying how to set it.
     let notice = format!(
         "lipmap: note: {} is a folder of images: assuming 25 fps (set it with --fps)",
@@ -90,8 +90,8 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
 
     // fit and eval: one line, exit 2.
     let want = format!(
-        "lipmap: the session has no landmark map: label the head in the TUI (view 2) or \
-         `lipmap import {} --mapping FILE`",
+        "lipmap: the session has no model map (what `fit` uses): label it in the TUI (view 2) \
+         or `lipmap import {} --mapping FILE`",
         session.display()
     );
     for cmd in ["fit", "eval"] {
@@ -116,7 +116,7 @@ fn a_session_without_a_map_is_made_and_fit_says_how_to_add_one() {
     assert_eq!(Session::load(&session).unwrap().clips[0].front.fps, 30.0);
     let out = lipmap(&["fit", s(&session)]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(text(&out.stderr).contains("the session has no landmark map"));
+    assert!(text(&out.stderr).contains("the session has no model map"));
 }
 
 #[test]
@@ -128,7 +128,7 @@ fn import_mapping_sets_the_map_and_a_differing_labelled_map_is_warned_about() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(
-        stdout.contains("landmark map set to") && stdout.contains("(50 landmarks)"),
+        stdout.contains("model map (what `fit` uses) set to") && stdout.contains("(50 landmarks)"),
         "{stdout}"
     );
     let mut loaded = Session::load(&session).unwrap();
@@ -192,7 +192,7 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
     assert!(stdout.contains("head mesh set to") && stdout.contains("(19158 vertices)"), "{stdout}");
-    assert!(stdout.contains("no landmark map yet") && stdout.contains("lipmap map suggest"));
+    assert!(stdout.contains("no map for this head yet") && stdout.contains("lipmap map suggest"));
     // With no label yet, `map suggest` names the step to take now (labelling in the TUI), not
     // a fit, which needs a map.
     let m = i.root.join("suggested.toml");
@@ -213,9 +213,41 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     let out = lipmap(&["import", s(&session), "--mapping", s(&i.mapping), "--head", s(&head)]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let stdout = text(&out.stdout);
-    assert!(stdout.contains("landmark map set to"), "{stdout}");
+    assert!(stdout.contains("model map (what `fit` uses) set to"), "{stdout}");
     assert!(!stdout.contains("does not fit this head"), "{stdout}");
     assert!(!stdout.contains("replaces"), "the same head replaces nothing: {stdout}");
+
+    // `map suggest` now suggests the head's map (the model's has labels): with none on the
+    // head it names that map, where labels are made, and the map that has some.
+    let out = lipmap(&["map", "suggest", s(&session), "--out", s(&m)]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = err_lines(&out).join("\n");
+    assert!(e.starts_with("lipmap: the head map on base.obj: "), "{e}");
+    assert!(e.contains("view 2") && e.contains("the model map has 50 labels: --map model"), "{e}");
+    // `--map model` chooses the other one, and the output names it.
+    let out =
+        lipmap(&["map", "suggest", s(&session), "--map", "model", "--frame", "0", "--out", s(&m)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(
+        stdout.starts_with("the model map on sfm_shape_3448.bin: matched to frame 0"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("lipmap import") && stdout.contains("--mapping"), "{stdout}");
+    // The same failure through the workflow, as the TUI's `o`/`O` show it: no command-line
+    // hint in a view where labels are being made.
+    let loaded = Session::load(&session).unwrap();
+    let Err(e) = lipmap::workflow::map::suggest_map_from_labels(
+        &loaded,
+        lipmap::session::MapRole::Head,
+        lipmap::model::LandmarkMap::default(),
+        None,
+        lipmap::workflow::map::MatchTo::Frame(None, None),
+    ) else {
+        panic!("suggestions from no labels")
+    };
+    assert!(matches!(e, lipmap::workflow::Error::Suggest { .. }), "{e}");
+    assert!(e.to_string().contains("label at least 4") && !e.to_string().contains("lipmap tui"));
 }
 
 #[test]
@@ -358,4 +390,36 @@ fn a_bad_session_file_is_named_once_on_one_line() {
         assert_eq!(lines.len(), 1, "{cmd}: {err}");
         assert_eq!(lines[0].matches("broken.lipmap.json").count(), 1, "{cmd}: {err}");
     }
+}
+
+/// `eval --heads` with the session's own head and no `--mapping` takes the session's head
+/// map (its file), as `transfer` does; another head without a map names what was looked
+/// for, once.
+#[test]
+fn eval_heads_takes_the_session_heads_own_map() {
+    let (Some(i), Some(mh)) = (inputs(), lipmap::testdata::shared("data/makehuman")) else {
+        return;
+    };
+    let head = mh.join("base.obj");
+    let head_map =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/makehuman_ibug68.toml");
+    let (session, _) = new_session(
+        &i,
+        "evalheads",
+        &["--fps", "25", "--mapping", s(&i.mapping), "--head", s(&head)],
+    );
+    let out = lipmap(&["import", s(&session), "--head-mapping", s(&head_map)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let out = lipmap(&["eval", s(&session), "--heads", s(&head)]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert!(stdout.contains(&format!("map {}", head_map.display())), "{stdout}");
+    // A copy of the head elsewhere is another head: no map beside it, said once.
+    let copy = i.root.join("other.obj");
+    std::fs::copy(&head, &copy).unwrap();
+    let out = lipmap(&["eval", s(&session), "--heads", s(&copy)]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = err_lines(&out).join("\n");
+    assert_eq!(e.matches(s(&copy)).count(), 1, "{e}");
+    assert!(e.contains("other.toml or other_map.toml"), "{e}");
 }

@@ -309,6 +309,38 @@ fn fit_refits_only_edited_frames_and_drops_stale_replies() {
     assert!(!a.effects.iter().any(|e| matches!(e, Effect::StoreFits { .. })), "{:?}", a.effects);
 }
 
+/// A session whose head is another mesh than the model, with no model map: `f` says the model
+/// map is what is missing and how to label it here, whichever map the head view labels.
+#[test]
+fn fit_without_a_model_map_names_the_model_map_and_how_to_label_it() {
+    use lipmap::session::MapRole;
+    let mut a = synthetic_app(4, 64, 48, false);
+    a.model = Some(std::sync::Arc::new(lipmap::model::MorphableModel {
+        shape: lipmap::model::PcaModel {
+            mean: lipmap::math::DVector::zeros(3 * 200),
+            basis: lipmap::math::DMatrix::zeros(3 * 200, 0),
+            eigenvalues: lipmap::math::DVector::zeros(0),
+        },
+        expressions: None,
+        triangles: vec![],
+    }));
+    a.head.head_has_own_map = true;
+    // Labelling the head's own map (68 labels there), the model's empty.
+    a.head.label_role = MapRole::Head;
+    a.model_map = None;
+    run(&mut a, [Action::RunFit]);
+    assert!(a.effects.is_empty());
+    assert!(a.status.starts_with("cannot fit: the session has no model map"), "{}", a.status);
+    assert!(a.status.contains("press m in the head view (2)"), "{}", a.status);
+    assert!(!a.status.contains("label the head"), "{}", a.status);
+    // Labelling the model map itself.
+    a.head.label_role = MapRole::Model;
+    a.map = Some(lipmap::model::LandmarkMap::default());
+    run(&mut a, [Action::RunFit]);
+    assert!(a.status.contains("no model map") && a.status.contains("label it in the head view"));
+    assert!(a.effects.is_empty());
+}
+
 #[test]
 fn idle_autosaves_unless_dragging_saving_or_failed() {
     let mut a = app();

@@ -59,7 +59,10 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
         gross_error_rate: a.tracker_errors,
         ..defaults
     };
-    eprintln!("lipmap demo: generating the synthetic speaker into {} ...", a.out.display());
+    crate::cli::output::eprint_line(format_args!(
+        "lipmap demo: generating the synthetic speaker into {} ...",
+        a.out.display()
+    ));
     let generated = demo::generate(&opts)?;
     let sessions = workflow::demo::write_demo_sessions(&generated)?;
     let t_gen = t0.elapsed();
@@ -97,12 +100,12 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
     if json {
         write_tables(&gathered.iter().collect::<Vec<_>>(), a.output.format(), out)?;
     }
-    eprintln!(
+    crate::cli::output::eprint_line(format_args!(
         "lipmap demo: generated in {:.1} s, fitted and evaluated in {:.1} s; session {}",
         t_gen.as_secs_f64(),
         (t0.elapsed() - t_gen).as_secs_f64(),
         sessions[0].display()
-    );
+    ));
     let interactive = std::io::stdin().is_terminal() && std::io::stdout().is_terminal();
     let outcome = if any_failed { Outcome::Partial } else { Outcome::Ok };
     if !a.no_tui {
@@ -116,10 +119,10 @@ pub fn run(a: &DemoArgs, out: &mut dyn Write) -> Result<crate::cli::Next> {
             };
             return Ok(crate::cli::Next::OpenTui(open, outcome));
         }
-        eprintln!(
+        crate::cli::output::eprint_line(format_args!(
             "lipmap demo: not a terminal, so the TUI is not opened; run `lipmap tui {}`",
             sessions[0].display()
-        );
+        ));
     }
     Ok(crate::cli::Next::Exit(outcome))
 }

@@ -135,7 +135,14 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     if !a.heads.is_empty() {
         let path = session_path(&a.session);
         let clip = a.clip.as_deref();
-        let heads = workflow::heads::load_heads(&a.heads, &a.mapping, a.transfer_mode.into())?;
+        // The session's own head takes its head map when no map is named for it.
+        let session = workflow::read_session(&path)?.session;
+        let heads = workflow::heads::load_heads(
+            &a.heads,
+            &a.mapping,
+            a.transfer_mode.into(),
+            Some(&session),
+        )?;
         return run_heads(&path, &heads, clip, normalise, a.pose.comparison()?, &a.output, out);
     }
     // Evaluation fits what the cache lacks and stores it, under the lock; beside an open
@@ -162,7 +169,7 @@ pub fn run(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     let mut flags = |lines: &[String]| {
         bar.suspend(|| {
             for line in lines {
-                eprintln!("{}", crate::cli::output::terminal_safe(line));
+                crate::cli::output::eprint_line(crate::cli::output::terminal_safe(line));
             }
         })
     };

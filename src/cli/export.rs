@@ -113,7 +113,10 @@ pub fn run(a: &ExportArgs, out: &mut dyn Write) -> Result<Outcome> {
     // One line per distinct reason, not one per frame.
     for (clip, failed) in &report.failed_fits {
         for l in failure_lines(clip, failed) {
-            eprintln!("lipmap: {} (no mesh written)", terminal_safe(&l));
+            crate::cli::output::eprint_line(format_args!(
+                "lipmap: {} (no mesh written)",
+                terminal_safe(&l)
+            ));
         }
     }
     Ok(if report.failed_fits.is_empty() { Outcome::Ok } else { Outcome::Partial })

@@ -201,7 +201,7 @@ fn run_session(a: &FitArgs, s: &str, out: &mut dyn Write) -> Result<Outcome> {
         if let workflow::Error::FitRefused(workflow::FitRefusal::Implausible { problems }) = e {
             bar.finish_and_clear();
             for p in problems {
-                eprintln!("model map: {p}");
+                crate::cli::output::eprint_line(format_args!("model map: {p}"));
             }
         }
     })?;
@@ -222,12 +222,12 @@ fn print_clip_fitted(clip: &workflow::ClipFitted, out: &mut dyn Write) -> std::i
         fits.failed()
     )?;
     for line in failure_lines(name, &fits.fits) {
-        eprintln!("{}", terminal_safe(&line));
+        crate::cli::output::eprint_line(terminal_safe(&line));
     }
     if let Some((count, frames)) = clip.flag_lines.split_first() {
         writeln!(out, "{}", terminal_safe(count))?;
         for line in frames {
-            eprintln!("{}", terminal_safe(line));
+            crate::cli::output::eprint_line(terminal_safe(line));
         }
     }
     Ok(())

@@ -6,7 +6,7 @@ use crate::cli::progress::print_warnings;
 use crate::io::landmark_map_toml::write_landmark_map;
 use crate::landmarks::PointNo;
 use crate::session::MapRole;
-use crate::workflow::map::{check_session_map, label_role, mesh_file_of, suggest_session_map};
+use crate::workflow::map::{check_session_map, label_role_or, mesh_file_of, suggest_session_map};
 use crate::workflow::{read_session, session_path};
 use anyhow::Result;
 use std::io::Write;
@@ -42,6 +42,61 @@ pub struct SuggestArgs {
     /// Where to write the map (eos TOML: 1-based iBUG ids, 0-based vertices).
     #[arg(long, value_name = "MAP.toml")]
     pub out: PathBuf,
+    /// Which map to suggest when the head is another mesh than the model: the model's (what
+    /// `fit` uses) or the head's own (what `transfer` and `indices` use). Default: the model's
+    /// while it maps nothing, else the head's.
+    #[arg(long, value_enum)]
+    pub map: Option<MapChoice>,
+}
+
+/// A session's map, as `--map` names it.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapChoice {
+    Model,
+    Head,
+}
+
+impl From<MapChoice> for MapRole {
+    fn from(c: MapChoice) -> Self {
+        match c {
+            MapChoice::Model => MapRole::Model,
+            MapChoice::Head => MapRole::Head,
+        }
+    }
+}
+
+/// Why `map suggest` made nothing, naming the map; too few labels says where they are made
+/// (the TUI's head view, `m` switching to the other map) and which other map has some.
+fn suggest_failure(
+    e: crate::workflow::Error,
+    role: MapRole,
+    mesh: &str,
+    session: &crate::session::Session,
+    name: &str,
+) -> anyhow::Error {
+    use crate::fit::suggest::SuggestError;
+    let too_few =
+        matches!(&e, crate::workflow::Error::Suggest { error: SuggestError::TooFewLabels(_), .. });
+    let mut msg = format!("the {} map{mesh}: {e}", role.name());
+    if too_few {
+        msg.push_str(&format!(" (label them in the terminal UI: `lipmap tui {name}`, view 2"));
+        let other = match role {
+            MapRole::Model => MapRole::Head,
+            MapRole::Head => MapRole::Model,
+        };
+        let labelled =
+            |r: MapRole| session.map_of(r).resolve().ok().flatten().map_or(0, |m| m.len());
+        if session.head_has_own_map() && labelled(other) > 0 {
+            msg.push_str(&format!(
+                "; the {} map has {} labels: --map {}",
+                other.name(),
+                labelled(other),
+                other.name()
+            ));
+        }
+        msg.push(')');
+    }
+    anyhow::anyhow!(msg)
 }
 
 #[derive(clap::Args, Debug)]
@@ -56,15 +111,20 @@ pub fn run(cmd: &MapCommand, out: &mut dyn Write) -> Result<bool> {
         MapCommand::Suggest(a) => {
             let read = read_session(&session_path(&a.session))?;
             print_warnings(&read.notices);
-            let role = label_role(&read.session);
+            let session = &read.session;
+            let role = label_role_or(session, a.map.map(MapRole::from));
+            let mesh = mesh_file_of(session, role)
+                .and_then(|p| p.file_name())
+                .map_or_else(String::new, |n| format!(" on {}", n.to_string_lossy()));
             let s = suggest_session_map(
-                &read.session,
+                session,
                 role,
                 a.clip.as_deref(),
                 a.frame,
                 a.predictor.as_deref(),
-            )?;
-            writeln!(out, "matched to {}", s.from)?;
+            )
+            .map_err(|e| suggest_failure(e, role, &mesh, session, &a.session))?;
+            writeln!(out, "the {} map{mesh}: matched to {}", role.name(), s.from)?;
             writeln!(out, "{} labels; {}", s.labels.len(), s.proposal.summary())?;
             writeln!(out, "landmark  vertex  px off  confidence")?;
             for x in &s.proposal.accepted {

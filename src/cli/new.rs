@@ -204,7 +204,9 @@ pub fn run_new(a: &NewArgs) -> Result<String> {
         plural(created.clip.frames, "frame")
     );
     match &created.map {
-        MapState::Missing => msg.push_str(&format!("\nno landmark map yet: {}", map_hint(path))),
+        MapState::Missing => {
+            msg.push_str(&format!("\nno model map yet (what `fit` uses): {}", map_hint(path)))
+        }
         MapState::Usable(n) => msg.push_str(&format!(", {} mapped", plural(*n, "landmark"))),
         MapState::Problem(problem) => msg.push_str(&format!("\n{problem}")),
     }
@@ -303,7 +305,7 @@ fn head_set_message(head: &HeadSet, path: &Path) -> String {
         path.display()
     );
     match &head.map_check {
-        None => msg.push_str(&format!("\nno landmark map yet: {suggest}")),
+        None => msg.push_str(&format!("\nno map for this head yet: {suggest}")),
         Some(check) if check.is_plausible() => {
             msg.push_str(&format!("\nthe head's map on this head: {}", check.summary()));
         }
@@ -319,7 +321,7 @@ fn head_set_message(head: &HeadSet, path: &Path) -> String {
 /// What setting a map file did, as `import` prints it.
 fn map_set_message(map: &MapSet, path: &Path) -> String {
     let mut msg = format!(
-        "{}: landmark map set to {} ({})",
+        "{}: model map (what `fit` uses) set to {} ({})",
         path.display(),
         map.file.display(),
         plural(map.landmarks, "landmark")

@@ -110,6 +110,14 @@ pub fn json_document(tables: &[&Table]) -> serde_json::Value {
     serde_json::Value::Object(doc)
 }
 
+/// Writes `line` and a line break on stderr. A closed stderr (`lipmap fit S 2>&1 | head`)
+/// is no more an error than a closed stdout: the line is dropped, where `eprintln!` would
+/// panic and end the command with a panic's exit code instead of its own.
+pub fn eprint_line(line: impl std::fmt::Display) {
+    // Nothing to report a failed write to: stderr is where it would go.
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
 /// `text` with every control character (C0, DEL, C1) and bidirectional override spelt as an escape (`\x1b`, `\n`,
 /// `\u{9b}`), so a clip name, phone label or path from a file cannot move the cursor, clear
 /// the screen or forge a line on the terminal. Every name the command line prints goes

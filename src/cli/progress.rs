@@ -42,6 +42,6 @@ pub fn show_on(bar: &ProgressBar) -> impl Fn(crate::workflow::Progress) + Sync +
 /// Prints a use case's warnings on stderr, one line each.
 pub fn print_warnings(warnings: &[crate::workflow::Warning]) {
     for w in warnings {
-        eprintln!("{}", crate::cli::output::terminal_safe(&w.0));
+        crate::cli::output::eprint_line(crate::cli::output::terminal_safe(&w.0));
     }
 }

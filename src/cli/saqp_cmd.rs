@@ -200,14 +200,14 @@ fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
     let bar = frames_bar(0, "fitting");
     let sc = session_corpus(&a.learn.sessions, &settings.corpus, &show_on(&bar))?;
     bar.finish_and_clear();
-    eprintln!(
+    crate::cli::output::eprint_line(format_args!(
         "cross-validating on {} ({} frames, {} {FILLED_FRAMES}{}; {})…",
         plural(sc.corpus.sentences.len(), "sentence"),
         sc.frames,
         sc.bridged,
         if a.learn.keep_flagged { ": failed fits" } else { ": failed fits and mis-tracked frames" },
         plural(settings.cv.synths.len(), "synthesizer")
-    );
+    ));
     let start = std::time::Instant::now();
     let result = cross_validate_corpus(sc, &settings)?;
     print_warnings(&result.warnings);
@@ -228,7 +228,7 @@ fn cv(a: &CvArgs, out: &mut dyn Write) -> Result<()> {
     write_tables(&tables, a.output.format(), out)?;
     if let Some(png) = &a.plot {
         write_quality_chart(png, report)?;
-        eprintln!("wrote {}", png.display());
+        crate::cli::output::eprint_line(format_args!("wrote {}", png.display()));
     }
     Ok(())
 }

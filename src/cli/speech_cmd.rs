@@ -224,10 +224,10 @@ fn eval(a: &EvalArgs, out: &mut dyn Write) -> Result<()> {
     print_warnings(&record_speech_model(std::slice::from_ref(&a.session), &a.model));
     let o = e.overlap;
     if o.trained_on > 0 {
-        eprintln!(
+        crate::cli::output::eprint_line(format_args!(
             "lipmap: warning: {} of the {} clips scored were in the model's training set (the same audio): these are not held-out figures",
             o.trained_on, o.scored
-        );
+        ));
     }
     let scores = scores_table(&e);
     let mut tables = vec![&scores];

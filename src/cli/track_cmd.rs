@@ -84,10 +84,10 @@ pub fn run_track(args: &TrackArgs, out: &mut impl Write) -> Result<crate::cli::O
         tracked.lost.len()
     )?;
     if let Some(first) = tracked.lost.first() {
-        eprintln!(
+        crate::cli::output::eprint_line(format_args!(
             "lipmap: warning: no face on {} (first: frame {first}); those frames are written as not visible",
             plural(tracked.lost.len(), "frame")
-        );
+        ));
         return Ok(crate::cli::Outcome::Partial);
     }
     Ok(crate::cli::Outcome::Ok)

@@ -10,7 +10,7 @@ use crate::fit::FrameFit;
 use crate::io::frames::FrameSource;
 use crate::landmarks::PointSource;
 use crate::landmarks::edit::corrections;
-use crate::model::LandmarkMap;
+use crate::model::{LandmarkMap, Mesh};
 use crate::session::{MapRole, Session};
 use crate::tui::app::{App, FrameImage, FrameProvider};
 use crate::workflow::session::JournalEntry;
@@ -192,6 +192,9 @@ impl SessionBridge {
             app.model_map = resolve(&session.landmark_map, "model map");
         }
         app.map = map.clone();
+        if role == MapRole::Model && session.head_has_own_map() {
+            app.other_head = other_head(session, &mut problems);
+        }
         app.frame_head();
         // The cache only saves time: a cache file that cannot be read is said, and the
         // frames are fitted again.
@@ -495,5 +498,25 @@ impl SessionBridge {
         self.loaded_map = Some(map.clone());
         self.written_map = Some(target.clone());
         Ok(target)
+    }
+}
+
+/// The session's head and its own map, for the facial indices while the model map is being
+/// labelled (`None` while the head has no map yet). A head or map that cannot be read is
+/// said in `problems`.
+fn other_head(session: &Session, problems: &mut Vec<String>) -> Option<(Arc<Mesh>, LandmarkMap)> {
+    let map = match session.head_map.as_ref()?.resolve() {
+        Ok(map) => map.filter(|m| !m.is_empty())?,
+        Err(e) => {
+            problems.push(format!("head map: {e}"));
+            return None;
+        }
+    };
+    match crate::io::obj::read_obj(session.head_mesh.as_deref()?) {
+        Ok(mesh) => Some((Arc::new(mesh), map)),
+        Err(e) => {
+            problems.push(format!("head: {e}"));
+            None
+        }
     }
 }

@@ -554,10 +554,7 @@ pub fn default_clip_name(frames: &Path) -> String {
 
 /// How to give a session at `path` a map, for messages.
 pub fn map_hint(path: &Path) -> String {
-    format!(
-        "label the head in the TUI (view 2) or `lipmap import {} --mapping FILE`",
-        path.display()
-    )
+    super::error::NO_MAP_HINT.replace("SESSION", &path.display().to_string())
 }
 
 /// Why a fit with `settings` cannot use `map` yet, as a message line (`None` when it can).

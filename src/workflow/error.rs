@@ -73,6 +73,10 @@ pub enum Error {
         /// The flag that names it (`--predictor`, `--detector`).
         flag: &'static str,
     },
+    /// Suggestions for a map that cannot be made, matched to `on` (the head's own face, a
+    /// frame). A front says where labels are made when there are too few.
+    #[error("{on}: {error}")]
+    Suggest { on: String, error: crate::fit::suggest::SuggestError },
     /// Input that breaks a rule of the use case (the message says which).
     #[error("{0}")]
     Invalid(String),
@@ -85,15 +89,24 @@ pub enum Error {
     },
 }
 
-/// Why a session cannot be fitted yet: it has no landmark map (or an empty one).
-pub const NO_MAP_MESSAGE: &str = "the session has no landmark map: label the head in the TUI \
-     (view 2) or `lipmap import SESSION --mapping FILE`";
+/// How to give a session its model map, `SESSION` standing for the session's path. The TUI
+/// opens its head view on the model while the model map is empty, so "view 2" is where it
+/// is labelled whether the model is the head's own mesh or another one.
+pub const NO_MAP_HINT: &str =
+    "label it in the TUI (view 2) or `lipmap import SESSION --mapping FILE`";
 
-fn no_map_message(session: Option<&std::path::Path>) -> String {
-    match session {
-        Some(p) => NO_MAP_MESSAGE.replace("SESSION", &p.display().to_string()),
-        None => NO_MAP_MESSAGE.to_string(),
-    }
+/// Why a session cannot be fitted yet: it has no model map (or an empty one). It names the
+/// model map, not just "a map", since a session whose head is another mesh has two and only
+/// the model's is what `fit` needs.
+pub const NO_MAP_MESSAGE: &str = "the session has no model map (what `fit` uses)";
+
+/// [`NO_MAP_MESSAGE`] with [`NO_MAP_HINT`], naming `session` when known.
+pub fn no_map_message(session: Option<&std::path::Path>) -> String {
+    let hint = match session {
+        Some(p) => NO_MAP_HINT.replace("SESSION", &p.display().to_string()),
+        None => NO_MAP_HINT.to_string(),
+    };
+    format!("{NO_MAP_MESSAGE}: {hint}")
 }
 
 /// A workflow result.

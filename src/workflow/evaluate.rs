@@ -374,6 +374,7 @@ pub fn for_each_clip_evaluated(
         progress(Progress::Stage { what: format!("fitting {name} ({})", settings.set), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let clip_fits = fit_clip_cached(session, res, c, settings, Some(&steps))?;
+        warnings.extend(clip_fits.map_warning.clone());
         let options = MeshMeasureOptions::default();
         let (mut u, more) =
             utterance_of_clip(session, res, c, &clip_fits.fits, &options, req.pose)?;

@@ -5,7 +5,7 @@
 
 use super::error::{Progress, ProgressFn, Result, Warning};
 use super::flags::clip_flag_lines;
-use super::resources::{Resources, check_before_fit, load_resources};
+use super::resources::{FitRefusal, Resources, check_before_fit, load_resources};
 use super::session::{EditSession, image_height, select_clips};
 use crate::fit::{FitSettings, FrameFit, fit_clip, fitted_shape};
 use crate::landmarks::FrameLandmarks;
@@ -20,6 +20,10 @@ pub struct ClipFits {
     pub fits: Vec<FrameFit>,
     /// How many frames were fitted now (the rest came from the cache).
     pub refitted: usize,
+    /// Said when the fits all came from the cache although the model map now fails the
+    /// anatomy check (accepted when they were made: the TUI's second `f`, or
+    /// `--accept-map-warnings`): the fits are used, not silently.
+    pub map_warning: Option<Warning>,
 }
 
 impl ClipFits {
@@ -44,8 +48,19 @@ pub fn fit_clip_cached(
     progress: Option<&(dyn Fn(usize, usize) + Sync)>,
 ) -> Result<ClipFits> {
     let stale = session.stale_frames_with(clip, settings)?;
+    let mut map_warning = None;
     if !stale.is_empty() {
         check_before_fit(&res.model, &res.map, settings, res.accept_map_warnings)?;
+    } else if !res.accept_map_warnings
+        && let Err(FitRefusal::Implausible { problems }) =
+            check_before_fit(&res.model, &res.map, settings, false)
+    {
+        map_warning = Some(Warning(format!(
+            "lipmap: warning: clip `{}`: its fits were made earlier with a model map that fails \
+             the anatomy check, accepted then ({}); `lipmap map check` lists them",
+            session.clip(clip)?.name,
+            super::resources::problems_summary(&problems)
+        )));
     }
     let height = image_height(session, clip)?;
     let track = session.fit_input_track(clip, settings)?;
@@ -69,7 +84,7 @@ pub fn fit_clip_cached(
         session.store_fits(clip, settings, fits)?;
     }
     let fits = session.cached_fits(clip, settings)?;
-    Ok(ClipFits { fits, refitted })
+    Ok(ClipFits { fits, refitted, map_warning })
 }
 
 /// One clip of a session, fitted.
@@ -142,6 +157,9 @@ pub fn fit_session(
         progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
         let fits = fit_clip_cached(session, &res, c, settings, Some(&steps))?;
+        if let Some(w) = fits.map_warning.clone() {
+            each(FitStep::Warning(w))?;
+        }
         let flag_lines = clip_flag_lines(session, c, &fits.fits)?;
         out.clips += 1;
         out.frames += fits.fits.len();
@@ -266,5 +284,15 @@ mod tests {
             |s: &FitStep| matches!(s, FitStep::Warning(w) if w.0.contains("swapped left/right"));
         let first_clip = steps.iter().position(|s| matches!(s, FitStep::Clip(_))).unwrap();
         assert!(steps[..first_clip].iter().any(warned), "the map warning comes before the fits");
+        // Fitted once with the map accepted, a fit without accepting it uses those fits and
+        // says so (it refused before they were made).
+        steps.clear();
+        let mut keep = |step: FitStep| {
+            steps.push(step);
+            Ok(())
+        };
+        fit_session(&mut opened, &settings, None, false, &quiet, &mut keep).unwrap();
+        let said = |s: &FitStep| matches!(s, FitStep::Warning(w) if w.0.contains("fails the anatomy check, accepted then"));
+        assert_eq!(steps.iter().filter(|s| said(s)).count(), 1);
     }
 }

@@ -190,7 +190,9 @@ pub fn load_head(path: &Path, mapping: Option<&Path>, mode: Interpolation) -> Re
 }
 
 /// Loads every head, making repeated names unique (`b`, `b#2`). The OBJ heads take the
-/// landmark maps of `mappings` in order; those beyond its end take the map beside them.
+/// landmark maps of `mappings` in order; those beyond its end take the session's head map
+/// when they are the session's head (`session`, see
+/// [`super::transfer::session_head_map_file`]), else the map beside them.
 ///
 /// # Errors
 /// More maps than OBJ heads; as [`load_head`], naming the head.
@@ -198,6 +200,7 @@ pub fn load_heads(
     paths: &[PathBuf],
     mappings: &[PathBuf],
     mode: Interpolation,
+    session: Option<&crate::session::Session>,
 ) -> Result<Vec<Head>> {
     let objs = paths.iter().filter(|p| is_obj(p)).count();
     if mappings.len() > objs {
@@ -206,11 +209,23 @@ pub fn load_heads(
             mappings.len()
         )));
     }
-    let mut maps = mappings.iter();
+    let mut maps = mappings.iter().peekable();
     let mut heads: Vec<Head> = Vec::new();
     for p in paths {
-        let mapping = if is_obj(p) { maps.next().map(PathBuf::as_path) } else { None };
-        let mut h = load_head(p, mapping, mode).with_context(|| format!("head {}", p.display()))?;
+        let named = |e: Error| {
+            // An error that starts with the head's path names it already.
+            if e.to_string().starts_with(&p.display().to_string()) {
+                e
+            } else {
+                e.context(format!("head {}", p.display()))
+            }
+        };
+        let mapping = match (is_obj(p), maps.next_if(|_| is_obj(p)), session) {
+            (true, Some(m), _) => Some(m.clone()),
+            (true, None, Some(s)) => super::transfer::session_head_map_file(s, p).map_err(named)?,
+            _ => None,
+        };
+        let mut h = load_head(p, mapping.as_deref(), mode).map_err(named)?;
         let base = if h.name.is_empty() { "head".to_string() } else { h.name.clone() };
         h.name = base.clone();
         let mut k = 1;
@@ -616,7 +631,7 @@ mod tests {
         let dir = d.path().to_path_buf();
         assert!(load_head(&dir, Some(&given), bih).unwrap_err().to_string().contains("only"));
         let two = [given.clone(), given.clone()];
-        let err = load_heads(std::slice::from_ref(&obj), &two, bih).unwrap_err().to_string();
+        let err = load_heads(std::slice::from_ref(&obj), &two, bih, None).unwrap_err().to_string();
         assert!(err.contains("2 landmark maps given for 1 OBJ heads"), "{err}");
         let missing = d.path().join("gone.obj");
         let err = load_head(&missing, Some(&given), bih).unwrap_err().to_string();

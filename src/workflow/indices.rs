@@ -232,7 +232,7 @@ pub fn head_indices(
 /// As [`head_indices`].
 pub fn resources_head_indices(res: &Resources) -> Result<HeadNeutral> {
     match (&res.head, &res.head_map) {
-        (Some(mesh), Some(map)) => mesh_indices(mesh, map, "head mesh, its own map"),
+        (Some(mesh), Some(map)) => mesh_indices(mesh, map, OWN_MAP_HEAD),
         _ => head_indices(&res.model, &res.map, res.head.as_ref()),
     }
 }
@@ -261,7 +261,7 @@ pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
                 head.display()
             ))
         })?;
-        return mesh_indices(&obj::read_obj(head)?, &map, "head mesh, its own map");
+        return mesh_indices(&obj::read_obj(head)?, &map, OWN_MAP_HEAD);
     }
     let map: LandmarkMap = session.landmark_map.resolve()?.ok_or(Error::NoMap { session: None })?;
     if session.model.is_some() {
@@ -349,17 +349,26 @@ pub fn session_tables(
     Ok(match_tables(&speaker, head, bounds))
 }
 
-/// The speaker, head and verdict tables from what a front already holds: the model, map and
-/// head mesh, and the clip's name, effective landmarks, alignment and frame rate (the
-/// speaker's neutral frame chosen as [`speaker_neutral`] does). Nothing is read from disk.
+/// The head a front takes facial indices on, as [`session_head_indices`] chooses it: a head
+/// that is another mesh than the model through its own map, else the model (its head mesh
+/// when of the model's topology, else its mean) through the model map.
+#[derive(Clone, Copy, Debug)]
+pub enum IndexHead<'a> {
+    /// The model through the model map ([`head_indices`]).
+    Model { model: &'a MorphableModel, map: &'a LandmarkMap, head: Option<&'a Mesh> },
+    /// A head that is another mesh than the model, through its own map.
+    OwnMap { mesh: &'a Mesh, map: &'a LandmarkMap },
+}
+
+/// The speaker, head and verdict tables from what a front already holds: the head (see
+/// [`IndexHead`]), and the clip's name, effective landmarks (as corrected, lips not sealed:
+/// the track `lipmap indices` reads), alignment and frame rate (the speaker's neutral frame
+/// chosen as [`speaker_neutral`] does). Nothing is read from disk.
 ///
 /// # Errors
 /// As [`speaker_neutral_of`] and [`head_indices`].
-#[allow(clippy::too_many_arguments)]
 pub fn index_tables(
-    model: &MorphableModel,
-    map: &LandmarkMap,
-    head: Option<&Mesh>,
+    head: IndexHead<'_>,
     clip: &str,
     track: &Track,
     alignment: &Alignment,
@@ -367,9 +376,15 @@ pub fn index_tables(
     bounds: &BoundsTable,
 ) -> Result<Vec<Table>> {
     let speaker = speaker_neutral_of(clip, track, alignment, fps, None)?;
-    let head = head_indices(model, map, head)?;
+    let head = match head {
+        IndexHead::Model { model, map, head } => head_indices(model, map, head)?,
+        IndexHead::OwnMap { mesh, map } => mesh_indices(mesh, map, OWN_MAP_HEAD)?,
+    };
     Ok(match_tables(&speaker, head, bounds))
 }
+
+/// What the head's indices note says a head with its own map is.
+const OWN_MAP_HEAD: &str = "head mesh, its own map";
 
 fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTable) -> Vec<Table> {
     let verdict = match_speaker_head(&speaker.indices, &head.indices, bounds);

@@ -298,16 +298,10 @@ fn suggest_on_own_face(
     Ok(SuggestedMap { from: SuggestedFrom::OwnFace, labels, proposal, map, check })
 }
 
-/// A suggestion's failure in one line, naming what it was matched to and, for too few
-/// labels, where labels are made (the command line has no way to).
+/// A suggestion's failure, naming what it was matched to; where labels are made is the
+/// front's to say (the TUI is where they are made, the command line has no way to).
 fn suggest_error(on: &str, e: &crate::fit::suggest::SuggestError) -> Error {
-    let r#where = match e {
-        crate::fit::suggest::SuggestError::TooFewLabels(_) => {
-            " (in the terminal UI: `lipmap tui SESSION`, key 2 for the head view)"
-        }
-        _ => "",
-    };
-    Error::Invalid(format!("{on}: {e}{where}"))
+    Error::Suggest { on: on.to_string(), error: e.clone() }
 }
 
 /// The first frame with the most visible landmarks.

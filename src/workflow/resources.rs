@@ -122,7 +122,7 @@ pub const MIN_FIT_LANDMARKS: usize = 4;
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum MapCheckError {
     /// The map maps nothing.
-    #[error("{}", super::error::NO_MAP_MESSAGE)]
+    #[error("{}", super::error::no_map_message(None))]
     Empty,
     /// Fewer than [`MIN_FIT_LANDMARKS`] of the fit's landmark set are mapped.
     #[error(

@@ -57,10 +57,57 @@ pub fn default_mapping(head: &Path) -> Result<PathBuf> {
         .find(|p| p.is_file())
         .ok_or_else(|| {
             Error::Invalid(format!(
-                "{}: no landmark map for this head (give one with --mapping MAP.toml)",
+                "{}: no landmark map given, nor {stem}.toml or {stem}_map.toml beside it (give \
+                 one with --mapping MAP.toml)",
                 head.display()
             ))
         })
+}
+
+/// The map file of the session's head, read only, when `head` is that head and the file
+/// holds the map the session uses (a map labelled in the TUI and not saved since has no
+/// file to name: the error says how to write one). `None` for any other head.
+///
+/// # Errors
+/// The session's head has no map yet, or only a labelled one without its file; a map file
+/// that does not parse.
+pub fn session_head_map_file(session: &Session, head: &Path) -> Result<Option<PathBuf>> {
+    if !is_session_head(session, head) {
+        return Ok(None);
+    }
+    let role = crate::session::MapRole::Head;
+    let r = session.map_of(role);
+    let used = r.resolve()?.filter(|m| !m.is_empty());
+    let filed = match &r.file {
+        Some(f) => Some(landmark_map_toml::read_landmark_map(f)?),
+        None => None,
+    };
+    match (used, &r.file) {
+        (None, _) => Err(Error::Invalid(format!(
+            "the head {} has no map yet: label it in the TUI (view 2) or give one with --mapping \
+             MAP.toml",
+            head.display()
+        ))),
+        (Some(m), Some(file)) if filed.is_some_and(|f| f.to_vertex == m.to_vertex) => {
+            Ok(Some(file.clone()))
+        }
+        (Some(_), _) => Err(Error::Invalid(format!(
+            "the head {}'s map is labelled in the TUI but not saved to its file: S in the head \
+             view (2) saves it, or give one with --mapping MAP.toml",
+            head.display()
+        ))),
+    }
+}
+
+/// Whether `head` names the session's head mesh: the same file however the path is spelt
+/// (`../shared/x.obj` from one folder, `/work/shared/x.obj` in the session).
+fn is_session_head(session: &Session, head: &Path) -> bool {
+    let file = |p: &Path| {
+        std::fs::canonicalize(p)
+            .or_else(|_| std::path::absolute(p))
+            .unwrap_or_else(|_| p.to_path_buf())
+    };
+    session.head_mesh.as_deref().map(file) == Some(file(head))
 }
 
 /// The map file of the session's head when `head` is that head (`None` for any other head):
@@ -77,8 +124,7 @@ pub fn session_head_mapping(
     head: &Path,
     write_dir: &Path,
 ) -> Result<Option<PathBuf>> {
-    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-    if session.head_mesh.as_deref().map(abs) != Some(abs(head)) {
+    if !is_session_head(session, head) {
         return Ok(None);
     }
     let role = crate::session::MapRole::Head;

@@ -167,6 +167,10 @@ pub struct App {
     /// The model's map while the head view labels a head's own map; see [`App::fit_map`].
     pub model_map: Option<LandmarkMap>,
     pub mesh: Option<Arc<Mesh>>,
+    /// The session's head with its own map while the head view labels the model map of a
+    /// session whose head is another mesh: what the analysis view's facial indices are taken
+    /// on, as `lipmap indices` takes them.
+    pub other_head: Option<(Arc<Mesh>, LandmarkMap)>,
     pub fit_settings: FitSettings,
     /// The session's lip-contact precision over its clips (px), which sealed lips carry in
     /// the fit's landmarks (`Session::lip_contact_precision`); `None` when they show none.
@@ -223,6 +227,7 @@ impl App {
             map: None,
             model_map: None,
             mesh: None,
+            other_head: None,
             fit_settings: FitSettings::default(),
             lip_contact_px: None,
             fits: Fits::default(),

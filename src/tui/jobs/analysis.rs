@@ -19,13 +19,44 @@ pub struct AnalysisJob {
     pub alignment: Alignment,
     pub fps: f64,
     pub fits: Vec<FrameFit>,
-    /// The head mesh the app shows: the head's facial indices are taken on it (or on the
-    /// model's mean when it is not the model's topology), shown after the error tables.
-    pub head: Option<Arc<crate::model::Mesh>>,
+    /// The head the facial indices are taken on (shown after the error tables), as `lipmap
+    /// indices` takes them.
+    pub index_head: IndexHeadSource,
+    /// The clip's landmarks as corrected, lips not sealed: the speaker's indices are taken on
+    /// them, as `lipmap indices` takes them (`track` is the fit's input).
+    pub speaker_track: Track,
     /// The side view's P per front frame (corrections applied), when the clip has one.
     pub side_p: Option<Vec<Option<f64>>>,
     /// The landmark set the fits used, named in the tables.
     pub set: crate::landmarks::LandmarkSet,
+}
+
+/// The head the analysis takes facial indices on, owned by the job (see
+/// [`crate::workflow::indices::IndexHead`]).
+pub enum IndexHeadSource {
+    /// The model through the fit's map, on the mesh the app shows (when the model's own).
+    Model(Option<Arc<crate::model::Mesh>>),
+    /// A head that is another mesh than the model, through its own map.
+    OwnMap(Arc<crate::model::Mesh>, LandmarkMap),
+}
+
+impl IndexHeadSource {
+    /// The head `lipmap indices` would read: the head's own map as being labelled when the
+    /// head view labels it, else the session's head with its own map when there is one,
+    /// else the model.
+    pub fn of(app: &App) -> Self {
+        use crate::session::MapRole;
+        let labelled = match (app.head.label_role, &app.mesh, &app.map) {
+            (MapRole::Head, Some(mesh), Some(map)) if !map.is_empty() => {
+                Some((mesh.clone(), map.clone()))
+            }
+            _ => None,
+        };
+        match labelled.or_else(|| app.other_head.clone()) {
+            Some((mesh, map)) => Self::OwnMap(mesh, map),
+            None => Self::Model(app.mesh.clone()),
+        }
+    }
 }
 
 impl AnalysisJob {
@@ -41,7 +72,8 @@ impl AnalysisJob {
             alignment: app.alignment.clone().unwrap_or_default(),
             fps: app.fps,
             fits: app.fits.by_frame.values().cloned().collect(),
-            head: app.mesh.clone(),
+            index_head: IndexHeadSource::of(app),
+            speaker_track: app.track.clone(),
             side_p: app.side.view().map(|s| s.p_series(app.n_frames(), app.fps)),
             set: app.fit_settings.set,
         })
@@ -79,12 +111,17 @@ pub fn analyse_for_tui(job: &AnalysisJob) -> AnalysisData {
     };
     // The facial indices of speaker and head from what the app holds (no disk reads), when
     // a map and the index points allow them.
+    use crate::workflow::indices::IndexHead;
+    let head = match &job.index_head {
+        IndexHeadSource::Model(mesh) => {
+            IndexHead::Model { model: &job.model, map: &job.map, head: mesh.as_deref() }
+        }
+        IndexHeadSource::OwnMap(mesh, map) => IndexHead::OwnMap { mesh, map },
+    };
     let index_tables = crate::workflow::indices::index_tables(
-        &job.model,
-        &job.map,
-        job.head.as_deref(),
+        head,
         &job.name,
-        &job.track,
+        &job.speaker_track,
         &job.alignment,
         job.fps,
         &crate::reference::current().bounds,

@@ -30,13 +30,7 @@ pub fn run_fit(app: &mut App) {
             return;
         }
         Err(e) => {
-            let fix = match app.head.label_role {
-                crate::session::MapRole::Model => "label more in the head view (2), `O` suggests",
-                crate::session::MapRole::Head => {
-                    "give the model a map: lipmap import SESSION --mapping FILE"
-                }
-            };
-            app.status = format!("cannot fit: {e}; {fix}");
+            app.status = cannot_fit_message(&e, app.head.label_role);
             return;
         }
     }
@@ -59,6 +53,26 @@ pub fn run_fit(app: &mut App) {
     app.fit.progress = (0, total);
     app.fit.error = None;
     app.effects.push(Effect::Fit { generation: app.fit.generation, frames });
+}
+
+/// Why `f` cannot fit yet and what to do here, in the TUI: the model map (what a fit uses)
+/// is labelled in the head view, where `m` switches to it while the head's own map is shown.
+fn cannot_fit_message(
+    e: &crate::workflow::FitRefusal,
+    labelling: crate::session::MapRole,
+) -> String {
+    use crate::session::MapRole;
+    use crate::workflow::{FitRefusal, MapCheckError, NO_MAP_MESSAGE};
+    let label = match labelling {
+        MapRole::Model => "label it in the head view (2), `O` suggests from 4-6 labels",
+        MapRole::Head => "press m in the head view (2) to label it",
+    };
+    match e {
+        FitRefusal::Unusable(MapCheckError::Empty) => format!(
+            "cannot fit: {NO_MAP_MESSAGE}: {label}, or `lipmap import SESSION --mapping FILE`"
+        ),
+        e => format!("cannot fit: {e}; model map: {label}"),
+    }
 }
 
 pub fn fit_progress(app: &mut App, generation: u64, done: usize, total: usize) {

@@ -294,5 +294,27 @@ mod tests {
         fit_session(&mut opened, &settings, None, false, &quiet, &mut keep).unwrap();
         let said = |s: &FitStep| matches!(s, FitStep::Warning(w) if w.0.contains("fails the anatomy check, accepted then"));
         assert_eq!(steps.iter().filter(|s| said(s)).count(), 1);
+        // The same cached fits driven onto a head say it too.
+        let res = crate::workflow::resources::Resources::load(&opened.session).unwrap();
+        let request = crate::workflow::transfer::TransferRequest {
+            head: data.join("makehuman/base.obj"),
+            mapping: Some(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("tests/fixtures/makehuman_ibug68.toml"),
+            ),
+            mode: crate::transfer::Interpolation::default(),
+            clips: vec![0],
+            out_dir: dir.path().join("transferred"),
+            objs: false,
+            accept_map_warnings: false,
+        };
+        let report = crate::workflow::transfer::transfer_session(
+            &mut opened.session,
+            &res,
+            &request,
+            &quiet,
+        )
+        .unwrap();
+        assert!(report.warnings.iter().any(|w| w.0.contains("accepted then")), "{report:?}");
     }
 }

@@ -185,9 +185,10 @@ impl Gathering {
             };
             progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
             let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
-            let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))
-                .map_err(|e| e.context(format!("{s}: clip `{name}`")))?
-                .fits;
+            let clip_fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))
+                .map_err(|e| e.context(format!("{s}: clip `{name}`")))?;
+            self.warnings.extend(clip_fits.map_warning);
+            let fits = clip_fits.fits;
             let n = clip_length(session, clip)?;
             let skip: Vec<usize> = if options.keep_flagged {
                 Vec::new()

@@ -368,7 +368,9 @@ fn clip_fits(
     progress(Progress::Stage { what: format!("fitting {name}"), total: 0 });
     let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
     let settings = session.fit_settings.clone();
-    let fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))?.fits;
+    let clip_fits = fit_clip_cached(session, res, clip, &settings, Some(&steps))?;
+    warnings.extend(clip_fits.map_warning);
+    let fits = clip_fits.fits;
     // Frames without a usable fit are filled in by the fit's gap policy (too long a gap is
     // not speech); checked before the audio is sized by the clip's length.
     let held = match fill_gaps(&fits, n, fps, &[]) {

@@ -257,7 +257,8 @@ pub struct TransferReport {
     pub eye_distance: Option<f64>,
     /// (clip name, frames written, folder).
     pub clips: Vec<(String, usize, PathBuf)>,
-    /// The map problems accepted (`accept_map_warnings`), one line each.
+    /// The map problems accepted (`accept_map_warnings`), one line each, and the clips whose
+    /// cached fits were made with a model map that fails the anatomy check.
     pub warnings: Vec<super::Warning>,
 }
 
@@ -281,7 +282,7 @@ pub fn transfer_session(
     let target = load_target(&request.head, &mapping)?;
     // The map as written (before the mouth corners are completed), checked as `map check`
     // checks it: a left/right swap would mirror every frame's motion.
-    let warnings = super::map::check_map_to_use(
+    let mut warnings = super::map::check_map_to_use(
         &landmark_map_toml::read_landmark_map(&mapping)?,
         &mapping,
         &request.head.display().to_string(),
@@ -304,7 +305,9 @@ pub fn transfer_session(
     for ((&c, name), file) in request.clips.iter().zip(names).zip(files) {
         progress(Progress::Stage { what: format!("transferring {name}"), total: 0 });
         let steps = |done: usize, total: usize| progress(Progress::Steps { done, total });
-        let fits = fit_clip_cached(session, res, c, &settings, Some(&steps))?.fits;
+        let clip_fits = fit_clip_cached(session, res, c, &settings, Some(&steps))?;
+        warnings.extend(clip_fits.map_warning);
+        let fits = clip_fits.fits;
         let start = Instant::now();
         let shapes = transfer_fits(res, &transfer, &fits)?;
         applied += start.elapsed();

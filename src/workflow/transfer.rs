@@ -83,11 +83,7 @@ pub fn session_head_map_file(session: &Session, head: &Path) -> Result<Option<Pa
         None => None,
     };
     match (used, &r.file) {
-        (None, _) => Err(Error::Invalid(format!(
-            "the head {} has no map yet: label it in the TUI (view 2) or give one with --mapping \
-             MAP.toml",
-            head.display()
-        ))),
+        (None, _) => Err(no_head_map(head)),
         (Some(m), Some(file)) if filed.is_some_and(|f| f.to_vertex == m.to_vertex) => {
             Ok(Some(file.clone()))
         }
@@ -102,12 +98,16 @@ pub fn session_head_map_file(session: &Session, head: &Path) -> Result<Option<Pa
 /// Whether `head` names the session's head mesh: the same file however the path is spelt
 /// (`../shared/x.obj` from one folder, `/work/shared/x.obj` in the session).
 fn is_session_head(session: &Session, head: &Path) -> bool {
-    let file = |p: &Path| {
-        std::fs::canonicalize(p)
-            .or_else(|_| std::path::absolute(p))
-            .unwrap_or_else(|_| p.to_path_buf())
-    };
-    session.head_mesh.as_deref().map(file) == Some(file(head))
+    session.head_mesh.as_deref().map(recorded_path) == Some(recorded_path(head))
+}
+
+/// What to do when the session's head has no map yet, in one line.
+fn no_head_map(head: &Path) -> Error {
+    Error::Invalid(format!(
+        "the head {} has no map yet: label it in the TUI (view 2) or give one with --mapping \
+         MAP.toml",
+        head.display()
+    ))
 }
 
 /// The map file of the session's head when `head` is that head (`None` for any other head):
@@ -129,10 +129,7 @@ pub fn session_head_mapping(
     }
     let role = crate::session::MapRole::Head;
     let Some(map) = session.map_of(role).resolve()?.filter(|m| !m.is_empty()) else {
-        return Err(Error::Invalid(format!(
-            "the head {} has no map yet: label it in the TUI (view 2) or give one with --mapping MAP.toml",
-            head.display()
-        )));
+        return Err(no_head_map(head));
     };
     let r = session.map_of(role).clone();
     if let (Some(file), None) = (&r.file, &r.inline) {

@@ -224,6 +224,12 @@ fn import_head_adds_the_users_head_and_says_how_to_label_it() {
     let e = err_lines(&out).join("\n");
     assert!(e.starts_with("lipmap: the head map on base.obj: "), "{e}");
     assert!(e.contains("view 2") && e.contains("the model map has 50 labels: --map model"), "{e}");
+    // `indices` measures the head through the head map, and its hint names this session.
+    let out = lipmap(&["indices", s(&session)]);
+    assert_eq!(out.status.code(), Some(2));
+    let e = err_lines(&out).join("\n");
+    assert!(e.contains("base.obj has no map yet"), "{e}");
+    assert!(e.contains(&format!("lipmap import {} --head-mapping", s(&session))), "{e}");
     // `--map model` chooses the other one, and the output names it.
     let out =
         lipmap(&["map", "suggest", s(&session), "--map", "model", "--frame", "0", "--out", s(&m)]);

@@ -121,7 +121,7 @@ pub fn run(a: &IndicesArgs, out: &mut dyn Write) -> Result<()> {
             }
             let read = read_session(&p)?;
             print_warnings(&read.notices);
-            session_tables(&read.session, a.clip.as_deref(), a.frame, &bounds)?
+            session_tables(&read, a.clip.as_deref(), a.frame, &bounds)?
         }
     };
     let refs: Vec<&Table> = tables.iter().collect();

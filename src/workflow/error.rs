@@ -16,6 +16,10 @@ pub enum Error {
     /// The session has no landmark map (or an empty one); `session` names it in the hint.
     #[error("{}", no_map_message(session.as_deref()))]
     NoMap { session: Option<PathBuf> },
+    /// The session's head mesh has no head map (or an empty one); `session` names it in the
+    /// hint.
+    #[error("{}", no_head_map_message(head, session.as_deref()))]
+    NoHeadMap { head: PathBuf, session: Option<PathBuf> },
     /// A map the fit cannot use.
     #[error(transparent)]
     MapCheck(#[from] super::resources::MapCheckError),
@@ -102,17 +106,42 @@ pub const NO_MAP_MESSAGE: &str = "the session has no model map (what `fit` uses)
 
 /// [`NO_MAP_MESSAGE`] with [`NO_MAP_HINT`], naming `session` when known.
 pub fn no_map_message(session: Option<&std::path::Path>) -> String {
-    let hint = match session {
-        Some(p) => NO_MAP_HINT.replace("SESSION", &p.display().to_string()),
-        None => NO_MAP_HINT.to_string(),
-    };
-    format!("{NO_MAP_MESSAGE}: {hint}")
+    format!("{NO_MAP_MESSAGE}: {}", session_hint(NO_MAP_HINT, session))
+}
+
+/// Why a session's head cannot be measured or driven yet: its head map is missing.
+fn no_head_map_message(head: &std::path::Path, session: Option<&std::path::Path>) -> String {
+    let hint = "label it in the TUI (view 2) or set one with \
+                `lipmap import SESSION --head-mapping MAP.toml`";
+    format!("the head {} has no map yet: {}", head.display(), session_hint(hint, session))
+}
+
+/// `hint` with its `SESSION` placeholder replaced by the session's path when known.
+pub(crate) fn session_hint(hint: &str, session: Option<&std::path::Path>) -> String {
+    match session {
+        Some(p) => hint.replace("SESSION", &p.display().to_string()),
+        None => hint.to_string(),
+    }
 }
 
 /// A workflow result.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
+    /// This error with the session it concerns named where its hint has a place for it
+    /// (the use cases below a session's path report errors without it).
+    pub fn in_session(self, path: &std::path::Path) -> Self {
+        let session = Some(path.to_path_buf());
+        match self {
+            Error::NoMap { .. } => Error::NoMap { session },
+            Error::NoHeadMap { head, .. } => Error::NoHeadMap { head, session },
+            Error::Context { context, source } => {
+                Error::Context { context, source: Box::new(source.in_session(path)) }
+            }
+            e => e,
+        }
+    }
+
     /// This error inside `context` (e.g. "clip `a`"), shown before it.
     pub fn context(self, context: impl Into<String>) -> Self {
         Error::Context { context: context.into(), source: Box::new(self) }

@@ -1,9 +1,9 @@
 //! Facial indices (×100 distance ratios) of a speaker's neutral frame and of a head's
 //! neutral pose, the speaker–head match, class bounds files, and the tables showing them.
 
-use super::error::{Context, Error, Result};
+use super::error::{Context, Error, Result, session_hint};
 use super::resources::Resources;
-use super::session::clip_or_first;
+use super::session::{ReadSession, clip_or_first};
 use crate::alignment::Alignment;
 use crate::eval::report::{indices_table, verdict_table};
 use crate::eval::{Cell, Table};
@@ -255,12 +255,10 @@ fn mesh_indices(mesh: &Mesh, map: &LandmarkMap, what: &str) -> Result<HeadNeutra
 /// No map; neither head mesh nor model; unreadable files; unmapped index points.
 pub fn session_head_indices(session: &Session) -> Result<HeadNeutral> {
     if let (Some(head), Some(r)) = (&session.head_mesh, &session.head_map) {
-        let map = r.resolve()?.filter(|m| !m.is_empty()).ok_or_else(|| {
-            Error::Invalid(format!(
-                "the head {} has no map yet: label it in the TUI (view 2) or set one with `lipmap import SESSION --head-mapping MAP.toml`",
-                head.display()
-            ))
-        })?;
+        let map = r
+            .resolve()?
+            .filter(|m| !m.is_empty())
+            .ok_or_else(|| Error::NoHeadMap { head: head.clone(), session: None })?;
         return mesh_indices(&obj::read_obj(head)?, &map, OWN_MAP_HEAD);
     }
     let map: LandmarkMap = session.landmark_map.resolve()?.ok_or(Error::NoMap { session: None })?;
@@ -338,15 +336,16 @@ pub fn checks_table(verdict: &MatchVerdict) -> Table {
 /// # Errors
 /// As [`speaker_neutral`] and [`session_head_indices`].
 pub fn session_tables(
-    session: &Session,
+    read: &ReadSession,
     clip: Option<&str>,
     frame: Option<usize>,
     bounds: &BoundsTable,
 ) -> Result<Vec<Table>> {
+    let session = &read.session;
     let c = clip_or_first(session, clip)?;
     let speaker = speaker_neutral(session, c, frame)?;
-    let head = session_head_indices(session)?;
-    Ok(match_tables(&speaker, head, bounds))
+    let head = session_head_indices(session).map_err(|e| e.in_session(&read.path))?;
+    Ok(match_tables(&speaker, head, bounds, Some(&read.path)))
 }
 
 /// The head a front takes facial indices on, as [`session_head_indices`] chooses it: a head
@@ -380,13 +379,20 @@ pub fn index_tables(
         IndexHead::Model { model, map, head } => head_indices(model, map, head)?,
         IndexHead::OwnMap { mesh, map } => mesh_indices(mesh, map, OWN_MAP_HEAD)?,
     };
-    Ok(match_tables(&speaker, head, bounds))
+    Ok(match_tables(&speaker, head, bounds, None))
 }
 
 /// What the head's indices note says a head with its own map is.
 const OWN_MAP_HEAD: &str = "head mesh, its own map";
 
-fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTable) -> Vec<Table> {
+/// The tables of a speaker against a head; `session` names the session in the hint that
+/// withholds the verdict, when known.
+fn match_tables(
+    speaker: &SpeakerNeutral,
+    head: HeadNeutral,
+    bounds: &BoundsTable,
+    session: Option<&Path>,
+) -> Vec<Table> {
     let verdict = match_speaker_head(&speaker.indices, &head.indices, bounds);
     let mut st = indices_table("speaker indices", &speaker.indices, bounds).keyed("speaker");
     st.notes.push(speaker.describe());
@@ -401,9 +407,9 @@ fn match_tables(speaker: &SpeakerNeutral, head: HeadNeutral, bounds: &BoundsTabl
         let mut t = Table::new("verdict", vec!["verdict".to_string()]).keyed("verdict");
         t.push_row(vec![Cell::text("withheld")]);
         t.notes.push(format!(
-            "verdict withheld: the head's own indices are implausible ({}); fix the map \
-             (lipmap map check SESSION) first",
-            head.check.summary()
+            "verdict withheld: the head's own indices are implausible ({}); fix the map ({}) first",
+            head.check.summary(),
+            session_hint("lipmap map check SESSION", session)
         ));
         return vec![st, ht, t];
     }

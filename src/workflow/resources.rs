@@ -71,10 +71,7 @@ pub fn load_resources(session: &Session, path: &Path) -> Result<(Resources, Vec<
         })
         .into_iter()
         .collect();
-    let res = Resources::load(session).map_err(|e| match e {
-        Error::NoMap { .. } => Error::NoMap { session: Some(path.to_path_buf()) },
-        e => e,
-    })?;
+    let res = Resources::load(session).map_err(|e| e.in_session(path))?;
     Ok((res, warnings))
 }
 

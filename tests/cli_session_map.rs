@@ -429,3 +429,46 @@ fn eval_heads_takes_the_session_heads_own_map() {
     assert_eq!(e.matches(s(&copy)).count(), 1, "{e}");
     assert!(e.contains("other.toml or other_map.toml"), "{e}");
 }
+
+/// The W/H RMSE row of `lipmap eval`'s first table (`--format csv`, its title a `#` line):
+/// its two numbers.
+fn first_rmse_row(stdout: &str) -> (f64, f64) {
+    let row = stdout.lines().filter(|l| !l.starts_with('#')).nth(1).unwrap_or_default();
+    let v: Vec<f64> = row.split(',').skip(1).take(2).filter_map(|x| x.parse().ok()).collect();
+    assert_eq!(v.len(), 2, "{stdout}");
+    (v[0], v[1])
+}
+
+/// `eval --heads` with the session's own model as a head fits the landmarks `eval` fits
+/// (sealed lips closed, the default), so its W/H RMSE equals `eval`'s, not another fit's.
+#[test]
+fn eval_heads_on_the_sessions_own_model_gives_evals_figures() {
+    let Some(c) = common::carphone(120) else {
+        return;
+    };
+    let session = c.root.join("own.lipmap.json");
+    let (model, map) = (c.eos.join("sfm_shape_3448.bin"), c.eos.join("ibug_to_sfm.txt"));
+    let args = ["--frames", s(&c.frames), "--landmarks", s(&c.landmarks), "--model", s(&model)];
+    let mut new = vec!["new", s(&session), "--mapping", s(&map)];
+    new.extend(args);
+    let out = lipmap(&new);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    // A head folder holding the session's own model and map.
+    let head = c.root.join("samemodel");
+    std::fs::create_dir(&head).unwrap();
+    std::fs::copy(&model, head.join("sfm_shape_3448.bin")).unwrap();
+    std::fs::copy(&map, head.join("ibug_to_sfm.txt")).unwrap();
+    let eval = |extra: &[&str]| {
+        let mut a = vec!["eval", s(&session), "--pose", "image-plane", "--format", "csv"];
+        a.extend_from_slice(extra);
+        let out = lipmap(&a);
+        assert!(out.status.success(), "{}", text(&out.stderr));
+        first_rmse_row(&text(&out.stdout))
+    };
+    let own = eval(&[]);
+    let as_head = eval(&["--heads", s(&head)]);
+    assert!(
+        (own.0 - as_head.0).abs() < 1e-9 && (own.1 - as_head.1).abs() < 1e-9,
+        "{own:?} {as_head:?}"
+    );
+}

@@ -307,7 +307,9 @@ pub fn head_utterances(
     let mut utterances = Vec::new();
     let mut warnings = Vec::new();
     for &c in clips {
-        let track = session.effective_track(c)?;
+        // The landmarks `fit` and `eval` fit (sealed lips closed when the settings say so),
+        // so a head compared here is driven by the motion `eval` measures.
+        let track = session.fit_input_track(c, settings)?;
         let height = image_height(session, c)?;
         let total = track.frames.len();
         let what = format!("{} onto {name}", session.clip(c)?.name);

@@ -12,8 +12,9 @@
 //! - MakeHuman identities: `base.obj` with random weights on its chin, head and mouth shape
 //!   targets (seeds 1–5), reference = `tests/fixtures/makehuman_ibug68.toml`;
 //! - scans with human 3D landmarks in `$LIPMAP_FACE_SCANS` (`NAME.obj` + `NAME.lm`, 68 lines
-//!   `x y z` in mm, iBUG order), when set: menpo3d's `template` (and `james`, which the jaw
-//!   rules were tuned on: reported apart).
+//!   `x y z` in mm, iBUG order), when set: every one there, grouped by the name up to its
+//!   first `_` (docs/labelling.md says which faces chose the rules and which are held out:
+//!   menpo3d's `james` and `template` chose them, ICT-FaceKit's `ict*` faces are held out).
 //!
 //! The suggestions are matched to the head's own face (drawn, read by dlib's shape
 //! predictor) when the predictor is installed, as `map suggest` does; with
@@ -356,6 +357,32 @@ fn scan(dir: &Path, name: &str) -> Option<Face> {
     })
 }
 
+/// The scans in `dir` (every `NAME.lm` with its `NAME.obj`), grouped by the name up to its
+/// first `_` (`ict`, `ict_sample`, `ict_random1` are one group), groups and names sorted.
+fn scan_groups(dir: &Path) -> Vec<(String, Vec<String>)> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.filter_map(|e| {
+                let path = e.ok()?.path();
+                let stem = path.file_stem()?.to_str()?.to_string();
+                (path.extension()? == "lm" && dir.join(format!("{stem}.obj")).exists())
+                    .then_some(stem)
+            })
+            .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for name in names {
+        let group = name.split('_').next().unwrap_or(&name).to_string();
+        match groups.iter_mut().find(|(g, _)| *g == group) {
+            Some((_, members)) => members.push(name),
+            None => groups.push((group, vec![name])),
+        }
+    }
+    groups
+}
+
 /// Seeds from `var` (`A-B`), else `default`.
 fn seeds(var: &str, default: std::ops::RangeInclusive<u64>) -> std::ops::RangeInclusive<u64> {
     std::env::var(var)
@@ -386,17 +413,18 @@ fn suggestions_on_held_out_faces() {
     );
     let only = std::env::var("LIPMAP_HELDOUT_ONLY").ok();
     let wanted = |group: &str| only.as_deref().is_none_or(|o| o.split(',').any(|g| g == group));
-    let mut groups: Vec<(&str, Vec<Face>)> = Vec::new();
+    let mut groups: Vec<(String, Vec<Face>)> = Vec::new();
     if wanted("sfm") {
-        groups.push(("SFM identities", sfm_faces(seeds("LIPMAP_SFM_SEEDS", 11..=30))));
+        groups.push(("SFM identities".into(), sfm_faces(seeds("LIPMAP_SFM_SEEDS", 11..=30))));
     }
     if wanted("makehuman") {
-        groups.push(("MakeHuman identities", makehuman_faces()));
+        groups.push(("MakeHuman identities".into(), makehuman_faces()));
     }
     if let Some(dir) = std::env::var_os("LIPMAP_FACE_SCANS").map(PathBuf::from) {
-        for name in ["template", "james"] {
-            if wanted(name) {
-                groups.push((name, scan(&dir, name).into_iter().collect()));
+        for (group, names) in scan_groups(&dir) {
+            if wanted(&group) {
+                let faces = names.iter().filter_map(|n| scan(&dir, n)).collect();
+                groups.push((group, faces));
             }
         }
     } else {

@@ -1159,18 +1159,36 @@ mod tests {
         assert!(!Arc::ptr_eq(&grams, &basis.used_grams(&all)));
     }
 
+    /// The test frames linearised at their states, where the step tests start.
+    struct Linearised {
+        basis: LandmarkBasis,
+        alpha: DVector,
+        observations: Vec<FrameObservations>,
+        states: Vec<FrameState>,
+        p: SolverParams,
+        id_pts: Vec<Vector3>,
+        lin: Linearisation,
+    }
+
+    impl Linearised {
+        fn new() -> Self {
+            let basis = basis();
+            let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
+            let (observations, states) = frames(&basis, &alpha);
+            let p = params();
+            let id_pts = identity_points(&basis, &alpha);
+            let group = Group::new(&basis, &observations, 720.0, &p);
+            let moments = observation_moments(&basis, &observations, 720.0);
+            let mut lin = Linearisation::default();
+            lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
+            Self { basis, alpha, observations, states, p, id_pts, lin }
+        }
+    }
+
     #[test]
     fn linearisation_from_moments_equals_the_landmark_sums() {
-        let basis = basis();
-        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
-        let (observations, states) = frames(&basis, &alpha);
-        let p = params();
-        let id_pts = identity_points(&basis, &alpha);
-        let group = Group::new(&basis, &observations, 720.0, &p);
-        let moments = observation_moments(&basis, &observations, 720.0);
-        let mut lin = Linearisation::default();
-        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
-        let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, 0.0);
+        let Linearised { basis, alpha, observations, states, p, lin, .. } = &Linearised::new();
+        let (m, rhs, unknowns) = dense_system(basis, observations, states, alpha, p, 0.0);
         let kid = basis.k_id;
         let a0 = m.nrows() - kid;
         let mut off = 0;
@@ -1198,29 +1216,22 @@ mod tests {
 
     #[test]
     fn predicted_decrease_at_the_linearisation_point_is_the_steps_own() {
-        let basis = basis();
-        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
-        let (observations, states) = frames(&basis, &alpha);
-        let p = params();
-        let id_pts = identity_points(&basis, &alpha);
-        let group = Group::new(&basis, &observations, 720.0, &p);
-        let moments = observation_moments(&basis, &observations, 720.0);
-        let mut lin = Linearisation::default();
-        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
+        let Linearised { basis, alpha, observations, states, p, id_pts, lin } = &Linearised::new();
+        let group = Group::new(basis, observations, 720.0, p);
         let mut buf = StepBuffers::default();
         let mut out = states.clone();
         // Undamped, the step's own prediction is gᵀH⁻¹g with g from the moments; the
         // prediction from the landmarks' gradient and the factors kept must agree.
-        let (_, stepped) = step(&lin, &mut out, &alpha, 0.0, true, &p, &mut buf).unwrap();
-        assert!(lin.holds_structure_of(&states));
-        let predicted = predicted_decrease(&group, &lin, &buf, &states, &alpha, &id_pts, &p);
+        let (_, stepped) = step(lin, &mut out, alpha, 0.0, true, p, &mut buf).unwrap();
+        assert!(lin.holds_structure_of(states));
+        let predicted = predicted_decrease(&group, lin, &buf, states, alpha, id_pts, p);
         assert!(stepped > 0.0);
         assert!((predicted - stepped).abs() < 1e-8 * stepped, "{predicted} vs {stepped}");
         // The objective falls by about that much (the landmarks' noise keeps it from 0).
-        let before = group.objective(&states, &id_pts, &alpha, &p);
+        let before = group.objective(states, id_pts, alpha, p);
         let mut out = states.clone();
-        let (a, _) = step(&lin, &mut out, &alpha, 0.0, true, &p, &mut buf).unwrap();
-        let after = group.objective(&out, &identity_points(&basis, &a), &a, &p);
+        let (a, _) = step(lin, &mut out, alpha, 0.0, true, p, &mut buf).unwrap();
+        let after = group.objective(&out, &identity_points(basis, &a), &a, p);
         assert!(((before - after) / stepped - 1.0).abs() < 0.2, "{} vs {stepped}", before - after);
         // Another set of free expressions is another set of unknowns.
         let mut other = states.clone();
@@ -1230,23 +1241,15 @@ mod tests {
 
     #[test]
     fn step_solves_the_whole_damped_system() {
-        let basis = basis();
-        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
-        let (observations, states) = frames(&basis, &alpha);
-        let p = params();
+        let Linearised { basis, alpha, observations, states, p, lin, .. } = &Linearised::new();
         let mu = 1e-3;
-        let id_pts = identity_points(&basis, &alpha);
-        let group = Group::new(&basis, &observations, 720.0, &p);
-        let moments = observation_moments(&basis, &observations, 720.0);
-        let mut lin = Linearisation::default();
-        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
         let mut out = states.clone();
         let new_alpha =
-            step(&lin, &mut out, &alpha, mu, true, &p, &mut StepBuffers::default()).unwrap().0;
-        let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, mu);
+            step(lin, &mut out, alpha, mu, true, p, &mut StepBuffers::default()).unwrap().0;
+        let (m, rhs, unknowns) = dense_system(basis, observations, states, alpha, p, mu);
         let want = -m.lu().solve(&rhs).unwrap();
         let a0 = want.len() - basis.k_id;
-        assert!(relative((&new_alpha - &alpha).as_slice(), &want.as_slice()[a0..]) < 1e-8);
+        assert!(relative((&new_alpha - alpha).as_slice(), &want.as_slice()[a0..]) < 1e-8);
         let mut off = 0;
         for ((before, after), u) in states.iter().zip(&out).zip(&unknowns) {
             let dy = &want.as_slice()[off..off + u.len()];

@@ -98,9 +98,12 @@ pub(crate) fn identity_normal_matrix_into(
             None => sets.push((g, q)),
         }
     }
+    // Column c's part on and below the diagonal is the contiguous run from s[c·k_id + c].
+    let sv = s.as_mut_slice();
     for c in 0..kid {
-        s.view_mut((c, c), (kid - c, 1)).fill(0.0);
-        s[(c, c)] = params.lambda_identity;
+        let col = &mut sv[c * kid + c..(c + 1) * kid];
+        col.fill(0.0);
+        col[0] = params.lambda_identity;
     }
     for (g, q) in &sets {
         g.add_lower(q, 1.0, kid, s);

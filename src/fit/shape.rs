@@ -787,11 +787,10 @@ const PANEL: usize = 4;
 
 /// The Cholesky factor L (A = LLᵀ) of a symmetric positive definite n×n `a`, read from the
 /// entries `a[c·n + i]` with i ≥ c (the lower triangle of a column-major matrix such as
-/// nalgebra's `DMatrix`, the upper one of a row-major matrix) and written over both
-/// triangles: column c of L is the contiguous run `a[c·n + c..c·n + n]`, and row j of L the
-/// contiguous run `a[j·n..j·n + j + 1]`, which the substitutions read
-/// ([`forward_substitute_rows`], [`back_substitute_rows`]). False when a pivot is not
-/// positive or not finite.
+/// nalgebra's `DMatrix`, the upper one of a row-major matrix) and written over them: column
+/// c of L is the contiguous run `a[c·n + c..c·n + n]`, which the substitutions read
+/// ([`forward_substitute`], [`back_substitute`]); the other triangle is left as it was.
+/// False when a pivot is not positive or not finite.
 ///
 /// The outer-product form (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2): column k
 /// of L is scaled by its pivot and subtracted as a rank-1 update from every later column.
@@ -854,12 +853,6 @@ fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
         }
         k = end;
     }
-    // The rows of L as well, over the other triangle.
-    for j in 0..n {
-        for q in 0..j {
-            a[j * n + q] = a[q * n + j];
-        }
-    }
     true
 }
 
@@ -903,29 +896,30 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
 /// Solves `LLᵀx = b` in place for the factor [`cholesky_in_place`] wrote; false when the
 /// answer is not finite.
 pub(crate) fn cholesky_substitute(l: &[Real], n: usize, b: &mut [Real]) -> bool {
-    forward_substitute_rows(l, n, b);
-    back_substitute_rows(l, n, b);
+    forward_substitute(l, n, b);
+    back_substitute(l, n, b);
     b[..n].iter().all(|v| v.is_finite())
 }
 
-/// `b ← L⁻¹b` for the factor of [`cholesky_in_place`], read by rows.
+/// `b ← L⁻¹b` for the factor of [`cholesky_in_place`], read by columns: once `b[j]` is
+/// solved, column j's part is taken off the entries below it (a contiguous multiply-add).
 #[inline]
-pub(crate) fn forward_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
+pub(crate) fn forward_substitute(l: &[Real], n: usize, b: &mut [Real]) {
     for j in 0..n {
-        let row = &l[j * n..j * n + n];
-        b[j] = (b[j] - dot(&row[..j], &b[..j])) / row[j];
+        let col = &l[j * n + j..j * n + n];
+        let (done, rest) = b[j..n].split_at_mut(1);
+        done[0] /= col[0];
+        axpy(-done[0], &col[1..], rest);
     }
 }
 
-/// `b ← L⁻ᵀb` for the factor of [`cholesky_in_place`], read by rows.
+/// `b ← L⁻ᵀb` for the factor of [`cholesky_in_place`], read by columns: row j of Lᵀ is
+/// column j of L, so each entry is one contiguous dot product with the entries solved.
 #[inline]
-pub(crate) fn back_substitute_rows(l: &[Real], n: usize, b: &mut [Real]) {
+pub(crate) fn back_substitute(l: &[Real], n: usize, b: &mut [Real]) {
     for j in (0..n).rev() {
-        let bj = b[j] / l[j * n + j];
-        b[j] = bj;
-        for k in 0..j {
-            b[k] -= l[j * n + k] * bj;
-        }
+        let col = &l[j * n + j..j * n + n];
+        b[j] = (b[j] - dot(&col[1..], &b[j + 1..n])) / col[0];
     }
 }
 
@@ -1024,11 +1018,10 @@ mod tests {
             assert!(cholesky_solve_in_place(&mut a, n, &mut x), "n = {n}");
             assert!((DVector::from_vec(x) - want).amax() < 1e-12, "n = {n}");
             let l = chol.l();
-            // L's column j is the run from a[j·n + j], its row i the run from a[i·n].
+            // L's column j is the run from a[j·n + j].
             for i in 0..n {
                 for j in 0..=i {
                     assert!((a[j * n + i] - l[(i, j)]).abs() < 1e-12, "n = {n}, L[{i}][{j}]");
-                    assert_eq!(a[i * n + j].to_bits(), a[j * n + i].to_bits(), "n = {n}");
                 }
             }
         }

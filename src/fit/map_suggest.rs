@@ -14,17 +14,21 @@
 //! labelled landmark's tracked point to its vertex's projection), and matched after that.
 //!
 //! The jaw (iBUG 1–17) is placed differently ([`super::jaw_contour`]): on the head's frontal
-//! jaw silhouette, symmetric, the tracked points giving only where along the jaw each lies;
-//! a jaw suggestion far from its neighbours along the jaw is left out.
+//! jaw silhouette, symmetric, the tracked points giving only where along the jaw each lies.
+//! A suggestion far in 3D from its neighbours along its feature (the jaw, a brow, an eye, a
+//! lip) is left out: it has landed on another part of the head.
 
 use super::assignment::assign_min_cost;
 use super::camera::OrthoPose;
-use super::jaw_contour::{far_from_neighbours, place_jaw};
+use super::jaw_contour::place_jaw;
 use super::own_face::own_face_landmarks;
 use super::suggest::{
     SeenHead, SuggestError, SuggestHead, face_size_px, pose_from_labels, see_head,
 };
 use super::thin_plate::ThinPlate;
+use crate::landmarks::ibug::{
+    INNER_LIP, JAW, LEFT_BROW, LEFT_EYE, LOWER_NOSE, NOSE_BRIDGE, OUTER_LIP, RIGHT_BROW, RIGHT_EYE,
+};
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
 use crate::math::{Point2, Point3, Real};
 use crate::model::LandmarkMap;
@@ -32,6 +36,7 @@ use crate::model::map_check::{MapProblem, check_layout, face_axes};
 use crate::track::ShapePredictor;
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
+use std::ops::Range;
 
 /// Suggestions below this confidence are left for the user.
 pub const MIN_CONFIDENCE: Real = 0.3;
@@ -39,9 +44,24 @@ pub const MIN_CONFIDENCE: Real = 0.3;
 pub const ROUNDS: usize = 3;
 /// Candidate vertices per landmark (the nearest ones within reach).
 const CANDIDATES: usize = 24;
-/// A jaw suggestion farther than this many median jaw spacings from both its neighbours
-/// along the jaw is implausible (the spacing of iBUG's jaw points varies by about 2×).
-const JAW_NEIGHBOUR_FACTOR: Real = 2.5;
+/// A suggestion farther than this many of its feature's median spacings from both its
+/// neighbours along the feature is implausible (the spacing of iBUG's points along a feature
+/// varies by about 2×).
+const NEIGHBOUR_FACTOR: Real = 2.5;
+
+/// The iBUG features as chains of neighbouring points; a closed one's last point neighbours
+/// its first.
+const FEATURE_CHAINS: [(Range<usize>, bool); 9] = [
+    (JAW, false),
+    (RIGHT_BROW, false),
+    (LEFT_BROW, false),
+    (NOSE_BRIDGE, false),
+    (LOWER_NOSE, false),
+    (RIGHT_EYE, true),
+    (LEFT_EYE, true),
+    (OUTER_LIP, true),
+    (INNER_LIP, true),
+];
 
 /// One landmark's suggested vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,8 +84,8 @@ pub enum LeftOut {
     LowConfidence(MapSuggestion),
     /// The suggestion would make the map break this rule.
     Anatomy(MapSuggestion, MapProblem),
-    /// A jaw suggestion this far (head units) from its nearest neighbour along the jaw,
-    /// against the jaw's median spacing.
+    /// A suggestion this far (head units) from its nearest neighbour along its feature,
+    /// against the feature's median spacing.
     FarFromNeighbours(MapSuggestion, Real, Real),
 }
 
@@ -82,7 +102,7 @@ impl fmt::Display for LeftOut {
             Self::Anatomy(s, p) => write!(f, "vertex {} would break anatomy: {p}", s.vertex),
             Self::FarFromNeighbours(s, d, median) => write!(
                 f,
-                "vertex {} is {d:.3} from its nearest jaw neighbour (jaw spacing {median:.3})",
+                "vertex {} is {d:.3} from its nearest neighbour along its feature (spacing {median:.3})",
                 s.vertex
             ),
         }
@@ -119,7 +139,7 @@ impl MapProposal {
                     LeftOut::NoVertex => "no free vertex",
                     LeftOut::LowConfidence(_) => "too far off",
                     LeftOut::Anatomy(..) => "anatomy",
-                    LeftOut::FarFromNeighbours(..) => "far from jaw neighbours",
+                    LeftOut::FarFromNeighbours(..) => "far from their neighbours",
                 })
                 .or_default() += 1;
         }
@@ -275,27 +295,97 @@ fn propose_once(
             None => left.push((*l, LeftOut::NoVertex)),
         }
     }
-    let jaw_points: Vec<(usize, Point3)> = map
-        .pairs()
-        .filter(|(l, _)| *l < 17)
-        .chain(jaw.iter().map(|s| (s.landmark, s.vertex)))
-        .filter_map(|(l, v)| Some((l, *head.vertices.get(v)?)))
-        .collect();
-    let suggested: BTreeSet<usize> = jaw.iter().map(|s| s.landmark).collect();
-    let far = far_from_neighbours(&jaw_points, &suggested, JAW_NEIGHBOUR_FACTOR);
     for s in jaw {
-        match far.iter().find(|f| f.0 == s.landmark) {
-            Some(&(_, d, median)) => {
-                left.push((s.landmark, LeftOut::FarFromNeighbours(s, d, median)))
-            }
-            None if s.confidence >= MIN_CONFIDENCE => suggestions.push(s),
-            None => left.push((s.landmark, LeftOut::LowConfidence(s))),
+        if s.confidence >= MIN_CONFIDENCE {
+            suggestions.push(s);
+        } else {
+            left.push((s.landmark, LeftOut::LowConfidence(s)));
         }
     }
+    let (suggestions, far) = leave_out_far_from_neighbours(head.vertices, map, suggestions);
+    left.extend(far);
     let (accepted, rejected) = screen_by_anatomy(head.vertices, map, pose, suggestions);
     left.extend(rejected);
     left.sort_by_key(|(l, _)| *l);
     MapProposal { accepted, left }
+}
+
+/// `suggestions` without those far from their neighbours along their feature (hand labels
+/// and the other suggestions): a vertex seen through a hole in the surface, or a jaw point
+/// on the cheek, lies several of the feature's spacings from both neighbours, where a
+/// misplaced but plausible one does not. The others are returned left out, with why.
+fn leave_out_far_from_neighbours(
+    vertices: &[Point3],
+    map: &LandmarkMap,
+    suggestions: Vec<MapSuggestion>,
+) -> (Vec<MapSuggestion>, Vec<(usize, LeftOut)>) {
+    let known: BTreeMap<usize, Point3> = map
+        .pairs()
+        .chain(suggestions.iter().map(|s| (s.landmark, s.vertex)))
+        .filter_map(|(l, v)| Some((l, *vertices.get(v)?)))
+        .collect();
+    let suggested: BTreeSet<usize> = suggestions.iter().map(|s| s.landmark).collect();
+    let far: Vec<(usize, Real, Real)> = FEATURE_CHAINS
+        .iter()
+        .flat_map(|(chain, closed)| {
+            let points: Vec<(usize, Point3)> =
+                known.range(chain.clone()).map(|(l, p)| (*l, *p)).collect();
+            far_from_neighbours(&points, *closed, &suggested, NEIGHBOUR_FACTOR)
+        })
+        .collect();
+    let mut left = Vec::new();
+    let mut kept = Vec::new();
+    for s in suggestions {
+        match far.iter().find(|f| f.0 == s.landmark) {
+            Some(&(_, d, median)) => {
+                left.push((s.landmark, LeftOut::FarFromNeighbours(s, d, median)))
+            }
+            None => kept.push(s),
+        }
+    }
+    (kept, left)
+}
+
+/// The points of one feature (`points`, in landmark order, those known) farther from their
+/// neighbours along it than `factor` times its median spacing, among `suggested`: each is
+/// (landmark, distance to its nearest neighbour, the median spacing). Fewer than three
+/// spacings give no median to judge by.
+fn far_from_neighbours(
+    points: &[(usize, Point3)],
+    closed: bool,
+    suggested: &BTreeSet<usize>,
+    factor: Real,
+) -> Vec<(usize, Real, Real)> {
+    let n = points.len();
+    let wraps = closed && n >= 3;
+    let gap = |i: usize, j: usize| (points[j].1 - points[i].1).norm();
+    let mut gaps: Vec<Real> = (1..n).map(|i| gap(i - 1, i)).collect();
+    if wraps {
+        gaps.push(gap(n - 1, 0));
+    }
+    if gaps.len() < 3 {
+        return Vec::new();
+    }
+    gaps.sort_by(Real::total_cmp);
+    let median = gaps[gaps.len() / 2];
+    let neighbours = |i: usize| -> [Option<usize>; 2] {
+        if wraps {
+            [Some((i + n - 1) % n), Some((i + 1) % n)]
+        } else {
+            [i.checked_sub(1), (i + 1 < n).then_some(i + 1)]
+        }
+    };
+    (0..n)
+        .filter(|&i| suggested.contains(&points[i].0))
+        .filter_map(|i| {
+            let near = neighbours(i)
+                .into_iter()
+                .flatten()
+                .map(|j| gap(i, j))
+                .fold(Real::INFINITY, Real::min);
+            (near > factor * median).then_some((points[i].0, near, median))
+        })
+        .collect()
 }
 
 /// The thin-plate spline taking the labelled landmarks' tracked points (visible ones) to
@@ -542,32 +632,64 @@ mod tests {
         assert!(proposal.left.iter().any(|(l, w)| *l == 0 && *w == LeftOut::NotVisible));
     }
 
+    /// A suggestion far from both its neighbours along its feature (a jaw point the tracker
+    /// put on the cheek; an upper-lid point on the forehead, as a vertex seen through an
+    /// eye's hole would be) is left out and listed; its neighbours are kept.
     #[test]
-    fn a_jaw_suggestion_far_from_its_neighbours_is_left_out_and_listed() {
+    fn a_suggestion_far_from_its_neighbours_is_left_out_and_listed() {
         let (v, at) = grid();
         let truth: Vec<usize> = (0..N_LANDMARKS).map(|l| at(layout(l).0, layout(l).1)).collect();
         let pose = OrthoPose { r: nalgebra::Matrix3::identity(), s: 150.0, tx: 1.5, ty: 1.8 };
-        let mut frame = FrameLandmarks::new(0, vec![LandmarkPoint::missing(); N_LANDMARKS]);
-        for (l, &t) in truth.iter().enumerate() {
-            let p = pose.project(&v[t], 480.0);
-            frame.points[l] = LandmarkPoint::tracked(p.x, p.y);
+        // (landmark moved, grid units up (image y is down), suggested points of its feature)
+        for (moved, up, neighbours) in [(5, 0.6, [4, 6]), (37, 0.3, [38, 41])] {
+            let mut frame = FrameLandmarks::new(0, vec![LandmarkPoint::missing(); N_LANDMARKS]);
+            for (l, &t) in truth.iter().enumerate() {
+                let p = pose.project(&v[t], 480.0);
+                frame.points[l] = LandmarkPoint::tracked(p.x, p.y);
+            }
+            frame.points[moved].y -= up * 150.0;
+            let mut map = LandmarkMap::default();
+            for l in [8, 30, 36, 45, 48, 54] {
+                map.to_vertex.insert(l, truth[l]);
+            }
+            let proposal =
+                suggest_map(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose)).unwrap();
+            let summary = proposal.summary();
+            let why = proposal.left.iter().find(|(l, _)| *l == moved).map(|(_, w)| w.clone());
+            assert!(matches!(why, Some(LeftOut::FarFromNeighbours(..))), "{moved}: {summary}");
+            assert!(proposal.accepted.iter().all(|s| s.landmark != moved));
+            assert!(summary.contains("1 far from their neighbours"), "{moved}: {summary}");
+            assert!(
+                why.unwrap().to_string().contains("from its nearest neighbour along its feature")
+            );
+            for n in neighbours {
+                assert!(proposal.accepted.iter().any(|s| s.landmark == n), "{moved}: {summary}");
+            }
         }
-        // The tracker put jaw point 6 (1-based) on the cheek, 0.6 units up (image y is
-        // down): over three jaw spacings from both its neighbours.
-        frame.points[5].y -= 0.6 * 150.0;
-        let mut map = LandmarkMap::default();
-        for l in [8, 30, 36, 45, 48, 54] {
-            map.to_vertex.insert(l, truth[l]);
-        }
-        let proposal =
-            suggest_map(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose)).unwrap();
-        let why = proposal.left.iter().find(|(l, _)| *l == 5).map(|(_, w)| w.clone());
-        assert!(matches!(why, Some(LeftOut::FarFromNeighbours(..))), "{}", proposal.summary());
-        assert!(proposal.accepted.iter().all(|s| s.landmark != 5));
-        assert!(proposal.summary().contains("1 far from jaw neighbours"), "{}", proposal.summary());
-        assert!(why.unwrap().to_string().contains("from its nearest jaw neighbour"));
-        // Its neighbours, where the tracker was right, are kept.
-        assert!(proposal.accepted.iter().any(|s| s.landmark == 4));
-        assert!(proposal.accepted.iter().any(|s| s.landmark == 6));
+    }
+
+    #[test]
+    fn a_point_far_from_both_neighbours_is_reported_on_open_and_closed_chains() {
+        let mut line: Vec<(usize, Point3)> =
+            (0..17).map(|l| (l, Point3::new(l as Real, 0.0, 0.0))).collect();
+        line[5].1 = Point3::new(5.0, 9.0, 0.0);
+        let suggested: BTreeSet<usize> = (0..17).filter(|l| *l != 8).collect();
+        let far = far_from_neighbours(&line, false, &suggested, 2.5);
+        assert_eq!(far.len(), 1);
+        assert_eq!(far[0].0, 5);
+        assert!((far[0].2 - 1.0).abs() < 1e-12);
+        // A ring of six (an eye): its first point's neighbours are the second and the last.
+        let ring = |first: Point3| -> Vec<(usize, Point3)> {
+            (0..6)
+                .map(|k| {
+                    let t = std::f64::consts::TAU * k as Real / 6.0;
+                    (36 + k, if k == 0 { first } else { Point3::new(t.cos(), t.sin(), 0.0) })
+                })
+                .collect()
+        };
+        let all: BTreeSet<usize> = (36..42).collect();
+        assert!(far_from_neighbours(&ring(Point3::new(1.0, 0.0, 0.0)), true, &all, 2.5).is_empty());
+        let far = far_from_neighbours(&ring(Point3::new(1.0, 0.0, -9.0)), true, &all, 2.5);
+        assert_eq!(far.iter().map(|f| f.0).collect::<Vec<_>>(), vec![36]);
     }
 }

@@ -50,11 +50,6 @@ pub enum SuggestError {
     TooFewLabels(usize),
     #[error("the pose from the labels is degenerate: {0}")]
     Pose(String),
-    #[error(
-        "landmark {} is not tracked as visible in this frame",
-        crate::landmarks::PointNo(*.0)
-    )]
-    NotVisible(usize),
     #[error("the head has no vertices")]
     NoVertices,
     #[error("the head has no faces to draw (a bare point set)")]
@@ -272,23 +267,6 @@ pub fn suggest_labels(
         .collect())
 }
 
-/// One landmark's suggestion, with the reason when there is none.
-///
-/// # Errors
-/// As [`suggest_labels`]; `NotVisible` when the landmark is not tracked as visible.
-pub fn suggest_label(
-    head: &SuggestHead,
-    map: &LandmarkMap,
-    frame: &FrameLandmarks,
-    image_height: Real,
-    pose: Option<OrthoPose>,
-    landmark: usize,
-) -> Result<LabelSuggestion, SuggestError> {
-    suggest_labels(head, map, frame, image_height, pose, [landmark])?
-        .pop()
-        .ok_or(SuggestError::NotVisible(landmark))
-}
-
 /// The box (min, max corners, px) of the frame's visible points.
 fn landmark_box(frame: &FrameLandmarks) -> (Point2, Point2) {
     frame.points.iter().filter(|p| p.visible).fold(
@@ -319,6 +297,18 @@ mod tests {
     use super::*;
     use crate::fit::camera::rotation_from_yaw_pitch_roll_deg;
     use crate::landmarks::LandmarkPoint;
+
+    /// One landmark's suggestion (`None` when it is not tracked as visible).
+    fn suggest_label(
+        head: &SuggestHead,
+        map: &LandmarkMap,
+        frame: &FrameLandmarks,
+        image_height: Real,
+        pose: Option<OrthoPose>,
+        landmark: usize,
+    ) -> Result<Option<LabelSuggestion>, SuggestError> {
+        Ok(suggest_labels(head, map, frame, image_height, pose, [landmark])?.pop())
+    }
 
     /// Two triangles per grid square of a 21 × 21 vertex grid starting at vertex `first`.
     fn grid_triangles(first: u32) -> Vec<[u32; 3]> {
@@ -392,7 +382,7 @@ mod tests {
             Some(pose),
             62,
         );
-        assert_eq!(one.unwrap().vertex, truth[62]);
+        assert_eq!(one.unwrap().unwrap().vertex, truth[62]);
     }
 
     #[test]
@@ -407,9 +397,8 @@ mod tests {
         let e = suggest_label(&SuggestHead::points(&v), &map, &frame, 480.0, None, 5).unwrap_err();
         assert_eq!(e, SuggestError::TooFewLabels(2));
         frame.points[5].visible = false;
-        let e = suggest_label(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose), 5)
-            .unwrap_err();
-        assert_eq!(e, SuggestError::NotVisible(5));
+        let none = suggest_label(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose), 5);
+        assert_eq!(none, Ok(None), "a landmark not tracked as visible gets no suggestion");
         assert_eq!(
             suggest_label(&SuggestHead::points(&[]), &map, &frame, 480.0, Some(pose), 6)
                 .unwrap_err(),
@@ -431,18 +420,19 @@ mod tests {
         let p = pose.project(&v[joint], 480.0);
         frame.points[62] = LandmarkPoint::tracked(p.x, p.y);
         let map = LandmarkMap::default();
-        let blind =
-            suggest_label(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose), 62).unwrap();
+        let blind = suggest_label(&SuggestHead::points(&v), &map, &frame, 480.0, Some(pose), 62)
+            .unwrap()
+            .unwrap();
         assert_eq!(blind.vertex, joint, "without faces nothing hides it");
         let head = SuggestHead { vertices: &v, triangles: &tris, eligible: None };
-        let seen = suggest_label(&head, &map, &frame, 480.0, Some(pose), 62).unwrap();
+        let seen = suggest_label(&head, &map, &frame, 480.0, Some(pose), 62).unwrap().unwrap();
         assert!(seen.vertex < 441, "a front-surface vertex: {seen:?}");
         assert!((seen.distance_px - 5.0 * 2f64.sqrt()).abs() < 1e-6, "{seen:?}");
         // A vertex that may not be labelled (a helper shell) is skipped like a hidden one.
         let mut eligible = vec![true; v.len()];
         eligible[seen.vertex] = false;
         let head = SuggestHead { eligible: Some(&eligible), ..head };
-        let other = suggest_label(&head, &map, &frame, 480.0, Some(pose), 62).unwrap();
+        let other = suggest_label(&head, &map, &frame, 480.0, Some(pose), 62).unwrap().unwrap();
         assert!(other.vertex != seen.vertex && other.vertex < 441, "{other:?}");
     }
 }

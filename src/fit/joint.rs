@@ -622,10 +622,23 @@ pub(crate) struct StepBuffers {
 /// chunk order, give the same total whatever the number of threads.
 const SCHUR_CHUNK: usize = 32;
 
-/// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))` (as [`cholesky_in_place`]
-/// stores it), `w = L⁻¹C`, `z = L⁻¹b` (row-major, n rows). False when the damped block is
-/// not positive definite.
-fn eliminate(
+vectorised! {
+    /// Frame f's elimination: `l = chol(A·(1 + μ on the diagonal))` (as [`cholesky_in_place`]
+    /// stores it), `w = L⁻¹C`, `z = L⁻¹b` (row-major, n rows). False when the damped block is
+    /// not positive definite.
+    fn eliminate<'a>(
+        a: &'a [Real],
+        c: &'a [Real],
+        b: &'a [Real],
+        mu: Real,
+        l: &'a mut [Real],
+        w: &'a mut [Real],
+        z: &'a mut [Real],
+    ) -> bool = eliminate_kernel
+}
+
+#[inline(always)]
+fn eliminate_kernel(
     a: &[Real],
     c: &[Real],
     b: &[Real],
@@ -710,7 +723,7 @@ vectorised! {
 }
 
 /// [`gram_lower`]: four rows of W per pass over the triangle, so that each column's entries
-/// are loaded and stored once for four rank-1 terms.
+/// are loaded and stored once for four rank-1 terms, each a fused multiply-add.
 #[inline(always)]
 fn gram_lower_kernel(w: &[Real], k: usize, out: &mut [Real]) {
     if k == 0 {
@@ -727,7 +740,10 @@ fn gram_lower_kernel(w: &[Real], k: usize, out: &mut [Real]) {
             let n = col.len();
             let (x0, x1, x2, x3) = (&p0[c..][..n], &p1[c..][..n], &p2[c..][..n], &p3[c..][..n]);
             for i in 0..n {
-                col[i] += x0[i] * f[0] + x1[i] * f[1] + x2[i] * f[2] + x3[i] * f[3];
+                col[i] = x3[i].mul_add(
+                    f[3],
+                    x2[i].mul_add(f[2], x1[i].mul_add(f[1], x0[i].mul_add(f[0], col[i]))),
+                );
             }
         }
     }

@@ -703,8 +703,18 @@ pub(crate) fn landmark_forces(
         .collect()
 }
 
-/// `−Σᵢ Bᵢ[:, cols]ᵀ·hᵢ` for per-landmark forces `h`.
-pub(crate) fn apply_forces(
+vectorised! {
+    /// `−Σᵢ Bᵢ[:, cols]ᵀ·hᵢ` for per-landmark forces `h`.
+    pub(crate) fn apply_forces<'a>(
+        basis: &'a LandmarkBasis,
+        forces: &'a [Vector3],
+        cols: std::ops::Range<usize>,
+    ) -> DVector = apply_forces_kernel
+}
+
+/// [`apply_forces`]: a plain loop, so that it runs in the vectorised kernel.
+#[inline(always)]
+fn apply_forces_kernel(
     basis: &LandmarkBasis,
     forces: &[Vector3],
     cols: std::ops::Range<usize>,
@@ -798,8 +808,10 @@ const PANEL: usize = 4;
 /// the later columns are all contiguous multiply-adds, which vectorise. The columns are taken
 /// [`PANEL`] at a time: a panel is factored, then each later column gets the panel's
 /// [`PANEL`] updates in one pass (two columns per pass, sharing the panel's loads), in the
-/// same order as one at a time, so every entry sees the same operations in the same order
-/// as in the plain column-by-column form and the factor is the same to the bit.
+/// same order as one at a time, each a fused multiply-add, so every entry sees the same
+/// operations in the same order as in the plain column-by-column form and the factor is the
+/// same to the bit. Fused multiply-adds are exact before their one rounding, so the factor
+/// is the same on a CPU without FMA (where they run in software, slowly).
 pub(crate) fn cholesky_in_place(a: &mut [Real], n: usize) -> bool {
     debug_assert!(a.len() >= n * n);
     cholesky_vectorised(a, n)
@@ -833,7 +845,7 @@ fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
                 let lmc = col[m];
                 let cm = &mut rest[(m - c - 1) * n..(m - c) * n];
                 for (x, &l) in cm[m..n].iter_mut().zip(&col[m..n]) {
-                    *x -= l * lmc;
+                    *x = (-l).mul_add(lmc, *x);
                 }
             }
         }
@@ -846,7 +858,7 @@ fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
                 for pc in panel.chunks_exact(n) {
                     let l = pc[j];
                     for (x, &y) in col[j..].iter_mut().zip(&pc[j..]) {
-                        *x -= y * l;
+                        *x = (-y).mul_add(l, *x);
                     }
                 }
             }
@@ -868,7 +880,7 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
     let mut j = first;
     while let Some(ca) = cols.next() {
         let la = [p0[j], p1[j], p2[j], p3[j]];
-        ca[j] = ca[j] - p0[j] * la[0] - p1[j] * la[1] - p2[j] * la[2] - p3[j] * la[3];
+        ca[j] = minus_panel_terms(ca[j], [p0[j], p1[j], p2[j], p3[j]], la);
         let s = j + 1;
         let (x0, x1, x2, x3) = (&p0[s..], &p1[s..], &p2[s..], &p3[s..]);
         match cols.next() {
@@ -876,8 +888,8 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
                 let lb = [p0[s], p1[s], p2[s], p3[s]];
                 let rows = ca[s..].iter_mut().zip(cb[s..].iter_mut());
                 for (((((x, y), &a0), &a1), &a2), &a3) in rows.zip(x0).zip(x1).zip(x2).zip(x3) {
-                    *x = *x - a0 * la[0] - a1 * la[1] - a2 * la[2] - a3 * la[3];
-                    *y = *y - a0 * lb[0] - a1 * lb[1] - a2 * lb[2] - a3 * lb[3];
+                    *x = minus_panel_terms(*x, [a0, a1, a2, a3], la);
+                    *y = minus_panel_terms(*y, [a0, a1, a2, a3], lb);
                 }
                 j += 2;
             }
@@ -885,7 +897,7 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
                 for ((((x, &a0), &a1), &a2), &a3) in
                     ca[s..].iter_mut().zip(x0).zip(x1).zip(x2).zip(x3)
                 {
-                    *x = *x - a0 * la[0] - a1 * la[1] - a2 * la[2] - a3 * la[3];
+                    *x = minus_panel_terms(*x, [a0, a1, a2, a3], la);
                 }
                 j += 1;
             }
@@ -893,9 +905,22 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
     }
 }
 
-/// Solves `LLᵀx = b` in place for the factor [`cholesky_in_place`] wrote; false when the
-/// answer is not finite.
-pub(crate) fn cholesky_substitute(l: &[Real], n: usize, b: &mut [Real]) -> bool {
+/// `x − Σ_c a_c·l_c`, the panel's columns in order, each term a fused multiply-add (one
+/// rounding per term, one instruction inside the kernels, which are compiled for FMA).
+#[inline(always)]
+fn minus_panel_terms(x: Real, a: [Real; 4], l: [Real; 4]) -> Real {
+    (-a[3]).mul_add(l[3], (-a[2]).mul_add(l[2], (-a[1]).mul_add(l[1], (-a[0]).mul_add(l[0], x))))
+}
+
+vectorised! {
+    /// Solves `LLᵀx = b` in place for the factor [`cholesky_in_place`] wrote; false when the
+    /// answer is not finite.
+    pub(crate) fn cholesky_substitute<'a>(l: &'a [Real], n: usize, b: &'a mut [Real]) -> bool
+        = substitute_both
+}
+
+#[inline(always)]
+fn substitute_both(l: &[Real], n: usize, b: &mut [Real]) -> bool {
     forward_substitute(l, n, b);
     back_substitute(l, n, b);
     b[..n].iter().all(|v| v.is_finite())
@@ -903,7 +928,7 @@ pub(crate) fn cholesky_substitute(l: &[Real], n: usize, b: &mut [Real]) -> bool 
 
 /// `b ← L⁻¹b` for the factor of [`cholesky_in_place`], read by columns: once `b[j]` is
 /// solved, column j's part is taken off the entries below it (a contiguous multiply-add).
-#[inline]
+#[inline(always)]
 pub(crate) fn forward_substitute(l: &[Real], n: usize, b: &mut [Real]) {
     for j in 0..n {
         let col = &l[j * n + j..j * n + n];
@@ -915,7 +940,7 @@ pub(crate) fn forward_substitute(l: &[Real], n: usize, b: &mut [Real]) {
 
 /// `b ← L⁻ᵀb` for the factor of [`cholesky_in_place`], read by columns: row j of Lᵀ is
 /// column j of L, so each entry is one contiguous dot product with the entries solved.
-#[inline]
+#[inline(always)]
 pub(crate) fn back_substitute(l: &[Real], n: usize, b: &mut [Real]) {
     for j in (0..n).rev() {
         let col = &l[j * n + j..j * n + n];

@@ -9,6 +9,7 @@
 //! over all unknowns).
 
 use super::camera::{self, OrthoPose};
+use super::joint::Scratch;
 use super::result::Solver;
 use super::shape::{
     FrameObservations, GramBlocks, LandmarkBasis, gradient_rhs, nonnegative_quadratic,
@@ -384,6 +385,19 @@ pub fn fit_group(
     params: &SolverParams,
     alpha_fixed: Option<&DVector>,
 ) -> GroupFit {
+    fit_group_in(basis, observations, image_height, params, alpha_fixed, &mut Scratch::default())
+}
+
+/// [`fit_group`] with the joint solver's buffers kept in `scratch`, for a caller that fits
+/// many groups one after the other (each frame alone).
+pub fn fit_group_in(
+    basis: &LandmarkBasis,
+    observations: &[FrameObservations],
+    image_height: Real,
+    params: &SolverParams,
+    alpha_fixed: Option<&DVector>,
+    scratch: &mut Scratch,
+) -> GroupFit {
     let (kid, kexp) = (basis.k_id, basis.k_exp);
     let alpha = alpha_fixed.cloned().unwrap_or_else(|| DVector::zeros(kid));
     let mut states: Vec<FrameState> = observations
@@ -411,7 +425,7 @@ pub fn fit_group(
     let (alpha, mut states, id_pts) = match params.solver {
         Solver::Alternating => alternating::solve(&group, states, alpha, id_pts, solve_identity),
         Solver::Joint { estimate_noise, .. } => {
-            joint::solve(&group, states, alpha, id_pts, solve_identity, estimate_noise)
+            joint::solve(&group, states, alpha, id_pts, solve_identity, estimate_noise, scratch)
         }
     };
     group.pose_step(&mut states, &id_pts, true);

@@ -55,6 +55,7 @@ pub(crate) fn solve(
     mut id_pts: Vec<Vector3>,
     solve_identity: bool,
     estimate_noise: bool,
+    scratch: &mut Scratch,
 ) -> (DVector, Vec<FrameState>, Vec<Vector3>) {
     let (basis, observations, image_height) = (group.basis, group.observations, group.image_height);
     group.pose_step(&mut states, &id_pts, true);
@@ -65,8 +66,7 @@ pub(crate) fn solve(
     let mut sums = group.residual_sums(&states, &id_pts);
     let mut cost = sums.objective(&alpha, &params);
     let mut mu = INITIAL_DAMPING;
-    let mut lin = Linearisation::default();
-    let mut buffers = StepBuffers::default();
+    let Scratch { lin, buffers } = scratch;
     let mut candidate = states.clone();
     let mut lambda_moved = false;
     for it in 0..params.iterations {
@@ -74,8 +74,7 @@ pub(crate) fn solve(
         let mut accepted = false;
         for _ in 0..MAX_DAMPING_TRIES {
             copy_states(&mut candidate, &states);
-            let tried =
-                step(&lin, &mut candidate, &alpha, mu, solve_identity, &params, &mut buffers);
+            let tried = step(lin, &mut candidate, &alpha, mu, solve_identity, &params, buffers);
             if let Some((a, predicted)) = tried {
                 // The model's decrease bounds what this iteration can pass the test with
                 // (more damping predicts less): below the tolerance it is the last one.
@@ -121,7 +120,7 @@ pub(crate) fn solve(
         // new point, predicts less: skip it when the NNLS pass kept the same unknowns.
         if !lambda_moved
             && lin.holds_structure_of(&states)
-            && predicted_decrease(group, &lin, &buffers, &states, &alpha, &id_pts, &params)
+            && predicted_decrease(group, lin, buffers, &states, &alpha, &id_pts, &params)
                 < params.tolerance * cost
         {
             break;
@@ -139,6 +138,15 @@ fn copy_states(dst: &mut [FrameState], src: &[FrameState]) {
         d.free.copy_from_slice(&s.free);
         d.failed.clone_from(&s.failed);
     }
+}
+
+/// What [`solve`] keeps from one solve to the next: its linearisation and step buffers,
+/// which are sized and overwritten by every solve, so that fitting frame after frame on one
+/// thread allocates and zeroes them once.
+#[derive(Default)]
+pub struct Scratch {
+    lin: Linearisation,
+    buffers: StepBuffers,
 }
 
 /// Per-coordinate landmark error (px) the settings' λ assumes: λ = 3 is the exact MAP weight

@@ -5,7 +5,10 @@
 //! are one-call wrappers.
 
 use super::camera::{OrthoPose, rotation_from_yaw_pitch_roll_deg};
-use super::clip::{FrameState, SolverParams, fit_group, identity_points, landmark_point};
+use super::clip::{
+    FrameState, SolverParams, fit_group, fit_group_in, identity_points, landmark_point,
+};
+use super::joint::Scratch;
 use super::result::{FitSettings, FrameFit, Solver};
 use super::shape::{EOS_SIGMA_SQUARED, FrameObservations, LandmarkBasis};
 use crate::landmarks::{FrameLandmarks, N_LANDMARKS};
@@ -61,7 +64,12 @@ impl<'m> Fitter<'m> {
     /// Fits one frame on its own (its own identity).
     pub fn fit_frame(&self, lm: &FrameLandmarks, image_height: Real) -> FrameFit {
         let contact = self.contact_basis(std::slice::from_ref(lm), image_height);
-        self.fit_alone(contact.as_ref().unwrap_or(&self.basis), lm, image_height)
+        self.fit_alone(
+            contact.as_ref().unwrap_or(&self.basis),
+            lm,
+            image_height,
+            &mut Scratch::default(),
+        )
     }
 
     /// Fits one frame on its own with `basis` (this fitter's, or its lip-contact version).
@@ -70,9 +78,11 @@ impl<'m> Fitter<'m> {
         basis: &LandmarkBasis,
         lm: &FrameLandmarks,
         image_height: Real,
+        scratch: &mut Scratch,
     ) -> FrameFit {
         let obs = FrameObservations::new(basis, lm);
-        let g = fit_group(basis, std::slice::from_ref(&obs), image_height, &self.params(), None);
+        let frames = std::slice::from_ref(&obs);
+        let g = fit_group_in(basis, frames, image_height, &self.params(), None, scratch);
         let id_pts = identity_points(basis, &g.alpha);
         self.frame_fit(basis, &obs, &g.alpha, &id_pts, &g.frames[0], image_height)
     }
@@ -117,14 +127,15 @@ impl<'m> Fitter<'m> {
         }
         let mut variances: Vec<Real> = frames
             .par_iter()
-            .filter_map(|lm| {
-                let fit = self.fit_alone(&self.basis, lm, image_height);
+            .map_init(Scratch::default, |scratch, lm| {
+                let fit = self.fit_alone(&self.basis, lm, image_height, scratch);
                 let coordinates = 2.0 * fit.residuals.iter().flatten().count() as Real;
                 let unknowns = 6.0 + (fit.identity.len() + fit.expression.len()) as Real;
                 let sse = fit.reproj_rms_px.powi(2) * coordinates / 2.0;
                 (fit.failed.is_none() && coordinates > unknowns)
                     .then(|| sse / (coordinates - unknowns))
             })
+            .flatten()
             .collect();
         if variances.is_empty() {
             return EOS_SIGMA_SQUARED;
@@ -151,7 +162,9 @@ impl<'m> Fitter<'m> {
         if !self.settings.clip {
             let mut out = Vec::with_capacity(frames.len());
             for chunk in frames.chunks(PROGRESS_CHUNK) {
-                out.par_extend(chunk.par_iter().map(|lm| self.fit_alone(basis, lm, image_height)));
+                out.par_extend(chunk.par_iter().map_init(Scratch::default, |scratch, lm| {
+                    self.fit_alone(basis, lm, image_height, scratch)
+                }));
                 report(out.len());
             }
             return out;

@@ -490,14 +490,9 @@ impl GramBlocks {
             // Equal lengths the compiler can see, so that the loop has no bounds checks and
             // vectorises.
             let g = g.map(|x| &x[..o.len()]);
+            // One fused multiply-add per block, in block order.
             for r in 0..o.len() {
-                o[r] = o[r]
-                    + f[0] * g[0][r]
-                    + f[1] * g[1][r]
-                    + f[2] * g[2][r]
-                    + f[3] * g[3][r]
-                    + f[4] * g[4][r]
-                    + f[5] * g[5][r];
+                o[r] = (0..6).fold(o[r], |acc, j| f[j].mul_add(g[j][r], acc));
             }
         }
     }

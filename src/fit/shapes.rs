@@ -2,26 +2,34 @@
 //! shape `mean + B·diag(σ)·α + E·β` (the model's `shape_at`) in f32, the precision
 //! `shapes.npy` stores, made a block of frames at a time.
 //!
-//! A block's meshes are the columns of one matrix product, run by the matrix-multiply kernel
-//! instead of one vector product per frame, and in f32: the file keeps f32, and the kernel
-//! does twice as many f32 as f64 multiply-adds per instruction (the difference from rounding
-//! the f64 mesh is a few units in the last place of f32, ~10⁻⁵ mm on a 100 mm head). A clip
-//! shares one α, so its identity part `mean + B·diag(σ)·α` (3N × k_id multiply-adds, ≈ 650k
-//! for the SFM model) is built once, in f64, and each block adds only `E·[β_f …]` (3N × k_exp
-//! per frame); a block whose frames have other identities (per-frame fits, a failed frame in
-//! a clip) gets `mean + B·diag(σ)·[α_f …]` as well.
+//! Each mesh entry is two sums of f32 fused multiply-adds, each begun at 0 and taken over
+//! the columns in order, added in turn to the start value: `(m + Σₖ bₖαₖ) + Σₑ eₑβₑ` — the
+//! arithmetic of the packed f32 matrix product this replaced, so the values are the same
+//! bits (the file keeps f32; the difference from rounding the f64 mesh is a few units in the
+//! last place of f32, ~10⁻⁵ mm on a 100 mm head). Fused multiply-adds round once whatever
+//! the vector width, so every CPU gives the same bits. A clip shares one α, so its start
+//! value `mean + B·diag(σ)·α` (3N × k_id multiply-adds, ≈ 650k for the SFM model) is made
+//! once, in f64, and each frame adds only `E·β`; a block whose frames have other identities
+//! (per-frame fits, a failed frame in a clip) starts from the mean and adds `B·diag(σ)·α_f`
+//! as well.
+//!
+//! The bases are copied once per call into tiles of rows ([`Tiles`]): a tile's columns lie
+//! one after the other, so a frame's entries of a tile are summed in registers over a
+//! contiguous run of memory, and the tile (16 KB of the SFM identity basis) stays in the
+//! first-level cache while every frame of a block passes over it. A general matrix product
+//! instead copies ("packs") its operands again for every block of frames.
 
 use super::result::FrameFit;
 use crate::model::MorphableModel;
 use nalgebra::DMatrix;
+use pulp::Simd;
 
-/// Frames whose meshes are made in one product when they share one identity: only the
-/// expression columns are multiplied, and 16 meshes of the SFM model (0.7 MB) stay in cache.
-const SHARED_BLOCK: usize = 16;
-/// The same when identities differ: the matrix-multiply kernel copies ("packs") the whole
-/// identity basis once per product, which at 16 frames cost more than the multiply-adds;
-/// 64 meshes are 2.6 MB.
+/// Frames whose meshes are made together: the tiles are read from memory once per block,
+/// and 64 meshes of the SFM model are 2.6 MB.
 const BLOCK: usize = 64;
+/// Vector registers of sums per tile: a tile is `ACC` vectors of rows (64 rows with AVX2),
+/// and with the broadcast coefficient they take 9 of the 16 registers.
+const ACC: usize = 12;
 
 /// Calls `each(fit, shape)` for every fit in order with its fitted shape in model space (flat
 /// `x0 y0 z0 …`, length 3N, in f32: [`super::fitted_shape`] rounded, up to a few units in
@@ -29,52 +37,162 @@ const BLOCK: usize = 64;
 pub fn for_each_fitted_shape(
     model: &MorphableModel,
     fits: &[FrameFit],
-    mut each: impl FnMut(&FrameFit, &[f32]),
+    each: impl FnMut(&FrameFit, &[f32]),
 ) {
-    let n3 = model.shape.mean.len();
-    let shared_identity = fits.windows(2).all(|w| same_bits(&w[0].identity, &w[1].identity));
-    let block_len = if shared_identity { SHARED_BLOCK } else { BLOCK };
-    let mut meshes = DMatrix::<f32>::zeros(n3, block_len.min(fits.len()));
-    let mean = model.shape.mean.map(|v| v as f32);
-    // The scaled identity basis B·diag(σ), made when a block needs it.
-    let mut identity_basis: Option<DMatrix<f32>> = None;
-    let deltas = model.expressions.as_ref().map(|e| e.deltas.map(|v| v as f32));
-    // The identity part of the last shared α, with that α.
-    let mut shared: Option<(&[f64], Vec<f32>)> = None;
-    for block in fits.chunks(block_len) {
-        let mut out = meshes.columns_mut(0, block.len());
-        let first = block[0].identity.as_slice();
-        if block.iter().all(|f| same_bits(&f.identity, first)) {
-            if !shared.as_ref().is_some_and(|(alpha, _)| same_bits(alpha, first)) {
-                let base = model.shape.shape_at(first).iter().map(|&v| v as f32).collect();
-                shared = Some((first, base));
+    pulp::Arch::new().dispatch(Meshes { model, fits, each });
+}
+
+/// [`for_each_fitted_shape`]'s work, run compiled for the CPU's widest vectors (pulp's
+/// run-time dispatch; the sums are in [`mesh_tile`]).
+struct Meshes<'a, F> {
+    model: &'a MorphableModel,
+    fits: &'a [FrameFit],
+    each: F,
+}
+
+impl<F: FnMut(&FrameFit, &[f32])> pulp::WithSimd for Meshes<'_, F> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) {
+        let Meshes { model, fits, mut each } = self;
+        let n3 = model.shape.mean.len();
+        let rows = ACC * S::F32_LANES;
+        let padded = n3.div_ceil(rows) * rows;
+        let mean = padded_f32(model.shape.mean.iter().copied(), padded);
+        // The scaled identity basis B·diag(σ), tiled when a block needs it.
+        let mut identity: Option<Tiles> = None;
+        let expressions =
+            model.expressions.as_ref().map(|e| Tiles::new(rows, n3, &e.deltas, |_| 1.0));
+        let k_exp = expressions.as_ref().map_or(0, |t| t.cols);
+        // The start value of the last shared α, with that α.
+        let mut shared: Option<(&[f64], Vec<f32>)> = None;
+        let block_len = BLOCK.min(fits.len());
+        let mut meshes = vec![0f32; padded * block_len];
+        let mut alphas = Vec::new();
+        let mut betas = vec![0f32; k_exp * block_len];
+        for block in fits.chunks(block_len.max(1)) {
+            let first = block[0].identity.as_slice();
+            let one_identity = block.iter().all(|f| same_bits(&f.identity, first));
+            let (start, per_frame) = if one_identity {
+                if !shared.as_ref().is_some_and(|(alpha, _)| same_bits(alpha, first)) {
+                    let base = padded_f32(model.shape.shape_at(first).iter().copied(), padded);
+                    shared = Some((first, base));
+                }
+                (shared.as_ref().map_or(&mean, |(_, base)| base), None)
+            } else {
+                let tiles = identity.get_or_insert_with(|| {
+                    Tiles::new(rows, n3, &model.shape.basis, |c| model.shape.sigma(c))
+                });
+                alphas.clear();
+                alphas.extend(block.iter().flat_map(|f| coefficients(&f.identity, tiles.cols)));
+                (&mean, Some(&*tiles))
+            };
+            betas.clear();
+            betas.extend(block.iter().flat_map(|f| coefficients(&f.expression, k_exp)));
+            for t in 0..padded / rows {
+                let span = t * rows..(t + 1) * rows;
+                let frames = meshes.chunks_exact_mut(padded).take(block.len()).enumerate();
+                for (f, mesh) in frames {
+                    let identity = match per_frame {
+                        Some(tiles) => (tiles.tile(t), &alphas[f * tiles.cols..][..tiles.cols]),
+                        None => (&[][..], &[][..]),
+                    };
+                    let expression = match &expressions {
+                        Some(tiles) => (tiles.tile(t), &betas[f * k_exp..][..k_exp]),
+                        None => (&[][..], &[][..]),
+                    };
+                    let start = &start[span.clone()];
+                    mesh_tile(simd, &mut mesh[span.clone()], start, [identity, expression]);
+                }
             }
-            if let Some((_, base)) = &shared {
-                out.column_iter_mut().for_each(|mut c| c.copy_from_slice(base));
+            for (fit, mesh) in block.iter().zip(meshes.chunks_exact(padded)) {
+                each(fit, &mesh[..n3]);
             }
-        } else {
-            out.column_iter_mut().for_each(|mut c| c.copy_from(&mean));
-            let basis = identity_basis.get_or_insert_with(|| {
-                let b = &model.shape.basis;
-                DMatrix::from_fn(b.nrows(), b.ncols(), |r, c| {
-                    (b[(r, c)] * model.shape.sigma(c)) as f32
-                })
-            });
-            let alphas = DMatrix::from_fn(basis.ncols(), block.len(), |c, f| {
-                block[f].identity.get(c).map_or(0.0, |&a| a as f32)
-            });
-            out.gemm(1.0, basis, &alphas, 1.0);
-        }
-        if let Some(d) = &deltas {
-            let beta = DMatrix::from_fn(d.ncols(), block.len(), |c, f| {
-                block[f].expression.get(c).map_or(0.0, |&b| b as f32)
-            });
-            out.gemm(1.0, d, &beta, 1.0);
-        }
-        for (fit, shape) in block.iter().zip(meshes.as_slice().chunks_exact(n3.max(1))) {
-            each(fit, shape);
         }
     }
+}
+
+/// A basis's rows in tiles of `rows` (the last padded with zeros): tile t holds its rows of
+/// column 0, then of column 1, …, so one tile is one contiguous block.
+struct Tiles {
+    rows: usize,
+    cols: usize,
+    data: Vec<f32>,
+}
+
+impl Tiles {
+    /// Tiles of the first `n` rows of `matrix` (at least `n` rows), column c times
+    /// `scale(c)`.
+    fn new(rows: usize, n: usize, matrix: &DMatrix<f64>, scale: impl Fn(usize) -> f64) -> Self {
+        let columns = matrix.as_slice().chunks_exact(matrix.nrows().max(1)).take(matrix.ncols());
+        let cols = columns.len();
+        let tiles = n.div_ceil(rows);
+        let mut data = vec![0f32; tiles * rows * cols];
+        for (c, column) in columns.enumerate() {
+            let scale = scale(c);
+            for (t, rows_of_tile) in column[..n].chunks(rows).enumerate() {
+                let to = &mut data[(t * cols + c) * rows..][..rows_of_tile.len()];
+                to.iter_mut().zip(rows_of_tile).for_each(|(to, &v)| *to = (v * scale) as f32);
+            }
+        }
+        Self { rows, cols, data }
+    }
+
+    fn tile(&self, t: usize) -> &[f32] {
+        &self.data[t * self.rows * self.cols..][..self.rows * self.cols]
+    }
+}
+
+/// `values` in f32, then zeros up to `len`.
+fn padded_f32(values: impl Iterator<Item = f64>, len: usize) -> Vec<f32> {
+    let mut out: Vec<f32> = values.map(|v| v as f32).collect();
+    out.resize(len, 0.0);
+    out
+}
+
+/// `cols` coefficients in f32, missing ones 0 (a failed frame has none), extra ones left
+/// out.
+fn coefficients(c: &[f64], cols: usize) -> impl Iterator<Item = f32> + '_ {
+    (0..cols).map(|j| c.get(j).map_or(0.0, |&v| v as f32))
+}
+
+/// One tile of a mesh: `out = (start + Σₖ tile₁[:, k]·c₁[k]) + Σₖ tile₂[:, k]·c₂[k]` over
+/// the `(tile, c)` parts, each sum made first (from 0, in the order of k, one fused
+/// multiply-add per product) and then added, the rounding of a packed matrix product's
+/// kernel, which this replaced; a part without coefficients adds nothing. `out` and `start`
+/// are one tile's rows (`ACC` vectors).
+#[inline(always)]
+fn mesh_tile<S: Simd>(simd: S, out: &mut [f32], start: &[f32], parts: [(&[f32], &[f32]); 2]) {
+    let rows = out.len();
+    let mut value = [simd.splat_f32s(0.0); ACC];
+    value.copy_from_slice(&S::as_simd_f32s(start).0[..ACC]);
+    for (tile, coef) in parts {
+        if coef.is_empty() {
+            continue;
+        }
+        let mut sum = [simd.splat_f32s(0.0); ACC];
+        let add = |sum: &mut [S::f32s; ACC], column: &[f32], c: f32| {
+            let c = simd.splat_f32s(c);
+            for (s, &b) in sum.iter_mut().zip(S::as_simd_f32s(column).0) {
+                *s = simd.mul_add_f32s(b, c, *s);
+            }
+        };
+        // Two columns a turn: the loop's own instructions are a third of one column's.
+        let pairs = tile.chunks_exact(2 * rows).zip(coef.chunks_exact(2));
+        for (columns, c) in pairs {
+            let (first, second) = columns.split_at(rows);
+            add(&mut sum, first, c[0]);
+            add(&mut sum, second, c[1]);
+        }
+        if coef.len() % 2 == 1 {
+            add(&mut sum, &tile[(coef.len() - 1) * rows..][..rows], coef[coef.len() - 1]);
+        }
+        for (v, s) in value.iter_mut().zip(sum) {
+            *v = simd.add_f32s(*v, s);
+        }
+    }
+    S::as_mut_simd_f32s(out).0[..ACC].copy_from_slice(&value);
 }
 
 /// Bitwise equality: equal coefficients give the equal identity part, and comparing bits
@@ -91,12 +209,16 @@ mod tests {
     use crate::model::{Expressions, PcaModel};
 
     fn model() -> MorphableModel {
-        let n3 = 12;
+        model_of(12, 3)
+    }
+
+    /// n3 rows, k_id identity components, two expressions.
+    fn model_of(n3: usize, k_id: usize) -> MorphableModel {
         MorphableModel {
             shape: PcaModel {
                 mean: DVector::from_fn(n3, |i, _| (i as Real * 0.7).sin() * 10.0),
-                basis: DMatrix::from_fn(n3, 3, |r, c| ((r * 3 + c) as Real * 0.31).cos()),
-                eigenvalues: DVector::from_vec(vec![4.0, 2.0, 0.5]),
+                basis: DMatrix::from_fn(n3, k_id, |r, c| ((r * 3 + c) as Real * 0.31).cos()),
+                eigenvalues: DVector::from_fn(k_id, |c, _| 4.0 / (c + 1) as Real),
             },
             expressions: Some(Expressions {
                 names: vec!["a".into(), "b".into()],
@@ -138,5 +260,46 @@ mod tests {
             seen += 1;
         });
         assert_eq!(seen, fits.len());
+    }
+
+    /// The arithmetic the module states, one entry at a time: each sum from 0 by fused
+    /// multiply-adds in column order, then added; so the bits cannot depend on the vector
+    /// width, the tile or the block.
+    #[test]
+    fn entries_are_the_stated_sums_to_the_bit() {
+        // Several tiles and a part-filled one; an odd number of identity columns.
+        let m = model_of(3 * 150, 7);
+        let b = m.shape.rescaled_basis();
+        let d = &m.expressions.as_ref().unwrap().deltas;
+        let sum = |row: &[f64], c: &[f64]| {
+            row.iter().zip(c).fold(0f32, |s, (&b, &c)| (b as f32).mul_add(c as f32, s))
+        };
+        let row = |m: &DMatrix<Real>, r: usize| m.row(r).iter().copied().collect::<Vec<_>>();
+        let fit = |frame: usize| FrameFit {
+            identity: (0..7).map(|c| ((frame * 7 + c) as Real * 0.9).sin()).collect(),
+            expression: vec![0.3 * frame as Real, -0.2],
+            ..FrameFit::unposed(frame)
+        };
+        // Other identities per frame (past one block), then one shared identity.
+        let per_frame: Vec<FrameFit> = (0..BLOCK + 3).map(fit).collect();
+        let shared: Vec<FrameFit> =
+            (0..5).map(|f| FrameFit { identity: fit(0).identity, ..fit(f) }).collect();
+        for (fits, one_identity) in [(per_frame, false), (shared, true)] {
+            let mut seen = 0;
+            for_each_fitted_shape(&m, &fits, |f, s| {
+                let start = m.shape.shape_at(&f.identity);
+                for (r, &got) in s.iter().enumerate() {
+                    let start = if one_identity {
+                        start[r] as f32
+                    } else {
+                        m.shape.mean[r] as f32 + sum(&row(&b, r), &f.identity)
+                    };
+                    let want = start + sum(&row(d, r), &f.expression);
+                    assert_eq!(got.to_bits(), want.to_bits(), "frame {} row {r}", f.frame);
+                }
+                seen += 1;
+            });
+            assert_eq!(seen, fits.len());
+        }
     }
 }

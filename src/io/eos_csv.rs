@@ -62,8 +62,7 @@ pub fn parse_eos_csv(text: &str, path: &Path) -> Result<Track> {
     };
     let (c_frame, c_id, c_u, c_v) = (need("frame")?, need("ibug_id")?, need("u")?, need("v")?);
     let mut frames: BTreeMap<usize, Vec<LandmarkPoint>> = BTreeMap::new();
-    let mut record = csv::StringRecord::new();
-    while let Some(line) = table.next_row(&mut record)? {
+    while let Some((line, record)) = table.next_row()? {
         let frame = parse_usize_field(&record, c_frame, "frame", path, line)?;
         let id = parse_usize_field(&record, c_id, "ibug_id", path, line)?;
         if !(1..=N_LANDMARKS).contains(&id) {

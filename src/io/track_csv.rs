@@ -73,8 +73,58 @@ fn column(header: &[String], name: &str) -> Option<usize> {
 /// its own record cost more than parsing them.
 pub(crate) struct CsvRows<'t> {
     pub header: Vec<String>,
-    reader: csv::Reader<&'t [u8]>,
+    rows: Rows<'t>,
     path: &'t Path,
+    /// The last row: the reader's record, or a plain row's fields.
+    record: csv::StringRecord,
+    fields: Vec<&'t str>,
+}
+
+/// One row's fields, trimmed.
+pub(crate) trait Fields {
+    /// Field `i`, or None past the row's end.
+    fn field(&self, i: usize) -> Option<&str>;
+}
+
+impl Fields for csv::StringRecord {
+    fn field(&self, i: usize) -> Option<&str> {
+        self.get(i)
+    }
+}
+
+/// A row [`CsvRows::next_row`] hands out.
+pub(crate) enum Row<'r, 't> {
+    Record(&'r csv::StringRecord),
+    Plain(&'r [&'t str]),
+}
+
+impl Fields for Row<'_, '_> {
+    fn field(&self, i: usize) -> Option<&str> {
+        match self {
+            Row::Record(r) => r.get(i),
+            Row::Plain(fields) => fields.get(i).copied(),
+        }
+    }
+}
+
+impl Row<'_, '_> {
+    /// The row as a record of its own.
+    pub fn to_record(&self) -> csv::StringRecord {
+        match self {
+            Row::Record(r) => (*r).clone(),
+            Row::Plain(fields) => csv::StringRecord::from(fields.to_vec()),
+        }
+    }
+}
+
+/// Where [`CsvRows`] takes its rows from.
+enum Rows<'t> {
+    /// Rows without a quote or a carriage return, split here: the reader would see each line
+    /// as one record of the fields between its commas, skip empty lines and read nothing
+    /// else. `line` is the 1-based line `rest` starts on.
+    Plain { rest: &'t str, line: usize },
+    /// Anything else, read by the csv reader.
+    Reader(csv::Reader<&'t [u8]>),
 }
 
 impl<'t> CsvRows<'t> {
@@ -83,6 +133,11 @@ impl<'t> CsvRows<'t> {
     /// # Errors
     /// No header, a column named twice, or CSV the reader rejects, naming the line.
     pub fn new(text: &'t str, path: &'t Path) -> Result<Self> {
+        Self::reading(text, path, true)
+    }
+
+    /// As [`CsvRows::new`]; `plain` lets rows without quotes skip the csv reader.
+    fn reading(text: &'t str, path: &'t Path, plain: bool) -> Result<Self> {
         let text = crate::io::input::without_bom(text);
         // Fields are trimmed here, only in the rows that need it: the reader's own trimming
         // rewrote every row twice.
@@ -106,7 +161,15 @@ impl<'t> CsvRows<'t> {
                 ));
             }
         }
-        Ok(Self { header, reader, path })
+        let after_header = reader.position();
+        let rest = text.get(after_header.byte() as usize..).unwrap_or("");
+        // Two byte searches (memchr), far cheaper than one test of each byte for both.
+        let rows = if plain && ![b'"', b'\r'].iter().any(|b| rest.as_bytes().contains(b)) {
+            Rows::Plain { rest, line: after_header.line() as usize }
+        } else {
+            Rows::Reader(reader)
+        };
+        Ok(Self { header, rows, path, record: csv::StringRecord::new(), fields: Vec::new() })
     }
 
     /// Index of the column called exactly `name`.
@@ -114,27 +177,71 @@ impl<'t> CsvRows<'t> {
         column(&self.header, name)
     }
 
-    /// The next row into `rec`, trimmed; its 1-based line number, or None at the end.
+    /// The next row, trimmed, with its 1-based line number; None at the end.
     ///
     /// # Errors
     /// A row of another width or bytes that are not UTF-8, naming the line.
-    pub fn next_row(&mut self, rec: &mut csv::StringRecord) -> Result<Option<usize>> {
-        if !self.reader.read_record(rec).map_err(|e| csv_error(self.path, &e))? {
-            return Ok(None);
+    pub fn next_row(&mut self) -> Result<Option<(usize, Row<'_, 't>)>> {
+        match &mut self.rows {
+            Rows::Plain { rest, line } => {
+                // The reader numbers a row by where its reading began, before the empty lines
+                // it skips.
+                let at = *line;
+                loop {
+                    if rest.is_empty() {
+                        return Ok(None);
+                    }
+                    let (text, after) = rest.split_once('\n').unwrap_or((rest, ""));
+                    (*rest, *line) = (after, *line + 1);
+                    if text.is_empty() {
+                        continue;
+                    }
+                    // By bytes: `str::split` costs more than the rest of a row's parsing.
+                    self.fields.clear();
+                    let mut start = 0;
+                    for (i, &b) in text.as_bytes().iter().enumerate() {
+                        if b == b',' {
+                            self.fields.push(trim_field(&text[start..i]));
+                            start = i + 1;
+                        }
+                    }
+                    self.fields.push(trim_field(&text[start..]));
+                    if self.fields.len() != self.header.len() {
+                        let (len, header) = (self.fields.len(), self.header.len());
+                        return Err(unequal_lengths(self.path, at, len, header));
+                    }
+                    return Ok(Some((at, Row::Plain(&self.fields))));
+                }
+            }
+            Rows::Reader(reader) => {
+                let rec = &mut self.record;
+                if !reader.read_record(rec).map_err(|e| csv_error(self.path, &e))? {
+                    return Ok(None);
+                }
+                let line = rec.position().map_or(0, |p| p.line() as usize);
+                // Only a field that starts or ends with whitespace, or holds non-ASCII text
+                // (which may be Unicode whitespace), can change.
+                let space = |b: &u8| char::from(*b).is_whitespace();
+                let padded = |f: &str| {
+                    f.as_bytes().first().is_some_and(space)
+                        || f.as_bytes().last().is_some_and(space)
+                        || !f.is_ascii()
+                };
+                if rec.iter().any(padded) {
+                    rec.trim();
+                }
+                Ok(Some((line, Row::Record(rec))))
+            }
         }
-        let line = rec.position().map_or(0, |p| p.line() as usize);
-        // Only a field that starts or ends with whitespace, or holds non-ASCII text (which
-        // may be Unicode whitespace), can change.
-        let space = |b: &u8| char::from(*b).is_whitespace();
-        let padded = |f: &str| {
-            f.as_bytes().first().is_some_and(space)
-                || f.as_bytes().last().is_some_and(space)
-                || !f.is_ascii()
-        };
-        if rec.iter().any(padded) {
-            rec.trim();
-        }
-        Ok(Some(line))
+    }
+}
+
+/// A field without the whitespace at its ends: a field that begins and ends with a visible
+/// ASCII character (nearly all) has none, without `str::trim`'s Unicode decoding.
+fn trim_field(f: &str) -> &str {
+    match (f.as_bytes().first(), f.as_bytes().last()) {
+        (Some(a), Some(b)) if a.is_ascii_graphic() && b.is_ascii_graphic() => f,
+        _ => f.trim(),
     }
 }
 
@@ -142,9 +249,8 @@ impl<'t> CsvRows<'t> {
 pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
     let mut reader = CsvRows::new(text, path)?;
     let mut rows = Vec::new();
-    let mut rec = csv::StringRecord::new();
-    while let Some(line) = reader.next_row(&mut rec)? {
-        rows.push((line, rec.clone()));
+    while let Some((line, row)) = reader.next_row()? {
+        rows.push((line, row.to_record()));
     }
     Ok(CsvTable { header: reader.header, rows })
 }
@@ -152,10 +258,11 @@ pub(crate) fn read_csv_table(text: &str, path: &Path) -> Result<CsvTable> {
 /// A csv crate error as a one-line `FormatError` at the line where it happened.
 pub(crate) fn csv_error(path: &Path, e: &csv::Error) -> FormatError {
     match e.kind() {
-        csv::ErrorKind::UnequalLengths { pos, expected_len, len } => FormatError::at_line(
+        csv::ErrorKind::UnequalLengths { pos, expected_len, len } => unequal_lengths(
             path,
             pos.as_ref().map_or(0, |p| p.line() as usize),
-            format!("{len} fields, but the header has {expected_len}"),
+            *len as usize,
+            *expected_len as usize,
         ),
         csv::ErrorKind::Utf8 { pos, .. } => FormatError::at_line(
             path,
@@ -166,20 +273,65 @@ pub(crate) fn csv_error(path: &Path, e: &csv::Error) -> FormatError {
     }
 }
 
+/// A row of `len` fields under a header of `expected`.
+fn unequal_lengths(path: &Path, line: usize, len: usize, expected: usize) -> FormatError {
+    FormatError::at_line(path, line, format!("{len} fields, but the header has {expected}"))
+}
+
 /// One field parsed as a finite number, or an error naming the line and column.
 pub(crate) fn parse_f64_field(
-    rec: &csv::StringRecord,
+    rec: &impl Fields,
     idx: usize,
     name: &str,
     path: &Path,
     line: usize,
 ) -> Result<f64> {
-    parse_finite_field(rec, idx, name, path, line)
+    match rec.field(idx).and_then(parse_short_decimal) {
+        Some(v) => Ok(v),
+        None => parse_finite_field(rec, idx, name, path, line),
+    }
+}
+
+/// `s` as f64 when it is a short plain decimal (`[+-]digits[.digits]`, at most 19 digits,
+/// whose digits as a whole number are at most 2⁵³, with at most 22 after the point), else
+/// None. Such a number is `m / 10ᵉ` with both exactly representable, so one correctly rounded
+/// division gives the correctly rounded value, the bits `str::parse` gives (Clinger 1990,
+/// "How to read floating point numbers accurately", the fast path; Rust's parser takes it
+/// too), without that parser's general machinery. Anything else goes to `str::parse`.
+fn parse_short_decimal(s: &str) -> Option<f64> {
+    const POW10: [f64; 23] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+        1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+    ];
+    let (negative, digits) = match s.as_bytes() {
+        [b'-', rest @ ..] => (true, rest),
+        [b'+', rest @ ..] => (false, rest),
+        all => (false, all),
+    };
+    let (mut m, mut n, mut point) = (0u64, 0usize, None);
+    for &b in digits {
+        let d = b.wrapping_sub(b'0');
+        if d < 10 {
+            // Past 19 digits m may wrap; such text is left to `str::parse` below.
+            m = m.wrapping_mul(10).wrapping_add(u64::from(d));
+            n += 1;
+        } else if b == b'.' && point.is_none() {
+            point = Some(n);
+        } else {
+            return None;
+        }
+    }
+    let after_point = n - point.unwrap_or(n);
+    if n == 0 || n > 19 || m > 1 << 53 || after_point >= POW10.len() {
+        return None;
+    }
+    let v = m as f64 / POW10[after_point];
+    Some(if negative { -v } else { v })
 }
 
 /// One field parsed as a finite `f32` (a value beyond `f32` range is an error, not `inf`).
 pub(crate) fn parse_f32_field(
-    rec: &csv::StringRecord,
+    rec: &impl Fields,
     idx: usize,
     name: &str,
     path: &Path,
@@ -190,13 +342,13 @@ pub(crate) fn parse_f32_field(
 
 /// One field parsed as a finite number of type `T` (overflowing `T`'s range is not finite).
 fn parse_finite_field<T: std::str::FromStr + Copy + Into<f64>>(
-    rec: &csv::StringRecord,
+    rec: &impl Fields,
     idx: usize,
     name: &str,
     path: &Path,
     line: usize,
 ) -> Result<T> {
-    let s = rec.get(idx).unwrap_or("");
+    let s = rec.field(idx).unwrap_or("");
     match s.parse::<T>() {
         Ok(v) if v.into().is_finite() => Ok(v),
         _ => Err(FormatError::at_line(
@@ -209,13 +361,13 @@ fn parse_finite_field<T: std::str::FromStr + Copy + Into<f64>>(
 
 /// One field parsed as a whole number, or an error naming the line and column.
 pub(crate) fn parse_usize_field(
-    rec: &csv::StringRecord,
+    rec: &impl Fields,
     idx: usize,
     name: &str,
     path: &Path,
     line: usize,
 ) -> Result<usize> {
-    let s = rec.get(idx).unwrap_or("");
+    let s = rec.field(idx).unwrap_or("");
     s.parse::<usize>().map_err(|_| {
         FormatError::at_line(
             path,
@@ -265,9 +417,8 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
     let c_rerun = table.column(TRACK_CSV_RERUN_COLUMN);
 
     let mut frames: BTreeMap<usize, (FrameFields, Vec<Option<LandmarkPoint>>)> = BTreeMap::new();
-    let mut record = csv::StringRecord::new();
-    while let Some(line) = table.next_row(&mut record)? {
-        let rec = &record;
+    while let Some((line, row)) = table.next_row()? {
+        let rec = &row;
         let frame = parse_usize_field(rec, c_frame, "frame", path, line)?;
         let point = parse_usize_field(rec, c_point, "point", path, line)?;
         if point >= N_LANDMARKS {
@@ -279,7 +430,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
         }
         let x = parse_f64_field(rec, c_x, "x", path, line)?;
         let y = parse_f64_field(rec, c_y, "y", path, line)?;
-        let visible = match c_vis.map_or("", |c| rec.get(c).unwrap_or("")) {
+        let visible = match c_vis.map_or("", |c| rec.field(c).unwrap_or("")) {
             "" | "1" | "true" => true,
             "0" | "false" => false,
             other => {
@@ -291,12 +442,12 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
             }
         };
         let confidence = match c_conf {
-            Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+            Some(c) if !rec.field(c).unwrap_or("").is_empty() => {
                 Some(parse_f32_field(rec, c, "confidence", path, line)?)
             }
             _ => None,
         };
-        let src_text = c_src.map_or("", |c| rec.get(c).unwrap_or(""));
+        let src_text = c_src.map_or("", |c| rec.field(c).unwrap_or(""));
         let source = PointSource::parse(src_text).ok_or_else(|| {
             FormatError::at_line(
                 path,
@@ -309,18 +460,18 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
         })?;
         let fields = FrameFields {
             timestamp: match c_time {
-                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                Some(c) if !rec.field(c).unwrap_or("").is_empty() => {
                     Some(parse_f64_field(rec, c, "timestamp", path, line)?)
                 }
                 _ => None,
             },
             confidence: match c_fconf {
-                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                Some(c) if !rec.field(c).unwrap_or("").is_empty() => {
                     Some(parse_f32_field(rec, c, "frame_confidence", path, line)?)
                 }
                 _ => None,
             },
-            success: match c_success.map_or("", |c| rec.get(c).unwrap_or("")) {
+            success: match c_success.map_or("", |c| rec.field(c).unwrap_or("")) {
                 "" | "1" => true,
                 "0" => false,
                 other => {
@@ -332,7 +483,7 @@ pub fn parse_track_csv(text: &str, path: &Path) -> Result<Track> {
                 }
             },
             rerun_disagreement: match c_rerun {
-                Some(c) if !rec.get(c).unwrap_or("").is_empty() => {
+                Some(c) if !rec.field(c).unwrap_or("").is_empty() => {
                     Some(parse_f32_field(rec, c, TRACK_CSV_RERUN_COLUMN, path, line)?)
                 }
                 _ => None,
@@ -481,5 +632,80 @@ mod tests {
         let e = parse_track_csv("frame,point,x,y\n0,1,2,3\n0,2,abc,3\n", Path::new("t.csv"))
             .unwrap_err();
         assert_eq!(e.to_string(), "t.csv:3: column `x`: `abc` is not a finite number");
+    }
+
+    /// Header, rows with their lines, or the error, read with or without the plain rows.
+    fn rows_of(text: &str, plain: bool) -> std::result::Result<RowsRead, String> {
+        let mut rows =
+            CsvRows::reading(text, Path::new("t.csv"), plain).map_err(|e| e.to_string())?;
+        let mut read = Vec::new();
+        while let Some((line, row)) = rows.next_row().map_err(|e| e.to_string())? {
+            read.push((line, row.to_record().iter().map(String::from).collect()));
+        }
+        Ok((rows.header, read))
+    }
+    type RowsRead = (Vec<String>, Vec<(usize, Vec<String>)>);
+
+    proptest::proptest! {
+        /// Rows split without the csv reader are the reader's rows, lines and errors.
+        #[test]
+        fn plain_rows_are_the_readers(
+            text in "[ab1 ,\n\t\u{a0}é]{0,40}",
+            quoted in "[ab1 ,\n\"\r]{0,40}",
+        ) {
+            proptest::prop_assert_eq!(rows_of(&text, true), rows_of(&text, false));
+            // Quotes or carriage returns in the header only, or anywhere.
+            let header_quoted = format!("{}\n{text}", quoted.replace('\n', ""));
+            proptest::prop_assert_eq!(rows_of(&header_quoted, true), rows_of(&header_quoted, false));
+            proptest::prop_assert_eq!(rows_of(&quoted, true), rows_of(&quoted, false));
+        }
+    }
+
+    proptest::proptest! {
+        /// Short decimals read directly are `str::parse`'s bits; the rest is left to it.
+        #[test]
+        fn short_decimals_are_parses_bits(
+            text in "[+-]?[0-9]{0,12}[.]?[0-9]{0,12}",
+            x in proptest::num::f64::NORMAL | proptest::num::f64::SUBNORMAL,
+            decimals in 0usize..10,
+        ) {
+            for s in [text, format!("{x}"), format!("{x:.decimals$}"), format!("{x:e}")] {
+                // None leaves the text to `str::parse` itself, which is always right.
+                if let Some(v) = parse_short_decimal(&s) {
+                    let want: f64 = s.parse().unwrap();
+                    proptest::prop_assert_eq!(v.to_bits(), want.to_bits(), "{}", s);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn short_decimal_edges() {
+        for (s, want) in [
+            ("500.241217", Some(500.241217)),
+            ("-0", Some(-0.0)),
+            (".5", Some(0.5)),
+            ("5.", Some(5.0)),
+            ("+1.25", Some(1.25)),
+            ("9007199254740992", Some(9007199254740992.0)),
+        ] {
+            assert_eq!(parse_short_decimal(s).map(f64::to_bits), want.map(f64::to_bits), "{s}");
+        }
+        for s in [
+            "",
+            ".",
+            "-",
+            "+-1",
+            "1.2.3",
+            "1e5",
+            "inf",
+            "NaN",
+            "9007199254740993",
+            " 1",
+            "1,5",
+            "0.00000000000000000000001",
+        ] {
+            assert_eq!(parse_short_decimal(s), None, "{s}");
+        }
     }
 }

@@ -24,7 +24,7 @@ use super::shape::{
     cholesky_in_place, cholesky_solve_in_place, dot, forward_substitute, landmark_forces,
     projector, vectorised,
 };
-use crate::math::{DMatrix, DVector, Point2, Real, Vector3};
+use crate::math::{DMatrix, DVector, Real, Vector3};
 use nalgebra::{DMatrixView, Rotation3};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -183,20 +183,23 @@ fn observation_moments(
     image_height: Real,
 ) -> DMatrix {
     let (k, l, frames) = (basis.num_coefficients(), basis.len(), observations.len());
-    let weighted = |coordinate: &dyn Fn(&Point2) -> Real| {
-        DMatrix::from_fn(l, frames, |i, f| {
-            let obs = &observations[f];
-            if obs.active[i] { basis.weights[i] * coordinate(&obs.points[i]) } else { 0.0 }
-        })
-    };
-    let (wu, wv) = (weighted(&|p| p.x), weighted(&|p| image_height - p.y));
     let mut m = DMatrix::zeros(6 * k, frames);
-    for b in 0..3 {
-        let bt = basis.axis_rows_transposed(b);
-        m.rows_mut(b * k, k).gemm(1.0, &bt, &wu, 0.0);
-        m.rows_mut((3 + b) * k, k).gemm(1.0, &bt, &wv, 0.0);
+    let mut factors = Vec::with_capacity(l);
+    for (obs, mut column) in observations.iter().zip(m.column_iter_mut()) {
+        factors.clear();
+        factors.extend((0..l).map(|i| {
+            let (w, p) = (basis.weights[i], &obs.points[i]);
+            if obs.active[i] { [w * p.x, w * (image_height - p.y)] } else { [0.0; 2] }
+        }));
+        observed_moments(basis, &factors, column.as_mut_slice());
     }
     m
+}
+
+vectorised! {
+    /// [`basis_moments`] for the observations' two factors (u, v).
+    fn observed_moments<'a>(basis: &'a LandmarkBasis, factors: &'a [[Real; 2]], out: &'a mut [Real])
+        -> () = basis_moments::<2>
 }
 
 vectorised! {
@@ -207,15 +210,46 @@ vectorised! {
         -> () = point_moments_kernel
 }
 
+/// [`point_moments`] four columns at a time ([`LandmarkBasis::column_block`]) with the nine
+/// sums held in registers across the landmarks: each basis entry is loaded once, not three
+/// times, and the sums are not stored and reloaded per landmark. Each entry is the same sum
+/// as landmark by landmark `m += (wᵢ·Xᵢ[a])·Bᵢ[b,:]` (multiply, then add, landmarks in
+/// order), so the moments are the same to the bit.
 #[inline(always)]
 fn point_moments_kernel(basis: &LandmarkBasis, pts: &[Vector3], m: &mut Vec<Real>) {
-    let k = basis.num_coefficients();
     m.clear();
-    m.resize(9 * k, 0.0);
-    for (i, p) in pts.iter().enumerate() {
-        let w = basis.weights[i];
-        for (ab, row) in m.chunks_exact_mut(k.max(1)).enumerate() {
-            axpy(w * p[ab / 3], basis.row(i, ab % 3), row);
+    m.resize(9 * basis.num_coefficients(), 0.0);
+    let factors: Vec<[Real; 3]> =
+        pts.iter().zip(&basis.weights).map(|(p, &w)| [w * p.x, w * p.y, w * p.z]).collect();
+    basis_moments(basis, &factors, m);
+}
+
+/// `out[(3a + b)·K..][..K] = Σᵢ fᵢ[a]·Bᵢ[b,:]` over the landmarks (a < A, b = x, y, z):
+/// four columns at a time ([`LandmarkBasis::column_block`]) with the 3A sums held in
+/// registers across the landmarks, so each basis entry is loaded once, not A times, and the
+/// sums are not stored and reloaded per landmark. Each entry is the same sum as landmark by
+/// landmark `out += fᵢ[a]·Bᵢ[b,:]` (multiply, then add, landmarks in order), the form it
+/// replaced, so the moments are the same to the bit.
+#[inline(always)]
+fn basis_moments<const A: usize>(basis: &LandmarkBasis, factors: &[[Real; A]], out: &mut [Real]) {
+    let k = basis.num_coefficients();
+    const { assert!(A <= 3) };
+    for c in 0..k.div_ceil(4) {
+        // One flat array of sums (the first 3A used), each updated with its own row and
+        // factor: in this form the sums stay in vector registers (nested arrays and plain
+        // indices kept them in memory).
+        let mut sums = [[0.0; 4]; 9];
+        for (x, f) in basis.column_block(c).chunks_exact(3).zip(factors) {
+            for (ab, sum) in sums.iter_mut().take(3 * A).enumerate() {
+                let (fa, xb) = (f[ab / 3], &x[ab % 3]);
+                for l in 0..4 {
+                    sum[l] += fa * xb[l];
+                }
+            }
+        }
+        let cols = 4 * c..(4 * c + 4).min(k);
+        for (row, sum) in out.chunks_exact_mut(k).zip(&sums[..3 * A]) {
+            row[cols.clone()].copy_from_slice(&sum[..cols.len()]);
         }
     }
 }

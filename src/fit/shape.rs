@@ -43,6 +43,23 @@ macro_rules! vectorised {
             pulp::Arch::new().dispatch(Op($($arg),*))
         }
     };
+    // The same, for a kernel written with pulp's vector types: it gets the token first.
+    ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
+        -> $out:ty = simd $kernel:path) => {
+        $(#[$meta])*
+        $vis fn $name<$lt>($($arg: $ty),*) -> $out {
+            struct Op<$lt>($($ty),*);
+            impl<$lt> pulp::WithSimd for Op<$lt> {
+                type Output = $out;
+                #[inline(always)]
+                fn with_simd<S: pulp::Simd>(self, simd: S) -> $out {
+                    let Op($($arg),*) = self;
+                    $kernel(simd, $($arg),*)
+                }
+            }
+            pulp::Arch::new().dispatch(Op($($arg),*))
+        }
+    };
 }
 pub(crate) use vectorised;
 
@@ -86,6 +103,10 @@ pub struct LandmarkBasis {
     /// The expression part of `rows` alone (landmark i, axis j at `[(3i + j)·k_exp..]`):
     /// a frame's points are evaluated from it many times per iteration.
     expression_rows: Vec<Real>,
+    /// `rows` by blocks of four columns: block c holds, landmark after landmark and axis
+    /// after axis, columns 4c..4c + 4 (past K: 0), so that a kernel summing over the
+    /// landmarks for four columns reads one contiguous run ([`LandmarkBasis::column_block`]).
+    row_blocks: Vec<[Real; 4]>,
 }
 
 /// One entry of a basis: a landmark's vertex, or one side of a lip contact.
@@ -255,6 +276,12 @@ impl LandmarkBasis {
         }
         let expression_rows =
             rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
+        let row_blocks = (0..k.div_ceil(4))
+            .flat_map(|c| {
+                rows.chunks_exact(k.max(1))
+                    .map(move |r| std::array::from_fn(|j| r.get(4 * c + j).copied().unwrap_or(0.0)))
+            })
+            .collect();
         Self {
             landmarks: entries.iter().map(|e| e.landmark).collect(),
             vertices: entries.iter().map(|e| e.vertex).collect(),
@@ -270,6 +297,7 @@ impl LandmarkBasis {
             expression_moments,
             row_sums,
             expression_rows,
+            row_blocks,
         }
     }
 
@@ -309,6 +337,14 @@ impl LandmarkBasis {
             1,
             3 * k,
         )
+    }
+
+    /// Columns 4c..4c + 4 of every row, landmark after landmark, axis after axis (3L
+    /// entries; columns past K are 0).
+    #[inline]
+    pub(crate) fn column_block(&self, c: usize) -> &[[Real; 4]] {
+        let n = 3 * self.len();
+        &self.row_blocks[c * n..(c + 1) * n]
     }
 
     /// The expression part of row `axis` of landmark `i` (k_exp coefficients).
@@ -813,11 +849,11 @@ pub(crate) fn cholesky_in_place(a: &mut [Real], n: usize) -> bool {
 }
 
 vectorised! {
-    fn cholesky_vectorised<'a>(a: &'a mut [Real], n: usize) -> bool = cholesky_panels
+    fn cholesky_vectorised<'a>(a: &'a mut [Real], n: usize) -> bool = simd cholesky_panels
 }
 
 #[inline(always)]
-fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
+fn cholesky_panels<S: pulp::Simd>(simd: S, a: &mut [Real], n: usize) -> bool {
     let mut k = 0;
     while k < n {
         let end = (k + PANEL).min(n);
@@ -847,7 +883,7 @@ fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
         let (panel, later) = a.split_at_mut(end * n);
         let panel = &panel[k * n..];
         if end - k == PANEL {
-            update_later_columns(panel, later, n, end);
+            update_later_columns(simd, panel, later, n, end);
         } else {
             for (j, col) in (end..n).zip(later.chunks_exact_mut(n)) {
                 for pc in panel.chunks_exact(n) {
@@ -865,9 +901,15 @@ fn cholesky_panels(a: &mut [Real], n: usize) -> bool {
 
 /// Column j ≥ `first` of `later` (n-long columns from column `first` on) less the four
 /// panel columns' rank-1 terms, `col_j[i] −= Σ_c L[i][c]·L[j][c]` for i ≥ j, c in panel
-/// order; two columns per pass.
+/// order; two columns per pass ([`minus_panel_terms_of_two`]).
 #[inline(always)]
-fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usize) {
+fn update_later_columns<S: pulp::Simd>(
+    simd: S,
+    panel: &[Real],
+    later: &mut [Real],
+    n: usize,
+    first: usize,
+) {
     let (p0, rest) = panel.split_at(n);
     let (p1, rest) = rest.split_at(n);
     let (p2, p3) = rest.split_at(n);
@@ -875,28 +917,53 @@ fn update_later_columns(panel: &[Real], later: &mut [Real], n: usize, first: usi
     let mut j = first;
     while let Some(ca) = cols.next() {
         let la = [p0[j], p1[j], p2[j], p3[j]];
-        ca[j] = minus_panel_terms(ca[j], [p0[j], p1[j], p2[j], p3[j]], la);
+        ca[j] = minus_panel_terms(ca[j], la, la);
         let s = j + 1;
-        let (x0, x1, x2, x3) = (&p0[s..], &p1[s..], &p2[s..], &p3[s..]);
+        let x = [&p0[s..], &p1[s..], &p2[s..], &p3[s..]];
         match cols.next() {
             Some(cb) => {
                 let lb = [p0[s], p1[s], p2[s], p3[s]];
-                let rows = ca[s..].iter_mut().zip(cb[s..].iter_mut());
-                for (((((x, y), &a0), &a1), &a2), &a3) in rows.zip(x0).zip(x1).zip(x2).zip(x3) {
-                    *x = minus_panel_terms(*x, [a0, a1, a2, a3], la);
-                    *y = minus_panel_terms(*y, [a0, a1, a2, a3], lb);
-                }
+                minus_panel_terms_of_two(simd, [&mut ca[s..], &mut cb[s..]], x, [la, lb]);
                 j += 2;
             }
             None => {
-                for ((((x, &a0), &a1), &a2), &a3) in
-                    ca[s..].iter_mut().zip(x0).zip(x1).zip(x2).zip(x3)
-                {
-                    *x = minus_panel_terms(*x, [a0, a1, a2, a3], la);
+                for (i, v) in ca[s..].iter_mut().enumerate() {
+                    *v = minus_panel_terms(*v, x.map(|c| c[i]), la);
                 }
                 j += 1;
             }
         }
+    }
+}
+
+/// [`minus_panel_terms`] on every row of two columns that share the panel rows `x`, with
+/// their own factors `l`: four rows per vector, in pulp's types so that each row sees the
+/// scalar form's fused multiply-adds in its order (the same bits), the last rows scalar.
+#[inline(always)]
+fn minus_panel_terms_of_two<S: pulp::Simd>(
+    simd: S,
+    cols: [&mut [Real]; 2],
+    x: [&[Real]; 4],
+    l: [[Real; 4]; 2],
+) {
+    let [ca, cb] = cols;
+    let (va, ta) = S::as_mut_simd_f64s(ca);
+    let (vb, tb) = S::as_mut_simd_f64s(cb);
+    let [x0, x1, x2, x3] = x.map(|c| S::as_simd_f64s(c));
+    let [la, lb] = l.map(|f| f.map(|v| simd.splat_f64s(v)));
+    let rows = va.iter_mut().zip(vb.iter_mut()).zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
+    for (((ya, yb), (&a0, &a1)), (&a2, &a3)) in rows {
+        let (mut u, mut w) = (*ya, *yb);
+        for (c, a) in [a0, a1, a2, a3].into_iter().enumerate() {
+            u = simd.negate_mul_add_f64s(a, la[c], u);
+            w = simd.negate_mul_add_f64s(a, lb[c], w);
+        }
+        (*ya, *yb) = (u, w);
+    }
+    let tails = [x0.1, x1.1, x2.1, x3.1];
+    for (i, (u, w)) in ta.iter_mut().zip(tb.iter_mut()).enumerate() {
+        let a = tails.map(|t| t[i]);
+        (*u, *w) = (minus_panel_terms(*u, a, l[0]), minus_panel_terms(*w, a, l[1]));
     }
 }
 

@@ -11,7 +11,6 @@
 use crate::landmarks::{LandmarkSet, N_LANDMARKS};
 use crate::math::{DMatrix, DVector, Point2, Point3, Real, Vector3};
 use crate::model::{LandmarkMap, MorphableModel};
-use nalgebra::Dyn;
 use std::sync::{Arc, Mutex};
 
 use super::camera::{OrthoPose, PoseResidual};
@@ -107,6 +106,9 @@ pub struct LandmarkBasis {
     /// after axis, columns 4c..4c + 4 (past K: 0), so that a kernel summing over the
     /// landmarks for four columns reads one contiguous run ([`LandmarkBasis::column_block`]).
     row_blocks: Vec<[Real; 4]>,
+    /// Each landmark's expression deltas as points, `[E_x, E_y, E_z, 0]` at `i·k_exp + e`:
+    /// a frame's offset `Eᵢ·β` is then a sum of four-wide terms.
+    expression_points: Vec<[Real; 4]>,
 }
 
 /// One entry of a basis: a landmark's vertex, or one side of a lip contact.
@@ -276,6 +278,12 @@ impl LandmarkBasis {
         }
         let expression_rows =
             rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
+        let expression_points = (0..l)
+            .flat_map(|i| {
+                let rows = &rows[3 * i * k..3 * (i + 1) * k];
+                (k_id..k).map(move |c| [rows[c], rows[k + c], rows[2 * k + c], 0.0])
+            })
+            .collect();
         let row_blocks = (0..k.div_ceil(4))
             .flat_map(|c| {
                 rows.chunks_exact(k.max(1))
@@ -298,6 +306,7 @@ impl LandmarkBasis {
             row_sums,
             expression_rows,
             row_blocks,
+            expression_points,
         }
     }
 
@@ -320,23 +329,6 @@ impl LandmarkBasis {
     pub fn row(&self, i: usize, axis: usize) -> &[Real] {
         let k = self.num_coefficients();
         &self.rows[(3 * i + axis) * k..(3 * i + axis + 1) * k]
-    }
-
-    /// Rows of axis `b` (0 x, 1 y, 2 z) of every landmark as one K×L view (column i =
-    /// `Bᵢ[b,:]`), for products over all landmarks at once.
-    pub(crate) fn axis_rows_transposed(
-        &self,
-        b: usize,
-    ) -> nalgebra::MatrixView<'_, Real, Dyn, Dyn, Dyn, Dyn> {
-        let k = self.num_coefficients();
-        let start = (b * k).min(self.rows.len());
-        nalgebra::MatrixView::<Real, Dyn, Dyn, Dyn, Dyn>::from_slice_with_strides(
-            &self.rows[start..],
-            k,
-            self.len(),
-            1,
-            3 * k,
-        )
     }
 
     /// Columns 4c..4c + 4 of every row, landmark after landmark, axis after axis (3L
@@ -395,16 +387,13 @@ impl LandmarkBasis {
     #[inline]
     pub(crate) fn expression_offset(&self, i: usize, beta: &[Real]) -> Vector3 {
         let ke = self.k_exp;
-        let r = &self.expression_rows[3 * i * ke..3 * (i + 1) * ke];
-        let (rx, rest) = r.split_at(ke);
-        let (ry, rz) = rest.split_at(ke);
-        let mut o = Vector3::zeros();
-        for (((&b, &x), &y), &z) in beta.iter().zip(rx).zip(ry).zip(rz) {
-            o.x += x * b;
-            o.y += y * b;
-            o.z += z * b;
+        let mut o = [0.0; 4];
+        for (&b, e) in beta.iter().zip(&self.expression_points[i * ke..(i + 1) * ke]) {
+            for l in 0..4 {
+                o[l] += e[l] * b;
+            }
         }
-        o
+        Vector3::new(o[0], o[1], o[2])
     }
 
     /// Landmark `i`'s vertex for coefficients `c` (length K; identity then expression).

@@ -761,16 +761,21 @@ fn schur_terms(w: &[Real], z: &[Real], kid: usize, (s, r): &mut (DMatrix, DVecto
 vectorised! {
     /// Adds `WᵀW` to the lower triangle of the k×k column-major `out` (column c's part is the
     /// run from `out[c·k + c]`) for the row-major W (`w`, k per row).
-    fn gram_lower<'a>(w: &'a [Real], k: usize, out: &'a mut [Real]) -> () = gram_lower_kernel
+    fn gram_lower<'a>(w: &'a [Real], k: usize, out: &'a mut [Real]) -> () = simd gram_lower_kernel
 }
 
 /// [`gram_lower`]: four rows of W per pass over the triangle, so that each column's entries
-/// are loaded and stored once for four rank-1 terms, each a fused multiply-add.
+/// are loaded and stored once for four rank-1 terms, each a fused multiply-add, in pulp's
+/// vector types (four entries a vector, the last few scalar, the same operations in the
+/// same order either way).
 #[inline(always)]
-fn gram_lower_kernel(w: &[Real], k: usize, out: &mut [Real]) {
+fn gram_lower_kernel<S: pulp::Simd>(simd: S, w: &[Real], k: usize, out: &mut [Real]) {
     if k == 0 {
         return;
     }
+    let plus_terms = |x: Real, a: [Real; 4], f: [Real; 4]| {
+        a[3].mul_add(f[3], a[2].mul_add(f[2], a[1].mul_add(f[1], a[0].mul_add(f[0], x))))
+    };
     let mut quads = w.chunks_exact(4 * k);
     for quad in quads.by_ref() {
         let (p0, rest) = quad.split_at(k);
@@ -778,14 +783,20 @@ fn gram_lower_kernel(w: &[Real], k: usize, out: &mut [Real]) {
         let (p2, p3) = rest.split_at(k);
         for c in 0..k {
             let f = [p0[c], p1[c], p2[c], p3[c]];
-            let col = &mut out[c * k + c..(c + 1) * k];
-            let n = col.len();
-            let (x0, x1, x2, x3) = (&p0[c..][..n], &p1[c..][..n], &p2[c..][..n], &p3[c..][..n]);
-            for i in 0..n {
-                col[i] = x3[i].mul_add(
-                    f[3],
-                    x2[i].mul_add(f[2], x1[i].mul_add(f[1], x0[i].mul_add(f[0], col[i]))),
-                );
+            let fv = f.map(|v| simd.splat_f64s(v));
+            let (col, col_tail) = S::as_mut_simd_f64s(&mut out[c * k + c..(c + 1) * k]);
+            let [x0, x1, x2, x3] = [p0, p1, p2, p3].map(|p| S::as_simd_f64s(&p[c..]));
+            let rows = col.iter_mut().zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
+            for ((o, (&a0, &a1)), (&a2, &a3)) in rows {
+                let mut v = *o;
+                for (a, f) in [a0, a1, a2, a3].into_iter().zip(fv) {
+                    v = simd.mul_add_f64s(a, f, v);
+                }
+                *o = v;
+            }
+            let tails = [x0.1, x1.1, x2.1, x3.1];
+            for (i, o) in col_tail.iter_mut().enumerate() {
+                *o = plus_terms(*o, tails.map(|t| t[i]), f);
             }
         }
     }

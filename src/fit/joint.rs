@@ -1031,6 +1031,11 @@ mod tests {
     /// 68 vertices on a curved sheet, 5 identity modes, 3 expressions; landmark i ↦ vertex i,
     /// weights that differ between landmarks.
     fn basis() -> LandmarkBasis {
+        basis_of(5)
+    }
+
+    /// [`basis`] with `k_id` identity components (the first five are `basis`'s).
+    fn basis_of(k_id: usize) -> LandmarkBasis {
         let n = N_LANDMARKS;
         let mean = DVector::from_fn(3 * n, |r, _| {
             let (i, axis) = (r / 3, r % 3);
@@ -1040,8 +1045,10 @@ mod tests {
         let model = MorphableModel {
             shape: PcaModel {
                 mean,
-                basis: DMatrix::from_fn(3 * n, 5, |r, c| ((r * (c + 3)) as Real * 0.37).sin()),
-                eigenvalues: DVector::from_vec(vec![9.0, 4.0, 2.0, 1.0, 0.5]),
+                basis: DMatrix::from_fn(3 * n, k_id, |r, c| ((r * (c + 3)) as Real * 0.37).sin()),
+                eigenvalues: DVector::from_fn(k_id, |c, _| {
+                    [9.0, 4.0, 2.0, 1.0].get(c).copied().unwrap_or(0.5_f64.powi(c as i32 - 4))
+                }),
             },
             expressions: Some(Expressions {
                 names: vec!["a".into(), "b".into(), "c".into()],
@@ -1196,6 +1203,76 @@ mod tests {
         let d: Real = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
         let n: Real = b.iter().map(|y| y * y).sum();
         (d / n.max(1e-300)).sqrt()
+    }
+
+    #[test]
+    fn moments_of_the_basis_are_the_landmark_sums_to_the_bit() {
+        // K = 8 and 9: whole blocks of four columns, and a last block padded with zeros.
+        for k_id in [5, 6] {
+            let basis = basis_of(k_id);
+            let k = basis.num_coefficients();
+            let alpha = DVector::from_fn(k_id, |c, _| 0.3 - 0.2 * c as Real);
+            let id_pts = identity_points(&basis, &alpha);
+            // Landmark by landmark, as the sums are defined: multiply, then add.
+            let sums = |factors: &dyn Fn(usize) -> Vec<Real>| {
+                let mut want = vec![0.0; 3 * factors(0).len() * k];
+                for i in 0..basis.len() {
+                    for (a, f) in factors(i).into_iter().enumerate() {
+                        for b in 0..3 {
+                            axpy(f, basis.row(i, b), &mut want[(3 * a + b) * k..][..k]);
+                        }
+                    }
+                }
+                want
+            };
+            let bits = |v: &[Real]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let mut got = Vec::new();
+            point_moments(&basis, &id_pts, &mut got);
+            let w = &basis.weights;
+            let want = sums(&|i| (0..3).map(|a| w[i] * id_pts[i][a]).collect());
+            assert_eq!(bits(&got), bits(&want), "points, K = {k}");
+            let (observations, _) = frames(&basis, &alpha);
+            let got = observation_moments(&basis, &observations, 480.0);
+            for (f, obs) in observations.iter().enumerate() {
+                let want = sums(&|i| {
+                    let p = &obs.points[i];
+                    let on = if obs.active[i] { w[i] } else { 0.0 };
+                    vec![on * p.x, on * (480.0 - p.y)]
+                });
+                assert_eq!(bits(got.column(f).as_slice()), bits(&want), "frame {f}, K = {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn expression_offsets_are_the_sums_over_the_expression_rows_to_the_bit() {
+        let basis = basis();
+        let beta = [0.7, 0.0, -1.3];
+        for i in 0..basis.len() {
+            let got = basis.expression_offset(i, &beta);
+            for axis in 0..3 {
+                let row = basis.expression_row(i, axis);
+                let want = row.iter().zip(&beta).fold(0.0, |o: Real, (e, b)| o + e * b);
+                assert_eq!(got[axis].to_bits(), want.to_bits(), "landmark {i}, axis {axis}");
+            }
+        }
+    }
+
+    #[test]
+    fn schur_terms_add_w_transposed_w_to_the_lower_triangle_only() {
+        // Nine rows (two passes of four and one row alone), seven columns (vectors and tails).
+        let (rows, k) = (9, 7);
+        let w: Vec<Real> = (0..rows * k).map(|x| ((x * 13 % 17) as Real - 8.0) * 0.25).collect();
+        let mut out: Vec<Real> = (0..k * k).map(|x| x as Real).collect();
+        gram_lower(&w, k, &mut out);
+        for c in 0..k {
+            for r in 0..k {
+                let wtw: Real = (0..rows).map(|p| w[p * k + r] * w[p * k + c]).sum();
+                let before = (c * k + r) as Real;
+                let want = if r >= c { before + wtw } else { before };
+                assert!((out[c * k + r] - want).abs() < 1e-12, "row {r}, column {c}");
+            }
+        }
     }
 
     #[test]

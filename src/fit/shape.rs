@@ -940,7 +940,8 @@ fn minus_panel_terms_of_two<S: pulp::Simd>(
     let (vb, tb) = S::as_mut_simd_f64s(cb);
     let [x0, x1, x2, x3] = x.map(|c| S::as_simd_f64s(c));
     let [la, lb] = l.map(|f| f.map(|v| simd.splat_f64s(v)));
-    let rows = va.iter_mut().zip(vb.iter_mut()).zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
+    let rows =
+        va.iter_mut().zip(vb.iter_mut()).zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
     for (((ya, yb), (&a0, &a1)), (&a2, &a3)) in rows {
         let (mut u, mut w) = (*ya, *yb);
         for (c, a) in [a0, a1, a2, a3].into_iter().enumerate() {

@@ -62,7 +62,11 @@ impl AtomicFile {
         {
             let _ = file.set_permissions(meta.permissions());
         }
-        Ok(Self { target: target.to_path_buf(), temp, writer: Some(BufWriter::with_capacity(1 << 20, file)) })
+        Ok(Self {
+            target: target.to_path_buf(),
+            temp,
+            writer: Some(BufWriter::with_capacity(1 << 20, file)),
+        })
     }
 
     /// The path the file will have once committed.

@@ -396,6 +396,15 @@ mod tests {
         let mut m = toy();
         m.shape.mean[2] = f64::NAN;
         assert_eq!(m.validate(), Err(ModelError::NonFinite { part: "mean", index: 2 }));
+        // Past the first of the blocks the check reads at once, the first bad value is named.
+        for (bad, index) in [(f64::INFINITY, 700), (f64::NAN, 256), (f64::NEG_INFINITY, 255)] {
+            let mut values = vec![1.0; 1000];
+            (values[index], values[900]) = (bad, f64::NAN);
+            assert_eq!(
+                check_finite("basis", &values),
+                Err(ModelError::NonFinite { part: "basis", index })
+            );
+        }
         let mut m = toy();
         m.expressions.as_mut().unwrap().names.clear();
         assert!(matches!(m.validate(), Err(ModelError::ExpressionNames { .. })));

@@ -25,6 +25,11 @@ use super::camera::{OrthoPose, PoseResidual};
 /// Only code inlined into pulp's target-feature function gets the wider instructions: a
 /// closure or a function reached through `FnOnce` is compiled on its own, for the baseline,
 /// hence a declared function calling `kernel` by name.
+///
+/// `= simd kernel` passes pulp's token first, `kernel(simd, args…)`, for a kernel written
+/// in pulp's vector types: the compiler vectorises a loop only when it can prove that the
+/// slices it stores to do not overlap those it loads from, and across several columns of
+/// one matrix it cannot.
 macro_rules! vectorised {
     ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
         -> $out:ty = $kernel:path) => {

@@ -31,38 +31,31 @@ use super::camera::{OrthoPose, PoseResidual};
 /// slices it stores to do not overlap those it loads from, and across several columns of
 /// one matrix it cannot.
 macro_rules! vectorised {
-    ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
-        -> $out:ty = $kernel:path) => {
+    (@with $(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),*)
+        -> $out:ty, $simd:ident => $call:expr) => {
         $(#[$meta])*
         $vis fn $name<$lt>($($arg: $ty),*) -> $out {
             struct Op<$lt>($($ty),*);
             impl<$lt> pulp::WithSimd for Op<$lt> {
                 type Output = $out;
                 #[inline(always)]
-                fn with_simd<S: pulp::Simd>(self, _: S) -> $out {
+                fn with_simd<S: pulp::Simd>(self, $simd: S) -> $out {
                     let Op($($arg),*) = self;
-                    $kernel($($arg),*)
+                    $call
                 }
             }
             pulp::Arch::new().dispatch(Op($($arg),*))
         }
     };
-    // The same, for a kernel written with pulp's vector types: it gets the token first.
     ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
         -> $out:ty = simd $kernel:path) => {
-        $(#[$meta])*
-        $vis fn $name<$lt>($($arg: $ty),*) -> $out {
-            struct Op<$lt>($($ty),*);
-            impl<$lt> pulp::WithSimd for Op<$lt> {
-                type Output = $out;
-                #[inline(always)]
-                fn with_simd<S: pulp::Simd>(self, simd: S) -> $out {
-                    let Op($($arg),*) = self;
-                    $kernel(simd, $($arg),*)
-                }
-            }
-            pulp::Arch::new().dispatch(Op($($arg),*))
-        }
+        vectorised! { @with $(#[$meta])* $vis fn $name<$lt>($($arg: $ty),*) -> $out,
+            simd => $kernel(simd, $($arg),*) }
+    };
+    ($(#[$meta:meta])* $vis:vis fn $name:ident<$lt:lifetime>($($arg:ident: $ty:ty),* $(,)?)
+        -> $out:ty = $kernel:path) => {
+        vectorised! { @with $(#[$meta])* $vis fn $name<$lt>($($arg: $ty),*) -> $out,
+            _simd => $kernel($($arg),*) }
     };
 }
 pub(crate) use vectorised;

@@ -210,11 +210,7 @@ vectorised! {
         -> () = point_moments_kernel
 }
 
-/// [`point_moments`] four columns at a time ([`LandmarkBasis::column_block`]) with the nine
-/// sums held in registers across the landmarks: each basis entry is loaded once, not three
-/// times, and the sums are not stored and reloaded per landmark. Each entry is the same sum
-/// as landmark by landmark `m += (wᵢ·Xᵢ[a])·Bᵢ[b,:]` (multiply, then add, landmarks in
-/// order), so the moments are the same to the bit.
+/// [`point_moments`]: [`basis_moments`] with the factors `wᵢ·Xᵢ[a]`.
 #[inline(always)]
 fn point_moments_kernel(basis: &LandmarkBasis, pts: &[Vector3], m: &mut Vec<Real>) {
     m.clear();

@@ -97,9 +97,6 @@ pub struct LandmarkBasis {
     expression_moments: Vec<Real>,
     /// `Σᵢ wᵢ·Bᵢ[b,:]` for b = x, y, z (3 rows of K).
     row_sums: Vec<Real>,
-    /// The expression part of `rows` alone (landmark i, axis j at `[(3i + j)·k_exp..]`):
-    /// a frame's points are evaluated from it many times per iteration.
-    expression_rows: Vec<Real>,
     /// `rows` by blocks of four columns: block c holds, landmark after landmark and axis
     /// after axis, columns 4c..4c + 4 (past K: 0), so that a kernel summing over the
     /// landmarks for four columns reads one contiguous run ([`LandmarkBasis::column_block`]).
@@ -274,8 +271,6 @@ impl LandmarkBasis {
                 axpy(weights[i], &rows[(3 * i + b) * k..(3 * i + b + 1) * k], row);
             }
         }
-        let expression_rows =
-            rows.chunks_exact(k.max(1)).flat_map(|r| &r[k_id..]).copied().collect();
         let expression_points = (0..l)
             .flat_map(|i| {
                 let rows = &rows[3 * i * k..3 * (i + 1) * k];
@@ -302,7 +297,6 @@ impl LandmarkBasis {
             used_grams: UsedGramCache::default(),
             expression_moments,
             row_sums,
-            expression_rows,
             row_blocks,
             expression_points,
         }
@@ -340,8 +334,7 @@ impl LandmarkBasis {
     /// The expression part of row `axis` of landmark `i` (k_exp coefficients).
     #[inline]
     pub(crate) fn expression_row(&self, i: usize, axis: usize) -> &[Real] {
-        let ke = self.k_exp;
-        &self.expression_rows[(3 * i + axis) * ke..(3 * i + axis + 1) * ke]
+        &self.row(i, axis)[self.k_id..]
     }
 
     /// The nine rows `Σᵢ wᵢ·Eᵢ[a,e]·Bᵢ[b,:]` of expression `e` (row 3a + b, K each).

@@ -23,6 +23,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// Bytes gathered before a `write`: a mesh file of tens of MB written frame by frame (41 KB
+/// a frame for the SFM model) cost the kernel more per call than the copy into this buffer
+/// costs (`docs/performance.md`); a small file never touches most of it.
+const WRITE_BUFFER: usize = 1 << 20;
+
 /// Distinguishes temp files of one process (threads writing the same target at once).
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
@@ -65,7 +70,7 @@ impl AtomicFile {
         Ok(Self {
             target: target.to_path_buf(),
             temp,
-            writer: Some(BufWriter::with_capacity(1 << 20, file)),
+            writer: Some(BufWriter::with_capacity(WRITE_BUFFER, file)),
         })
     }
 

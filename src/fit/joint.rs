@@ -22,7 +22,7 @@ use super::clip::{
 use super::shape::{
     FrameObservations, GRAM_PAIRS, GramBlocks, LandmarkBasis, apply_forces, axpy, back_substitute,
     cholesky_in_place, cholesky_solve_in_place, dot, forward_substitute, landmark_forces,
-    projector, vectorised,
+    projector, splat4, vectorised,
 };
 use crate::math::{DMatrix, DVector, Real, Vector3};
 use nalgebra::{DMatrixView, Rotation3};
@@ -30,10 +30,23 @@ use rayon::prelude::*;
 use std::sync::Arc;
 
 /// Levenberg–Marquardt damping (fraction of the diagonal) at the start, its floor, and how
-/// many times a rejected step is retried with 10× more damping.
+/// many tries an iteration makes before it gives up.
 const INITIAL_DAMPING: Real = 1e-4;
 const MIN_DAMPING: Real = 1e-9;
 const MAX_DAMPING_TRIES: usize = 8;
+/// What a rejected step multiplies the damping by, doubled at each rejection in a row
+/// (Nielsen's ν; Madsen, Nielsen & Tingleff 2004, Algorithm 3.16).
+const DAMPING_GROWTH: Real = 2.0;
+
+/// The factor an accepted step with gain ratio `rho` (the objective's actual fall over the
+/// fall its model predicted) multiplies the damping by: `max(1/3, 1 − (2ρ − 1)³)` (Madsen,
+/// Nielsen & Tingleff 2004, eq. 3.16). A step the model predicted well (ρ near 1) lowers the
+/// damping by 3, a poor one (ρ near 0) raises it up to 2×. With a fixed ÷10 after every
+/// accepted step, the step after the first long, well-predicted one from eos's start was
+/// often rejected (`docs/performance.md`).
+fn damping_factor(rho: Real) -> Real {
+    (1.0 / 3.0 as Real).max(1.0 - (2.0 * rho - 1.0).powi(3))
+}
 
 /// Refines the started states' poses on the mean shape, then takes damped joint steps (the
 /// identity too when `solve_identity`) until the objective falls by less than the tolerance
@@ -66,15 +79,17 @@ pub(crate) fn solve(
     let mut sums = group.residual_sums(&states, &id_pts);
     let mut cost = sums.objective(&alpha, &params);
     let mut mu = INITIAL_DAMPING;
+    let mut nu = DAMPING_GROWTH;
     let Scratch { lin, buffers } = scratch;
     let mut candidate = states.clone();
     let mut lambda_moved = false;
     for it in 0..params.iterations {
         lin.update(group, &moments, &states, &alpha, &id_pts, &params);
-        let mut accepted = false;
+        let (mut accepted, mut hold) = (false, false);
         for _ in 0..MAX_DAMPING_TRIES {
             copy_states(&mut candidate, &states);
-            let tried = step(lin, &mut candidate, &alpha, mu, solve_identity, &params, buffers);
+            let tried =
+                step(lin, &mut candidate, &alpha, mu, solve_identity, hold, &params, buffers);
             if let Some((a, predicted)) = tried {
                 // The model's decrease bounds what this iteration can pass the test with
                 // (more damping predicts less): below the tolerance it is the last one.
@@ -82,15 +97,24 @@ pub(crate) fn solve(
                     break;
                 }
                 let ids = identity_points(basis, &a);
-                if group.residual_sums(&candidate, &ids).objective(&a, &params) < cost {
+                let c = group.residual_sums(&candidate, &ids).objective(&a, &params);
+                if c < cost {
                     (alpha, id_pts) = (a, ids);
                     std::mem::swap(&mut states, &mut candidate);
-                    mu = (mu * 0.1).max(MIN_DAMPING);
+                    mu = (mu * damping_factor((cost - c) / predicted)).max(MIN_DAMPING);
+                    nu = DAMPING_GROWTH;
                     accepted = true;
                     break;
                 }
             }
-            mu *= 10.0;
+            // A step that clamped expressions left the path its model described: the same
+            // damping, with those expressions held at 0, before more damping.
+            if buffers.clamped && !hold {
+                hold = true;
+                continue;
+            }
+            mu *= nu;
+            nu *= DAMPING_GROWTH;
         }
         if !accepted {
             break;
@@ -120,6 +144,7 @@ pub(crate) fn solve(
         // new point, predicts less: skip it when the NNLS pass kept the same unknowns.
         if !lambda_moved
             && lin.holds_structure_of(&states)
+            && !buffers.held.contains(&true)
             && predicted_decrease(group, lin, buffers, &states, &alpha, &id_pts, &params)
                 < params.tolerance * cost
         {
@@ -651,6 +676,10 @@ pub(crate) struct StepBuffers {
     w: Vec<Real>,
     s: DMatrix,
     r: DVector,
+    /// The rows (stacked as `v`) held at their bound in the last solve ([`step`]).
+    held: Vec<bool>,
+    /// Whether the last step clamped expressions that crossed 0 (it held none of them).
+    clamped: bool,
     /// Whether the last step solved the identity (`s` holds its system's factor).
     identity: bool,
 }
@@ -779,9 +808,10 @@ fn gram_lower_kernel<S: pulp::Simd>(simd: S, w: &[Real], k: usize, out: &mut [Re
         let (p2, p3) = rest.split_at(k);
         for c in 0..k {
             let f = [p0[c], p1[c], p2[c], p3[c]];
-            let fv = f.map(|v| simd.splat_f64s(v));
+            let fv = splat4(simd, f);
             let (col, col_tail) = S::as_mut_simd_f64s(&mut out[c * k + c..(c + 1) * k]);
-            let [x0, x1, x2, x3] = [p0, p1, p2, p3].map(|p| S::as_simd_f64s(&p[c..]));
+            let (x0, x1) = (S::as_simd_f64s(&p0[c..]), S::as_simd_f64s(&p1[c..]));
+            let (x2, x3) = (S::as_simd_f64s(&p2[c..]), S::as_simd_f64s(&p3[c..]));
             let rows = col.iter_mut().zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
             for ((o, (&a0, &a1)), (&a2, &a3)) in rows {
                 let mut v = *o;
@@ -792,7 +822,7 @@ fn gram_lower_kernel<S: pulp::Simd>(simd: S, w: &[Real], k: usize, out: &mut [Re
             }
             let tails = [x0.1, x1.1, x2.1, x3.1];
             for (i, o) in col_tail.iter_mut().enumerate() {
-                *o = plus_terms(*o, tails.map(|t| t[i]), f);
+                *o = plus_terms(*o, [tails[0][i], tails[1][i], tails[2][i], tails[3][i]], f);
             }
         }
     }
@@ -804,26 +834,113 @@ fn gram_lower_kernel<S: pulp::Simd>(simd: S, w: &[Real], k: usize, out: &mut [Re
 }
 
 /// Solves the damped system and applies the step to `out` (the current states on entry):
-/// returns the new identity, or None when a block is not positive definite. With
-/// `solve_identity` false the identity stays (δα = 0). Expressions are projected onto β ≥ 0
-/// when the settings ask for it.
+/// returns the new identity and the decrease the step's model predicts, or None when a
+/// block is not positive definite. With `solve_identity` false the identity stays (δα = 0).
+///
+/// With β ≥ 0 (the settings' `nonnegative_expressions`), free expressions the step would
+/// take below 0 are clamped at 0 and `buf.clamped` says so. Clamping moves the point off the
+/// step the model describes, and the objective then often rises where the model promised a
+/// fall. With `hold` the step is an active-set step instead: a crossing expression is held
+/// at 0 (its δβ fixed to −β) and the rest of the system solved again, until none crosses;
+/// its predicted decrease is then that of the step taken. Holding costs a solve per round,
+/// so [`solve`] holds only after a clamped step was rejected (`docs/fitting.md`).
 pub(crate) fn step(
     lin: &Linearisation,
     out: &mut [FrameState],
     alpha: &DVector,
     mu: Real,
     solve_identity: bool,
+    hold: bool,
     params: &SolverParams,
     buf: &mut StepBuffers,
 ) -> Option<(DVector, Real)> {
-    let kid = alpha.len();
+    let (kid, rows) = (alpha.len(), &lin.rows);
+    buf.held.clear();
+    buf.held.resize(*rows.last().unwrap_or(&0), false);
+    let dalpha = loop {
+        let dalpha = solve_damped(lin, out, mu, solve_identity, buf)?;
+        let crossing =
+            if params.nonnegative_expressions { crossing_rows(lin, out, buf) } else { Vec::new() };
+        buf.clamped = !crossing.is_empty();
+        if crossing.is_empty() || !hold {
+            break dalpha;
+        }
+        crossing.into_iter().for_each(|p| buf.held[p] = true);
+    };
+    let (v, held) = (&buf.v, &buf.held);
+    // Each frame's part of the model's decrease, and the step applied.
+    let apply = |(f, st): (usize, &mut FrameState)| -> Option<Real> {
+        let (r0, r1) = (rows[f], rows[f + 1]);
+        if r1 == r0 {
+            return Some(0.0);
+        }
+        let (v, held) = (&v[r0..r1], &held[r0..r1]);
+        let (a, b) = (&lin.a[lin.blocks[f]..lin.blocks[f + 1]], &lin.b[r0..r1]);
+        let decrease = frame_model_decrease(a, b, held, v, mu);
+        let rot = Rotation3::new(-Vector3::new(v[0], v[1], v[2]));
+        let pose = OrthoPose {
+            r: rot.into_inner() * st.pose.r,
+            s: st.pose.s - v[3],
+            tx: st.pose.tx - v[4],
+            ty: st.pose.ty - v[5],
+        };
+        if !pose.is_valid() {
+            return None;
+        }
+        st.pose = pose;
+        let free = (0..st.free.len()).filter(|&e| st.free[e]);
+        for ((e, dv), &h) in free.zip(&v[6..]).zip(&held[6..]) {
+            // A held expression lands on 0 exactly, not on a rounding of it.
+            let b = if h { 0.0 } else { st.beta[e] - dv };
+            st.beta[e] = if params.nonnegative_expressions { b.max(0.0) } else { b };
+        }
+        Some(decrease)
+    };
+    let frames: Option<Vec<Real>> = if in_parallel(out.len()) {
+        out.par_iter_mut().enumerate().map(apply).collect()
+    } else {
+        out.iter_mut().enumerate().map(apply).collect()
+    };
+    // The identity's part, with the gradient the held rows leave it (`g − Σ C_pᵀ·(−δy_p)`).
+    let mut g = lin.g.clone();
+    for p in (0..held.len()).filter(|&p| held[p]) {
+        axpy(-v[p], &lin.c[p * kid..(p + 1) * kid], g.as_mut_slice());
+    }
+    let s = lin.s.as_slice();
+    let identity = -dot(g.as_slice(), dalpha.as_slice())
+        + mu * dalpha.iter().enumerate().map(|(c, d)| s[c * kid + c] * d * d).sum::<Real>();
+    let decrease = frames?.iter().sum::<Real>() + identity;
+    let new_alpha = alpha + dalpha;
+    new_alpha.iter().all(|v| v.is_finite()).then_some((new_alpha, decrease))
+}
+
+/// The damped system solved with the rows in `buf.held` fixed: their `−δy` is the frame's β
+/// (the expression lands on 0). Leaves every frame's `−δy` in `buf.v` and returns δα (0
+/// without `solve_identity`), or None when a block is not positive definite or the solution
+/// is not finite. A held row is taken out of its frame's block, its coupling moved to the
+/// right-hand sides (`b_q − A_qp·v_p`, and `g − C_pᵀ·v_p` for the identity), and the row
+/// left as `A_pp·(1 + μ)·v_p = b'_p`, so the blocks keep their sizes.
+fn solve_damped(
+    lin: &Linearisation,
+    states: &[FrameState],
+    mu: Real,
+    solve_identity: bool,
+    buf: &mut StepBuffers,
+) -> Option<DVector> {
+    let kid = lin.g.len();
     let frames = lin.rows.len().saturating_sub(1);
     let nrows = *lin.rows.last().unwrap_or(&0);
     buf.l.resize(lin.a.len(), 0.0);
     buf.z.resize(nrows, 0.0);
-    let (blocks, rows) = (&lin.blocks, &lin.rows);
+    let (blocks, rows, held) = (&lin.blocks, &lin.rows, &buf.held);
     let need_identity = solve_identity && kid > 0;
     buf.identity = need_identity;
+    // The value each row is held at (its −δy), read from the frame's β.
+    let held_value = |f: usize, p: usize| -> Real {
+        let st = &states[f];
+        let e = (0..st.free.len()).filter(|&e| st.free[e]).nth(p - 6);
+        e.map_or(0.0, |e| st.beta[e])
+    };
     // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
     // CᵀA⁻¹C = WᵀW and CᵀA⁻¹b = Wᵀz, summed a chunk of frames at a time as products of
     // their stacked W.
@@ -852,7 +969,16 @@ pub(crate) fn step(
                 let wf = &mut w[(rows[f] - r0) * kid..(rows[f + 1] - r0) * kid];
                 let lf = &mut l[blocks[f] - b0..blocks[f + 1] - b0];
                 let zf = &mut z[rows[f] - r0..rows[f + 1] - r0];
-                if !eliminate(a, c, b, mu, lf, wf, zf) {
+                let hf = &held[rows[f]..rows[f + 1]];
+                let ok = if hf.iter().any(|&h| h) {
+                    let values: Vec<Real> =
+                        (0..hf.len()).map(|p| if hf[p] { held_value(f, p) } else { 0.0 }).collect();
+                    let (a, c, b) = held_blocks(a, c, b, hf, &values, mu);
+                    eliminate(&a, &c, &b, mu, lf, wf, zf)
+                } else {
+                    eliminate(a, c, b, mu, lf, wf, zf)
+                };
+                if !ok {
                     return false;
                 }
             }
@@ -888,6 +1014,12 @@ pub(crate) fn step(
             }
             *r -= pr;
         }
+        for f in 0..frames {
+            for p in (rows[f]..rows[f + 1]).filter(|&p| held[p]) {
+                let v = held_value(f, p - rows[f]);
+                axpy(-v, &lin.c[p * kid..(p + 1) * kid], r.as_mut_slice());
+            }
+        }
         if !cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()) {
             return None;
         }
@@ -896,57 +1028,98 @@ pub(crate) fn step(
     }
     let (l, z) = (&buf.l, &buf.z);
     buf.v.resize(nrows, 0.0);
-    // Each frame's part of the model's decrease, `b_f·(−δy_f) + μ·Σ A_pp·δy_p²`.
-    let update = |(f, (st, v)): (usize, (&mut FrameState, &mut [Real]))| -> Option<Real> {
+    // δy = −A⁻¹(b + C·δα) = −L⁻ᵀ(z + L⁻¹·C·δα); v holds −δy (a held row's C is 0).
+    let back = |(f, v): (usize, &mut [Real])| -> bool {
         let n = v.len();
-        if n == 0 {
-            return Some(0.0);
-        }
-        // δy = −A⁻¹(b + C·δα) = −L⁻ᵀ(z + L⁻¹·C·δα); v holds −δy.
         let (r0, lf) = (rows[f], &l[blocks[f]..blocks[f + 1]]);
         for (p, vp) in v.iter_mut().enumerate() {
-            *vp = dot(&lin.c[(r0 + p) * kid..(r0 + p + 1) * kid], dalpha.as_slice());
+            *vp = if held[r0 + p] {
+                0.0
+            } else {
+                dot(&lin.c[(r0 + p) * kid..(r0 + p + 1) * kid], dalpha.as_slice())
+            };
         }
         forward_substitute(lf, n, v);
         for (vp, &zp) in v.iter_mut().zip(&z[r0..r0 + n]) {
             *vp += zp;
         }
         back_substitute(lf, n, v);
-        if !v.iter().all(|x| x.is_finite()) {
-            return None;
+        for p in (0..n).filter(|&p| held[r0 + p]) {
+            v[p] = held_value(f, p);
         }
-        let (a, b) = (&lin.a[blocks[f]..blocks[f + 1]], &lin.b[r0..r0 + n]);
-        let decrease = dot(b, v) + mu * (0..n).map(|p| a[p * n + p] * v[p] * v[p]).sum::<Real>();
-        let rot = Rotation3::new(-Vector3::new(v[0], v[1], v[2]));
-        let pose = OrthoPose {
-            r: rot.into_inner() * st.pose.r,
-            s: st.pose.s - v[3],
-            tx: st.pose.tx - v[4],
-            ty: st.pose.ty - v[5],
-        };
-        if !pose.is_valid() {
-            return None;
-        }
-        st.pose = pose;
-        let free = (0..st.free.len()).filter(|&e| st.free[e]);
-        for (e, dv) in free.zip(&v[6..]) {
-            let b = st.beta[e] - dv;
-            st.beta[e] = if params.nonnegative_expressions { b.max(0.0) } else { b };
-        }
-        Some(decrease)
+        v.iter().all(|x| x.is_finite())
     };
     let vs = split_at_offsets(&mut buf.v, rows, 1);
-    let frames: Option<Vec<Real>> = if in_parallel(out.len()) {
-        out.par_iter_mut().zip(vs).enumerate().map(update).collect()
+    let fine = if in_parallel(frames) {
+        vs.into_par_iter().enumerate().all(back)
     } else {
-        out.iter_mut().zip(vs).enumerate().map(update).collect()
+        vs.into_iter().enumerate().all(back)
     };
-    let s = lin.s.as_slice();
-    let identity = -dot(lin.g.as_slice(), dalpha.as_slice())
-        + mu * dalpha.iter().enumerate().map(|(c, d)| s[c * kid + c] * d * d).sum::<Real>();
-    let decrease = frames?.iter().sum::<Real>() + identity;
-    let new_alpha = alpha + dalpha;
-    new_alpha.iter().all(|v| v.is_finite()).then_some((new_alpha, decrease))
+    fine.then_some(dalpha)
+}
+
+/// The rows of the free expressions, not yet held, that the step in `buf.v` takes below 0.
+fn crossing_rows(lin: &Linearisation, states: &[FrameState], buf: &StepBuffers) -> Vec<usize> {
+    let mut rows = Vec::new();
+    for (f, st) in states.iter().enumerate() {
+        let r0 = lin.rows[f];
+        if lin.rows[f + 1] == r0 {
+            continue;
+        }
+        let free = (0..st.free.len()).filter(|&e| st.free[e]);
+        for (p, e) in (r0 + 6..).zip(free) {
+            if !buf.held[p] && st.beta[e] - buf.v[p] < 0.0 {
+                rows.push(p);
+            }
+        }
+    }
+    rows
+}
+
+/// Frame f's blocks with the `held` rows taken out (see [`solve_damped`]): `values` holds
+/// those rows' −δy.
+fn held_blocks(
+    a: &[Real],
+    c: &[Real],
+    b: &[Real],
+    held: &[bool],
+    values: &[Real],
+    mu: Real,
+) -> (Vec<Real>, Vec<Real>, Vec<Real>) {
+    let n = b.len();
+    let kid = c.len() / n.max(1);
+    let (mut a2, mut c2, mut b2) = (a.to_vec(), c.to_vec(), b.to_vec());
+    for p in (0..n).filter(|&p| held[p]) {
+        for q in (0..n).filter(|&q| q != p) {
+            if !held[q] {
+                b2[q] -= a[q * n + p] * values[p];
+            }
+            a2[q * n + p] = 0.0;
+            a2[p * n + q] = 0.0;
+        }
+        b2[p] = a[p * n + p] * (1.0 + mu) * values[p];
+        c2[p * kid..(p + 1) * kid].fill(0.0);
+    }
+    (a2, c2, b2)
+}
+
+/// One frame's part of the decrease the damped step's model predicts (twice the fall of the
+/// Gauss–Newton model, the objective's scale), for `v` = −δy. For the rows the step solved
+/// it is `b'·v + μ·Σ A_pp·v_p²` with b' the right-hand side [`held_blocks`] leaves them
+/// (Madsen, Nielsen & Tingleff 2004, eq. 3.14, on the system without the held rows); the
+/// held rows add their own fall, `2·b_F·v_F − v_Fᵀ·A_FF·v_F`.
+fn frame_model_decrease(a: &[Real], b: &[Real], held: &[bool], v: &[Real], mu: Real) -> Real {
+    let n = b.len();
+    let damping = |p: usize| a[p * n + p] * v[p] * v[p];
+    if !held.iter().any(|&h| h) {
+        return dot(b, v) + mu * (0..n).map(damping).sum::<Real>();
+    }
+    let (solved, fixed): (Vec<usize>, Vec<usize>) = (0..n).partition(|&p| !held[p]);
+    let coupling = |q: usize| fixed.iter().map(|&p| a[q * n + p] * v[p]).sum::<Real>();
+    let free_part: Real =
+        solved.iter().map(|&q| (b[q] - coupling(q)) * v[q] + mu * damping(q)).sum();
+    let held_part: Real = fixed.iter().map(|&p| 2.0 * b[p] * v[p] - v[p] * coupling(p)).sum();
+    free_part + held_part
 }
 
 /// The decrease the Gauss–Newton model of the last accepted step predicts for one more step
@@ -1060,6 +1233,15 @@ mod tests {
     /// Three frames with different poses and expressions (some clamped), noisy observations,
     /// and landmarks 5 and 30 unused in frame 1.
     fn frames(basis: &LandmarkBasis, alpha: &DVector) -> (Vec<FrameObservations>, Vec<FrameState>) {
+        frames_with(basis, alpha, |f| vec![0.3 + 0.1 * f as Real, 0.0, 0.7])
+    }
+
+    /// [`frames`] with frame f's landmarks drawn (and its state started) at `betas(f)`.
+    fn frames_with(
+        basis: &LandmarkBasis,
+        alpha: &DVector,
+        betas: impl Fn(usize) -> Vec<Real>,
+    ) -> (Vec<FrameObservations>, Vec<FrameState>) {
         let id_pts = identity_points(basis, alpha);
         let mut observations = Vec::new();
         let mut states = Vec::new();
@@ -1071,7 +1253,7 @@ mod tests {
                 tx: 200.0 + 10.0 * fr,
                 ty: 150.0 - 5.0 * fr,
             };
-            let beta = DVector::from_vec(vec![0.3 + 0.1 * fr, 0.0, 0.7]);
+            let beta = DVector::from_vec(betas(f));
             let points = (0..N_LANDMARKS)
                 .map(|i| {
                     let x = landmark_point(basis, &id_pts, beta.as_slice(), i);
@@ -1364,7 +1546,7 @@ mod tests {
         let mut out = states.clone();
         // Undamped, the step's own prediction is gᵀH⁻¹g with g from the moments; the
         // prediction from the landmarks' gradient and the factors kept must agree.
-        let (_, stepped) = step(lin, &mut out, alpha, 0.0, true, p, &mut buf).unwrap();
+        let (_, stepped) = step(lin, &mut out, alpha, 0.0, true, false, p, &mut buf).unwrap();
         assert!(lin.holds_structure_of(states));
         let predicted = predicted_decrease(&group, lin, &buf, states, alpha, id_pts, p);
         assert!(stepped > 0.0);
@@ -1372,7 +1554,7 @@ mod tests {
         // The objective falls by about that much (the landmarks' noise keeps it from 0).
         let before = group.objective(states, id_pts, alpha, p);
         let mut out = states.clone();
-        let (a, _) = step(lin, &mut out, alpha, 0.0, true, p, &mut buf).unwrap();
+        let (a, _) = step(lin, &mut out, alpha, 0.0, true, false, p, &mut buf).unwrap();
         let after = group.objective(&out, &identity_points(basis, &a), &a, p);
         assert!(((before - after) / stepped - 1.0).abs() < 0.2, "{} vs {stepped}", before - after);
         // Another set of free expressions is another set of unknowns.
@@ -1382,12 +1564,82 @@ mod tests {
     }
 
     #[test]
+    fn a_held_step_solves_the_system_with_the_crossing_expressions_at_zero() {
+        // Frame 0's landmarks are drawn with expression 0 below its bound and its state
+        // starts just above it, so that the free step takes it across.
+        let basis = basis();
+        let alpha = DVector::from_vec(vec![0.4, -0.3, 0.2, 0.1, -0.5]);
+        let betas = |f: usize| if f == 0 { vec![-0.6, 0.0, 0.7] } else { vec![0.4, 0.0, 0.7] };
+        let (observations, mut states) = frames_with(&basis, &alpha, betas);
+        states[0].beta[0] = 0.05;
+        let p = SolverParams { nonnegative_expressions: true, ..params() };
+        let id_pts = identity_points(&basis, &alpha);
+        let group = Group::new(&basis, &observations, 720.0, &p);
+        let mut lin = Linearisation::default();
+        let moments = observation_moments(&basis, &observations, 720.0);
+        lin.update(&group, &moments, &states, &alpha, &id_pts, &p);
+        let mu = 1e-3;
+        let mut buf = StepBuffers::default();
+        // Clamped: the step reports it, and the held row is frame 0's expression 0 alone.
+        let mut clamped = states.clone();
+        step(&lin, &mut clamped, &alpha, mu, true, false, &p, &mut buf).unwrap();
+        assert!(buf.clamped && clamped[0].beta[0] == 0.0);
+        let mut out = states.clone();
+        let (new_alpha, decrease) =
+            step(&lin, &mut out, &alpha, mu, true, true, &p, &mut buf).unwrap();
+        assert!(!buf.clamped);
+        let held: Vec<usize> = (0..buf.held.len()).filter(|&r| buf.held[r]).collect();
+        assert_eq!(held, vec![lin.rows[0] + 6]);
+        assert_eq!(out[0].beta[0], 0.0);
+        assert!(out.iter().all(|st| st.beta.iter().all(|&b| b >= 0.0)));
+        // The dense damped system with that unknown fixed at −β and the rest solved.
+        let (m, rhs, unknowns) = dense_system(&basis, &observations, &states, &alpha, &p, mu);
+        let fixed = 6;
+        let d = -states[0].beta[0];
+        let keep: Vec<usize> = (0..m.nrows()).filter(|&r| r != fixed).collect();
+        let reduced = m.select_rows(&keep).select_columns(&keep);
+        let moved =
+            DVector::from_iterator(keep.len(), keep.iter().map(|&r| rhs[r] + m[(r, fixed)] * d));
+        let solved = -reduced.lu().solve(&moved).unwrap();
+        let mut want = DVector::zeros(m.nrows());
+        keep.iter().zip(solved.iter()).for_each(|(&r, &v)| want[r] = v);
+        want[fixed] = d;
+        let a0 = m.nrows() - basis.k_id;
+        assert!(relative((&new_alpha - &alpha).as_slice(), &want.as_slice()[a0..]) < 1e-8);
+        let mut off = 0;
+        for ((before, after), u) in states.iter().zip(&out).zip(&unknowns) {
+            let dy = &want.as_slice()[off..off + u.len()];
+            assert!((after.pose.s - before.pose.s - dy[3]).abs() < 1e-10);
+            for (e, &ue) in u.iter().enumerate().skip(6) {
+                let fe = ue - 6 - basis.k_id;
+                assert!((after.beta[fe] - before.beta[fe] - dy[e]).abs() < 1e-8);
+            }
+            off += u.len();
+        }
+        // Its predicted decrease is the Gauss–Newton model's fall along that step, twice
+        // (the objective's scale): −2·gᵀδ − δᵀHδ, H undamped.
+        let mut h = m.clone();
+        (0..h.nrows()).for_each(|r| h[(r, r)] /= 1.0 + mu);
+        let model = -2.0 * rhs.dot(&want) - want.dot(&(&h * &want));
+        assert!((decrease - model).abs() < 1e-8 * model.abs(), "{decrease} vs {model}");
+        assert!(decrease > 0.0);
+    }
+
+    #[test]
+    fn damping_falls_after_well_predicted_steps_and_rises_after_poor_ones() {
+        assert_eq!(damping_factor(1.0), 1.0 / 3.0);
+        assert_eq!(damping_factor(0.5), 1.0);
+        assert_eq!(damping_factor(0.0), 2.0);
+        assert!(damping_factor(0.9) < damping_factor(0.6));
+    }
+
+    #[test]
     fn step_solves_the_whole_damped_system() {
         let Linearised { basis, alpha, observations, states, p, lin, .. } = &Linearised::new();
         let mu = 1e-3;
         let mut out = states.clone();
         let new_alpha =
-            step(lin, &mut out, alpha, mu, true, p, &mut StepBuffers::default()).unwrap().0;
+            step(lin, &mut out, alpha, mu, true, false, p, &mut StepBuffers::default()).unwrap().0;
         let (m, rhs, unknowns) = dense_system(basis, observations, states, alpha, p, mu);
         let want = -m.lu().solve(&rhs).unwrap();
         let a0 = want.len() - basis.k_id;

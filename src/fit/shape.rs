@@ -908,7 +908,7 @@ fn update_later_columns<S: pulp::Simd>(
             }
             None => {
                 for (i, v) in ca[s..].iter_mut().enumerate() {
-                    *v = minus_panel_terms(*v, x.map(|c| c[i]), la);
+                    *v = minus_panel_terms(*v, [x[0][i], x[1][i], x[2][i], x[3][i]], la);
                 }
                 j += 1;
             }
@@ -929,8 +929,9 @@ fn minus_panel_terms_of_two<S: pulp::Simd>(
     let [ca, cb] = cols;
     let (va, ta) = S::as_mut_simd_f64s(ca);
     let (vb, tb) = S::as_mut_simd_f64s(cb);
-    let [x0, x1, x2, x3] = x.map(|c| S::as_simd_f64s(c));
-    let [la, lb] = l.map(|f| f.map(|v| simd.splat_f64s(v)));
+    let (x0, x1) = (S::as_simd_f64s(x[0]), S::as_simd_f64s(x[1]));
+    let (x2, x3) = (S::as_simd_f64s(x[2]), S::as_simd_f64s(x[3]));
+    let [la, lb] = [splat4(simd, l[0]), splat4(simd, l[1])];
     let rows =
         va.iter_mut().zip(vb.iter_mut()).zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
     for (((ya, yb), (&a0, &a1)), (&a2, &a3)) in rows {
@@ -943,9 +944,17 @@ fn minus_panel_terms_of_two<S: pulp::Simd>(
     }
     let tails = [x0.1, x1.1, x2.1, x3.1];
     for (i, (u, w)) in ta.iter_mut().zip(tb.iter_mut()).enumerate() {
-        let a = tails.map(|t| t[i]);
+        let a = [tails[0][i], tails[1][i], tails[2][i], tails[3][i]];
         (*u, *w) = (minus_panel_terms(*u, a, l[0]), minus_panel_terms(*w, a, l[1]));
     }
+}
+
+/// Four factors as vectors, each the factor in every lane. Written out element by element
+/// rather than with `array::map`: the compiler does not always inline `map` into the
+/// kernels, and a kernel that calls it pays a call for every column.
+#[inline(always)]
+pub(crate) fn splat4<S: pulp::Simd>(simd: S, f: [Real; 4]) -> [S::f64s; 4] {
+    [simd.splat_f64s(f[0]), simd.splat_f64s(f[1]), simd.splat_f64s(f[2]), simd.splat_f64s(f[3])]
 }
 
 /// `x − Σ_c a_c·l_c`, the panel's columns in order, each term a fused multiply-add (one

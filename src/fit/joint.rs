@@ -88,8 +88,8 @@ pub(crate) fn solve(
         let (mut accepted, mut hold) = (false, false);
         for _ in 0..MAX_DAMPING_TRIES {
             copy_states(&mut candidate, &states);
-            let tried =
-                step(lin, &mut candidate, &alpha, mu, solve_identity, hold, &params, buffers);
+            let how = StepTry { mu, hold };
+            let tried = step(lin, &mut candidate, &alpha, how, solve_identity, &params, buffers);
             if let Some((a, predicted)) = tried {
                 // The model's decrease bounds what this iteration can pass the test with
                 // (more damping predicts less): below the tolerance it is the last one.
@@ -833,6 +833,14 @@ fn gram_lower_kernel<S: pulp::Simd>(simd: S, w: &[Real], k: usize, out: &mut [Re
     }
 }
 
+/// How [`step`] tries a step: its damping μ (a fraction of the diagonal), and whether
+/// expressions that cross 0 are held there.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StepTry {
+    pub mu: Real,
+    pub hold: bool,
+}
+
 /// Solves the damped system and applies the step to `out` (the current states on entry):
 /// returns the new identity and the decrease the step's model predicts, or None when a
 /// block is not positive definite. With `solve_identity` false the identity stays (δα = 0).
@@ -848,9 +856,8 @@ pub(crate) fn step(
     lin: &Linearisation,
     out: &mut [FrameState],
     alpha: &DVector,
-    mu: Real,
+    StepTry { mu, hold }: StepTry,
     solve_identity: bool,
-    hold: bool,
     params: &SolverParams,
     buf: &mut StepBuffers,
 ) -> Option<(DVector, Real)> {
@@ -1546,7 +1553,9 @@ mod tests {
         let mut out = states.clone();
         // Undamped, the step's own prediction is gᵀH⁻¹g with g from the moments; the
         // prediction from the landmarks' gradient and the factors kept must agree.
-        let (_, stepped) = step(lin, &mut out, alpha, 0.0, true, false, p, &mut buf).unwrap();
+        let (_, stepped) =
+            step(lin, &mut out, alpha, StepTry { mu: 0.0, hold: false }, true, p, &mut buf)
+                .unwrap();
         assert!(lin.holds_structure_of(states));
         let predicted = predicted_decrease(&group, lin, &buf, states, alpha, id_pts, p);
         assert!(stepped > 0.0);
@@ -1554,7 +1563,9 @@ mod tests {
         // The objective falls by about that much (the landmarks' noise keeps it from 0).
         let before = group.objective(states, id_pts, alpha, p);
         let mut out = states.clone();
-        let (a, _) = step(lin, &mut out, alpha, 0.0, true, false, p, &mut buf).unwrap();
+        let (a, _) =
+            step(lin, &mut out, alpha, StepTry { mu: 0.0, hold: false }, true, p, &mut buf)
+                .unwrap();
         let after = group.objective(&out, &identity_points(basis, &a), &a, p);
         assert!(((before - after) / stepped - 1.0).abs() < 0.2, "{} vs {stepped}", before - after);
         // Another set of free expressions is another set of unknowns.
@@ -1582,11 +1593,11 @@ mod tests {
         let mut buf = StepBuffers::default();
         // Clamped: the step reports it, and the held row is frame 0's expression 0 alone.
         let mut clamped = states.clone();
-        step(&lin, &mut clamped, &alpha, mu, true, false, &p, &mut buf).unwrap();
+        step(&lin, &mut clamped, &alpha, StepTry { mu, hold: false }, true, &p, &mut buf).unwrap();
         assert!(buf.clamped && clamped[0].beta[0] == 0.0);
         let mut out = states.clone();
         let (new_alpha, decrease) =
-            step(&lin, &mut out, &alpha, mu, true, true, &p, &mut buf).unwrap();
+            step(&lin, &mut out, &alpha, StepTry { mu, hold: true }, true, &p, &mut buf).unwrap();
         assert!(!buf.clamped);
         let held: Vec<usize> = (0..buf.held.len()).filter(|&r| buf.held[r]).collect();
         assert_eq!(held, vec![lin.rows[0] + 6]);
@@ -1638,8 +1649,17 @@ mod tests {
         let Linearised { basis, alpha, observations, states, p, lin, .. } = &Linearised::new();
         let mu = 1e-3;
         let mut out = states.clone();
-        let new_alpha =
-            step(lin, &mut out, alpha, mu, true, false, p, &mut StepBuffers::default()).unwrap().0;
+        let new_alpha = step(
+            lin,
+            &mut out,
+            alpha,
+            StepTry { mu, hold: false },
+            true,
+            p,
+            &mut StepBuffers::default(),
+        )
+        .unwrap()
+        .0;
         let (m, rhs, unknowns) = dense_system(basis, observations, states, alpha, p, mu);
         let want = -m.lu().solve(&rhs).unwrap();
         let a0 = want.len() - basis.k_id;

@@ -414,7 +414,7 @@ impl LandmarkBasis {
         for (i, &mean) in basis.mean.iter().enumerate() {
             let mut p = mean;
             for j in 0..3 {
-                p[j] += dot(&basis.row(i, j)[cols.clone()], &c[cols.clone()]);
+                p[j] += fused_dot(&basis.row(i, j)[cols.clone()], &c[cols.clone()]);
             }
             out.push(p);
         }
@@ -579,6 +579,19 @@ vectorised! {
 /// the compiler may not reorder (floating point), four lanes let it vectorise.
 #[inline(always)]
 pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
+    dot_by(a, b, |x, y, sum| sum + x * y)
+}
+
+/// [`dot`] with each term a fused multiply-add: for the vectorised kernels only, which are
+/// compiled for FMA (elsewhere `mul_add` is a library call).
+#[inline(always)]
+fn fused_dot(a: &[Real], b: &[Real]) -> Real {
+    dot_by(a, b, |x, y, sum| x.mul_add(y, sum))
+}
+
+/// The dot product of the shorter length, each term added to its lane's sum by `add`.
+#[inline(always)]
+fn dot_by(a: &[Real], b: &[Real], add: impl Fn(Real, Real, Real) -> Real) -> Real {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
     let mut acc = [0.0; 4];
@@ -586,10 +599,10 @@ pub(crate) fn dot(a: &[Real], b: &[Real]) -> Real {
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
         for l in 0..4 {
-            acc[l] += x[l] * y[l];
+            acc[l] = add(x[l], y[l], acc[l]);
         }
     }
-    let tail: Real = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    let tail = ra.iter().zip(rb).fold(0.0, |sum, (&x, &y)| add(x, y, sum));
     (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
 }
 

@@ -10,7 +10,8 @@
 //! δβ_free]`; shared: `δα`. The normal equations have the arrow shape
 //! `[A_f C_f; C_fᵀ S]`, so each frame's block is eliminated (Schur complement) and only the
 //! identity system `(S − Σ C_fᵀA_f⁻¹C_f)·δα = −(g_α − Σ C_fᵀA_f⁻¹b_f)` is solved jointly.
-//! Clamped expressions (β = 0, NNLS active set) are held during a step.
+//! Clamped expressions (β = 0, NNLS active set) are held during a step; free ones that a
+//! step takes below 0 are clamped, or held at 0 when the clamped step was rejected ([`step`]).
 //!
 //! Start with [`solve`]; `clip.rs` runs it between eos's start and the final pose step.
 

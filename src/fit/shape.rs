@@ -894,7 +894,8 @@ fn cholesky_panels<S: pulp::Simd>(simd: S, a: &mut [Real], n: usize) -> bool {
 
 /// Column j ≥ `first` of `later` (n-long columns from column `first` on) less the four
 /// panel columns' rank-1 terms, `col_j[i] −= Σ_c L[i][c]·L[j][c]` for i ≥ j, c in panel
-/// order; two columns per pass ([`minus_panel_terms_of_two`]).
+/// order; four columns per pass ([`minus_panel_terms_of_four`]), the last few two at a time
+/// ([`minus_panel_terms_of_two`]).
 #[inline(always)]
 fn update_later_columns<S: pulp::Simd>(
     simd: S,
@@ -906,16 +907,36 @@ fn update_later_columns<S: pulp::Simd>(
     let (p0, rest) = panel.split_at(n);
     let (p1, rest) = rest.split_at(n);
     let (p2, p3) = rest.split_at(n);
-    let mut cols = later.chunks_exact_mut(n);
+    let factors = |r: usize| [p0[r], p1[r], p2[r], p3[r]];
     let mut j = first;
+    let mut quads = later.chunks_exact_mut(4 * n);
+    for quad in quads.by_ref() {
+        let (ca, rest) = quad.split_at_mut(n);
+        let (cb, rest) = rest.split_at_mut(n);
+        let (cc, cd) = rest.split_at_mut(n);
+        let (la, lb, lc, ld) = (factors(j), factors(j + 1), factors(j + 2), factors(j + 3));
+        // The triangle above row j + 3, entry by entry.
+        ca[j] = minus_panel_terms(ca[j], la, la);
+        ca[j + 1] = minus_panel_terms(ca[j + 1], lb, la);
+        ca[j + 2] = minus_panel_terms(ca[j + 2], lc, la);
+        cb[j + 1] = minus_panel_terms(cb[j + 1], lb, lb);
+        cb[j + 2] = minus_panel_terms(cb[j + 2], lc, lb);
+        cc[j + 2] = minus_panel_terms(cc[j + 2], lc, lc);
+        let s = j + 3;
+        let x = [&p0[s..], &p1[s..], &p2[s..], &p3[s..]];
+        let cols = [&mut ca[s..], &mut cb[s..], &mut cc[s..], &mut cd[s..]];
+        minus_panel_terms_of_four(simd, cols, x, [la, lb, lc, ld]);
+        j += 4;
+    }
+    let mut cols = quads.into_remainder().chunks_exact_mut(n);
     while let Some(ca) = cols.next() {
-        let la = [p0[j], p1[j], p2[j], p3[j]];
+        let la = factors(j);
         ca[j] = minus_panel_terms(ca[j], la, la);
         let s = j + 1;
         let x = [&p0[s..], &p1[s..], &p2[s..], &p3[s..]];
         match cols.next() {
             Some(cb) => {
-                let lb = [p0[s], p1[s], p2[s], p3[s]];
+                let lb = factors(s);
                 minus_panel_terms_of_two(simd, [&mut ca[s..], &mut cb[s..]], x, [la, lb]);
                 j += 2;
             }
@@ -926,6 +947,46 @@ fn update_later_columns<S: pulp::Simd>(
                 j += 1;
             }
         }
+    }
+}
+
+/// [`minus_panel_terms_of_two`] for four columns, which share the loads of the panel rows.
+#[inline(always)]
+fn minus_panel_terms_of_four<S: pulp::Simd>(
+    simd: S,
+    cols: [&mut [Real]; 4],
+    x: [&[Real]; 4],
+    l: [[Real; 4]; 4],
+) {
+    let [ca, cb, cc, cd] = cols;
+    let (va, ta) = S::as_mut_simd_f64s(ca);
+    let (vb, tb) = S::as_mut_simd_f64s(cb);
+    let (vc, tc) = S::as_mut_simd_f64s(cc);
+    let (vd, td) = S::as_mut_simd_f64s(cd);
+    let (x0, x1) = (S::as_simd_f64s(x[0]), S::as_simd_f64s(x[1]));
+    let (x2, x3) = (S::as_simd_f64s(x[2]), S::as_simd_f64s(x[3]));
+    let f = [splat4(simd, l[0]), splat4(simd, l[1]), splat4(simd, l[2]), splat4(simd, l[3])];
+    let ys = va.iter_mut().zip(vb.iter_mut()).zip(vc.iter_mut().zip(vd.iter_mut()));
+    let rows = ys.zip(x0.0.iter().zip(x1.0)).zip(x2.0.iter().zip(x3.0));
+    for ((((ya, yb), (yc, yd)), (&a0, &a1)), (&a2, &a3)) in rows {
+        let a = [a0, a1, a2, a3];
+        let (mut u, mut v, mut w, mut z) = (*ya, *yb, *yc, *yd);
+        for c in 0..4 {
+            u = simd.negate_mul_add_f64s(a[c], f[0][c], u);
+            v = simd.negate_mul_add_f64s(a[c], f[1][c], v);
+            w = simd.negate_mul_add_f64s(a[c], f[2][c], w);
+            z = simd.negate_mul_add_f64s(a[c], f[3][c], z);
+        }
+        (*ya, *yb, *yc, *yd) = (u, v, w, z);
+    }
+    let tails = [x0.1, x1.1, x2.1, x3.1];
+    let ends = ta.iter_mut().zip(tb.iter_mut()).zip(tc.iter_mut().zip(td.iter_mut()));
+    for (i, ((u, v), (w, z))) in ends.enumerate() {
+        let a = [tails[0][i], tails[1][i], tails[2][i], tails[3][i]];
+        *u = minus_panel_terms(*u, a, l[0]);
+        *v = minus_panel_terms(*v, a, l[1]);
+        *w = minus_panel_terms(*w, a, l[2]);
+        *z = minus_panel_terms(*z, a, l[3]);
     }
 }
 

@@ -677,6 +677,8 @@ pub(crate) struct StepBuffers {
     w: Vec<Real>,
     s: DMatrix,
     r: DVector,
+    /// The identity's gradient less the held rows' coupling (`g − Σ C_pᵀ·v_p`).
+    g: DVector,
     /// The rows (stacked as `v`) held at their bound in the last solve ([`step`]).
     held: Vec<bool>,
     /// Whether the last step clamped expressions that crossed 0 (it held none of them).
@@ -909,13 +911,9 @@ pub(crate) fn step(
     } else {
         out.iter_mut().enumerate().map(apply).collect()
     };
-    // The identity's part, with the gradient the held rows leave it (`g − Σ C_pᵀ·(−δy_p)`).
-    let mut g = lin.g.clone();
-    for p in (0..held.len()).filter(|&p| held[p]) {
-        axpy(-v[p], &lin.c[p * kid..(p + 1) * kid], g.as_mut_slice());
-    }
+    // The identity's part, with the gradient the held rows leave it ([`solve_damped`]).
     let s = lin.s.as_slice();
-    let identity = -dot(g.as_slice(), dalpha.as_slice())
+    let identity = -dot(buf.g.as_slice(), dalpha.as_slice())
         + mu * dalpha.iter().enumerate().map(|(c, d)| s[c * kid + c] * d * d).sum::<Real>();
     let decrease = frames?.iter().sum::<Real>() + identity;
     let new_alpha = alpha + dalpha;
@@ -949,6 +947,14 @@ fn solve_damped(
         let e = (0..st.free.len()).filter(|&e| st.free[e]).nth(p - 6);
         e.map_or(0.0, |e| st.beta[e])
     };
+    // The identity's gradient with the held rows' part moved over: `g − Σ C_pᵀ·v_p`.
+    buf.g.clone_from(&lin.g);
+    for f in 0..frames {
+        for p in (rows[f]..rows[f + 1]).filter(|&p| held[p]) {
+            let v = held_value(f, p - rows[f]);
+            axpy(-v, &lin.c[p * kid..(p + 1) * kid], buf.g.as_mut_slice());
+        }
+    }
     // Per frame, with A = LLᵀ (damped): W = L⁻¹C and z = L⁻¹b, so that the Schur terms are
     // CᵀA⁻¹C = WᵀW and CᵀA⁻¹b = Wᵀz, summed a chunk of frames at a time as products of
     // their stacked W.
@@ -1011,7 +1017,7 @@ fn solve_damped(
             sv[col.clone()].copy_from_slice(&lv[col]);
             sv[c * kid + c] *= 1.0 + mu;
         }
-        r.clone_from(&lin.g);
+        r.clone_from(&buf.g);
         for (ps, pr) in &buf.parts[..n_chunks] {
             let pv = ps.as_slice();
             for c in 0..kid {
@@ -1021,12 +1027,6 @@ fn solve_damped(
                 }
             }
             *r -= pr;
-        }
-        for f in 0..frames {
-            for p in (rows[f]..rows[f + 1]).filter(|&p| held[p]) {
-                let v = held_value(f, p - rows[f]);
-                axpy(-v, &lin.c[p * kid..(p + 1) * kid], r.as_mut_slice());
-            }
         }
         if !cholesky_solve_in_place(s.as_mut_slice(), kid, r.as_mut_slice()) {
             return None;

@@ -503,20 +503,22 @@ fn frame_blocks_kernel(
     let rr = |a: usize| [r[(a, 0)], r[(a, 1)], r[(a, 2)]];
     for a in 0..3 {
         for (b, t) in scr.t[3 * a * k..3 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
-            combine3(t, rr(a), [0, 1, 2].map(|a2| row(x, 3 * a2 + b, k)));
+            combine3(t, rr(a), [row(x, b, k), row(x, 3 + b, k), row(x, 6 + b, k)]);
         }
         for (b, cam) in scr.cam[2 * a * k..2 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {
-            combine3(cam, rr(b), [0, 1, 2].map(|b2| row(&scr.t, 3 * a + b2, k)));
+            let t = &scr.t;
+            combine3(cam, rr(b), [row(t, 3 * a, k), row(t, 3 * a + 1, k), row(t, 3 * a + 2, k)]);
         }
     }
-    let ys = [0, 1, 2].map(|b| row(&scr.y, b, k));
+    let ys = [row(&scr.y, 0, k), row(&scr.y, 1, k), row(&scr.y, 2, k)];
     let (ry0, ry1) = scr.ry.split_at_mut(k);
     combine3(ry0, rr(0), ys);
     combine3(ry1, rr(1), ys);
     // (R·U)₀ + (R·V)₁: the observations' part of the gradient.
     let (obs_u, obs_v) = scr.obs.split_at_mut(k);
-    combine3(obs_u, rr(0), [0, 1, 2].map(|b| row(moments, b, k)));
-    combine3(obs_v, rr(1), [3, 4, 5].map(|b| row(moments, b, k)));
+    let m = |b: usize| row(moments, b, k);
+    combine3(obs_u, rr(0), [m(0), m(1), m(2)]);
+    combine3(obs_v, rr(1), [m(3), m(4), m(5)]);
     // H_pc rows from the Jacobian's entries (see `PoseResidual::jacobian`):
     // ∂ω: (0, s·c_z, −s·c_y | −s·c_z, 0, s·c_x), ∂s: (c_x + t_x | c_y + t_y), ∂t: s.
     let cam = |a: usize, b: usize| row(&scr.cam, 2 * a + b, k);

@@ -499,13 +499,14 @@ impl GramBlocks {
         for (oc, c) in cols.enumerate() {
             // Rows of this column: all, or those on and below the diagonal.
             let first = if lower { oc.min(n) } else { 0 };
-            let g: [&[Real]; 6] = std::array::from_fn(|i| {
-                &grams.0[i].as_slice()[c * k + rows.start + first..c * k + rows.end]
-            });
             let o = &mut out.as_mut_slice()[oc * n + first..(oc + 1) * n];
             // Equal lengths the compiler can see, so that the loop has no bounds checks and
-            // vectorises.
-            let g = g.map(|x| &x[..o.len()]);
+            // vectorises. Written out: an array's `map` here is a call per column.
+            let len = o.len();
+            let block = |i: usize| {
+                &grams.0[i].as_slice()[c * k + rows.start + first..c * k + rows.end][..len]
+            };
+            let g = [block(0), block(1), block(2), block(3), block(4), block(5)];
             // One fused multiply-add per block, in block order.
             for r in 0..o.len() {
                 o[r] = (0..6).fold(o[r], |acc, j| f[j].mul_add(g[j][r], acc));
@@ -748,7 +749,8 @@ fn apply_forces_kernel(
     if cols == (basis.k_id..basis.num_coefficients()) {
         // The expression columns alone: their contiguous copy, three rows at once.
         for (i, h) in forces.iter().enumerate() {
-            let [x, y, z] = [0, 1, 2].map(|j| basis.expression_row(i, j));
+            let row = |j: usize| basis.expression_row(i, j);
+            let (x, y, z) = (row(0), row(1), row(2));
             for (((g, &x), &y), &z) in gs.iter_mut().zip(x).zip(y).zip(z) {
                 *g -= h.x * x + h.y * y + h.z * z;
             }

@@ -75,7 +75,10 @@ pub fn open_input(path: &Path, max_bytes: u64) -> Result<File> {
 /// As [`open_input`], or a read error.
 pub fn read_input_capped(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
     let file = open_input(path, max_bytes)?;
-    let mut bytes = Vec::new();
+    // Sized once from the file's length: growing by doubling touches and copies up to
+    // twice the file (a model is megabytes, read at every start).
+    let len = file.metadata().map_or(0, |m| m.len()).min(max_bytes);
+    let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0).saturating_add(1));
     file.take(max_bytes.saturating_add(1))
         .read_to_end(&mut bytes)
         .map_err(|e| FormatError::io(path, e))?;

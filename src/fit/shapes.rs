@@ -15,7 +15,7 @@
 //!
 //! The bases are copied once per call into tiles of rows ([`Tiles`]): a tile's columns lie
 //! one after the other, so a frame's entries of a tile are summed in registers over a
-//! contiguous run of memory, and the tile (16 KB of the SFM identity basis) stays in the
+//! contiguous run of memory, and the tile (24 KB of the SFM identity basis) stays in the
 //! first-level cache while every frame of a block passes over it. A general matrix product
 //! instead copies ("packs") its operands again for every block of frames.
 
@@ -27,8 +27,9 @@ use pulp::Simd;
 /// Frames whose meshes are made together: the tiles are read from memory once per block,
 /// and 64 meshes of the SFM model are 2.6 MB.
 const BLOCK: usize = 64;
-/// Vector registers of sums per tile: a tile is `ACC` vectors of rows (64 rows with AVX2),
-/// and with the broadcast coefficient they take 9 of the 16 registers.
+/// Vector registers of sums per tile: a tile is `ACC` vectors of rows (96 rows with AVX2),
+/// and with the broadcast coefficient they take 13 of the 16 registers. Tiles of 6 or 8
+/// vectors (a smaller tile in the first-level cache) were no faster (docs/performance.md).
 const ACC: usize = 12;
 
 /// Calls `each(fit, shape)` for every fit in order with its fitted shape in model space (flat

@@ -499,7 +499,8 @@ fn frame_blocks_kernel(
             axpy(-w, basis.row(i, b), row);
         }
     }
-    // t = R·X over the first index, cam = t·Rᵀ over the second (b = x, y only).
+    // t = R·X over the first index, cam = t·Rᵀ over the second (b = x, y only). The row
+    // triples are written out, not made with `array::map`, for the reason `splat4` gives.
     let rr = |a: usize| [r[(a, 0)], r[(a, 1)], r[(a, 2)]];
     for a in 0..3 {
         for (b, t) in scr.t[3 * a * k..3 * (a + 1) * k].chunks_exact_mut(k.max(1)).enumerate() {

@@ -747,7 +747,8 @@ fn apply_forces_kernel(
     let mut g = DVector::zeros(cols.len());
     let gs = g.as_mut_slice();
     if cols == (basis.k_id..basis.num_coefficients()) {
-        // The expression columns alone: their contiguous copy, three rows at once.
+        // The expression columns alone: their contiguous copy, three rows at once (taken
+        // one by one, not with `array::map`: see `splat4`).
         for (i, h) in forces.iter().enumerate() {
             let row = |j: usize| basis.expression_row(i, j);
             let (x, y, z) = (row(0), row(1), row(2));

@@ -58,6 +58,11 @@ fn kind_of(meta: &Metadata) -> &'static str {
 /// # Errors
 /// As [`check_regular_file`], or the file over `max_bytes`.
 pub fn open_input(path: &Path, max_bytes: u64) -> Result<File> {
+    open_sized(path, max_bytes).map(|(file, _)| file)
+}
+
+/// [`open_input`] with the length the check read.
+fn open_sized(path: &Path, max_bytes: u64) -> Result<(File, u64)> {
     let meta = check_regular_file(path)?;
     if meta.len() > max_bytes {
         return Err(FormatError::whole(
@@ -65,7 +70,8 @@ pub fn open_input(path: &Path, max_bytes: u64) -> Result<File> {
             format!("{} bytes, more than the {} this kind of file can need", meta.len(), max_bytes),
         ));
     }
-    File::open(path).map_err(|e| FormatError::io(path, e))
+    let file = File::open(path).map_err(|e| FormatError::io(path, e))?;
+    Ok((file, meta.len()))
 }
 
 /// The bytes of a regular file of at most `max_bytes` (a file growing while read is cut off
@@ -74,10 +80,9 @@ pub fn open_input(path: &Path, max_bytes: u64) -> Result<File> {
 /// # Errors
 /// As [`open_input`], or a read error.
 pub fn read_input_capped(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
-    let file = open_input(path, max_bytes)?;
-    // Sized once from the file's length: growing by doubling touches and copies up to
-    // twice the file (a model is megabytes, read at every start).
-    let len = file.metadata().map_or(0, |m| m.len()).min(max_bytes);
+    let (file, len) = open_sized(path, max_bytes)?;
+    // One allocation of the file's length (+1 for the end-of-file probe) instead of a
+    // dozen doublings for a model of megabytes.
     let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0).saturating_add(1));
     file.take(max_bytes.saturating_add(1))
         .read_to_end(&mut bytes)

@@ -45,7 +45,7 @@ pub fn for_each_fitted_shape(
 }
 
 /// [`for_each_fitted_shape`]'s work, run compiled for the CPU's widest vectors (pulp's
-/// run-time dispatch; the sums are in [`mesh_tile_pair`] and [`mesh_tile`]).
+/// run-time dispatch; the sums are in [`mesh_tile_pair`]).
 struct Meshes<'a, F> {
     model: &'a MorphableModel,
     fits: &'a [FrameFit],
@@ -73,6 +73,7 @@ impl<F: FnMut(&FrameFit, &[f32])> pulp::WithSimd for Meshes<'_, F> {
         let mut meshes = vec![0f32; padded * block_len];
         let mut alphas = Vec::new();
         let mut betas = vec![0f32; k_exp * block_len];
+        let mut spare = vec![0f32; rows];
         for block in fits.chunks(block_len.max(1)) {
             let first = block[0].identity.as_slice();
             let one_identity = block.iter().all(|f| same_bits(&f.identity, first));
@@ -105,16 +106,13 @@ impl<F: FnMut(&FrameFit, &[f32])> pulp::WithSimd for Meshes<'_, F> {
                 };
                 let mut frames = meshes.chunks_exact_mut(padded).take(block.len()).enumerate();
                 while let Some((f, mesh)) = frames.next() {
-                    let out = &mut mesh[span.clone()];
-                    match frames.next() {
-                        Some((g, next)) => {
-                            let outs = [out, &mut next[span.clone()]];
-                            let parts =
-                                [[identity(f), identity(g)], [expression(f), expression(g)]];
-                            mesh_tile_pair(simd, outs, start, parts);
-                        }
-                        None => mesh_tile(simd, out, start, [identity(f), expression(f)]),
-                    }
+                    // A frame left over is paired with itself, its copy made in `spare`.
+                    let (g, second) = match frames.next() {
+                        Some((g, next)) => (g, &mut next[span.clone()]),
+                        None => (f, &mut spare[..]),
+                    };
+                    let parts = [[identity(f), identity(g)], [expression(f), expression(g)]];
+                    mesh_tile_pair(simd, [&mut mesh[span.clone()], second], start, parts);
                 }
             }
             for (fit, mesh) in block.iter().zip(meshes.chunks_exact(padded)) {
@@ -168,51 +166,18 @@ fn coefficients(c: &[f64], cols: usize) -> impl Iterator<Item = f32> + '_ {
     (0..cols).map(|j| c.get(j).map_or(0.0, |&v| v as f32))
 }
 
-/// One tile of a mesh: `out = (start + Σₖ tile₁[:, k]·c₁[k]) + Σₖ tile₂[:, k]·c₂[k]` over
-/// the `(tile, c)` parts, each sum made first (from 0, in the order of k, one fused
-/// multiply-add per product) and then added, the rounding of a packed matrix product's
-/// kernel, which this replaced; a part without coefficients adds nothing. `out` and `start`
-/// are one tile's rows (`ACC` vectors).
-#[inline(always)]
-fn mesh_tile<S: Simd>(simd: S, out: &mut [f32], start: &[f32], parts: [(&[f32], &[f32]); 2]) {
-    let rows = out.len();
-    let mut value = [simd.splat_f32s(0.0); ACC];
-    value.copy_from_slice(&S::as_simd_f32s(start).0[..ACC]);
-    for (tile, coef) in parts {
-        if coef.is_empty() {
-            continue;
-        }
-        let mut sum = [simd.splat_f32s(0.0); ACC];
-        let add = |sum: &mut [S::f32s; ACC], column: &[f32], c: f32| {
-            let c = simd.splat_f32s(c);
-            for (s, &b) in sum.iter_mut().zip(S::as_simd_f32s(column).0) {
-                *s = simd.mul_add_f32s(b, c, *s);
-            }
-        };
-        // Two columns a turn: the loop's own instructions are a third of one column's.
-        let pairs = tile.chunks_exact(2 * rows).zip(coef.chunks_exact(2));
-        for (columns, c) in pairs {
-            let (first, second) = columns.split_at(rows);
-            add(&mut sum, first, c[0]);
-            add(&mut sum, second, c[1]);
-        }
-        if coef.len() % 2 == 1 {
-            add(&mut sum, &tile[(coef.len() - 1) * rows..][..rows], coef[coef.len() - 1]);
-        }
-        for (v, s) in value.iter_mut().zip(sum) {
-            *v = simd.add_f32s(*v, s);
-        }
-    }
-    S::as_mut_simd_f32s(out).0[..ACC].copy_from_slice(&value);
-}
-
-/// [`mesh_tile`] for two frames at once: each vector of a tile's column is loaded once for
-/// both frames' sums, half a load per multiply-add instead of one. On this project's machine
-/// that took the meshes of 1,000 per-frame fits from 29–31 ms (one frame at a time, twelve
-/// sums over 96 rows) to 18–24 ms (docs/performance.md). Each frame's sums are
-/// [`mesh_tile`]'s, in the same order, so the bits are the same. `parts[p][i]` is frame i's
-/// part p (the same tile for both frames, their own coefficients); both `out` are written
-/// over.
+/// One tile of two frames' meshes: each `out = (start + Σₖ tile₁[:, k]·c₁[k]) + Σₖ
+/// tile₂[:, k]·c₂[k]` over the parts, with that frame's coefficients, each sum made first
+/// (from 0, in the order of k, one fused multiply-add per product) and then added, the
+/// rounding of a packed matrix product's kernel, which this replaced; a part without
+/// coefficients adds nothing. `parts[p][i]` is frame i's part p (the same tile for both
+/// frames); `start` and each `out` are one tile's rows (`ACC` vectors), and both `out` are
+/// written over.
+///
+/// Each vector of a tile's column is loaded once for both frames' sums, half a load per
+/// multiply-add instead of one. On this project's machine that took the meshes of 1,000
+/// per-frame fits from 29–31 ms (one frame at a time, twelve sums over 96 rows) to 18–24 ms
+/// (docs/performance.md).
 #[inline(always)]
 fn mesh_tile_pair<S: Simd>(
     simd: S,

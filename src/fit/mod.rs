@@ -26,4 +26,4 @@ pub use camera::OrthoPose;
 pub use gaps::{Filled, GapError, MAX_FILLED_S, fill_gaps};
 pub use pipeline::{Fitter, fit_clip, fit_frame, fitted_shape, pose_of, project};
 pub use result::{FitSettings, FrameFit, Solver};
-pub use shapes::for_each_fitted_shape;
+pub use shapes::for_each_block_of_fitted_shapes;

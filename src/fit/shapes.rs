@@ -33,18 +33,19 @@ const BLOCK: usize = 64;
 /// 15 of the 16 registers ([`mesh_tile_pair`]).
 const ACC: usize = 6;
 
-/// Calls `each(fit, shape)` for every fit in order with its fitted shape in model space (flat
-/// `x0 y0 z0 …`, length 3N, in f32: [`super::fitted_shape`] rounded, up to a few units in
-/// the last place); `shape` is only valid during the call.
-pub fn for_each_fitted_shape(
+/// Calls `each(fits, shapes)` for consecutive blocks of `fits` in order, `shapes[i]` the
+/// fitted shape of `fits[i]` in model space (flat `x0 y0 z0 …`, length 3N, in f32:
+/// [`super::fitted_shape`] rounded, up to a few units in the last place), so that a writer
+/// can hand a block to the file in one call; `shapes` is only valid during the call.
+pub fn for_each_block_of_fitted_shapes(
     model: &MorphableModel,
     fits: &[FrameFit],
-    each: impl FnMut(&FrameFit, &[f32]),
+    each: impl FnMut(&[FrameFit], &[&[f32]]),
 ) {
     pulp::Arch::new().dispatch(Meshes { model, fits, each });
 }
 
-/// [`for_each_fitted_shape`]'s work, run compiled for the CPU's widest vectors (pulp's
+/// [`for_each_block_of_fitted_shapes`]'s work, run compiled for the CPU's widest vectors (pulp's
 /// run-time dispatch; the sums are in [`mesh_tile_pair`]).
 struct Meshes<'a, F> {
     model: &'a MorphableModel,
@@ -52,7 +53,7 @@ struct Meshes<'a, F> {
     each: F,
 }
 
-impl<F: FnMut(&FrameFit, &[f32])> pulp::WithSimd for Meshes<'_, F> {
+impl<F: FnMut(&[FrameFit], &[&[f32]])> pulp::WithSimd for Meshes<'_, F> {
     type Output = ();
 
     #[inline(always)]
@@ -115,9 +116,9 @@ impl<F: FnMut(&FrameFit, &[f32])> pulp::WithSimd for Meshes<'_, F> {
                     mesh_tile_pair(simd, [&mut mesh[span.clone()], second], start, parts);
                 }
             }
-            for (fit, mesh) in block.iter().zip(meshes.chunks_exact(padded)) {
-                each(fit, &mesh[..n3]);
-            }
+            let shapes: Vec<&[f32]> =
+                meshes.chunks_exact(padded).take(block.len()).map(|m| &m[..n3]).collect();
+            each(block, &shapes);
         }
     }
 }
@@ -221,6 +222,18 @@ mod tests {
     use crate::fit::fitted_shape;
     use crate::math::{DVector, Real};
     use crate::model::{Expressions, PcaModel};
+
+    /// `each(fit, shape)` for every fit in order, through the blocks.
+    fn for_each_fitted_shape(
+        m: &MorphableModel,
+        fits: &[FrameFit],
+        mut each: impl FnMut(&FrameFit, &[f32]),
+    ) {
+        for_each_block_of_fitted_shapes(m, fits, |block, shapes| {
+            assert_eq!(block.len(), shapes.len());
+            block.iter().zip(shapes).for_each(|(fit, shape)| each(fit, shape));
+        });
+    }
 
     fn model() -> MorphableModel {
         model_of(12, 3)

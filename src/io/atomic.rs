@@ -147,6 +147,10 @@ impl Write for AtomicFile {
         self.writer.as_mut().expect("writer present until commit").write(buf)
     }
 
+    fn write_vectored(&mut self, bufs: &[io::IoSlice<'_>]) -> io::Result<usize> {
+        self.writer.as_mut().expect("writer present until commit").write_vectored(bufs)
+    }
+
     fn flush(&mut self) -> io::Result<()> {
         self.writer.as_mut().expect("writer present until commit").flush()
     }

@@ -454,34 +454,56 @@ impl NpyF32Writer {
     /// Appends `values` (f32, or f64 rounded to f32 as `as` does).
     ///
     /// # Errors
-    /// More values than the shape holds; a value that is not finite as f32 (NaN, ±inf, or
-    /// beyond f32's range), naming its index: lipmap never writes one into an output (the
-    /// file is not put in place); I/O errors, naming the file.
+    /// As [`NpyF32Writer::write_rows`].
     pub fn write<T: NpyF32Value>(&mut self, values: &[T]) -> Result<()> {
+        self.write_rows(&[values])
+    }
+
+    /// Appends `rows` one after the other. Rows whose values are already the file's bytes
+    /// (f32 on a little-endian machine: a block of meshes) go to the file in one vectored
+    /// write from their own memory, with no copy into the write buffer.
+    ///
+    /// # Errors
+    /// More values than the shape holds; a value that is not finite as f32 (NaN, ±inf, or
+    /// beyond f32's range), naming its index: lipmap never writes one into an output (none
+    /// of `rows` is written, and the file is not put in place); I/O errors, naming the file.
+    pub fn write_rows<T: NpyF32Value>(&mut self, rows: &[&[T]]) -> Result<()> {
         let first = self.written;
-        self.written += values.len() as u64;
+        self.written += rows.iter().map(|r| r.len() as u64).sum::<u64>();
         if self.written > self.expected {
             return Err(FormatError::whole(
                 &self.path,
                 format!("more than the {} values its shape holds", self.expected),
             ));
         }
-        // A count over every value, with no early return, which the compiler vectorises.
-        let not_finite =
-            values.iter().map(|&v| u32::from(!is_finite_bits(v.f32_bits()))).sum::<u32>();
-        if not_finite > 0 {
-            let k = values.iter().position(|&v| !is_finite_bits(v.f32_bits())).unwrap_or(0);
-            return Err(FormatError::whole(
-                &self.path,
-                format!(
-                    "value {} is {}, not a number lipmap writes (nothing written)",
-                    first + k as u64,
-                    crate::math::short_number(values[k].into())
-                ),
-            ));
+        let mut offset = first;
+        for values in rows {
+            // A count over every value, with no early return, which the compiler vectorises.
+            let not_finite =
+                values.iter().map(|&v| u32::from(!is_finite_bits(v.f32_bits()))).sum::<u32>();
+            if not_finite > 0 {
+                let k = values.iter().position(|&v| !is_finite_bits(v.f32_bits())).unwrap_or(0);
+                return Err(FormatError::whole(
+                    &self.path,
+                    format!(
+                        "value {} is {}, not a number lipmap writes (nothing written)",
+                        offset + k as u64,
+                        crate::math::short_number(values[k].into())
+                    ),
+                ));
+            }
+            offset += values.len() as u64;
         }
-        let bytes = T::le_bytes(values, &mut self.bytes);
-        std::io::Write::write_all(&mut self.file, bytes).map_err(|e| FormatError::io(&self.path, e))
+        let io = |e| FormatError::io(&self.path, e);
+        let own: Option<Vec<std::io::IoSlice<'_>>> =
+            rows.iter().map(|r| T::own_le_bytes(r).map(std::io::IoSlice::new)).collect();
+        match own {
+            Some(mut slices) => write_all_vectored(&mut self.file, &mut slices).map_err(io),
+            None => rows.iter().try_for_each(|values| {
+                let bytes = T::le_bytes(values, &mut self.bytes);
+                std::io::Write::write_all(&mut self.file, bytes).map_err(io)
+            }),
+        }
     }
 
     /// Checks that every value the shape holds was written, then puts the file in place.
@@ -505,6 +527,9 @@ pub trait NpyF32Value: Copy + Into<f64> {
     /// The bits of the value as f32.
     fn f32_bits(self) -> u32;
 
+    /// `values` as the file's little-endian f32 bytes when their own memory is those bytes.
+    fn own_le_bytes(values: &[Self]) -> Option<&[u8]>;
+
     /// `values` as the file's little-endian f32 bytes, made in `buf` when they are not
     /// already.
     fn le_bytes<'a>(values: &'a [Self], buf: &'a mut Vec<u8>) -> &'a [u8];
@@ -515,13 +540,16 @@ impl NpyF32Value for f32 {
         self.to_bits()
     }
 
+    fn own_le_bytes(values: &[f32]) -> Option<&[u8]> {
+        // The values' own memory: a mesh goes to the file without a copy. (bytemuck, as
+        // pulp, the fit's vector dispatch, re-exports it.)
+        cfg!(target_endian = "little").then(|| pulp::bytemuck::cast_slice(values))
+    }
+
     fn le_bytes<'a>(values: &'a [f32], buf: &'a mut Vec<u8>) -> &'a [u8] {
-        if cfg!(target_endian = "little") {
-            // The values' own memory: a mesh goes to the file without a copy. (bytemuck, as
-            // pulp, the fit's vector dispatch, re-exports it.)
-            pulp::bytemuck::cast_slice(values)
-        } else {
-            f32_le_bytes(values.iter().copied(), values.len(), buf)
+        match Self::own_le_bytes(values) {
+            Some(bytes) => bytes,
+            None => f32_le_bytes(values.iter().copied(), values.len(), buf),
         }
     }
 }
@@ -531,9 +559,31 @@ impl NpyF32Value for f64 {
         (self as f32).to_bits()
     }
 
+    fn own_le_bytes(_: &[f64]) -> Option<&[u8]> {
+        None
+    }
+
     fn le_bytes<'a>(values: &'a [f64], buf: &'a mut Vec<u8>) -> &'a [u8] {
         f32_le_bytes(values.iter().map(|&v| v as f32), values.len(), buf)
     }
+}
+
+/// Writes every byte of `slices` with vectored writes, as `write_all` does for one slice
+/// (`Write::write_all_vectored` is not stable). A buffered writer hands a total at least
+/// its buffer's size straight to the file.
+fn write_all_vectored(
+    out: &mut impl std::io::Write,
+    mut slices: &mut [std::io::IoSlice<'_>],
+) -> std::io::Result<()> {
+    while !slices.is_empty() {
+        match out.write_vectored(slices) {
+            Ok(0) => return Err(std::io::ErrorKind::WriteZero.into()),
+            Ok(n) => std::io::IoSlice::advance_slices(&mut slices, n),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 /// Whether f32 bits are a finite number (the exponent not all ones): an integer test, which
@@ -632,6 +682,40 @@ mod tests {
             w.finish().unwrap();
             assert!(std::fs::read(&p).unwrap() == want, "shape {shape:?}");
         }
+    }
+
+    #[test]
+    fn rows_written_together_are_the_bytes_of_rows_written_one_by_one() {
+        let dir = tempfile::tempdir().unwrap();
+        // Rows past the write buffer's size in all (a block of meshes goes out vectored),
+        // and f64 rows, which are converted.
+        let rows: Vec<Vec<f32>> =
+            (0..40).map(|r| (0..10_000).map(|i| ((r * 7 + i) as f32).cos()).collect()).collect();
+        let slices: Vec<&[f32]> = rows.iter().map(Vec::as_slice).collect();
+        let wide: Vec<Vec<f64>> =
+            rows.iter().map(|r| r.iter().map(|&v| f64::from(v)).collect()).collect();
+        let wide: Vec<&[f64]> = wide.iter().map(Vec::as_slice).collect();
+        let shape = [40u64, 10_000];
+        let one = dir.path().join("one.npy");
+        let mut w = NpyF32Writer::create(&one, &shape).unwrap();
+        slices.iter().for_each(|r| w.write(r).unwrap());
+        w.finish().unwrap();
+        let p = dir.path().join("f32.npy");
+        let mut w = NpyF32Writer::create(&p, &shape).unwrap();
+        slices.chunks(16).for_each(|b| w.write_rows(b).unwrap());
+        w.finish().unwrap();
+        assert!(std::fs::read(&p).unwrap() == std::fs::read(&one).unwrap());
+        let p = dir.path().join("f64.npy");
+        let mut w = NpyF32Writer::create(&p, &shape).unwrap();
+        wide.chunks(16).for_each(|b| w.write_rows(b).unwrap());
+        w.finish().unwrap();
+        assert!(std::fs::read(&p).unwrap() == std::fs::read(&one).unwrap());
+        // A value that is not finite in a later row is named by its index in the file, and
+        // no row of the call is written.
+        let p = dir.path().join("bad.npy");
+        let mut w = NpyF32Writer::create(&p, &[3, 2]).unwrap();
+        let e = w.write_rows(&[&[1.0f32, 2.0][..], &[3.0, f32::INFINITY]]).unwrap_err();
+        assert!(e.to_string().contains("value 3 is"), "{e}");
     }
 
     #[test]

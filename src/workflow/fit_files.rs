@@ -5,7 +5,7 @@
 //! reports progress and writes.
 
 use super::error::{Error, Progress, ProgressFn, Result};
-use crate::fit::{FitSettings, Fitter, FrameFit, for_each_fitted_shape};
+use crate::fit::{FitSettings, Fitter, FrameFit, for_each_block_of_fitted_shapes};
 use crate::io::{FormatError, atomic, landmark_map_toml, model_source, npy_model};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -83,12 +83,13 @@ pub fn fit_files(input: &FitFilesInput, progress: ProgressFn<'_>) -> Result<FitF
     write_fit_csv(&fit_csv, &fits)?;
     let shapes = input.out.join("shapes.npy");
     let n3 = 3 * model.num_vertices();
-    // One mesh at a time straight to the file: the whole array is 41 MB per 1,000 frames.
+    // A block of meshes at a time straight to the file: the whole array is 41 MB per 1,000
+    // frames.
     let mut npy = npy_model::NpyF32Writer::create(&shapes, &[fits.len() as u64, n3 as u64])?;
     let mut written = Ok(());
-    for_each_fitted_shape(&model, &fits, |_, s| {
+    for_each_block_of_fitted_shapes(&model, &fits, |_, block| {
         if written.is_ok() {
-            written = npy.write(s);
+            written = npy.write_rows(block);
         }
     });
     written?;

@@ -16,17 +16,22 @@
 use crate::io::error::{FormatError, Location, Result};
 use crate::math::{DMatrix, DVector};
 use crate::model::{Expressions, MorphableModel, PcaModel};
+use std::io::{BufReader, Read};
 use std::path::Path;
 
 /// Reads an eos morphable model (`.bin`): its shape part becomes the PCA model, its
 /// triangles the model's triangles; the colour part and texture coordinates are skipped.
 ///
+/// The file is read through a small buffer and its matrices converted as they arrive: a
+/// whole-file copy of a model would be megabytes of fresh memory touched once, its page
+/// faults a sizeable part of a short `lipmap fit` (docs/performance.md).
+///
 /// # Errors
 /// Unreadable file, truncation (with the byte offset), inconsistent sizes, or a model that
 /// fails [`MorphableModel::validate`].
 pub fn read_eos_model(path: &Path) -> Result<MorphableModel> {
-    let bytes = super::input::read_input(path)?;
-    parse_eos_model(&bytes, path)
+    let (file, len) = super::input::open_input_sized(path, super::input::MAX_INPUT_BYTES)?;
+    eos_model_from(Reader::new(BufReader::with_capacity(READ_BUFFER, file), len, path))
 }
 
 /// Parses the bytes of an eos model file; `path` is used only in error messages.
@@ -34,7 +39,10 @@ pub fn read_eos_model(path: &Path) -> Result<MorphableModel> {
 /// # Errors
 /// As [`read_eos_model`].
 pub fn parse_eos_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
-    let mut r = Reader { bytes, pos: 0, path };
+    eos_model_from(Reader::new(bytes, bytes.len() as u64, path))
+}
+
+fn eos_model_from(mut r: Reader<'_, impl Read>) -> Result<MorphableModel> {
     let version = r.u32("version")?;
     let (shape, triangles) = r.pca_part("shape model")?;
     if version < 2 {
@@ -44,7 +52,7 @@ pub fn parse_eos_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
         r.expect_end()?;
     }
     let model = MorphableModel { shape, expressions: None, triangles };
-    model.validate().map_err(|e| FormatError::whole(path, e.to_string()))?;
+    model.validate().map_err(|e| FormatError::whole(r.path, e.to_string()))?;
     Ok(model)
 }
 
@@ -54,8 +62,8 @@ pub fn parse_eos_model(bytes: &[u8], path: &Path) -> Result<MorphableModel> {
 /// Unreadable file, truncation (with the byte offset), a blendshape that is not a
 /// column vector, or blendshapes of different lengths.
 pub fn read_eos_blendshapes(path: &Path) -> Result<Expressions> {
-    let bytes = super::input::read_input(path)?;
-    parse_eos_blendshapes(&bytes, path)
+    let (file, len) = super::input::open_input_sized(path, super::input::MAX_INPUT_BYTES)?;
+    eos_blendshapes_from(Reader::new(BufReader::with_capacity(READ_BUFFER, file), len, path))
 }
 
 /// Parses the bytes of an eos blendshape file; `path` is used only in error messages.
@@ -63,10 +71,13 @@ pub fn read_eos_blendshapes(path: &Path) -> Result<Expressions> {
 /// # Errors
 /// As [`read_eos_blendshapes`].
 pub fn parse_eos_blendshapes(bytes: &[u8], path: &Path) -> Result<Expressions> {
-    let mut r = Reader { bytes, pos: 0, path };
+    eos_blendshapes_from(Reader::new(bytes, bytes.len() as u64, path))
+}
+
+fn eos_blendshapes_from(mut r: Reader<'_, impl Read>) -> Result<Expressions> {
     let count = r.u64("blendshape count")?;
     // Each blendshape takes at least 16 bytes (name length + matrix header).
-    if count > (bytes.len() as u64) / 16 {
+    if count > r.len / 16 {
         return Err(r.error_at(0, format!("blendshape count {count} exceeds the file size")));
     }
     let mut names = Vec::new();
@@ -74,10 +85,9 @@ pub fn parse_eos_blendshapes(bytes: &[u8], path: &Path) -> Result<Expressions> {
     for j in 0..count as usize {
         let len = r.u64("name length")?;
         let at = r.pos;
-        let name = r.take(len, "blendshape name")?;
-        let name = std::str::from_utf8(name)
-            .map_err(|_| r.error_at(at, "blendshape name is not UTF-8"))?
-            .to_string();
+        let name = r.bytes(len, "blendshape name")?;
+        let name =
+            String::from_utf8(name).map_err(|_| r.error_at(at, "blendshape name is not UTF-8"))?;
         let at = r.pos;
         let m = r.matrix(&format!("blendshape `{name}`"))?;
         if m.ncols() != 1 {
@@ -110,54 +120,97 @@ pub fn parse_eos_blendshapes(bytes: &[u8], path: &Path) -> Result<Expressions> {
     Ok(Expressions { names, deltas })
 }
 
-/// A bounds-checked little-endian cursor that reports failures at its byte offset.
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
+/// Bytes read from a model file at a time.
+const READ_BUFFER: usize = 64 << 10;
+
+/// A bounds-checked little-endian cursor over `len` bytes of `input` that reports failures
+/// at its byte offset. The sizes a file states are checked against `len` before anything is
+/// allocated for them.
+struct Reader<'a, R> {
+    input: R,
+    len: u64,
+    pos: u64,
     path: &'a Path,
 }
 
-impl<'a> Reader<'a> {
-    fn error_at(&self, offset: usize, message: impl Into<String>) -> FormatError {
-        FormatError::new(self.path, Location::Offset(offset as u64), message)
+impl<'a, R: Read> Reader<'a, R> {
+    fn new(input: R, len: u64, path: &'a Path) -> Self {
+        Self { input, len, pos: 0, path }
     }
 
-    fn take(&mut self, n: u64, what: &str) -> Result<&'a [u8]> {
-        let left = self.bytes.len() - self.pos;
-        if n > left as u64 {
-            return Err(self.error_at(
-                self.pos,
-                format!("truncated: {what} needs {n} bytes, only {left} left"),
-            ));
+    fn error_at(&self, offset: u64, message: impl Into<String>) -> FormatError {
+        FormatError::new(self.path, Location::Offset(offset), message)
+    }
+
+    fn truncated(&self, n: u64, what: &str) -> FormatError {
+        let left = self.len.saturating_sub(self.pos);
+        self.error_at(self.pos, format!("truncated: {what} needs {n} bytes, only {left} left"))
+    }
+
+    /// Checks that `n` more bytes are there.
+    fn need(&self, n: u64, what: &str) -> Result<()> {
+        if n > self.len.saturating_sub(self.pos) {
+            return Err(self.truncated(n, what));
         }
-        let s = &self.bytes[self.pos..self.pos + n as usize];
-        self.pos += n as usize;
-        Ok(s)
+        Ok(())
+    }
+
+    /// Fills `out` with the next bytes; a file that shrank while read is truncated there.
+    fn fill(&mut self, out: &mut [u8], what: &str) -> Result<()> {
+        let n = out.len() as u64;
+        self.need(n, what)?;
+        match self.input.read_exact(out) {
+            Ok(()) => {
+                self.pos += n;
+                Ok(())
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => Err(self.truncated(n, what)),
+            Err(e) => Err(FormatError::io(self.path, e)),
+        }
+    }
+
+    fn array<const N: usize>(&mut self, what: &str) -> Result<[u8; N]> {
+        let mut b = [0u8; N];
+        self.fill(&mut b, what)?;
+        Ok(b)
+    }
+
+    /// The next `n` bytes.
+    fn bytes(&mut self, n: u64, what: &str) -> Result<Vec<u8>> {
+        self.need(n, what)?;
+        let mut b = vec![0u8; n as usize];
+        self.fill(&mut b, what)?;
+        Ok(b)
     }
 
     fn u32(&mut self, what: &str) -> Result<u32> {
-        let b = self.take(4, what)?;
-        Ok(u32::from_le_bytes(b.try_into().expect("4 bytes")))
+        self.array(what).map(u32::from_le_bytes)
     }
 
     fn i32(&mut self, what: &str) -> Result<i32> {
-        let b = self.take(4, what)?;
-        Ok(i32::from_le_bytes(b.try_into().expect("4 bytes")))
+        self.array(what).map(i32::from_le_bytes)
     }
 
     fn u64(&mut self, what: &str) -> Result<u64> {
-        let b = self.take(8, what)?;
-        Ok(u64::from_le_bytes(b.try_into().expect("8 bytes")))
+        self.array(what).map(u64::from_le_bytes)
     }
 
     fn skip_array(&mut self, count: u64, item_bytes: u64, what: &str) -> Result<()> {
         let n = count
             .checked_mul(item_bytes)
             .ok_or_else(|| self.error_at(self.pos, format!("{what}: count {count} overflows")))?;
-        self.take(n, what).map(|_| ())
+        self.need(n, what)?;
+        let copied = std::io::copy(&mut (&mut self.input).take(n), &mut std::io::sink())
+            .map_err(|e| FormatError::io(self.path, e))?;
+        if copied < n {
+            return Err(self.truncated(n, what));
+        }
+        self.pos += n;
+        Ok(())
     }
 
-    /// An Eigen `f32` matrix: i32 rows, i32 cols, column-major data, widened to f64.
+    /// An Eigen `f32` matrix: i32 rows, i32 cols, column-major data, widened to f64 a
+    /// buffer at a time.
     fn matrix(&mut self, what: &str) -> Result<DMatrix> {
         let at = self.pos;
         let rows = self.i32(&format!("{what} rows"))?;
@@ -166,10 +219,20 @@ impl<'a> Reader<'a> {
             return Err(self.error_at(at, format!("{what} has negative size {rows}×{cols}")));
         }
         let (rows, cols) = (rows as usize, cols as usize);
-        let data = self.take(rows as u64 * cols as u64 * 4, what)?;
-        let values =
-            data.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")) as f64);
-        Ok(DMatrix::from_iterator(rows, cols, values))
+        let total = rows as u64 * cols as u64;
+        self.need(total.saturating_mul(4), what)?;
+        let mut values = Vec::with_capacity(total as usize);
+        let mut chunk = [0u8; 4096];
+        while values.len() < total as usize {
+            let n = chunk.len().min(4 * (total as usize - values.len()));
+            self.fill(&mut chunk[..n], what)?;
+            values.extend(
+                chunk[..n]
+                    .chunks_exact(4)
+                    .map(|c| f64::from(f32::from_le_bytes(c.try_into().expect("4 bytes")))),
+            );
+        }
+        Ok(DMatrix::from_vec(rows, cols, values))
     }
 
     fn pca_part(&mut self, what: &str) -> Result<(PcaModel, Vec<[u32; 3]>)> {
@@ -206,7 +269,7 @@ impl<'a> Reader<'a> {
         }
         let at_tri = self.pos;
         let count = self.u64(&format!("{what} triangle count"))?;
-        let data = self.take(count.saturating_mul(12), &format!("{what} triangles"))?;
+        let data = self.bytes(count.saturating_mul(12), &format!("{what} triangles"))?;
         let mut triangles = Vec::with_capacity(count as usize);
         for (t, c) in data.chunks_exact(12).enumerate() {
             let mut tri = [0u32; 3];
@@ -214,7 +277,7 @@ impl<'a> Reader<'a> {
                 let v = i32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes"));
                 *slot = u32::try_from(v).map_err(|_| {
                     self.error_at(
-                        at_tri + 8 + 12 * t + 4 * k,
+                        at_tri + 8 + 12 * t as u64 + 4 * k as u64,
                         format!("{what} triangle {t} has vertex {v}"),
                     )
                 })?;
@@ -225,12 +288,20 @@ impl<'a> Reader<'a> {
         Ok((PcaModel { mean, basis, eigenvalues }, triangles))
     }
 
-    fn expect_end(&self) -> Result<()> {
-        if self.pos != self.bytes.len() {
-            return Err(self.error_at(
-                self.pos,
-                format!("{} unexpected trailing bytes", self.bytes.len() - self.pos),
-            ));
+    /// The file ends here: at its stated length, and nothing more to read (a file that grew
+    /// while read is refused as well).
+    fn expect_end(&mut self) -> Result<()> {
+        let mut probe = [0u8; 1];
+        let more = loop {
+            match self.input.read(&mut probe) {
+                Ok(n) => break n > 0,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => return Err(FormatError::io(self.path, e)),
+            }
+        };
+        if self.pos != self.len || more {
+            let extra = self.len.saturating_sub(self.pos).max(1);
+            return Err(self.error_at(self.pos, format!("{extra} unexpected trailing bytes")));
         }
         Ok(())
     }
@@ -288,5 +359,23 @@ mod tests {
         let mut extra = full.clone();
         extra.push(0);
         assert!(parse_eos_model(&extra, Path::new("m.bin")).is_err());
+    }
+
+    /// A file is read through a small buffer: the same model as from its bytes, and the same
+    /// errors at the same offsets when it is cut short or has bytes past its end.
+    #[test]
+    fn a_file_read_in_pieces_is_its_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.bin");
+        let full = tiny_model();
+        std::fs::write(&p, &full).unwrap();
+        assert_eq!(read_eos_model(&p).unwrap(), parse_eos_model(&full, &p).unwrap());
+        let mut extra = full.clone();
+        extra.push(0);
+        for bytes in [&full[..30], &full[..full.len() - 1], &extra[..]] {
+            std::fs::write(&p, bytes).unwrap();
+            let from_file = read_eos_model(&p).unwrap_err().to_string();
+            assert_eq!(from_file, parse_eos_model(bytes, &p).unwrap_err().to_string());
+        }
     }
 }

@@ -58,11 +58,15 @@ fn kind_of(meta: &Metadata) -> &'static str {
 /// # Errors
 /// As [`check_regular_file`], or the file over `max_bytes`.
 pub fn open_input(path: &Path, max_bytes: u64) -> Result<File> {
-    open_sized(path, max_bytes).map(|(file, _)| file)
+    open_input_sized(path, max_bytes).map(|(file, _)| file)
 }
 
-/// [`open_input`] with the length the check read.
-fn open_sized(path: &Path, max_bytes: u64) -> Result<(File, u64)> {
+/// [`open_input`] with the length the check read, for a reader that streams the file and
+/// checks the sizes it states against that length.
+///
+/// # Errors
+/// As [`open_input`].
+pub fn open_input_sized(path: &Path, max_bytes: u64) -> Result<(File, u64)> {
     let meta = check_regular_file(path)?;
     if meta.len() > max_bytes {
         return Err(FormatError::whole(
@@ -80,7 +84,7 @@ fn open_sized(path: &Path, max_bytes: u64) -> Result<(File, u64)> {
 /// # Errors
 /// As [`open_input`], or a read error.
 pub fn read_input_capped(path: &Path, max_bytes: u64) -> Result<Vec<u8>> {
-    let (file, len) = open_sized(path, max_bytes)?;
+    let (file, len) = open_input_sized(path, max_bytes)?;
     // One allocation of the file's length (+1 for the end-of-file probe) instead of a
     // dozen doublings for a model of megabytes.
     let mut bytes = Vec::with_capacity(usize::try_from(len).unwrap_or(0).saturating_add(1));

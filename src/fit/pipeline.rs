@@ -23,6 +23,12 @@ const MIN_CONTACT_SD_PX: Real = 0.408_248_290_463_863;
 /// Frames fitted between two progress reports in per-frame mode.
 const PROGRESS_CHUNK: usize = 64;
 
+/// The most meeting frames whose plain fits give the data variance a contact is weighed
+/// against ([`Fitter::data_variance`]): the median of 32 noise estimates is within a few
+/// per cent of the median of all, and each estimate is a whole extra fit, so a long clip
+/// whose lips meet in a third of its frames was fitted a third again for it.
+const MAX_VARIANCE_FRAMES: usize = 32;
+
 /// A fit configuration bound to one model and landmark map, reusable across frames and clips.
 #[derive(Clone, Debug)]
 pub struct Fitter<'m> {
@@ -115,8 +121,8 @@ impl<'m> Fitter<'m> {
     /// The data term's per-coordinate variance (px²) a lip contact is weighed against. When
     /// the solver estimates the landmark noise (empirical Bayes, the default), the data term
     /// is the tracker's own noise, not the assumed [`EOS_SIGMA_SQUARED`]: the median over
-    /// `frames` of the noise a plain fit of each leaves, SSE/(2L − p) over its L landmarks
-    /// and p unknowns. Against the assumed 3 px² a tracker much more precise than that (the
+    /// `frames` (at most [`MAX_VARIANCE_FRAMES`] of them, evenly spaced) of the noise a plain
+    /// fit of each leaves, SSE/(2L − p) over its L landmarks and p unknowns. Against the assumed 3 px² a tracker much more precise than that (the
     /// demo's) has its meeting gaps weighed several times its points even where the gap is no
     /// more precise than they are, and the fits follow its noise there (`docs/speech.md`).
     /// Otherwise, and when no frame has a plain fit with residual freedom,
@@ -125,7 +131,13 @@ impl<'m> Fitter<'m> {
         if !matches!(self.settings.solver, Solver::Joint { estimate_noise: true, .. }) {
             return EOS_SIGMA_SQUARED;
         }
-        let mut variances: Vec<Real> = frames
+        let n = frames.len();
+        let sample: Vec<&FrameLandmarks> = if n > MAX_VARIANCE_FRAMES {
+            (0..MAX_VARIANCE_FRAMES).map(|k| frames[k * n / MAX_VARIANCE_FRAMES]).collect()
+        } else {
+            frames.to_vec()
+        };
+        let mut variances: Vec<Real> = sample
             .par_iter()
             .map_init(Scratch::default, |scratch, lm| {
                 let fit = self.fit_alone(&self.basis, lm, image_height, scratch);

@@ -122,21 +122,18 @@ impl<'m> Fitter<'m> {
     /// the solver estimates the landmark noise (empirical Bayes, the default), the data term
     /// is the tracker's own noise, not the assumed [`EOS_SIGMA_SQUARED`]: the median over
     /// `frames` (at most [`MAX_VARIANCE_FRAMES`] of them, evenly spaced) of the noise a plain
-    /// fit of each leaves, SSE/(2L − p) over its L landmarks and p unknowns. Against the assumed 3 px² a tracker much more precise than that (the
-    /// demo's) has its meeting gaps weighed several times its points even where the gap is no
-    /// more precise than they are, and the fits follow its noise there (`docs/speech.md`).
+    /// fit of each leaves, SSE/(2L − p) over its L landmarks and p unknowns. Against the
+    /// assumed 3 px² a tracker much more precise than that (the demo's) has its meeting gaps
+    /// weighed several times its points even where the gap is no more precise than they are,
+    /// and the fits follow its noise there (`docs/speech.md`).
     /// Otherwise, and when no frame has a plain fit with residual freedom,
     /// `EOS_SIGMA_SQUARED`.
     fn data_variance(&self, frames: &[&FrameLandmarks], image_height: Real) -> Real {
         if !matches!(self.settings.solver, Solver::Joint { estimate_noise: true, .. }) {
             return EOS_SIGMA_SQUARED;
         }
-        let n = frames.len();
-        let sample: Vec<&FrameLandmarks> = if n > MAX_VARIANCE_FRAMES {
-            (0..MAX_VARIANCE_FRAMES).map(|k| frames[k * n / MAX_VARIANCE_FRAMES]).collect()
-        } else {
-            frames.to_vec()
-        };
+        let (n, m) = (frames.len(), frames.len().min(MAX_VARIANCE_FRAMES));
+        let sample: Vec<&FrameLandmarks> = (0..m).map(|k| frames[k * n / m]).collect();
         let mut variances: Vec<Real> = sample
             .par_iter()
             .map_init(Scratch::default, |scratch, lm| {
